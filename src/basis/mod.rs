@@ -1,0 +1,115 @@
+//! The spectral factor model (seed §2): an m-dimensional basis B (31×m) of colour signals, sharpened so
+//! that light × reflectance is (nearly) a componentwise product of coefficients, `c ≈ e ∘ s`.
+//!
+//! [`Basis`] holds B and everything derived from it: `Q_m,31 = B⁺`, `Q_rgb,m = Q_rgb,31 B`, and the
+//! product tensor `G_ijk = B⁺_i (B_j ∘ B_k)` from which Λ(x) (seed Eq. 7) is formed.
+
+use crate::colorimetry::{Colorimetry, Q31};
+use crate::spectrum::{SAMPLES, Spectrum};
+use nalgebra::{DMatrix, DVector, Vector3};
+
+/// Why a basis cannot be built from a matrix.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BasisError {
+    #[error("a basis needs {SAMPLES} rows (one per sample), got {0}")]
+    WrongRows(usize),
+    #[error("basis dimension must be between 1 and {SAMPLES}, got {0}")]
+    BadDimension(usize),
+    #[error("the basis has a non-finite entry")]
+    NotFinite,
+    #[error("the basis columns are linearly dependent (rank {rank} < {m})")]
+    RankDeficient { rank: usize, m: usize },
+}
+
+/// A (sharpened) spectral basis and its derived operators.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Basis {
+    /// B: 31×m, columns are the basis spectra.
+    pub b: DMatrix<f64>,
+    /// `Q_m,31 = B⁺`: m×31.
+    pub b_pinv: DMatrix<f64>,
+    /// `Q_rgb,m = Q_rgb,31 B`: 3×m.
+    pub q_rgb_m: DMatrix<f64>,
+    /// `products[k]` is the m×m matrix `G_·,·,k` with `G_ijk = B⁺_i (B_j ∘ B_k)`, so
+    /// `Λ(x) = Σ_k x_k products[k]` (seed Eq. 7).
+    pub products: Vec<DMatrix<f64>>,
+}
+
+impl Basis {
+    /// Build a basis from its 31×m matrix B.
+    pub fn from_matrix(b: DMatrix<f64>, colorimetry: &Colorimetry) -> Result<Basis, BasisError> {
+        if b.nrows() != SAMPLES {
+            return Err(BasisError::WrongRows(b.nrows()));
+        }
+        let m = b.ncols();
+        if m == 0 || m > SAMPLES {
+            return Err(BasisError::BadDimension(m));
+        }
+        if b.iter().any(|v| !v.is_finite()) {
+            return Err(BasisError::NotFinite);
+        }
+        let svd = b.clone().svd(true, true);
+        let smax = svd.singular_values.max();
+        let tol = smax * 1e-12 * SAMPLES as f64;
+        let rank = svd.singular_values.iter().filter(|s| **s > tol).count();
+        if rank < m {
+            return Err(BasisError::RankDeficient { rank, m });
+        }
+        let b_pinv = svd.pseudo_inverse(tol).map_err(|_| BasisError::NotFinite)?;
+        let q_rgb = DMatrix::from_column_slice(3, SAMPLES, colorimetry.q_rgb.as_slice());
+        let q_rgb_m = &q_rgb * &b;
+        let products = (0..m)
+            .map(|k| {
+                let bk = b.column(k);
+                let mut bjk = b.clone();
+                for mut col in bjk.column_iter_mut() {
+                    col.component_mul_assign(&bk);
+                }
+                &b_pinv * bjk
+            })
+            .collect();
+        Ok(Basis { b, b_pinv, q_rgb_m, products })
+    }
+
+    /// The dimension m.
+    pub fn dimension(&self) -> usize {
+        self.b.ncols()
+    }
+
+    /// Coefficients `B⁺ x` of a spectrum.
+    pub fn coefficients(&self, x: &Spectrum) -> DVector<f64> {
+        &self.b_pinv * DVector::from_column_slice(x.as_slice())
+    }
+
+    /// Λ(x) for coefficients x (seed Eq. 7): `Λ_ij(x) = Σ_k G_ijk x_k`.
+    pub fn lambda(&self, x: &DVector<f64>) -> DMatrix<f64> {
+        let m = self.dimension();
+        let mut l = DMatrix::zeros(m, m);
+        for (k, g) in self.products.iter().enumerate() {
+            l += g * x[k];
+        }
+        l
+    }
+
+    /// `Q_rgb,m Λ(Q_m,31 p) Q_m,31`: the 3×31 map from the designed spectrum to its subspace colour
+    /// when its partner is `p` (DESIGN_SPEC §2, "colour in the subspace").
+    pub fn subspace_operator(&self, p: &Spectrum) -> Q31 {
+        let op = &self.q_rgb_m * self.lambda(&self.coefficients(p)) * &self.b_pinv;
+        Q31::from_column_slice(op.as_slice())
+    }
+
+    /// Colour of light `e` on reflectance `s` in the subspace model with the full Λ (Eq. 7).
+    pub fn rgb_lambda(&self, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
+        let c = self.lambda(&self.coefficients(e)) * self.coefficients(s);
+        let v = &self.q_rgb_m * c;
+        Vector3::new(v[0], v[1], v[2])
+    }
+
+    /// Colour of light `e` on reflectance `s` in the spectral factor model `Q_rgb,m (e ∘ s)` (Eq. 15):
+    /// what the renderer's post-illumination computes.
+    pub fn rgb_factor(&self, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
+        let c = self.coefficients(e).component_mul(&self.coefficients(s));
+        let v = &self.q_rgb_m * c;
+        Vector3::new(v[0], v[1], v[2])
+    }
+}

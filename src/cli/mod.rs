@@ -1,0 +1,61 @@
+//! The command line (DESIGN_SPEC §5): argument parsing with clap derive and error reporting.
+//! Each subcommand lives in its own module with an `Args` struct and a `run` function.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+pub mod basis;
+pub mod bench;
+pub mod check;
+pub mod design;
+pub mod render;
+pub mod solve;
+
+/// Design spectra (metamers, colour constancy, metameric blacks) and render spectral volumes
+/// relit in real time.
+#[derive(Debug, Parser)]
+#[command(name = "metamer", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Validate a palette and print its design matrix with truecolor swatches.
+    Check(check::Args),
+    /// Solve a palette's design headless: write the solved palette and a JSON report.
+    Solve(solve::Args),
+    /// Train the sharpened spectral factor basis of a palette and report its accuracy.
+    Basis(basis::Args),
+    /// Raycast a spectral volume scene and write a PNG sequence sweeping the light dial.
+    Render(render::Args),
+    /// The terminal palette designer.
+    Design(design::Args),
+    /// Run the benchmark suite: run time against error, as a Markdown report and PNG plots.
+    Bench(bench::Args),
+}
+
+/// Parse the process arguments, run, and report any error on stderr with a non-zero exit.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Run a parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Check(a) => check::run(a),
+        Command::Solve(a) => solve::run(a),
+        Command::Basis(a) => basis::run(a),
+        Command::Render(a) => render::run(a),
+        Command::Design(a) => design::run(a),
+        Command::Bench(a) => bench::run(a),
+    }
+}
