@@ -1,0 +1,1 @@
+//! Saving: updating the TOML document from the model (filled in below).
