@@ -300,3 +300,192 @@ fn empty_and_binary_files_are_rejected() {
     assert!(matches!(e, PaletteError::Read { .. }), "{e}");
     assert!(e.to_string().contains("missing.toml"));
 }
+
+// ---------------------------------------------------------------------------------------------------------
+// Saving
+
+fn temp_palette(text: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("palette.toml");
+    std::fs::write(&path, text).unwrap();
+    (dir, path)
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> =
+        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn unchanged_save_is_byte_identical() {
+    let with_oddities = format!("{VALID}\n# trailing comment\nextra_top = {{ a = 1 }}   # kept\n");
+    for text in [VALID.to_string(), with_oddities, VALID.replace('\n', "\r\n")] {
+        let (_dir, path) = temp_palette(&text);
+        let mut file = PaletteFile::load(&path).unwrap();
+        let palette = file.palette.clone();
+        file.save(&palette).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), text);
+    }
+}
+
+#[test]
+fn edits_keep_comments_order_and_unknown_keys() {
+    let text = mutate("weight = 2.0", "weight = 2.0   # important\nnote = \"mine\"");
+    let (_dir, path) = temp_palette(&text);
+    let mut file = PaletteFile::load(&path).unwrap();
+    let mut p = file.palette.clone();
+    p.colours[0].weight = 3.0;
+    p.colours[0].target = hex_to_linear("#102030").unwrap();
+    p.colours[1].enabled = true;
+    p.reflectances[1].design = true;
+    p.settings.smoothness = 0.5;
+    file.save(&p).unwrap();
+    let saved = std::fs::read_to_string(&path).unwrap();
+    assert!(saved.contains("weight = 3.0   # important\nnote = \"mine\""), "{saved}");
+    assert!(saved.contains("target = \"#102030\""), "hex stays hex: {saved}");
+    assert!(saved.contains("use = true"), "{saved}");
+    assert!(saved.contains("smoothness = 0.5\n"), "{saved}");
+    assert!(saved.contains("basis_dimension = 5          # m"), "{saved}");
+    assert!(saved.starts_with("# A small palette used by the tests."), "{saved}");
+    // Key order: the line order of untouched keys is as before.
+    let pos = |s: &str| saved.find(s).unwrap();
+    assert!(pos("name = \"daylight\"") < pos("name = \"warm\"") && pos("name = \"warm\"") < pos("name = \"block\""));
+    let reread = PaletteFile::load(&path).unwrap();
+    assert_eq!(reread.palette, p);
+    assert_eq!(reread.warnings.len(), 1, "the unknown key is still there");
+}
+
+#[test]
+fn designed_spectra_are_written_as_samples_in_place() {
+    let (_dir, path) = temp_palette(VALID);
+    let mut file = PaletteFile::load(&path).unwrap();
+    let mut p = file.palette.clone();
+    let solved: Vec<f64> = (0..31).map(|i| 0.2 + 0.01 * i as f64).collect();
+    p.reflectances[0].spectrum = Spectrum::from_slice(&solved).unwrap();
+    let light: Vec<f64> = (0..31).map(|i| 1.0 + 0.1 * i as f64).collect();
+    p.lights[1].spectrum = Spectrum::from_slice(&light).unwrap();
+    file.save(&p).unwrap();
+    let saved = std::fs::read_to_string(&path).unwrap();
+    assert!(!saved.contains("dark_skin") && !saved.contains("planck"), "{saved}");
+    assert!(saved.contains("name = \"block\"\nsamples = ["), "the source key keeps its place: {saved}");
+    assert!(saved.contains("normalize = \"none\""), "a solved light is not normalised again: {saved}");
+    let reread = PaletteFile::load(&path).unwrap().palette;
+    assert_eq!(reread.reflectances[0].spectrum.to_vec(), solved);
+    assert_eq!(reread.lights[1].spectrum.to_vec(), light);
+    assert_eq!(reread.reflectances[0].source, Source::Samples(solved));
+    assert!(reread.reflectances[0].design);
+}
+
+#[test]
+fn added_removed_and_renamed_entries() {
+    let (_dir, path) = temp_palette(VALID);
+    let mut file = PaletteFile::load(&path).unwrap();
+    let mut p = file.palette.clone();
+    // Rename a light, drop the second reflectance, add a new reflectance, a cell and a free group.
+    p.lights[0].name = "sun".into();
+    p.reflectances.remove(1);
+    let mut paint = p.reflectances[0].clone();
+    paint.name = "paint".into();
+    paint.source = Source::Flat(0.25);
+    paint.spectrum = Spectrum::flat(0.25);
+    paint.design = false;
+    p.reflectances.push(paint);
+    let mut cell = p.colours[0].clone();
+    cell.reflectance = 1;
+    cell.notation = TargetNotation::Linear;
+    cell.target = nalgebra::Vector3::new(0.25, 0.5, 0.75);
+    cell.weight = 1.0;
+    p.colours.push(cell);
+    p.free.push(metamer::palette::FreeGroup {
+        name: "B".into(),
+        lower: nalgebra::Vector3::repeat(f64::NEG_INFINITY),
+        upper: nalgebra::Vector3::repeat(0.5),
+    });
+    p.colours[2].free = Some(1);
+    file.save(&p).unwrap();
+    let saved = std::fs::read_to_string(&path).unwrap();
+    assert!(!saved.contains("grey"), "{saved}");
+    assert!(saved.contains("name = \"sun\"\nilluminant = \"D65\""), "{saved}");
+    let reread = PaletteFile::load(&path).unwrap().palette;
+    assert_eq!(reread, p);
+    // The new tables follow the old ones of their list.
+    assert!(saved.find("name = \"paint\"").unwrap() < saved.find("[[colours]]").unwrap(), "{saved}");
+}
+
+#[test]
+fn new_palettes_round_trip() {
+    let original = parse(VALID).unwrap().palette;
+    let mut file = PaletteFile::from_palette(&original);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("new.toml");
+    file.save_as(&original, &out).unwrap();
+    let reread = PaletteFile::load(&out).unwrap().palette;
+    let mut expected = original.clone();
+    expected.name = "test palette".into();
+    assert_eq!(reread, expected);
+    assert_eq!(file.path.as_deref(), Some(out.as_path()));
+    // Saving the same palette again changes nothing.
+    let before = std::fs::read_to_string(&out).unwrap();
+    file.save(&reread).unwrap();
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), before);
+}
+
+#[test]
+fn a_failed_save_never_destroys_the_original() {
+    let (dir, path) = temp_palette(VALID);
+    let mut file = PaletteFile::load(&path).unwrap();
+    // An invalid model (NaN weight) is refused before anything is written.
+    let mut p = file.palette.clone();
+    p.colours[0].weight = f64::NAN;
+    let e = file.save(&p).unwrap_err();
+    assert!(e.to_string().contains("colours[0].weight"), "{e}");
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), VALID);
+    // A folder that does not exist: a write error naming the file; the original is untouched.
+    let e = file.save_as(&file.palette.clone(), &dir.path().join("missing/out.toml")).unwrap_err();
+    assert!(matches!(e, PaletteError::Write { .. }), "{e}");
+    assert!(e.to_string().contains("out.toml"), "{e}");
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), VALID);
+    assert_eq!(files_in(dir.path()), vec!["palette.toml".to_string()], "no temporary files are left behind");
+    // The file keeps its path after failures.
+    assert_eq!(file.path.as_deref(), Some(path.as_path()));
+}
+
+#[test]
+fn save_is_atomic_rename() {
+    // The saved file is a new inode (written elsewhere, then renamed), so a reader holding the old file
+    // never sees a half-written one.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let (dir, path) = temp_palette(VALID);
+        let inode_before = std::fs::metadata(&path).unwrap().ino();
+        let mut file = PaletteFile::load(&path).unwrap();
+        let mut p = file.palette.clone();
+        p.colours[0].weight = 4.0;
+        file.save(&p).unwrap();
+        assert_ne!(std::fs::metadata(&path).unwrap().ino(), inode_before);
+        assert_eq!(files_in(dir.path()), vec!["palette.toml".to_string()]);
+    }
+}
+
+#[test]
+fn save_as_elsewhere_keeps_csv_sources_working() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("in")).unwrap();
+    std::fs::create_dir(dir.path().join("out")).unwrap();
+    let csv: String = (0..=30).map(|i| format!("{},{}\n", 400 + 10 * i, 0.1 + 0.01 * i as f64)).collect();
+    std::fs::write(dir.path().join("in/measured.csv"), csv).unwrap();
+    let text = mutate("flat = 0.5", "csv = \"measured.csv\"");
+    let input = dir.path().join("in/palette.toml");
+    std::fs::write(&input, &text).unwrap();
+    let mut file = PaletteFile::load(&input).unwrap();
+    assert!((file.palette.reflectances[1].spectrum.0[30] - 0.4).abs() < 1e-12);
+    let p = file.palette.clone();
+    let out = dir.path().join("out/solved.toml");
+    file.save_as(&p, &out).unwrap();
+    let saved = std::fs::read_to_string(&out).unwrap();
+    assert!(saved.contains("csv = \"../in/measured.csv\""), "{saved}");
+    assert_eq!(PaletteFile::load(&out).unwrap().palette.reflectances[1].spectrum, p.reflectances[1].spectrum);
+}

@@ -11,6 +11,7 @@ use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
 use crate::spectrum::Spectrum;
 use std::collections::HashMap;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use toml_edit::DocumentMut;
 
@@ -55,8 +56,9 @@ pub struct PaletteFile {
     /// Non-fatal remarks from reading (unknown keys, kept as they are).
     pub warnings: Vec<String>,
     /// Raw samples of the CSV sources read, by path as written, so saving needs no file access.
-    #[allow(dead_code)] // read by saving
     csv_raw: HashMap<String, Spectrum>,
+    /// The file used CRLF line endings (the document keeps LF; saving writes CRLF back).
+    crlf: bool,
 }
 
 /// Line and column (1-based, columns in characters) of a byte offset.
@@ -106,11 +108,113 @@ impl PaletteFile {
             palette: outcome.palette,
             warnings: outcome.warnings,
             csv_raw: outcome.csv_raw,
+            crlf: text.contains("\r\n"),
         })
     }
 
-    /// The file's text as it stands (what `save` writes).
-    pub fn text(&self) -> String {
-        self.document.to_string()
+    /// A new file for a palette made in memory (no path yet: save it with [`PaletteFile::save_as`]).
+    pub fn from_palette(palette: &Palette) -> PaletteFile {
+        let mut document = DocumentMut::new();
+        let ctx = write::SaveContext {
+            old_base: None,
+            new_base: Path::new("."),
+            csv_raw: &HashMap::new(),
+            luminance: Colorimetry::default().luminance(),
+        };
+        // A fresh document has no structure that could refuse the model.
+        let _ = write::update_document(&mut document, &Palette::default(), palette, &ctx);
+        PaletteFile {
+            path: None,
+            document,
+            palette: palette.clone(),
+            warnings: Vec::new(),
+            csv_raw: HashMap::new(),
+            crlf: false,
+        }
     }
+
+    /// The file's text as it stands.
+    pub fn text(&self) -> String {
+        self.text_of(&self.document)
+    }
+
+    /// A document's text with this file's line endings.
+    fn text_of(&self, document: &DocumentMut) -> String {
+        let text = document.to_string();
+        if self.crlf { text.replace("\r\n", "\n").replace('\n', "\r\n") } else { text }
+    }
+
+    /// The text that saving `palette` to `path` would write, checked by reading it back: the updated
+    /// document and the file it reads as. Nothing is written.
+    pub fn render(&self, palette: &Palette, path: &Path) -> Result<(DocumentMut, PaletteFile), PaletteError> {
+        let new_base = folder_of(path);
+        let old_base = self.path.as_deref().map(folder_of);
+        let ctx = write::SaveContext {
+            old_base: old_base.as_deref(),
+            new_base: &new_base,
+            csv_raw: &self.csv_raw,
+            luminance: Colorimetry::default().luminance(),
+        };
+        let mut document = self.document.clone();
+        write::update_document(&mut document, &self.palette, palette, &ctx).map_err(|e| PaletteError::Invalid {
+            path: path.to_path_buf(),
+            key: String::new(),
+            reason: e.0,
+        })?;
+        let reread = PaletteFile::parse(&self.text_of(&document), path)?;
+        Ok((document, reread))
+    }
+
+    /// Save `palette` over this file (atomically). On any error the file on disk is left as it was.
+    pub fn save(&mut self, palette: &Palette) -> Result<(), PaletteError> {
+        let path = self.path.clone().ok_or(PaletteError::NoPath)?;
+        self.save_as(palette, &path)
+    }
+
+    /// Save `palette` to `path` (atomically) and make that this file's path. The text is checked by reading
+    /// it back before anything is written; on any error the file on disk is left as it was.
+    pub fn save_as(&mut self, palette: &Palette, path: &Path) -> Result<(), PaletteError> {
+        let (document, reread) = self.render(palette, path)?;
+        write_atomically(path, &self.text_of(&document))
+            .map_err(|source| PaletteError::Write { path: path.to_path_buf(), source })?;
+        self.document = document;
+        self.palette = reread.palette;
+        self.csv_raw = reread.csv_raw;
+        self.warnings = reread.warnings;
+        self.path = Some(path.to_path_buf());
+        Ok(())
+    }
+}
+
+/// The folder a file lives in (`.` for a bare file name).
+fn folder_of(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// Write `text` to `path` atomically: a temporary file in the same folder, flushed to disk, then renamed over
+/// `path` (a symbolic link is followed so the link stays). The folder is synced so the rename is durable.
+fn write_atomically(path: &Path, text: &str) -> std::io::Result<()> {
+    let target = match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => std::fs::canonicalize(path)?,
+        _ => path.to_path_buf(),
+    };
+    let dir = folder_of(&target);
+    let stem = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut tmp = tempfile::Builder::new().prefix(&format!(".{stem}.")).suffix(".tmp").tempfile_in(&dir)?;
+    tmp.write_all(text.as_bytes())?;
+    tmp.flush()?;
+    if let Ok(meta) = std::fs::metadata(&target) {
+        tmp.as_file().set_permissions(meta.permissions())?;
+    }
+    tmp.as_file().sync_all()?;
+    tmp.persist(&target).map_err(|e| e.error)?;
+    #[cfg(unix)]
+    if let Ok(d) = std::fs::File::open(&dir) {
+        // Best effort: some file systems refuse to sync a directory.
+        let _ = d.sync_all();
+    }
+    Ok(())
 }
