@@ -489,3 +489,51 @@ fn save_as_elsewhere_keeps_csv_sources_working() {
     assert!(saved.contains("csv = \"../in/measured.csv\""), "{saved}");
     assert_eq!(PaletteFile::load(&out).unwrap().palette.reflectances[1].spectrum, p.reflectances[1].spectrum);
 }
+
+#[test]
+fn example_palettes_round_trip_byte_identical() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("palettes");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        let (_tmp, copy) = temp_palette(&text);
+        let mut file = PaletteFile::load(&copy).unwrap_or_else(|e| panic!("{e}"));
+        assert!(file.warnings.is_empty(), "{:?}", file.warnings);
+        let p = file.palette.clone();
+        file.save(&p).unwrap();
+        assert_eq!(std::fs::read_to_string(&copy).unwrap(), text, "{}", path.display());
+        n += 1;
+    }
+    assert!(n >= 3, "expected the example palettes in {}", dir.display());
+}
+
+#[test]
+fn edits_through_the_helpers_save_and_reload() {
+    let c = Colorimetry::default();
+    let (_dir, path) = temp_palette(VALID);
+    let mut file = PaletteFile::load(&path).unwrap();
+    let mut p = file.palette.clone();
+    let k = p.add_spectrum(Kind::Light, "lamp", Source::Planck(3200.0), &c).unwrap();
+    p.fit_cell(k, 1, &c).unwrap();
+    p.set_scale(Kind::Light, 0, 0.5, &c).unwrap();
+    p.remove_spectrum(Kind::Reflectance, 0).unwrap();
+    p.remove_free_group(0).unwrap();
+    p.rename_spectrum(Kind::Reflectance, 0, "stone").unwrap();
+    file.save(&p).unwrap();
+    let reread = PaletteFile::load(&path).unwrap().palette;
+    assert_eq!(reread.lights, p.lights);
+    assert_eq!(reread.reflectances, p.reflectances);
+    assert_eq!(reread.free, p.free);
+    assert_eq!(reread.colours.len(), 1);
+    // The fitted target was stored as hex, so it reads back to 8-bit precision: half a step (0.5/255) in
+    // display sRGB, which the decoding slope (at most 2.4/1.055 ≈ 2.28) turns into ≤ 4.5e-3 linear.
+    let d = (reread.colours[0].target - p.colours[0].target).amax();
+    assert!(d <= 4.5e-3, "{d}");
+    let saved = std::fs::read_to_string(&path).unwrap();
+    assert!(saved.contains("# A small palette used by the tests."), "{saved}");
+    assert!(!saved.contains("[[free]]"), "{saved}");
+}
