@@ -4,6 +4,11 @@
 //! [`Basis`] holds B and everything derived from it: `Q_m,31 = B⁺`, `Q_rgb,m = Q_rgb,31 B`, and the
 //! product tensor `G_ijk = B⁺_i (B_j ∘ B_k)` from which Λ(x) (seed Eq. 7) is formed.
 
+pub mod accuracy;
+pub mod refine;
+pub mod sharpen;
+pub mod train;
+
 use crate::colorimetry::{Colorimetry, Q31};
 use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Vector3};
