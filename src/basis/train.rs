@@ -198,6 +198,8 @@ pub struct Trained {
     pub basis: Basis,
     /// The orthonormal PCA basis `B0` (31×m) it started from (with any padding).
     pub pca: DMatrix<f64>,
+    /// `B0 T` after stages 2–3, before all of B was refined (equal to `basis.b` when stage 4 did not run).
+    pub transform_only: DMatrix<f64>,
     /// Rank of the colour signals (≤ m; padding fills the rest).
     pub signal_rank: usize,
     /// Number of padded columns (`m − min(rank, m)`).
@@ -325,7 +327,8 @@ pub fn train(
             RefineOutcome::Kept { reason } => notes.push(format!("refining T stopped early: {reason}")),
         }
     }
-    let mut b = &b0 * &t;
+    let transform_only = &b0 * &t;
+    let mut b = transform_only.clone();
     if options.full_iterations > 0 {
         match refine::refine_basis(&objective, &b, options.full_iterations) {
             RefineOutcome::Improved { value, cost, iterations } => {
@@ -336,7 +339,7 @@ pub fn train(
         }
     }
     let basis = Basis::from_matrix(b, colorimetry)?;
-    Ok(Trained { basis, pca: b0, signal_rank: rank, padded, stages, notes })
+    Ok(Trained { basis, pca: b0, transform_only, signal_rank: rank, padded, stages, notes })
 }
 
 /// Train on all lights × reflectances of a palette (designed spectra at their current samples).
