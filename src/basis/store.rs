@@ -61,6 +61,8 @@ pub fn sidecar_path(palette_file: &Path) -> PathBuf {
 pub struct AccuracyReport {
     /// The spectral factor model `Q_rgb,31 B (B⁺E ∘ B⁺S)` with the trained basis.
     pub factor_model: ErrorStats,
+    /// The same after refining only T (B in the PCA span), when known.
+    pub transform_only: Option<ErrorStats>,
     /// The RGB factor model (seed Eq. 9).
     pub rgb_factor_model: ErrorStats,
     /// The componentwise product in the unsharpened PCA basis.
@@ -73,9 +75,16 @@ pub struct AccuracyReport {
 
 impl AccuracyReport {
     /// Measure a basis (and the PCA basis it came from) on a training set.
-    pub fn measure(set: &TrainingSet, basis: &Basis, pca: &Basis, colorimetry: &Colorimetry) -> AccuracyReport {
+    pub fn measure(
+        set: &TrainingSet,
+        basis: &Basis,
+        transform_only: Option<&Basis>,
+        pca: &Basis,
+        colorimetry: &Colorimetry,
+    ) -> AccuracyReport {
         AccuracyReport {
             factor_model: accuracy::stats(set, Model::Factor(basis), colorimetry),
+            transform_only: transform_only.map(|b| accuracy::stats(set, Model::Factor(b), colorimetry)),
             rgb_factor_model: accuracy::stats(set, Model::Rgb, colorimetry),
             pca_projection: accuracy::stats(set, Model::Factor(pca), colorimetry),
             full_lambda: accuracy::stats(set, Model::Lambda(basis), colorimetry),
@@ -115,6 +124,9 @@ struct Entry {
     notes: Vec<String>,
     /// The columns of B, each 31 samples.
     basis: Vec<Vec<f64>>,
+    /// The columns of `B0 T` before all of B was refined.
+    #[serde(default)]
+    transform_only: Option<Vec<Vec<f64>>>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -159,10 +171,11 @@ pub fn for_palette_with(
     let pca = Basis::from_matrix(pca_matrix, &colorimetry)?;
 
     let cached = sidecar.entries.iter().find(|e| e.key == key).and_then(|e| entry_basis(e, m, &colorimetry));
-    let (basis, report_base) = match cached {
+    let (basis, transform_only, report_base) = match cached {
         Some((basis, entry)) => {
             notes.extend(entry.notes.iter().cloned());
-            (basis, (true, entry.training_seconds, Vec::new(), entry.signal_rank, entry.padded))
+            let t = entry.transform_only.as_ref().and_then(|cols| columns_basis(cols, m, &colorimetry));
+            (basis, t, (true, entry.training_seconds, Vec::new(), entry.signal_rank, entry.padded))
         }
         None => {
             let start = Instant::now();
@@ -179,7 +192,8 @@ pub fn for_palette_with(
                     padded: trained.padded,
                     training_seconds: seconds,
                     notes: trained.notes.clone(),
-                    basis: trained.basis.b.column_iter().map(|c| c.iter().copied().collect()).collect(),
+                    basis: columns(&trained.basis.b),
+                    transform_only: Some(columns(&trained.transform_only)),
                 });
                 let excess = sidecar.entries.len().saturating_sub(MAX_ENTRIES);
                 sidecar.entries.drain(..excess);
@@ -187,12 +201,13 @@ pub fn for_palette_with(
                     notes.push(format!("could not store the basis in {}: {e}", path.display()));
                 }
             }
-            (trained.basis, (false, seconds, trained.stages, trained.signal_rank, trained.padded))
+            let t = Basis::from_matrix(trained.transform_only.clone(), &colorimetry).ok();
+            (trained.basis, t, (false, seconds, trained.stages, trained.signal_rank, trained.padded))
         }
     };
     let (from_cache, training_seconds, stages, signal_rank, padded) = report_base;
     debug_assert!(from_cache || signal_rank == rank);
-    let accuracy = AccuracyReport::measure(&set, &basis, &pca, &colorimetry);
+    let accuracy = AccuracyReport::measure(&set, &basis, transform_only.as_ref(), &pca, &colorimetry);
     let report = Report {
         dimension: m,
         pairs: set.pairs(),
@@ -208,17 +223,25 @@ pub fn for_palette_with(
     Ok((basis, report))
 }
 
-fn entry_basis<'a>(entry: &'a Entry, m: usize, colorimetry: &Colorimetry) -> Option<(Basis, &'a Entry)> {
-    if entry.training_version != TRAINING_VERSION
-        || entry.dimension != m
-        || entry.basis.len() != m
-        || entry.basis.iter().any(|c| c.len() != SAMPLES)
-    {
+/// The columns of a 31×m matrix as lists of samples.
+fn columns(b: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    b.column_iter().map(|c| c.iter().copied().collect()).collect()
+}
+
+/// A basis from stored columns; `None` unless there are m columns of 31 finite samples forming a valid basis.
+fn columns_basis(cols: &[Vec<f64>], m: usize, colorimetry: &Colorimetry) -> Option<Basis> {
+    if cols.len() != m || cols.iter().any(|c| c.len() != SAMPLES) {
         return None;
     }
-    let flat: Vec<f64> = entry.basis.iter().flatten().copied().collect();
-    let b = DMatrix::from_column_slice(SAMPLES, m, &flat);
-    Basis::from_matrix(b, colorimetry).ok().map(|b| (b, entry))
+    let flat: Vec<f64> = cols.iter().flatten().copied().collect();
+    Basis::from_matrix(DMatrix::from_column_slice(SAMPLES, m, &flat), colorimetry).ok()
+}
+
+fn entry_basis<'a>(entry: &'a Entry, m: usize, colorimetry: &Colorimetry) -> Option<(Basis, &'a Entry)> {
+    if entry.training_version != TRAINING_VERSION || entry.dimension != m {
+        return None;
+    }
+    columns_basis(&entry.basis, m, colorimetry).map(|b| (b, entry))
 }
 
 fn read_sidecar(path: &Path, notes: &mut Vec<String>) -> Sidecar {
