@@ -28,10 +28,12 @@ pub fn engine_like(size: usize) -> Volume {
                 // Smoke: two octaves of value noise, kept only where it is dense enough.
                 let s = 0.65 * value_noise(u * 6.0, v * 6.0, w * 3.0, 1)
                     + 0.35 * value_noise(u * 14.0, v * 14.0, w * 7.0, 2);
-                let smoke = if s > 0.55 { 20.0 + 100.0 * (s - 0.55) } else { 0.0 };
-                let mut val = smoke.min(70.0);
                 // Block: a rounded box.
                 let block = rounded_box(u - 0.5, v - 0.5, (w - 0.5) * 0.5, [0.3, 0.24, 0.18], 0.04);
+                // Smoke hangs in a shell around the block, like reconstruction noise.
+                let s = s - 2.0 * (block - 0.08).max(0.0);
+                let smoke = if s > 0.55 { 20.0 + 100.0 * (s - 0.55) } else { 0.0 };
+                let mut val = smoke.min(70.0);
                 let grain = 12.0 * (hash3(x as i64, y as i64, z as i64, 7) - 0.5);
                 val = lerp(val, 135.0 + grain, cover(block));
                 // Two bores along z through the top of the block.
