@@ -6,6 +6,7 @@
 //! nothing of the command line or the terminal UI.
 
 pub mod basis;
+pub mod bench;
 pub mod cli;
 pub mod colorimetry;
 pub mod design;
