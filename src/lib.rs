@@ -11,4 +11,6 @@ pub mod cli;
 pub mod colorimetry;
 pub mod design;
 pub mod palette;
+pub mod render;
 pub mod spectrum;
+pub mod volume;
