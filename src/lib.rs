@@ -11,3 +11,4 @@ pub mod colorimetry;
 pub mod design;
 pub mod palette;
 pub mod spectrum;
+pub mod tui;
