@@ -5,43 +5,13 @@
 
 use metamer::colorimetry::Colorimetry;
 use metamer::render::accuracy::compare_models;
-use metamer::render::dial::{Dial, DialStop};
-use metamer::render::raycast::{Camera, MaterialClass};
-use metamer::render::scene::{Material, Scene, SceneSettings, colorchecker_palette};
-use metamer::volume::{Volume, generate};
+use metamer::render::scene::{Scene, engine_check_scene, generated_check_scene};
+use metamer::volume::Volume;
 use std::path::{Path, PathBuf};
 
 fn shared_dir() -> Option<PathBuf> {
     let beside = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared");
     [beside, PathBuf::from("/work/shared")].into_iter().find(|p| p.join("volumes").is_dir())
-}
-
-/// Four ColorChecker materials over value ranges of `volume`, dial D65 → A → F11.
-fn four_material_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities: [f32; 4]) -> Scene {
-    let names = [("m1", "dark_skin"), ("m2", "foliage"), ("m3", "orange"), ("m4", "purplish_blue")];
-    let palette = colorchecker_palette("check", &["D65", "A", "F11"], &names).expect("built-in spectra exist");
-    let materials = palette
-        .reflectances
-        .iter()
-        .zip(ranges.iter().zip(opacities))
-        .map(|(r, (range, opacity))| Material {
-            reflectance: r.name.clone(),
-            spectrum: r.spectrum,
-            class: MaterialClass { range: *range, opacity },
-        })
-        .collect();
-    let dial =
-        Dial::new(palette.lights.iter().map(|l| DialStop { name: l.name.clone(), spectrum: l.spectrum }).collect())
-            .expect("three lights");
-    Scene {
-        path: None,
-        palette,
-        volume,
-        materials,
-        camera: Camera::default(),
-        dial,
-        settings: SceneSettings::default(),
-    }
 }
 
 fn check(scene: &Scene, size: usize, frames: usize, what: &str) {
@@ -57,12 +27,7 @@ fn check(scene: &Scene, size: usize, frames: usize, what: &str) {
 
 #[test]
 fn factor_model_tracks_full_spectra_on_the_generated_engine() {
-    let vol = generate::engine_like(96);
-    let s = generate::SMOKE_RANGE;
-    let b = generate::BLOCK_RANGE;
-    let i = generate::INNER_RANGE;
-    let scene = four_material_scene(vol, [s, b, [i[0], 230.0], [230.5, i[1]]], [0.05, 0.15, 0.6, 0.6]);
-    check(&scene, 96, 9, "generated engine");
+    check(&generated_check_scene(96), 96, 9, "generated engine");
 }
 
 #[test]
@@ -72,7 +37,5 @@ fn factor_model_tracks_full_spectra_on_the_shared_engine() {
         return;
     };
     let vol = Volume::open(&shared.join("volumes/engine.nhdr")).expect("engine.nhdr reads");
-    let scene =
-        four_material_scene(vol, [[30.0, 80.0], [81.0, 160.0], [161.0, 200.0], [201.0, 255.0]], [0.02, 0.08, 0.3, 0.8]);
-    check(&scene, 128, 9, "shared engine");
+    check(&engine_check_scene(vol), 128, 9, "shared engine");
 }

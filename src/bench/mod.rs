@@ -2,6 +2,7 @@
 //! the solver, basis and renderer benchmarks. Not a domain module: it may use anything in the crate.
 
 pub mod plot;
+pub mod render;
 
 use std::time::Instant;
 

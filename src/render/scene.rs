@@ -433,3 +433,47 @@ pub fn builtin_palette() -> Palette {
 pub fn builtin_scene(size: usize) -> Result<Scene, RenderError> {
     Scene::builtin(builtin_palette(), size)
 }
+
+/// The accuracy-check scene of issue 5: four fixed ColorChecker materials (dark skin, foliage, orange,
+/// purplish blue) over value ranges of `volume`, dial D65 → A → F11. `ranges` and `opacities` give the
+/// transfer function (value ranges in the volume's units).
+pub fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities: [f32; 4]) -> Scene {
+    let names = [("m1", "dark_skin"), ("m2", "foliage"), ("m3", "orange"), ("m4", "purplish_blue")];
+    let palette = colorchecker_palette("check", &["D65", "A", "F11"], &names).unwrap_or_default();
+    let materials = palette
+        .reflectances
+        .iter()
+        .zip(ranges.iter().zip(opacities))
+        .map(|(r, (range, opacity))| Material {
+            reflectance: r.name.clone(),
+            spectrum: r.spectrum,
+            class: MaterialClass { range: *range, opacity },
+        })
+        .collect();
+    let stops = palette.lights.iter().map(|l| DialStop { name: l.name.clone(), spectrum: l.spectrum }).collect();
+    let dial = Dial::new(stops).unwrap_or(Dial { stops: Vec::new() });
+    Scene {
+        path: None,
+        palette,
+        volume,
+        materials,
+        camera: Camera::default(),
+        dial,
+        settings: SceneSettings::default(),
+    }
+}
+
+/// [`colorchecker_check_scene`] over the GE engine CT (`engine.nhdr`, 8-bit).
+pub fn engine_check_scene(volume: Volume) -> Scene {
+    colorchecker_check_scene(
+        volume,
+        [[30.0, 80.0], [81.0, 160.0], [161.0, 200.0], [201.0, 255.0]],
+        [0.02, 0.08, 0.3, 0.8],
+    )
+}
+
+/// [`colorchecker_check_scene`] over the generated engine-like volume.
+pub fn generated_check_scene(size: usize) -> Scene {
+    let (s, b, i) = (generate::SMOKE_RANGE, generate::BLOCK_RANGE, generate::INNER_RANGE);
+    colorchecker_check_scene(generate::engine_like(size), [s, b, [i[0], 230.0], [230.5, i[1]]], [0.05, 0.15, 0.6, 0.6])
+}
