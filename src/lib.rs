@@ -13,4 +13,5 @@ pub mod design;
 pub mod palette;
 pub mod render;
 pub mod spectrum;
+pub mod tui;
 pub mod volume;

@@ -1,6 +1,7 @@
 //! The benchmark suite behind `metamer bench`: timing statistics, Markdown tables and PNG plots shared by
 //! the solver, basis and renderer benchmarks. Not a domain module: it may use anything in the crate.
 
+pub mod basis;
 pub mod plot;
 pub mod render;
 
