@@ -321,7 +321,10 @@ fn files_in(dir: &Path) -> Vec<String> {
 #[test]
 fn unchanged_save_is_byte_identical() {
     let with_oddities = format!("{VALID}\n# trailing comment\nextra_top = {{ a = 1 }}   # kept\n");
-    for text in [VALID.to_string(), with_oddities, VALID.replace('\n', "\r\n")] {
+    // Found by fuzzing: a byte order mark and a missing final newline must survive too.
+    let bom = format!("\u{feff}{VALID}");
+    let no_final_newline = VALID.trim_end().to_string();
+    for text in [VALID.to_string(), with_oddities, VALID.replace('\n', "\r\n"), bom, no_final_newline] {
         let (_dir, path) = temp_palette(&text);
         let mut file = PaletteFile::load(&path).unwrap();
         let palette = file.palette.clone();
@@ -536,4 +539,37 @@ fn edits_through_the_helpers_save_and_reload() {
     let saved = std::fs::read_to_string(&path).unwrap();
     assert!(saved.contains("# A small palette used by the tests."), "{saved}");
     assert!(!saved.contains("[[free]]"), "{saved}");
+}
+
+#[test]
+fn csv_sources_resolve_relative_to_the_palette_and_report_their_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| std::fs::write(dir.path().join(name), text).unwrap();
+    write("good.csv", "wavelength,value\n380,0.2\n720,0.6\n");
+    write("short.csv", "400,0.2\n650,0.6\n");
+    write("unsorted.csv", "400,0.2\n700,0.6\n500,0.1\n");
+    write("word.csv", "400,0.2\n500,oops\n700,0.6\n");
+    let load = |csv: &str| {
+        let text = mutate("flat = 0.5", &format!("csv = \"{csv}\""));
+        let path = dir.path().join("p.toml");
+        std::fs::write(&path, text).unwrap();
+        PaletteFile::load(&path)
+    };
+    let p = load("good.csv").unwrap().palette;
+    // Linear from 0.2 at 380 nm to 0.6 at 720 nm: 0.2 + 0.4 · (λ − 380)/340 (to 1e-12).
+    for (i, w) in metamer::spectrum::Grid::STANDARD.wavelengths().into_iter().enumerate() {
+        let expected = 0.2 + 0.4 * (w - 380.0) / 340.0;
+        assert!((p.reflectances[1].spectrum.0[i] - expected).abs() < 1e-12);
+    }
+    for (csv, reason) in [
+        ("short.csv", "must cover 400–700 nm"),
+        ("unsorted.csv", "line 3: wavelengths must increase strictly"),
+        ("word.csv", "line 2, column 5: `oops` is not a number"),
+        ("missing.csv", "cannot read the file"),
+    ] {
+        let e = load(csv).unwrap_err();
+        let msg = e.to_string();
+        assert_eq!(e.key(), Some("reflectances[1].csv"), "{msg}");
+        assert!(msg.contains(reason) && msg.contains(csv) && msg.contains("p.toml"), "{msg}");
+    }
 }

@@ -61,6 +61,8 @@ pub struct PaletteFile {
     crlf: bool,
     /// The file ended without a newline (saving keeps it that way).
     no_final_newline: bool,
+    /// The file began with a UTF-8 byte order mark (the document drops it; saving writes it back).
+    bom: bool,
 }
 
 /// Line and column (1-based, columns in characters) of a byte offset.
@@ -112,6 +114,7 @@ impl PaletteFile {
             csv_raw: outcome.csv_raw,
             crlf: text.contains("\r\n"),
             no_final_newline: !text.ends_with('\n'),
+            bom: text.starts_with('\u{feff}'),
         })
     }
 
@@ -134,6 +137,7 @@ impl PaletteFile {
             csv_raw: HashMap::new(),
             crlf: false,
             no_final_newline: false,
+            bom: false,
         }
     }
 
@@ -145,6 +149,9 @@ impl PaletteFile {
     /// A document's text with this file's line endings.
     fn text_of(&self, document: &DocumentMut) -> String {
         let mut text = document.to_string();
+        if self.bom && !text.starts_with('\u{feff}') {
+            text.insert(0, '\u{feff}');
+        }
         if self.no_final_newline && text.ends_with('\n') {
             text.pop();
         }
@@ -165,7 +172,7 @@ impl PaletteFile {
         let mut document = self.document.clone();
         write::update_document(&mut document, &self.palette, palette, &ctx).map_err(|e| PaletteError::Invalid {
             path: path.to_path_buf(),
-            key: String::new(),
+            key: "(document)".to_string(),
             reason: e.0,
         })?;
         let reread = PaletteFile::parse(&self.text_of(&document), path)?;
