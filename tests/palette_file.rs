@@ -324,7 +324,10 @@ fn unchanged_save_is_byte_identical() {
     // Found by fuzzing: a byte order mark and a missing final newline must survive too.
     let bom = format!("\u{feff}{VALID}");
     let no_final_newline = VALID.trim_end().to_string();
-    for text in [VALID.to_string(), with_oddities, VALID.replace('\n', "\r\n"), bom, no_final_newline] {
+    let mixed_line_endings = VALID.replacen('\n', "\r\n", 3);
+    for text in
+        [VALID.to_string(), with_oddities, VALID.replace('\n', "\r\n"), bom, no_final_newline, mixed_line_endings]
+    {
         let (_dir, path) = temp_palette(&text);
         let mut file = PaletteFile::load(&path).unwrap();
         let palette = file.palette.clone();
@@ -572,4 +575,44 @@ fn csv_sources_resolve_relative_to_the_palette_and_report_their_errors() {
         assert_eq!(e.key(), Some("reflectances[1].csv"), "{msg}");
         assert!(msg.contains(reason) && msg.contains(csv) && msg.contains("p.toml"), "{msg}");
     }
+}
+
+#[test]
+fn an_inconsistent_model_is_refused_not_half_saved() {
+    let (_dir, path) = temp_palette(VALID);
+    let mut file = PaletteFile::load(&path).unwrap();
+    // Two cells on the same light and reflectance.
+    let mut p = file.palette.clone();
+    let dup = p.colours[0].clone();
+    p.colours.push(dup);
+    let e = file.save(&p).unwrap_err();
+    assert!(e.to_string().contains("duplicate cell"), "{e}");
+    // A cell pointing past the lights.
+    let mut p = file.palette.clone();
+    p.colours[0].light = 9;
+    assert!(file.save(&p).is_err());
+    // Two lights with one name.
+    let mut p = file.palette.clone();
+    p.lights[1].name = "daylight".into();
+    let e = file.save(&p).unwrap_err();
+    assert!(e.to_string().contains("duplicate light name"), "{e}");
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), VALID);
+}
+
+/// Inputs the fuzzer found (tests/data/fuzz/): they parse without panicking, and what parses saves back
+/// byte-identical and reads back to the same palette.
+#[test]
+fn fuzz_findings_stay_fixed() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let bytes = std::fs::read(&path).unwrap();
+        n += 1;
+        let Ok(file) = PaletteFile::parse_bytes(&bytes, &path) else { continue };
+        let (_, reread) = file.render(&file.palette, &path).unwrap();
+        assert_eq!(reread.text().as_bytes(), bytes.as_slice(), "{}", path.display());
+        assert_eq!(reread.palette, file.palette, "{}", path.display());
+    }
+    assert!(n >= 2, "the fuzz findings in {} are missing", dir.display());
 }

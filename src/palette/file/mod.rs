@@ -63,6 +63,8 @@ pub struct PaletteFile {
     no_final_newline: bool,
     /// The file began with a UTF-8 byte order mark (the document drops it; saving writes it back).
     bom: bool,
+    /// The text as read (or last written): an unchanged document saves as exactly these bytes.
+    original: String,
 }
 
 /// Line and column (1-based, columns in characters) of a byte offset.
@@ -112,9 +114,10 @@ impl PaletteFile {
             palette: outcome.palette,
             warnings: outcome.warnings,
             csv_raw: outcome.csv_raw,
-            crlf: text.contains("\r\n"),
+            crlf: text.matches("\r\n").count() * 2 > text.matches('\n').count(),
             no_final_newline: !text.ends_with('\n'),
             bom: text.starts_with('\u{feff}'),
+            original: text.to_string(),
         })
     }
 
@@ -138,6 +141,7 @@ impl PaletteFile {
             crlf: false,
             no_final_newline: false,
             bom: false,
+            original: String::new(),
         }
     }
 
@@ -146,9 +150,13 @@ impl PaletteFile {
         self.text_of(&self.document)
     }
 
-    /// A document's text with this file's line endings.
+    /// A document's text with this file's byte order mark, line endings and final newline (the text as read
+    /// when the document is unchanged).
     fn text_of(&self, document: &DocumentMut) -> String {
         let mut text = document.to_string();
+        if !self.original.is_empty() && text == self.document.to_string() {
+            return self.original.clone();
+        }
         if self.bom && !text.starts_with('\u{feff}') {
             text.insert(0, '\u{feff}');
         }
@@ -195,6 +203,7 @@ impl PaletteFile {
         self.palette = reread.palette;
         self.csv_raw = reread.csv_raw;
         self.warnings = reread.warnings;
+        self.original = reread.original;
         self.path = Some(path.to_path_buf());
         Ok(())
     }
