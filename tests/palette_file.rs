@@ -616,3 +616,22 @@ fn fuzz_findings_stay_fixed() {
     }
     assert!(n >= 2, "the fuzz findings in {} are missing", dir.display());
 }
+
+#[test]
+fn new_settings_and_name_go_to_the_top() {
+    let text = "# lights only\n[[lights]]\nname = \"e\"\nflat = 1.0\n\n[[reflectances]]\nname = \"r\"\nflat = 0.5\n";
+    let (_dir, path) = temp_palette(text);
+    let mut file = PaletteFile::load(&path).unwrap();
+    let mut p = file.palette.clone();
+    p.settings.smoothness = 0.25;
+    p.name = "renamed".into();
+    file.save(&p).unwrap();
+    let saved = std::fs::read_to_string(&path).unwrap();
+    let pos = |s: &str| saved.find(s).unwrap_or_else(|| panic!("`{s}` missing: {saved}"));
+    assert!(pos("name = \"renamed\"") < pos("[settings]"), "{saved}");
+    assert!(pos("[settings]") < pos("[[lights]]"), "{saved}");
+    assert!(pos("smoothness = 0.25") < pos("[[lights]]"), "{saved}");
+    // The comment above [[lights]] stays with it.
+    assert!(saved.contains("# lights only\n[[lights]]"), "{saved}");
+    assert_eq!(PaletteFile::load(&path).unwrap().palette, p);
+}
