@@ -635,3 +635,32 @@ fn new_settings_and_name_go_to_the_top() {
     assert!(saved.contains("# lights only\n[[lights]]"), "{saved}");
     assert_eq!(PaletteFile::load(&path).unwrap().palette, p);
 }
+
+#[test]
+fn validation_errors_give_the_line_of_the_key() {
+    let line_of = |text: &str, needle: &str| text.lines().position(|l| l.starts_with(needle)).unwrap() + 1;
+    let text = mutate("light = \"warm\"", "light = \"cold\"");
+    match parse(&text) {
+        Err(PaletteError::Invalid { line, .. }) => assert_eq!(line, Some(line_of(&text, "light = \"cold\""))),
+        other => panic!("{other:?}"),
+    }
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!("/nonexistent/test.toml:{}: colours[1].light:", line_of(&text, "light = \"cold\"")))
+    );
+    // A missing key points at its table.
+    let text = mutate("light = \"warm\"\n", "");
+    match parse(&text) {
+        Err(PaletteError::Invalid { line: Some(l), key, .. }) => {
+            assert_eq!(key, "colours[1].light");
+            assert_eq!(text.lines().nth(l - 1), Some("[[colours]]"));
+        }
+        other => panic!("{other:?}"),
+    }
+    // An element of an array.
+    let text = mutate("dial = [0.0, 1.0]", "dial = [0.0,\n  nan]");
+    match parse(&text) {
+        Err(PaletteError::Invalid { line, .. }) => assert_eq!(line, Some(line_of(&text, "  nan]"))),
+        other => panic!("{other:?}"),
+    }
+}

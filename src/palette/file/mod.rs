@@ -26,12 +26,23 @@ pub enum PaletteError {
     Binary { path: PathBuf, offset: usize },
     #[error("{}: TOML syntax error at line {line}, column {column}: {message}", path.display())]
     Syntax { path: PathBuf, line: usize, column: usize, message: String },
-    #[error("{}: {key}: {reason}", path.display())]
-    Invalid { path: PathBuf, key: String, reason: String },
+    #[error("{}{}: {key}: {reason}", path.display(), at_line(line))]
+    Invalid {
+        path: PathBuf,
+        /// The key path, e.g. `colours[3].light`.
+        key: String,
+        reason: String,
+        /// The line of the key (or of its table when the key is missing), when known.
+        line: Option<usize>,
+    },
     #[error("{}: cannot write the file: {source}", path.display())]
     Write { path: PathBuf, source: std::io::Error },
     #[error("this palette has no file yet: save it with save_as")]
     NoPath,
+}
+
+fn at_line(line: &Option<usize>) -> String {
+    line.map(|l| format!(":{l}")).unwrap_or_default()
 }
 
 impl PaletteError {
@@ -76,6 +87,27 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
+/// The span of a key path such as `colours[3].light` (or of the deepest table on the way that exists).
+fn span_of_key(doc: &toml_edit::Document<&str>, key: &str) -> Option<std::ops::Range<usize>> {
+    let mut item = doc.as_item();
+    let mut best = None;
+    for segment in key.split('.') {
+        let mut parts = segment.split('[');
+        let name = parts.next().unwrap_or("");
+        let Some(next) = item.get(name) else { break };
+        item = next;
+        best = item.span().or(best);
+        for index in parts {
+            let Some(next) = index.trim_end_matches(']').parse::<usize>().ok().and_then(|i| item.get(i)) else {
+                return best;
+            };
+            item = next;
+            best = item.span().or(best);
+        }
+    }
+    best
+}
+
 impl PaletteFile {
     /// Read and validate a palette file.
     pub fn load(path: &Path) -> Result<PaletteFile, PaletteError> {
@@ -104,10 +136,17 @@ impl PaletteFile {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
             PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
         };
-        let document: DocumentMut = text.parse().map_err(|e: toml_edit::TomlError| syntax(e.message(), e.span()))?;
+        let spanned = toml_edit::Document::parse(text).map_err(|e| syntax(e.message(), e.span()))?;
         let table: toml::Table = toml::from_str(text).map_err(|e: toml::de::Error| syntax(e.message(), e.span()))?;
         let colorimetry = Colorimetry::default();
-        let outcome = read::Reader::new(path, colorimetry.luminance()).read(&table)?;
+        let outcome = read::Reader::new(path, colorimetry.luminance()).read(&table).map_err(|e| match e {
+            PaletteError::Invalid { path, key, reason, line: None } => {
+                let line = span_of_key(&spanned, &key).map(|s| line_column(text, s.start).0);
+                PaletteError::Invalid { path, key, reason, line }
+            }
+            other => other,
+        })?;
+        let document = spanned.into_mut();
         Ok(PaletteFile {
             path: Some(path.to_path_buf()),
             document,
@@ -182,6 +221,7 @@ impl PaletteFile {
             path: path.to_path_buf(),
             key: "(document)".to_string(),
             reason: e.0,
+            line: None,
         })?;
         let reread = PaletteFile::parse(&self.text_of(&document), path)?;
         Ok((document, reread))
