@@ -429,20 +429,22 @@ fn entry(name: &str, kind: Kind, source: crate::palette::Source, spectrum: Spect
     }
 }
 
-/// The built-in palette of the embedded default scene: fixed ColorChecker materials under D65, A and
-/// F11.
-pub fn builtin_palette() -> Palette {
-    colorchecker_palette(
-        "builtin",
-        &["D65", "A", "F11"],
-        &[("smoke", "neutral_6_5"), ("block", "foliage"), ("inner", "orange")],
-    )
-    .unwrap_or_default()
+/// The designed engine palette (`volumes/engine_palette.toml`), embedded for the default scene.
+pub const BUILTIN_PALETTE_TOML: &str = include_str!("../../volumes/engine_palette.toml");
+
+/// The built-in palette of the embedded default scene: the designed engine palette (smoke, block, inner;
+/// lights hide, split, glow).
+pub fn builtin_palette() -> Result<Palette, RenderError> {
+    let origin = Path::new("volumes/engine_palette.toml (embedded)");
+    crate::palette::file::PaletteFile::parse(BUILTIN_PALETTE_TOML, origin)
+        .map(|f| f.palette)
+        .map_err(|e| scene_err(origin, "palette", e.to_string()))
 }
 
-/// The embedded default scene (generated engine-like volume of `size` voxels across, built-in palette).
+/// The embedded default scene: the generated engine-like volume of `size` voxels across with the
+/// built-in palette (the same scene as `volumes/engine_generated.toml`).
 pub fn builtin_scene(size: usize) -> Result<Scene, RenderError> {
-    Scene::builtin(builtin_palette(), size)
+    Scene::builtin(builtin_palette()?, size)
 }
 
 /// The accuracy-check scene of issue 5: four fixed ColorChecker materials (dark skin, foliage, orange,
