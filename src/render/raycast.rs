@@ -67,7 +67,7 @@ pub struct RaycastOptions {
     pub termination_transmittance: f64,
     /// Skip bricks whose value range holds no material.
     pub empty_space_skipping: bool,
-    /// Edge of a skipping brick in voxels.
+    /// Edge of a skipping brick in voxels (rounded up to a power of two).
     pub brick_size: usize,
 }
 
@@ -198,7 +198,10 @@ impl Classifier {
 /// Per-brick min/max of voxel values (each brick also covers the one-voxel seam to its neighbours, so
 /// every trilinear cell starting inside a brick is bounded by it).
 pub struct BrickMap {
+    /// Edge in voxels, a power of two.
     pub size: usize,
+    /// log2 of `size`.
+    pub shift: u32,
     pub counts: [usize; 3],
     pub min: Vec<f32>,
     pub max: Vec<f32>,
@@ -206,7 +209,8 @@ pub struct BrickMap {
 
 impl BrickMap {
     pub fn new(volume: &Volume, size: usize) -> BrickMap {
-        let size = size.max(1);
+        let size = size.clamp(1, 1 << 12).next_power_of_two();
+        let shift = size.trailing_zeros();
         let d = volume.dims;
         let counts = [0, 1, 2].map(|a| d[a].div_ceil(size));
         let n = counts[0] * counts[1] * counts[2];
@@ -232,7 +236,7 @@ impl BrickMap {
                 (lo, hi)
             })
             .unzip();
-        BrickMap { size, counts, min, max }
+        BrickMap { size, shift, counts, min, max }
     }
 }
 
@@ -521,7 +525,7 @@ impl RayContext<'_> {
         while k <= t1 {
             let p = [origin[0] + k * dir[0], origin[1] + k * dir[1], origin[2] + k * dir[2]];
             if let Some((bm, empty)) = self.bricks {
-                let b = [0, 1, 2].map(|a| ((p[a].max(0.0) as usize) / bm.size).min(bm.counts[a] - 1));
+                let b = [0, 1, 2].map(|a| ((p[a].max(0.0) as usize) >> bm.shift).min(bm.counts[a] - 1));
                 let bi = b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2]);
                 if empty[bi] {
                     // Jump to the first whole step past this brick's far faces.
