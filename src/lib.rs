@@ -6,9 +6,12 @@
 //! nothing of the command line or the terminal UI.
 
 pub mod basis;
+pub mod bench;
 pub mod cli;
 pub mod colorimetry;
 pub mod design;
 pub mod palette;
+pub mod render;
 pub mod spectrum;
 pub mod tui;
+pub mod volume;

@@ -3,6 +3,27 @@
 //!
 //! [`Basis`] holds B and everything derived from it: `Q_m,31 = B⁺`, `Q_rgb,m = Q_rgb,31 B`, and the
 //! product tensor `G_ijk = B⁺_i (B_j ∘ B_k)` from which Λ(x) (seed Eq. 7) is formed.
+//!
+//! - [`train`]: PCA of a palette's colour signals → interval sharpening → L-BFGS refinement of T, then of
+//!   all of B, minimising the factor-model colour error in a local CIEDE2000 metric.
+//! - [`accuracy`]: ΔE00 of the factor model (and the RGB factor model, the unsharpened projection, the
+//!   full-Λ model) against full 31-sample colour; off-diagonal mass of Λ.
+//! - [`store`]: [`for_palette`], the palette's basis cached in a `NAME.basis.json` sidecar keyed by its
+//!   spectra, m and the training version.
+//!
+//! Note for users of Λ: the refinement optimises the factor model `c = e ∘ s` (what post-illumination
+//! renders), not the diagonality of Λ; the refined B leaves the PCA span, and the full-Λ model
+//! (`rgb_lambda`, `subspace_operator`) is then *less* accurate than the factor model
+//! (`rgb_factor`, [`Basis::factor_operator`]). See `metamer basis` for both figures.
+
+pub mod accuracy;
+pub mod refine;
+pub mod sharpen;
+pub mod store;
+pub mod train;
+
+pub use store::{Report, for_palette, palette_uses_basis};
+pub use train::{TrainError, TrainOptions, Trained, TrainingSet, train, train_for_palette};
 
 use crate::colorimetry::{Colorimetry, Q31};
 use crate::spectrum::{SAMPLES, Spectrum};
@@ -98,6 +119,18 @@ impl Basis {
         Q31::from_column_slice(op.as_slice())
     }
 
+    /// `Q_rgb,m diag(Q_m,31 p) Q_m,31`: the 3×31 map from the designed spectrum to its colour in the spectral
+    /// factor model (Eq. 15, Λ replaced by its diagonal) when its partner is `p` — exactly what
+    /// post-illumination renders.
+    pub fn factor_operator(&self, p: &Spectrum) -> Q31 {
+        let mut q = self.q_rgb_m.clone();
+        for (mut col, pk) in q.column_iter_mut().zip(self.coefficients(p).iter()) {
+            col *= *pk;
+        }
+        let op = q * &self.b_pinv;
+        Q31::from_column_slice(op.as_slice())
+    }
+
     /// Colour of light `e` on reflectance `s` in the subspace model with the full Λ (Eq. 7).
     pub fn rgb_lambda(&self, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
         let c = self.lambda(&self.coefficients(e)) * self.coefficients(s);
@@ -111,5 +144,25 @@ impl Basis {
         let c = self.coefficients(e).component_mul(&self.coefficients(s));
         let v = &self.q_rgb_m * c;
         Vector3::new(v[0], v[1], v[2])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn operators_agree_with_the_direct_colours() {
+        let c = Colorimetry::default();
+        let set = TrainingSet::colorchecker_seven_lights(&c);
+        let opts = TrainOptions { sharpen: true, transform_iterations: 50, full_iterations: 50 };
+        let basis = train(&set, 6, &c, &opts).unwrap().basis;
+        let (e, s) = (&set.lights[1], &set.reflectances[5]);
+        let via_light = basis.factor_operator(e) * s.0;
+        let via_refl = basis.factor_operator(s) * e.0;
+        let direct = basis.rgb_factor(e, s);
+        assert!((via_light - direct).amax() < 1e-12 && (via_refl - direct).amax() < 1e-12);
+        let lambda = basis.subspace_operator(e) * s.0;
+        assert!((lambda - basis.rgb_lambda(e, s)).amax() < 1e-12);
     }
 }

@@ -5,6 +5,10 @@
 //! resolved to samples (lights normalised and scaled), every target in linear sRGB, every reference
 //! to a light, reflectance or free group an index. Reading and writing TOML lives in [`file`].
 
+pub mod edit;
+pub mod file;
+pub mod source;
+
 use crate::spectrum::{Normalize, Spectrum};
 use nalgebra::Vector3;
 

@@ -1,6 +1,7 @@
 //! Spectra: 31 point samples on an explicit wavelength grid (400..=700 nm, 10 nm steps),
 //! built-in tables (CIE illuminants, ColorChecker reflectances), Planck lights and normalisation.
 
+pub mod csv;
 pub mod tables;
 
 use nalgebra::SVector;

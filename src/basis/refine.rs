@@ -1,0 +1,305 @@
+//! Refining a basis by minimising the factor-model colour error over training pairs (argmin L-BFGS).
+//!
+//! For light `E_l`, reflectance `S_r` and basis B (31×m) with `P = B⁺ = (BᵀB)⁻¹Bᵀ`, the factor model predicts
+//! `r̂ = Q_rgb,31 B (P E_l ∘ P S_r)`; the truth is `r = Q_rgb,31 (E_l ∘ S_r)`. The objective is
+//!
+//! ```text
+//!     f(B) = (1/N) Σ_pairs ‖W_p (r̂_p − r_p)‖²
+//! ```
+//!
+//! where `W_p` (3×3) is the local CIEDE2000 metric at the true colour under the pair's light: `WᵀW = H`,
+//! `ΔE00(r, r + δ)² ≈ δᵀ H δ` for small δ (H found by polarisation from [`Colorimetry::delta_e00_under`], with
+//! a step giving ΔE00 ≈ 0.5, the scale of the errors being minimised). So f is the mean squared ΔE00 to
+//! second order, a smooth function of B. The weights are fixed (the true colours do not move).
+//!
+//! Gradient (with `g_p = (2/N) W_pᵀ W_p (r̂_p − r_p)`, `c_p = e_l ∘ s_r`, `γ_p = Bᵀ Qᵀ g_p`,
+//! `G_P = Σ_p (γ_p ∘ s_r) E_lᵀ + (γ_p ∘ e_l) S_rᵀ`, `K = (BᵀB)⁻¹`):
+//!
+//! ```text
+//!     ∂f/∂B = Qᵀ Σ_p g_p c_pᵀ  −  Pᵀ G_P Pᵀ  +  (I − B P) G_Pᵀ K
+//! ```
+//!
+//! using `dP = −P dB P + K dBᵀ (I − B P)` for a full-column-rank B. For `B = B0 T`, `∂f/∂T = B0ᵀ ∂f/∂B`.
+//! Both are checked against central finite differences in the tests.
+
+use super::train::TrainingSet;
+use crate::colorimetry::Colorimetry;
+use crate::spectrum::{SAMPLES, Spectrum};
+use argmin::core::{CostFunction, Error, Executor, Gradient, State};
+use argmin::solver::linesearch::MoreThuenteLineSearch;
+use argmin::solver::quasinewton::LBFGS;
+use nalgebra::{DMatrix, DVector, Matrix3, SymmetricEigen, Vector3};
+use std::sync::Mutex;
+
+/// Target size (ΔE00) of the probe steps used to measure the local metric.
+const METRIC_PROBE_DELTA_E: f64 = 0.5;
+/// L-BFGS history length.
+const LBFGS_MEMORY: usize = 12;
+
+/// One light × reflectance pair of the objective.
+#[derive(Clone, Debug)]
+struct PairTerm {
+    light: usize,
+    reflectance: usize,
+    target: Vector3<f64>,
+    weight: Matrix3<f64>,
+}
+
+/// The perceptually weighted factor-model error over a training set.
+#[derive(Clone, Debug)]
+pub struct Objective {
+    lights: DMatrix<f64>,
+    reflectances: DMatrix<f64>,
+    q_rgb: DMatrix<f64>,
+    pairs: Vec<PairTerm>,
+    scale: f64,
+}
+
+impl Objective {
+    /// Every light × reflectance pair whose light has positive luminance (CIELAB needs a white).
+    pub fn new(set: &TrainingSet, colorimetry: &Colorimetry) -> Objective {
+        let lights = DMatrix::from_columns(
+            &set.lights.iter().map(|s| DVector::from_column_slice(s.as_slice())).collect::<Vec<_>>(),
+        );
+        let reflectances = DMatrix::from_columns(
+            &set.reflectances.iter().map(|s| DVector::from_column_slice(s.as_slice())).collect::<Vec<_>>(),
+        );
+        let q_rgb = DMatrix::from_column_slice(3, SAMPLES, colorimetry.q_rgb.as_slice());
+        let mut pairs = Vec::with_capacity(set.pairs());
+        for (l, e) in set.lights.iter().enumerate() {
+            if colorimetry.xyz_of_signal(e)[1] <= f64::MIN_POSITIVE {
+                continue;
+            }
+            for (r, s) in set.reflectances.iter().enumerate() {
+                let target = colorimetry.rgb(e, s);
+                let weight = local_metric(colorimetry, &target, e);
+                pairs.push(PairTerm { light: l, reflectance: r, target, weight });
+            }
+        }
+        let scale = if pairs.is_empty() { 0.0 } else { 1.0 / pairs.len() as f64 };
+        Objective { lights, reflectances, q_rgb, pairs, scale }
+    }
+
+    /// Number of pairs in the objective.
+    pub fn pairs(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// f(B); `+∞` when B does not have full column rank.
+    pub fn cost_of(&self, b: &DMatrix<f64>) -> f64 {
+        self.evaluate(b, false).map_or(f64::INFINITY, |(c, _)| c)
+    }
+
+    /// f(B) and ∂f/∂B (31×m); `None` when B does not have full column rank or the result is not finite.
+    pub fn cost_and_gradient(&self, b: &DMatrix<f64>) -> Option<(f64, DMatrix<f64>)> {
+        self.evaluate(b, true).map(|(c, g)| (c, g.unwrap_or_else(|| DMatrix::zeros(b.nrows(), b.ncols()))))
+    }
+
+    fn evaluate(&self, b: &DMatrix<f64>, with_gradient: bool) -> Option<(f64, Option<DMatrix<f64>>)> {
+        let m = b.ncols();
+        let chol = b.tr_mul(b).cholesky()?;
+        let p = chol.solve(&b.transpose());
+        let e = &p * &self.lights;
+        let s = &p * &self.reflectances;
+        let qm = &self.q_rgb * b;
+        let mut cost = 0.0;
+        let mut g_qm = DMatrix::<f64>::zeros(3, m);
+        let mut ge = DMatrix::<f64>::zeros(m, e.ncols());
+        let mut gs = DMatrix::<f64>::zeros(m, s.ncols());
+        let mut c = DVector::<f64>::zeros(m);
+        for pair in &self.pairs {
+            c.copy_from(&e.column(pair.light));
+            c.component_mul_assign(&s.column(pair.reflectance));
+            let pred = &qm * &c;
+            let diff = Vector3::new(pred[0], pred[1], pred[2]) - pair.target;
+            let res = pair.weight * diff;
+            cost += res.norm_squared();
+            if with_gradient {
+                let g = pair.weight.transpose() * res * (2.0 * self.scale);
+                let gd = DVector::from_column_slice(g.as_slice());
+                g_qm.ger(1.0, &gd, &c, 1.0);
+                let gamma = qm.tr_mul(&gd);
+                let mut col = ge.column_mut(pair.light);
+                col += gamma.component_mul(&s.column(pair.reflectance));
+                let mut col = gs.column_mut(pair.reflectance);
+                col += gamma.component_mul(&e.column(pair.light));
+            }
+        }
+        cost *= self.scale;
+        if !cost.is_finite() {
+            return None;
+        }
+        if !with_gradient {
+            return Some((cost, None));
+        }
+        let g_p = &ge * self.lights.transpose() + &gs * self.reflectances.transpose();
+        let k = chol.inverse();
+        let gpt_k = g_p.transpose() * &k;
+        let grad = self.q_rgb.transpose() * g_qm - p.transpose() * &g_p * p.transpose() + &gpt_k - b * (&p * &gpt_k);
+        grad.iter().all(|v| v.is_finite()).then_some((cost, Some(grad)))
+    }
+}
+
+/// The 3×3 W with `WᵀW ≈ H`, the local quadratic form of ΔE00² around the linear colour `rgb` seen under
+/// `light` (see the module docs).
+pub fn local_metric(colorimetry: &Colorimetry, rgb: &Vector3<f64>, light: &Spectrum) -> Matrix3<f64> {
+    let white_y = colorimetry.xyz_of_signal(light)[1].abs().max(f64::MIN_POSITIVE);
+    let de = |d: Vector3<f64>| colorimetry.delta_e00_under(rgb, &(rgb + d), light);
+    // Choose the probe step so that the largest axis step gives ΔE00 ≈ METRIC_PROBE_DELTA_E.
+    let h0 = 1e-3 * white_y;
+    let probe = (0..3).map(|i| de(Vector3::ith(i, h0))).fold(0.0, f64::max);
+    let h = if probe.is_finite() && probe > 0.0 { h0 * METRIC_PROBE_DELTA_E / probe } else { h0 };
+    // q(v) = ΔE(r, r + h v)² / h², averaged over ±v.
+    let q = |v: Vector3<f64>| (de(v * h).powi(2) + de(-v * h).powi(2)) / (2.0 * h * h);
+    let mut hm = Matrix3::zeros();
+    for i in 0..3 {
+        hm[(i, i)] = q(Vector3::ith(i, 1.0));
+    }
+    for i in 0..3 {
+        for j in (i + 1)..3 {
+            let plus = q(Vector3::ith(i, 1.0) + Vector3::ith(j, 1.0));
+            let minus = q(Vector3::ith(i, 1.0) - Vector3::ith(j, 1.0));
+            hm[(i, j)] = (plus - minus) / 4.0;
+            hm[(j, i)] = hm[(i, j)];
+        }
+    }
+    if !hm.iter().all(|v| v.is_finite()) {
+        return Matrix3::zeros();
+    }
+    // Square root of the positive part.
+    let eig = SymmetricEigen::new(hm);
+    let top = eig.eigenvalues.max().max(0.0);
+    let floor = top * 1e-9;
+    let roots = eig.eigenvalues.map(|l| l.max(floor).sqrt());
+    // W = diag(√λ) Vᵀ, so WᵀW = V diag(λ) Vᵀ.
+    Matrix3::from_diagonal(&roots) * eig.eigenvectors.transpose()
+}
+
+/// What a refinement stage produced.
+#[derive(Clone, Debug)]
+pub enum RefineOutcome {
+    /// A better matrix (T or B), its objective and the iterations taken.
+    Improved { value: DMatrix<f64>, cost: f64, iterations: u64 },
+    /// Nothing better was found; the reason.
+    Kept { reason: String },
+}
+
+/// Tracks the best point any evaluation has seen, so that an aborted run still returns progress.
+struct Best(Mutex<Option<(f64, DVector<f64>)>>);
+
+impl Best {
+    fn record(&self, cost: f64, x: &DVector<f64>) {
+        if let Ok(mut guard) = self.0.lock()
+            && guard.as_ref().is_none_or(|(c, _)| cost < *c)
+        {
+            *guard = Some((cost, x.clone()));
+        }
+    }
+
+    fn take(self) -> Option<(f64, DVector<f64>)> {
+        self.0.into_inner().ok().flatten()
+    }
+}
+
+/// The objective as a function of a flat parameter vector.
+struct Problem<'a> {
+    objective: &'a Objective,
+    /// `Some(B0)`: the parameters are T (m×m, column-major) and `B = B0 T`. `None`: they are B itself.
+    b0: Option<&'a DMatrix<f64>>,
+    m: usize,
+    best: &'a Best,
+}
+
+impl Problem<'_> {
+    fn basis(&self, x: &DVector<f64>) -> DMatrix<f64> {
+        match self.b0 {
+            Some(b0) => b0 * DMatrix::from_column_slice(self.m, self.m, x.as_slice()),
+            None => DMatrix::from_column_slice(SAMPLES, self.m, x.as_slice()),
+        }
+    }
+
+    fn eval(&self, x: &DVector<f64>) -> Result<(f64, DVector<f64>), Error> {
+        let b = self.basis(x);
+        let (cost, grad_b) =
+            self.objective.cost_and_gradient(&b).ok_or_else(|| Error::msg("the basis became rank deficient"))?;
+        self.best.record(cost, x);
+        let grad = match self.b0 {
+            Some(b0) => b0.tr_mul(&grad_b),
+            None => grad_b,
+        };
+        Ok((cost, DVector::from_column_slice(grad.as_slice())))
+    }
+}
+
+impl CostFunction for Problem<'_> {
+    type Param = DVector<f64>;
+    type Output = f64;
+
+    fn cost(&self, x: &Self::Param) -> Result<f64, Error> {
+        let b = self.basis(x);
+        let cost = self.objective.cost_of(&b);
+        if cost.is_finite() {
+            self.best.record(cost, x);
+            Ok(cost)
+        } else {
+            Err(Error::msg("the basis became rank deficient"))
+        }
+    }
+}
+
+impl Gradient for Problem<'_> {
+    type Param = DVector<f64>;
+    type Gradient = DVector<f64>;
+
+    fn gradient(&self, x: &Self::Param) -> Result<DVector<f64>, Error> {
+        self.eval(x).map(|(_, g)| g)
+    }
+}
+
+fn run(objective: &Objective, b0: Option<&DMatrix<f64>>, start: &DMatrix<f64>, iterations: u64) -> RefineOutcome {
+    let m = start.ncols();
+    let x0 = DVector::from_column_slice(start.as_slice());
+    let best = Best(Mutex::new(None));
+    let problem = Problem { objective, b0, m, best: &best };
+    let start_cost = match problem.cost(&x0) {
+        Ok(c) => c,
+        Err(e) => return RefineOutcome::Kept { reason: e.to_string() },
+    };
+    if objective.pairs() == 0 || start_cost == 0.0 {
+        return RefineOutcome::Kept { reason: "nothing to fit (no pairs with a lit white, or zero error)".into() };
+    }
+    let solver = match LBFGS::new(MoreThuenteLineSearch::new(), LBFGS_MEMORY)
+        .with_tolerance_grad(1e-12)
+        .and_then(|s| s.with_tolerance_cost(1e-15))
+    {
+        Ok(s) => s,
+        Err(e) => return RefineOutcome::Kept { reason: e.to_string() },
+    };
+    let result = Executor::new(problem, solver).configure(|s| s.param(x0).max_iters(iterations)).run();
+    let (iters, aborted) = match result {
+        Ok(r) => (r.state().get_iter(), None),
+        Err(e) => (iterations, Some(e.to_string())),
+    };
+    // The best point seen by any evaluation (a line search may end on a worse one than it tried, and an
+    // aborted run still keeps its progress).
+    match best.take() {
+        Some((cost, x)) if cost < start_cost => {
+            let value = match b0 {
+                Some(_) => DMatrix::from_column_slice(m, m, x.as_slice()),
+                None => DMatrix::from_column_slice(SAMPLES, m, x.as_slice()),
+            };
+            RefineOutcome::Improved { value, cost, iterations: iters }
+        }
+        _ => RefineOutcome::Kept { reason: aborted.unwrap_or_else(|| "no improvement".into()) },
+    }
+}
+
+/// Refine T for `B = B0 T`, starting from `t0`, with at most `iterations` L-BFGS iterations.
+pub fn refine_transform(objective: &Objective, b0: &DMatrix<f64>, t0: &DMatrix<f64>, iterations: u64) -> RefineOutcome {
+    run(objective, Some(b0), t0, iterations)
+}
+
+/// Refine all of B (31×m), starting from `b`, with at most `iterations` L-BFGS iterations.
+pub fn refine_basis(objective: &Objective, b: &DMatrix<f64>, iterations: u64) -> RefineOutcome {
+    run(objective, None, b, iterations)
+}

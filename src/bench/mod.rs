@@ -1,0 +1,124 @@
+//! The benchmark suite behind `metamer bench`: timing statistics, Markdown tables and PNG plots shared by
+//! the solver, basis and renderer benchmarks. Not a domain module: it may use anything in the crate.
+
+pub mod basis;
+pub mod plot;
+
+use std::time::Instant;
+
+/// Summary of repeated timings (seconds): the median with the spread around it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Timing {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+    /// Lower and upper quartile.
+    pub q1: f64,
+    pub q3: f64,
+    pub runs: usize,
+}
+
+impl Timing {
+    /// Summarise a set of samples (seconds). `None` when there are none.
+    pub fn from_samples(samples: &[f64]) -> Option<Timing> {
+        let mut s: Vec<f64> = samples.iter().copied().filter(|v| v.is_finite()).collect();
+        if s.is_empty() {
+            return None;
+        }
+        s.sort_by(f64::total_cmp);
+        let q = |p: f64| {
+            let pos = p * (s.len() - 1) as f64;
+            let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+            s[lo] + (s[hi] - s[lo]) * (pos - lo as f64)
+        };
+        Some(Timing { median: q(0.5), min: s[0], max: s[s.len() - 1], q1: q(0.25), q3: q(0.75), runs: s.len() })
+    }
+
+    /// "1.23 ms (1.20–1.31)" — median with the interquartile range.
+    pub fn display(&self) -> String {
+        format!("{} ({}–{})", format_seconds(self.median), format_seconds(self.q1), format_seconds(self.q3))
+    }
+}
+
+/// Time `f` `runs` times (after one warm-up call) and summarise. The closure's result is returned from the
+/// last run so the work cannot be optimised away.
+pub fn time_runs<T>(runs: usize, mut f: impl FnMut() -> T) -> (Timing, T) {
+    let mut last = f();
+    let mut samples = Vec::with_capacity(runs.max(1));
+    for _ in 0..runs.max(1) {
+        let t = Instant::now();
+        last = f();
+        samples.push(t.elapsed().as_secs_f64());
+    }
+    let timing =
+        Timing::from_samples(&samples).unwrap_or(Timing { median: 0.0, min: 0.0, max: 0.0, q1: 0.0, q3: 0.0, runs: 0 });
+    (timing, last)
+}
+
+/// Human-readable seconds with a unit that fits.
+pub fn format_seconds(s: f64) -> String {
+    let a = s.abs();
+    if a >= 1.0 {
+        format!("{s:.3} s")
+    } else if a >= 1e-3 {
+        format!("{:.3} ms", s * 1e3)
+    } else if a >= 1e-6 {
+        format!("{:.2} µs", s * 1e6)
+    } else {
+        format!("{:.1} ns", s * 1e9)
+    }
+}
+
+/// A Markdown table.
+pub fn markdown_table(headers: &[&str], rows: &[Vec<String>]) -> String {
+    let mut out = String::new();
+    out.push_str(&format!("| {} |\n", headers.join(" | ")));
+    out.push_str(&format!("|{}|\n", headers.iter().map(|_| "---").collect::<Vec<_>>().join("|")));
+    for r in rows {
+        out.push_str(&format!("| {} |\n", r.join(" | ")));
+    }
+    out
+}
+
+/// Indices of the points on the Pareto front of (cost, error), both to be minimised, sorted by cost.
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut idx: Vec<usize> =
+        (0..points.len()).filter(|&i| points[i].0.is_finite() && points[i].1.is_finite()).collect();
+    idx.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0).then(points[a].1.total_cmp(&points[b].1)));
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for i in idx {
+        if points[i].1 < best {
+            best = points[i].1;
+            front.push(i);
+        }
+    }
+    front
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn timing_quartiles() {
+        let t = Timing::from_samples(&[5.0, 1.0, 3.0, 2.0, 4.0]).unwrap();
+        assert_eq!(t.median, 3.0);
+        assert_eq!(t.q1, 2.0);
+        assert_eq!(t.q3, 4.0);
+        assert_eq!(t.min, 1.0);
+        assert!(Timing::from_samples(&[]).is_none());
+    }
+
+    #[test]
+    fn pareto_front_drops_dominated_points() {
+        let pts = [(1.0, 5.0), (2.0, 3.0), (3.0, 4.0), (4.0, 1.0), (0.5, 9.0)];
+        assert_eq!(pareto_front(&pts), vec![4, 0, 1, 3]);
+    }
+
+    #[test]
+    fn table_shape() {
+        let t = markdown_table(&["a", "b"], &[vec!["1".into(), "2".into()]]);
+        assert_eq!(t, "| a | b |\n|---|---|\n| 1 | 2 |\n");
+    }
+}

@@ -1,0 +1,220 @@
+//! Palette files (DESIGN_SPEC §3): reading TOML into the resolved [`Palette`] model with validation that
+//! names the file, the key and the reason, and saving the model back while keeping the user's comments,
+//! key order and unknown keys (the file is kept as a `toml_edit` document and only changed values are
+//! rewritten). Saving is atomic: a temporary file in the same folder, flushed to disk, then renamed over
+//! the target, so a failed save never leaves a half-written or missing palette.
+
+mod read;
+mod write;
+
+use crate::colorimetry::Colorimetry;
+use crate::palette::Palette;
+use crate::spectrum::Spectrum;
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use toml_edit::DocumentMut;
+
+/// Why a palette file cannot be read, validated or written.
+#[derive(Debug, thiserror::Error)]
+pub enum PaletteError {
+    #[error("{}: cannot read the file: {source}", path.display())]
+    Read { path: PathBuf, source: std::io::Error },
+    #[error("{}: the file is empty (a palette needs at least a name, lights and reflectances)", path.display())]
+    Empty { path: PathBuf },
+    #[error("{}: not a text file (invalid UTF-8 at byte {offset})", path.display())]
+    Binary { path: PathBuf, offset: usize },
+    #[error("{}: TOML syntax error at line {line}, column {column}: {message}", path.display())]
+    Syntax { path: PathBuf, line: usize, column: usize, message: String },
+    #[error("{}: {key}: {reason}", path.display())]
+    Invalid { path: PathBuf, key: String, reason: String },
+    #[error("{}: cannot write the file: {source}", path.display())]
+    Write { path: PathBuf, source: std::io::Error },
+    #[error("this palette has no file yet: save it with save_as")]
+    NoPath,
+}
+
+impl PaletteError {
+    /// The key path the error is about, when it is about one key.
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            PaletteError::Invalid { key, .. } => Some(key),
+            _ => None,
+        }
+    }
+}
+
+/// A palette file: the editable TOML document and the resolved model read from it.
+#[derive(Clone, Debug)]
+pub struct PaletteFile {
+    /// Where the file lives (`None` for a palette made in memory and not saved yet).
+    pub path: Option<PathBuf>,
+    /// The document as the user wrote it; saving edits it in place.
+    pub document: DocumentMut,
+    /// The resolved model, as the document currently says.
+    pub palette: Palette,
+    /// Non-fatal remarks from reading (unknown keys, kept as they are).
+    pub warnings: Vec<String>,
+    /// Raw samples of the CSV sources read, by path as written, so saving needs no file access.
+    csv_raw: HashMap<String, Spectrum>,
+    /// The file used CRLF line endings (the document keeps LF; saving writes CRLF back).
+    crlf: bool,
+}
+
+/// Line and column (1-based, columns in characters) of a byte offset.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = text.get(..offset).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+impl PaletteFile {
+    /// Read and validate a palette file.
+    pub fn load(path: &Path) -> Result<PaletteFile, PaletteError> {
+        let bytes = std::fs::read(path).map_err(|source| PaletteError::Read { path: path.to_path_buf(), source })?;
+        PaletteFile::parse_bytes(&bytes, path)
+    }
+
+    /// Parse the bytes of a palette file; `path` names the file in messages and its folder resolves
+    /// `csv = "..."` sources.
+    pub fn parse_bytes(bytes: &[u8], path: &Path) -> Result<PaletteFile, PaletteError> {
+        let text = std::str::from_utf8(bytes)
+            .map_err(|e| PaletteError::Binary { path: path.to_path_buf(), offset: e.valid_up_to() })?;
+        if let Some(offset) = text.find('\0') {
+            return Err(PaletteError::Binary { path: path.to_path_buf(), offset });
+        }
+        PaletteFile::parse(text, path)
+    }
+
+    /// Parse the text of a palette file; `path` names the file in messages and its folder resolves
+    /// `csv = "..."` sources.
+    pub fn parse(text: &str, path: &Path) -> Result<PaletteFile, PaletteError> {
+        if text.trim().is_empty() {
+            return Err(PaletteError::Empty { path: path.to_path_buf() });
+        }
+        let syntax = |message: &str, span: Option<std::ops::Range<usize>>| {
+            let (line, column) = line_column(text, span.map_or(0, |s| s.start));
+            PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
+        };
+        let document: DocumentMut = text.parse().map_err(|e: toml_edit::TomlError| syntax(e.message(), e.span()))?;
+        let table: toml::Table = toml::from_str(text).map_err(|e: toml::de::Error| syntax(e.message(), e.span()))?;
+        let colorimetry = Colorimetry::default();
+        let outcome = read::Reader::new(path, colorimetry.luminance()).read(&table)?;
+        Ok(PaletteFile {
+            path: Some(path.to_path_buf()),
+            document,
+            palette: outcome.palette,
+            warnings: outcome.warnings,
+            csv_raw: outcome.csv_raw,
+            crlf: text.contains("\r\n"),
+        })
+    }
+
+    /// A new file for a palette made in memory (no path yet: save it with [`PaletteFile::save_as`]).
+    pub fn from_palette(palette: &Palette) -> PaletteFile {
+        let mut document = DocumentMut::new();
+        let ctx = write::SaveContext {
+            old_base: None,
+            new_base: Path::new("."),
+            csv_raw: &HashMap::new(),
+            luminance: Colorimetry::default().luminance(),
+        };
+        // A fresh document has no structure that could refuse the model.
+        let _ = write::update_document(&mut document, &Palette::default(), palette, &ctx);
+        PaletteFile {
+            path: None,
+            document,
+            palette: palette.clone(),
+            warnings: Vec::new(),
+            csv_raw: HashMap::new(),
+            crlf: false,
+        }
+    }
+
+    /// The file's text as it stands.
+    pub fn text(&self) -> String {
+        self.text_of(&self.document)
+    }
+
+    /// A document's text with this file's line endings.
+    fn text_of(&self, document: &DocumentMut) -> String {
+        let text = document.to_string();
+        if self.crlf { text.replace("\r\n", "\n").replace('\n', "\r\n") } else { text }
+    }
+
+    /// The text that saving `palette` to `path` would write, checked by reading it back: the updated
+    /// document and the file it reads as. Nothing is written.
+    pub fn render(&self, palette: &Palette, path: &Path) -> Result<(DocumentMut, PaletteFile), PaletteError> {
+        let new_base = folder_of(path);
+        let old_base = self.path.as_deref().map(folder_of);
+        let ctx = write::SaveContext {
+            old_base: old_base.as_deref(),
+            new_base: &new_base,
+            csv_raw: &self.csv_raw,
+            luminance: Colorimetry::default().luminance(),
+        };
+        let mut document = self.document.clone();
+        write::update_document(&mut document, &self.palette, palette, &ctx).map_err(|e| PaletteError::Invalid {
+            path: path.to_path_buf(),
+            key: String::new(),
+            reason: e.0,
+        })?;
+        let reread = PaletteFile::parse(&self.text_of(&document), path)?;
+        Ok((document, reread))
+    }
+
+    /// Save `palette` over this file (atomically). On any error the file on disk is left as it was.
+    pub fn save(&mut self, palette: &Palette) -> Result<(), PaletteError> {
+        let path = self.path.clone().ok_or(PaletteError::NoPath)?;
+        self.save_as(palette, &path)
+    }
+
+    /// Save `palette` to `path` (atomically) and make that this file's path. The text is checked by reading
+    /// it back before anything is written; on any error the file on disk is left as it was.
+    pub fn save_as(&mut self, palette: &Palette, path: &Path) -> Result<(), PaletteError> {
+        let (document, reread) = self.render(palette, path)?;
+        write_atomically(path, &self.text_of(&document))
+            .map_err(|source| PaletteError::Write { path: path.to_path_buf(), source })?;
+        self.document = document;
+        self.palette = reread.palette;
+        self.csv_raw = reread.csv_raw;
+        self.warnings = reread.warnings;
+        self.path = Some(path.to_path_buf());
+        Ok(())
+    }
+}
+
+/// The folder a file lives in (`.` for a bare file name).
+fn folder_of(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// Write `text` to `path` atomically: a temporary file in the same folder, flushed to disk, then renamed over
+/// `path` (a symbolic link is followed so the link stays). The folder is synced so the rename is durable.
+fn write_atomically(path: &Path, text: &str) -> std::io::Result<()> {
+    let target = match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => std::fs::canonicalize(path)?,
+        _ => path.to_path_buf(),
+    };
+    let dir = folder_of(&target);
+    let stem = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut tmp = tempfile::Builder::new().prefix(&format!(".{stem}.")).suffix(".tmp").tempfile_in(&dir)?;
+    tmp.write_all(text.as_bytes())?;
+    tmp.flush()?;
+    if let Ok(meta) = std::fs::metadata(&target) {
+        tmp.as_file().set_permissions(meta.permissions())?;
+    }
+    tmp.as_file().sync_all()?;
+    tmp.persist(&target).map_err(|e| e.error)?;
+    #[cfg(unix)]
+    if let Ok(d) = std::fs::File::open(&dir) {
+        // Best effort: some file systems refuse to sync a directory.
+        let _ = d.sync_all();
+    }
+    Ok(())
+}

@@ -1,0 +1,466 @@
+//! Reading: a parsed TOML table (serde + toml) walked into the resolved [`Palette`] model with every
+//! validation of DESIGN_SPEC §3. Every error names the key path (`colours[3].light`) and the reason.
+
+use super::PaletteError;
+use crate::colorimetry::hex_to_linear;
+use crate::palette::source::{SourceError, finish};
+use crate::palette::{Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation};
+use crate::spectrum::{Grid, Normalize, SAMPLES, Samples, Spectrum};
+use nalgebra::Vector3;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use toml::{Table, Value};
+
+const TOP_KEYS: &[&str] = &["name", "wavelengths", "settings", "lights", "reflectances", "colours", "free"];
+const SETTINGS_KEYS: &[&str] =
+    &["basis_dimension", "smoothness", "subspace_error", "fit_in_subspace", "reflectance_bounds", "light_bounds"];
+const SPECTRUM_KEYS: &[&str] = &[
+    "name",
+    "illuminant",
+    "colorchecker",
+    "planck",
+    "flat",
+    "samples",
+    "csv",
+    "normalize",
+    "scale",
+    "design",
+    "bounds",
+    "dial",
+];
+const COLOUR_KEYS: &[&str] = &["light", "reflectance", "target", "weight", "free", "use"];
+const FREE_KEYS: &[&str] = &["name", "lower", "upper"];
+
+/// What reading a palette produces besides the model.
+pub(super) struct ReadOutcome {
+    pub palette: Palette,
+    /// Non-fatal remarks (unknown keys kept as they are).
+    pub warnings: Vec<String>,
+    /// Raw (unnormalised) samples of every CSV source read, by the path as written.
+    pub csv_raw: HashMap<String, Spectrum>,
+}
+
+/// Walks a parsed table, collecting warnings and naming keys in errors.
+pub(super) struct Reader<'a> {
+    path: &'a Path,
+    base_dir: Option<PathBuf>,
+    luminance: Samples,
+    warnings: Vec<String>,
+    csv_raw: HashMap<String, Spectrum>,
+}
+
+type Res<T> = Result<T, PaletteError>;
+
+fn type_name(v: &Value) -> &'static str {
+    match v {
+        Value::String(_) => "a string",
+        Value::Integer(_) => "an integer",
+        Value::Float(_) => "a float",
+        Value::Boolean(_) => "a boolean",
+        Value::Datetime(_) => "a date-time",
+        Value::Array(_) => "an array",
+        Value::Table(_) => "a table",
+    }
+}
+
+impl<'a> Reader<'a> {
+    pub(super) fn new(path: &'a Path, luminance: Samples) -> Reader<'a> {
+        let base_dir = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p }.to_path_buf());
+        Reader { path, base_dir, luminance, warnings: Vec::new(), csv_raw: HashMap::new() }
+    }
+
+    fn invalid(&self, key: impl Into<String>, reason: impl Into<String>) -> PaletteError {
+        PaletteError::Invalid { path: self.path.to_path_buf(), key: key.into(), reason: reason.into() }
+    }
+
+    fn wrong_type(&self, key: &str, expected: &str, v: &Value) -> PaletteError {
+        self.invalid(key, format!("expected {expected}, found {}", type_name(v)))
+    }
+
+    fn warn_unknown(&mut self, table: &Table, known: &[&str], prefix: &str) {
+        for k in table.keys() {
+            if !known.contains(&k.as_str()) {
+                let at = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                self.warnings.push(format!("{}: {at}: unknown key, kept as it is", self.path.display()));
+            }
+        }
+    }
+
+    fn string<'v>(&self, v: &'v Value, key: &str) -> Res<&'v str> {
+        v.as_str().ok_or_else(|| self.wrong_type(key, "a string", v))
+    }
+
+    fn boolean(&self, v: &Value, key: &str) -> Res<bool> {
+        v.as_bool().ok_or_else(|| self.wrong_type(key, "true or false", v))
+    }
+
+    /// A number (integer or float), never NaN; infinities only when `allow_inf`.
+    fn number(&self, v: &Value, key: &str, allow_inf: bool) -> Res<f64> {
+        let x = match v {
+            Value::Float(f) => *f,
+            Value::Integer(i) => *i as f64,
+            _ => return Err(self.wrong_type(key, "a number", v)),
+        };
+        if x.is_nan() {
+            Err(self.invalid(key, "NaN is not allowed"))
+        } else if x.is_infinite() && !allow_inf {
+            Err(self.invalid(key, "must be finite (inf is only allowed in bounds)"))
+        } else {
+            Ok(x)
+        }
+    }
+
+    fn numbers(&self, v: &Value, key: &str, len: Option<usize>, allow_inf: bool) -> Res<Vec<f64>> {
+        let arr = v.as_array().ok_or_else(|| self.wrong_type(key, "an array of numbers", v))?;
+        if let Some(n) = len
+            && arr.len() != n
+        {
+            return Err(self.invalid(key, format!("expected {n} numbers, found {}", arr.len())));
+        }
+        arr.iter().enumerate().map(|(i, x)| self.number(x, &format!("{key}[{i}]"), allow_inf)).collect()
+    }
+
+    fn bounds(&self, v: &Value, key: &str) -> Res<Bounds> {
+        let b = self.numbers(v, key, Some(2), true)?;
+        if b[0] > b[1] {
+            return Err(self.invalid(key, format!("inverted bounds: lower {} is above upper {}", b[0], b[1])));
+        }
+        Ok(Bounds::new(b[0], b[1]))
+    }
+
+    fn sub_table<'v>(&self, v: &'v Value, key: &str) -> Res<&'v Table> {
+        v.as_table().ok_or_else(|| self.wrong_type(key, "a table", v))
+    }
+
+    fn array_of_tables<'v>(&self, root: &'v Table, key: &str) -> Res<Vec<&'v Table>> {
+        match root.get(key) {
+            None => Ok(Vec::new()),
+            Some(Value::Array(items)) => {
+                items.iter().enumerate().map(|(i, item)| self.sub_table(item, &format!("{key}[{i}]"))).collect()
+            }
+            Some(v) => Err(self.wrong_type(key, &format!("an array of tables ([[{key}]])"), v)),
+        }
+    }
+
+    /// Walk the whole document.
+    pub(super) fn read(mut self, root: &Table) -> Res<ReadOutcome> {
+        if root.is_empty() {
+            return Err(PaletteError::Empty { path: self.path.to_path_buf() });
+        }
+        self.warn_unknown(root, TOP_KEYS, "");
+        let name = match root.get("name") {
+            Some(v) => self.string(v, "name")?.to_string(),
+            None => self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+        };
+        if let Some(v) = root.get("wavelengths") {
+            self.wavelengths(v)?;
+        }
+        let settings = match root.get("settings") {
+            Some(v) => self.settings(self.sub_table(v, "settings")?)?,
+            None => Settings::default(),
+        };
+        let lights = self.spectra(root, "lights", Kind::Light)?;
+        let reflectances = self.spectra(root, "reflectances", Kind::Reflectance)?;
+        let free = self.free_groups(root)?;
+        let colours = self.colours(root, &lights, &reflectances, &free)?;
+        Ok(ReadOutcome {
+            palette: Palette { name, settings, lights, reflectances, colours, free },
+            warnings: self.warnings,
+            csv_raw: self.csv_raw,
+        })
+    }
+
+    fn wavelengths(&mut self, v: &Value) -> Res<()> {
+        let t = self.sub_table(v, "wavelengths")?;
+        self.warn_unknown(t, &["start", "step", "count"], "wavelengths");
+        let std = Grid::STANDARD;
+        let get = |k: &str| t.get(k).ok_or_else(|| self.invalid(format!("wavelengths.{k}"), "missing"));
+        let start = self.number(get("start")?, "wavelengths.start", false)?;
+        let step = self.number(get("step")?, "wavelengths.step", false)?;
+        let count_v = get("count")?;
+        let count = count_v.as_integer().ok_or_else(|| self.wrong_type("wavelengths.count", "an integer", count_v))?;
+        if start != std.start_nm || step != std.step_nm || count != std.count as i64 {
+            return Err(self.invalid(
+                "wavelengths",
+                format!(
+                    "only the standard grid is supported: start = {}, step = {}, count = {} (got {start}, {step}, {count})",
+                    std.start_nm, std.step_nm, std.count
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn settings(&mut self, t: &Table) -> Res<Settings> {
+        self.warn_unknown(t, SETTINGS_KEYS, "settings");
+        let mut s = Settings::default();
+        if let Some(v) = t.get("basis_dimension") {
+            let key = "settings.basis_dimension";
+            let m = v.as_integer().ok_or_else(|| self.wrong_type(key, "an integer", v))?;
+            if !(1..=SAMPLES as i64).contains(&m) {
+                return Err(self.invalid(key, format!("must be between 1 and {SAMPLES}, got {m}")));
+            }
+            s.basis_dimension = m as usize;
+        }
+        for (k, slot) in [("smoothness", &mut s.smoothness), ("subspace_error", &mut s.subspace_error)] {
+            if let Some(v) = t.get(k) {
+                let key = format!("settings.{k}");
+                let x = self.number(v, &key, false)?;
+                if x < 0.0 {
+                    return Err(self.invalid(key, format!("must not be negative, got {x}")));
+                }
+                *slot = x;
+            }
+        }
+        if let Some(v) = t.get("fit_in_subspace") {
+            s.fit_in_subspace = self.boolean(v, "settings.fit_in_subspace")?;
+        }
+        if let Some(v) = t.get("reflectance_bounds") {
+            s.reflectance_bounds = self.bounds(v, "settings.reflectance_bounds")?;
+        }
+        if let Some(v) = t.get("light_bounds") {
+            s.light_bounds = self.bounds(v, "settings.light_bounds")?;
+        }
+        Ok(s)
+    }
+
+    fn spectra(&mut self, root: &Table, list: &str, kind: Kind) -> Res<Vec<SpectrumEntry>> {
+        let tables = self.array_of_tables(root, list)?;
+        let mut out: Vec<SpectrumEntry> = Vec::with_capacity(tables.len());
+        let mut seen: HashMap<String, usize> = HashMap::new();
+        for (i, t) in tables.into_iter().enumerate() {
+            let at = format!("{list}[{i}]");
+            let entry = self.spectrum(t, &at, kind)?;
+            if let Some(first) = seen.insert(entry.name.clone(), i) {
+                return Err(self.invalid(
+                    format!("{at}.name"),
+                    format!("duplicate {} name `{}` (first used by {list}[{first}])", kind.as_str(), entry.name),
+                ));
+            }
+            out.push(entry);
+        }
+        Ok(out)
+    }
+
+    fn spectrum(&mut self, t: &Table, at: &str, kind: Kind) -> Res<SpectrumEntry> {
+        self.warn_unknown(t, SPECTRUM_KEYS, at);
+        let name = match t.get("name") {
+            Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
+            None => return Err(self.invalid(format!("{at}.name"), "missing: every spectrum needs a name")),
+        };
+        if name.trim().is_empty() {
+            return Err(self.invalid(format!("{at}.name"), "the name must not be empty"));
+        }
+        let present: Vec<&str> = Source::KEYS.iter().copied().filter(|k| t.contains_key(*k)).collect();
+        let source_key = match present.as_slice() {
+            [one] => *one,
+            [] => {
+                return Err(self.invalid(
+                    at,
+                    format!("{} `{name}` has no source: give one of {}", kind.as_str(), Source::KEYS.join(", ")),
+                ));
+            }
+            many => {
+                return Err(self.invalid(
+                    at,
+                    format!("{} `{name}` has more than one source key ({}): keep one", kind.as_str(), many.join(", ")),
+                ));
+            }
+        };
+        let key = format!("{at}.{source_key}");
+        let v = &t[source_key];
+        let source = match source_key {
+            "illuminant" => Source::Illuminant(self.string(v, &key)?.to_string()),
+            "colorchecker" => Source::ColorChecker(self.string(v, &key)?.to_string()),
+            "planck" => Source::Planck(self.number(v, &key, false)?),
+            "flat" => Source::Flat(self.number(v, &key, false)?),
+            "samples" => Source::Samples(self.numbers(v, &key, None, false)?),
+            _ => Source::Csv(self.string(v, &key)?.to_string()),
+        };
+        let normalize = match (t.get("normalize"), kind) {
+            (None, _) => Normalize::default(),
+            (Some(v), Kind::Light) => {
+                let s = self.string(v, &format!("{at}.normalize"))?;
+                Normalize::parse(s).ok_or_else(|| {
+                    self.invalid(
+                        format!("{at}.normalize"),
+                        format!("unknown normalisation `{s}` (valid: luminance, l2, none)"),
+                    )
+                })?
+            }
+            (Some(_), Kind::Reflectance) => {
+                return Err(self.invalid(format!("{at}.normalize"), "reflectances are never normalised: remove it"));
+            }
+        };
+        let scale = match t.get("scale") {
+            Some(v) => self.number(v, &format!("{at}.scale"), false)?,
+            None => 1.0,
+        };
+        let design = match t.get("design") {
+            Some(v) => self.boolean(v, &format!("{at}.design"))?,
+            None => false,
+        };
+        let bounds = t.get("bounds").map(|v| self.bounds(v, &format!("{at}.bounds"))).transpose()?;
+        let dial = match t.get("dial") {
+            Some(v) => {
+                let d = self.numbers(v, &format!("{at}.dial"), Some(2), false)?;
+                Some([d[0], d[1]])
+            }
+            None => None,
+        };
+        let raw = source.raw_spectrum(self.base_dir.as_deref()).map_err(|e| self.source_error(&key, e))?;
+        if let Source::Csv(file) = &source {
+            self.csv_raw.insert(file.clone(), raw);
+        }
+        let spectrum = finish(&raw, kind, normalize, scale, &self.luminance).map_err(|e| {
+            self.invalid(if kind == Kind::Light { format!("{at}.normalize") } else { key.clone() }, e.to_string())
+        })?;
+        Ok(SpectrumEntry { name, kind, source, normalize, scale, design, bounds, dial, spectrum })
+    }
+
+    fn source_error(&self, key: &str, e: SourceError) -> PaletteError {
+        self.invalid(key, e.to_string())
+    }
+
+    fn free_groups(&mut self, root: &Table) -> Res<Vec<FreeGroup>> {
+        let tables = self.array_of_tables(root, "free")?;
+        let mut out: Vec<FreeGroup> = Vec::new();
+        for (i, t) in tables.into_iter().enumerate() {
+            let at = format!("free[{i}]");
+            self.warn_unknown(t, FREE_KEYS, &at);
+            let name = match t.get("name") {
+                Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
+                None => return Err(self.invalid(format!("{at}.name"), "missing: every free group needs a name")),
+            };
+            if name.trim().is_empty() {
+                return Err(self.invalid(format!("{at}.name"), "the name must not be empty"));
+            }
+            if let Some(first) = out.iter().position(|g| g.name == name) {
+                return Err(self.invalid(
+                    format!("{at}.name"),
+                    format!("duplicate free group name `{name}` (first used by free[{first}])"),
+                ));
+            }
+            let side = |k: &str, default: f64| -> Res<Vector3<f64>> {
+                match t.get(k) {
+                    Some(v) => {
+                        let x = self.numbers(v, &format!("{at}.{k}"), Some(3), true)?;
+                        Ok(Vector3::new(x[0], x[1], x[2]))
+                    }
+                    None => Ok(Vector3::repeat(default)),
+                }
+            };
+            let lower = side("lower", f64::NEG_INFINITY)?;
+            let upper = side("upper", f64::INFINITY)?;
+            if let Some(c) = (0..3).find(|&c| lower[c] > upper[c]) {
+                return Err(self.invalid(
+                    format!("{at}.lower"),
+                    format!("inverted bounds: lower[{c}] = {} is above upper[{c}] = {}", lower[c], upper[c]),
+                ));
+            }
+            out.push(FreeGroup { name, lower, upper });
+        }
+        Ok(out)
+    }
+
+    fn colours(
+        &mut self,
+        root: &Table,
+        lights: &[SpectrumEntry],
+        reflectances: &[SpectrumEntry],
+        free: &[FreeGroup],
+    ) -> Res<Vec<ColourCell>> {
+        let tables = self.array_of_tables(root, "colours")?;
+        let mut out = Vec::with_capacity(tables.len());
+        let mut cells: HashMap<(usize, usize), usize> = HashMap::new();
+        for (i, t) in tables.into_iter().enumerate() {
+            let at = format!("colours[{i}]");
+            self.warn_unknown(t, COLOUR_KEYS, &at);
+            let lookup = |k: &str, entries: &[SpectrumEntry], what: &str| -> Res<usize> {
+                let key = format!("{at}.{k}");
+                let v = t.get(k).ok_or_else(|| self.invalid(&key, format!("missing: a colour names its {what}")))?;
+                let name = self.string(v, &key)?;
+                entries.iter().position(|e| e.name == name).ok_or_else(|| {
+                    let known = names(entries);
+                    self.invalid(&key, format!("unknown {what} `{name}` (known: {known})"))
+                })
+            };
+            let light = lookup("light", lights, "light")?;
+            let reflectance = lookup("reflectance", reflectances, "reflectance")?;
+            if let Some(first) = cells.insert((light, reflectance), i) {
+                return Err(self.invalid(
+                    &at,
+                    format!(
+                        "duplicate cell: light `{}` on reflectance `{}` is already given by colours[{first}]",
+                        lights[light].name, reflectances[reflectance].name
+                    ),
+                ));
+            }
+            let free_group = match t.get("free") {
+                Some(v) => {
+                    let key = format!("{at}.free");
+                    let name = self.string(v, &key)?;
+                    Some(free.iter().position(|g| g.name == name).ok_or_else(|| {
+                        let known = if free.is_empty() {
+                            "none declared: add a [[free]] table".to_string()
+                        } else {
+                            free.iter().map(|g| g.name.as_str()).collect::<Vec<_>>().join(", ")
+                        };
+                        self.invalid(&key, format!("unknown free group `{name}` (known: {known})"))
+                    })?)
+                }
+                None => None,
+            };
+            let (target, notation) = match t.get("target") {
+                Some(v) => self.target(v, &format!("{at}.target"))?,
+                None if free_group.is_some() => (Vector3::zeros(), TargetNotation::Hex),
+                None => {
+                    return Err(self.invalid(
+                        format!("{at}.target"),
+                        "missing: a colour needs a target (\"#rrggbb\" or [r, g, b]) or a free group",
+                    ));
+                }
+            };
+            let weight = match t.get("weight") {
+                Some(v) => {
+                    let key = format!("{at}.weight");
+                    let w = self.number(v, &key, false)?;
+                    if w < 0.0 {
+                        return Err(self.invalid(key, format!("weights must not be negative, got {w}")));
+                    }
+                    w
+                }
+                None => 1.0,
+            };
+            let enabled = match t.get("use") {
+                Some(v) => self.boolean(v, &format!("{at}.use"))?,
+                None => true,
+            };
+            out.push(ColourCell { light, reflectance, target, notation, weight, free: free_group, enabled });
+        }
+        Ok(out)
+    }
+
+    fn target(&self, v: &Value, key: &str) -> Res<(Vector3<f64>, TargetNotation)> {
+        match v {
+            Value::String(s) => hex_to_linear(s).map(|c| (c, TargetNotation::Hex)).ok_or_else(|| {
+                self.invalid(
+                    key,
+                    format!("bad hex colour `{s}`: write \"#rrggbb\" (display sRGB) or [r, g, b] (linear)"),
+                )
+            }),
+            Value::Array(_) => {
+                let x = self.numbers(v, key, Some(3), false)?;
+                Ok((Vector3::new(x[0], x[1], x[2]), TargetNotation::Linear))
+            }
+            _ => Err(self.wrong_type(key, "\"#rrggbb\" or [r, g, b]", v)),
+        }
+    }
+}
+
+fn names(entries: &[SpectrumEntry]) -> String {
+    if entries.is_empty() {
+        return "none".to_string();
+    }
+    entries.iter().map(|e| e.name.as_str()).collect::<Vec<_>>().join(", ")
+}

@@ -1,0 +1,441 @@
+//! Saving: the TOML document is updated from the model so that only what changed is rewritten. Comments,
+//! key order, formatting and unknown keys of everything else stay as the user wrote them.
+//!
+//! Entries of the model are paired with the document's tables first by name, then (for a renamed entry) by
+//! position; unpaired tables are removed and new entries appended after the last table of their list.
+
+use crate::colorimetry::linear_to_hex;
+use crate::palette::source::spectra_agree;
+use crate::palette::{Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation};
+use crate::spectrum::{Normalize, Samples, Spectrum};
+use nalgebra::Vector3;
+use std::collections::HashMap;
+use std::path::{Component, Path, PathBuf};
+use toml_edit::{Array, ArrayOfTables, DocumentMut, InlineTable, Item, Table, TableLike, Value};
+
+/// What the update needs besides the two palettes.
+pub(super) struct SaveContext<'a> {
+    /// Folder the document's relative CSV paths are relative to now (`None` for a new document).
+    pub old_base: Option<&'a Path>,
+    /// Folder of the file being written.
+    pub new_base: &'a Path,
+    /// Raw samples of CSV sources already read, by path as written.
+    pub csv_raw: &'a HashMap<String, Spectrum>,
+    pub luminance: Samples,
+}
+
+/// Why the document cannot take the model.
+#[derive(Debug)]
+pub(super) struct StructureError(pub String);
+
+type Res = Result<(), StructureError>;
+
+/// Update `doc` (which says `old`) so that it says `new`.
+pub(super) fn update_document(doc: &mut DocumentMut, old: &Palette, new: &Palette, ctx: &SaveContext) -> Res {
+    let root = doc.as_table_mut();
+    if old.name != new.name {
+        put(root, "name", Value::from(new.name.as_str()));
+    }
+    sync_settings(root, &old.settings, &new.settings);
+
+    let light_map = pair_by_name(&old.lights, &new.lights, |e| &e.name);
+    let refl_map = pair_by_name(&old.reflectances, &new.reflectances, |e| &e.name);
+    let free_map = pair_by_name(&old.free, &new.free, |g| &g.name);
+
+    for (list, map, olds, news) in [
+        ("lights", &light_map, &old.lights, &new.lights),
+        ("reflectances", &refl_map, &old.reflectances, &new.reflectances),
+    ] {
+        sync_list(root, list, order(map, olds.len()), |t, o, n| {
+            sync_spectrum(t, o.map(|o| &olds[o]), &news[n], ctx);
+        })?;
+    }
+
+    // Colour cells pair through the light and reflectance pairing.
+    let old_cells: HashMap<(usize, usize), usize> =
+        old.colours.iter().enumerate().map(|(i, c)| ((c.light, c.reflectance), i)).collect();
+    let cell_map: Vec<Option<usize>> = new
+        .colours
+        .iter()
+        .map(|c| {
+            let l = light_map.get(c.light).copied().flatten()?;
+            let r = refl_map.get(c.reflectance).copied().flatten()?;
+            old_cells.get(&(l, r)).copied()
+        })
+        .collect();
+    sync_list(root, "colours", order(&cell_map, old.colours.len()), |t, o, n| {
+        sync_colour(t, o.map(|o| (&old.colours[o], old)), &new.colours[n], new);
+    })?;
+    sync_list(root, "free", order(&free_map, old.free.len()), |t, o, n| {
+        sync_free(t, o.map(|o| &old.free[o]), &new.free[n]);
+    })?;
+    Ok(())
+}
+
+/// For each new item the old item it continues: same name first, else the unpaired old item at its index.
+fn pair_by_name<T>(old: &[T], new: &[T], name: impl Fn(&T) -> &String) -> Vec<Option<usize>> {
+    let mut taken = vec![false; old.len()];
+    let mut map: Vec<Option<usize>> = new
+        .iter()
+        .map(|n| {
+            let o = old.iter().position(|o| name(o) == name(n))?;
+            (!taken[o]).then(|| {
+                taken[o] = true;
+                o
+            })
+        })
+        .collect();
+    for (i, slot) in map.iter_mut().enumerate() {
+        if slot.is_none() && i < old.len() && !taken[i] && !new.iter().any(|n| name(n) == name(&old[i])) {
+            taken[i] = true;
+            *slot = Some(i);
+        }
+    }
+    map
+}
+
+/// The document order of the updated list: kept tables in their old order, then new ones in model order.
+fn order(map: &[Option<usize>], old_len: usize) -> Vec<(Option<usize>, usize)> {
+    let mut by_old: Vec<Option<usize>> = vec![None; old_len];
+    for (n, o) in map.iter().enumerate() {
+        if let Some(o) = o
+            && let Some(slot) = by_old.get_mut(*o)
+        {
+            *slot = Some(n);
+        }
+    }
+    let mut out: Vec<(Option<usize>, usize)> =
+        by_old.iter().enumerate().filter_map(|(o, n)| n.map(|n| (Some(o), n))).collect();
+    out.extend(map.iter().enumerate().filter(|(_, o)| o.is_none()).map(|(n, _)| (None, n)));
+    out
+}
+
+/// Rebuild the array (of tables, or inline) under `key`: each (old table, new item) pair is synced in place.
+fn sync_list(
+    root: &mut Table,
+    key: &str,
+    pairs: Vec<(Option<usize>, usize)>,
+    mut sync: impl FnMut(&mut dyn TableLike, Option<usize>, usize),
+) -> Res {
+    if !root.contains_key(key) {
+        if pairs.is_empty() {
+            return Ok(());
+        }
+        root.insert(key, Item::ArrayOfTables(ArrayOfTables::new()));
+    }
+    match root.get_mut(key) {
+        Some(Item::ArrayOfTables(aot)) => {
+            let old: Vec<Table> = aot.iter().cloned().collect();
+            aot.clear();
+            for (o, n) in pairs {
+                let mut t = o.and_then(|o| old.get(o).cloned()).unwrap_or_default();
+                sync(&mut t, o, n);
+                aot.push(t);
+            }
+        }
+        Some(Item::Value(Value::Array(arr))) => {
+            let old: Vec<Value> = arr.iter().cloned().collect();
+            arr.clear();
+            for (o, n) in pairs {
+                let mut v =
+                    o.and_then(|o| old.get(o).cloned()).unwrap_or_else(|| Value::InlineTable(InlineTable::new()));
+                if let Value::InlineTable(t) = &mut v {
+                    sync(t, o, n);
+                }
+                arr.push_formatted(v);
+            }
+        }
+        _ => return Err(StructureError(format!("`{key}` is not an array of tables"))),
+    }
+    let now_empty = match root.get(key) {
+        Some(Item::ArrayOfTables(a)) => a.is_empty(),
+        Some(Item::Value(Value::Array(a))) => a.is_empty(),
+        _ => false,
+    };
+    if now_empty {
+        root.remove(key);
+    }
+    Ok(())
+}
+
+/// Set `key` to `v`, keeping the key's place, its comments and the old value's trailing comment.
+fn put(t: &mut dyn TableLike, key: &str, mut v: Value) {
+    match t.get_mut(key) {
+        Some(Item::Value(old)) => {
+            *v.decor_mut() = old.decor().clone();
+            *old = v;
+        }
+        Some(item) => *item = Item::Value(v),
+        None => {
+            t.insert(key, Item::Value(v));
+        }
+    }
+}
+
+/// Write a value when it changed; a value equal to its default is only written where the key already is.
+fn sync_value<T: PartialEq>(
+    t: &mut dyn TableLike,
+    key: &str,
+    old: Option<T>,
+    new: T,
+    default: T,
+    v: impl Fn(T) -> Value,
+) {
+    if old.as_ref() == Some(&new) || (!t.contains_key(key) && new == default) {
+        return;
+    }
+    put(t, key, v(new));
+}
+
+fn float_array(values: &[f64]) -> Value {
+    let mut a = Array::new();
+    for &x in values {
+        a.push(x);
+    }
+    Value::Array(a)
+}
+
+/// Samples written eight to a line, like a table.
+fn samples_array(values: &[f64]) -> Value {
+    let mut a = Array::new();
+    for (i, &x) in values.iter().enumerate() {
+        let mut v = Value::from(x);
+        let prefix = if i % 8 == 0 { "\n    " } else { " " };
+        v.decor_mut().set_prefix(prefix);
+        v.decor_mut().set_suffix("");
+        a.push_formatted(v);
+    }
+    a.set_trailing("\n");
+    a.set_trailing_comma(true);
+    Value::Array(a)
+}
+
+fn bounds_value(b: Bounds) -> Value {
+    float_array(&[b.lower, b.upper])
+}
+
+fn sync_optional_bounds(t: &mut dyn TableLike, key: &str, old: Option<Option<Bounds>>, new: Option<Bounds>) {
+    if old == Some(new) {
+        return;
+    }
+    match new {
+        Some(b) => put(t, key, bounds_value(b)),
+        None => {
+            t.remove(key);
+        }
+    }
+}
+
+fn sync_settings(root: &mut Table, old: &Settings, new: &Settings) {
+    if old == new {
+        return;
+    }
+    if !root.contains_key("settings") {
+        let mut table = Table::new();
+        table.set_position(Some(0));
+        root.insert("settings", Item::Table(table));
+    }
+    let Some(t) = root.get_mut("settings").and_then(Item::as_table_like_mut) else { return };
+    let d = Settings::default();
+    sync_value(t, "basis_dimension", Some(old.basis_dimension), new.basis_dimension, d.basis_dimension, |m| {
+        Value::from(m as i64)
+    });
+    sync_value(t, "smoothness", Some(old.smoothness), new.smoothness, d.smoothness, Value::from);
+    sync_value(t, "subspace_error", Some(old.subspace_error), new.subspace_error, d.subspace_error, Value::from);
+    sync_value(t, "fit_in_subspace", Some(old.fit_in_subspace), new.fit_in_subspace, d.fit_in_subspace, Value::from);
+    sync_value(
+        t,
+        "reflectance_bounds",
+        Some(old.reflectance_bounds),
+        new.reflectance_bounds,
+        d.reflectance_bounds,
+        bounds_value,
+    );
+    sync_value(t, "light_bounds", Some(old.light_bounds), new.light_bounds, d.light_bounds, bounds_value);
+}
+
+/// How a spectrum is written: its own source when the samples are what that source resolves to, else
+/// (designed or edited samples) the samples themselves, never normalised or scaled again.
+fn written_source(entry: &SpectrumEntry, ctx: &SaveContext) -> (Source, Normalize, f64) {
+    let raw = match &entry.source {
+        Source::Csv(file) => match ctx.csv_raw.get(file) {
+            Some(raw) => Ok(*raw),
+            None => entry.source.raw_spectrum(ctx.old_base),
+        },
+        other => other.raw_spectrum(None),
+    };
+    let resolved = raw.ok().and_then(|raw| {
+        crate::palette::source::finish(&raw, entry.kind, entry.normalize, entry.scale, &ctx.luminance).ok()
+    });
+    match resolved {
+        Some(r) if spectra_agree(&r, &entry.spectrum) => (rebase_csv(&entry.source, ctx), entry.normalize, entry.scale),
+        _ => {
+            let normalize = if entry.kind == Kind::Light { Normalize::None } else { entry.normalize };
+            (Source::Samples(entry.spectrum.to_vec()), normalize, 1.0)
+        }
+    }
+}
+
+/// A relative CSV path rewritten for the folder the file is saved into.
+fn rebase_csv(source: &Source, ctx: &SaveContext) -> Source {
+    let Source::Csv(file) = source else { return source.clone() };
+    let file_path = Path::new(file);
+    let Some(old_base) = ctx.old_base else { return source.clone() };
+    if file_path.is_absolute() || same_dir(old_base, ctx.new_base) {
+        return source.clone();
+    }
+    let target = old_base.join(file_path);
+    let rebased = match (std::fs::canonicalize(&target), std::fs::canonicalize(ctx.new_base)) {
+        (Ok(t), Ok(b)) => relative_path(&t, &b).unwrap_or(t),
+        _ => std::path::absolute(&target).unwrap_or(target),
+    };
+    Source::Csv(rebased.to_string_lossy().into_owned())
+}
+
+fn same_dir(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    }
+}
+
+/// `target` relative to the folder `base` (both absolute and canonical).
+fn relative_path(target: &Path, base: &Path) -> Option<PathBuf> {
+    let t: Vec<Component> = target.components().collect();
+    let b: Vec<Component> = base.components().collect();
+    let common = t.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    if common == 0 {
+        return None;
+    }
+    let mut out = PathBuf::new();
+    for _ in common..b.len() {
+        out.push("..");
+    }
+    for c in &t[common..] {
+        out.push(c.as_os_str());
+    }
+    Some(out)
+}
+
+fn source_value(source: &Source) -> Value {
+    match source {
+        Source::Illuminant(s) | Source::ColorChecker(s) | Source::Csv(s) => Value::from(s.as_str()),
+        Source::Planck(x) | Source::Flat(x) => Value::from(*x),
+        Source::Samples(v) => samples_array(v),
+    }
+}
+
+/// Replace whatever source key the table has by `source`, at the place of the old key.
+fn replace_source(t: &mut dyn TableLike, source: &Source) {
+    let new_key = source.key();
+    let present: Vec<&str> = Source::KEYS.iter().copied().filter(|k| t.contains_key(k)).collect();
+    if present == [new_key] {
+        put(t, new_key, source_value(source));
+        return;
+    }
+    let Some(first) = present.first().copied() else {
+        t.insert(new_key, Item::Value(source_value(source)));
+        return;
+    };
+    // Rebuild the table so the new key takes the old one's place and comments.
+    let keys: Vec<String> = t.iter().map(|(k, _)| k.to_string()).collect();
+    let mut items = Vec::with_capacity(keys.len());
+    for k in &keys {
+        if let Some((key, item)) = t.get_key_value(k) {
+            items.push((key.clone(), item.clone()));
+        }
+    }
+    t.clear();
+    for (key, item) in items {
+        let name = key.get().to_string();
+        if name == first {
+            let mut v = source_value(source);
+            if let Item::Value(old) = &item {
+                *v.decor_mut() = old.decor().clone();
+            }
+            let new_key_formatted = toml_edit::Key::new(new_key).with_leaf_decor(key.leaf_decor().clone());
+            t.entry_format(&new_key_formatted).or_insert(Item::Value(v));
+        } else if !Source::KEYS.contains(&name.as_str()) {
+            t.entry_format(&key).or_insert(item);
+        }
+    }
+}
+
+fn sync_spectrum(t: &mut dyn TableLike, old: Option<&SpectrumEntry>, new: &SpectrumEntry, ctx: &SaveContext) {
+    if old.map(|o| &o.name) != Some(&new.name) {
+        put(t, "name", Value::from(new.name.as_str()));
+    }
+    let (source, normalize, scale) = written_source(new, ctx);
+    if old.map(|o| &o.source) != Some(&source) {
+        replace_source(t, &source);
+    }
+    if new.kind == Kind::Light {
+        sync_value(t, "normalize", old.map(|o| o.normalize), normalize, Normalize::default(), |n| {
+            Value::from(n.as_str())
+        });
+    }
+    sync_value(t, "scale", old.map(|o| o.scale), scale, 1.0, Value::from);
+    sync_value(t, "design", old.map(|o| o.design), new.design, false, Value::from);
+    sync_optional_bounds(t, "bounds", old.map(|o| o.bounds), new.bounds);
+    if old.map(|o| o.dial) != Some(new.dial) {
+        match new.dial {
+            Some(d) => put(t, "dial", float_array(&d)),
+            None => {
+                t.remove("dial");
+            }
+        }
+    }
+}
+
+fn sync_free(t: &mut dyn TableLike, old: Option<&FreeGroup>, new: &FreeGroup) {
+    if old.map(|o| &o.name) != Some(&new.name) {
+        put(t, "name", Value::from(new.name.as_str()));
+    }
+    for (key, old_side, new_side, open) in [
+        ("lower", old.map(|o| o.lower), new.lower, f64::NEG_INFINITY),
+        ("upper", old.map(|o| o.upper), new.upper, f64::INFINITY),
+    ] {
+        sync_value(t, key, old_side, new_side, Vector3::repeat(open), |v| float_array(v.as_slice()));
+    }
+}
+
+/// The target as written: hex when the notation is hex and the colour is inside the display gamut.
+fn target_value(cell: &ColourCell) -> Value {
+    let in_gamut = cell.target.iter().all(|v| (0.0..=1.0).contains(v));
+    if cell.notation == TargetNotation::Hex && in_gamut {
+        Value::from(linear_to_hex(&cell.target))
+    } else {
+        float_array(cell.target.as_slice())
+    }
+}
+
+fn sync_colour(t: &mut dyn TableLike, old: Option<(&ColourCell, &Palette)>, new: &ColourCell, palette: &Palette) {
+    let light = palette.lights.get(new.light).map_or("", |e| e.name.as_str());
+    let reflectance = palette.reflectances.get(new.reflectance).map_or("", |e| e.name.as_str());
+    let old_light = old.and_then(|(c, p)| p.lights.get(c.light)).map(|e| e.name.as_str());
+    let old_refl = old.and_then(|(c, p)| p.reflectances.get(c.reflectance)).map(|e| e.name.as_str());
+    if old_light != Some(light) {
+        put(t, "light", Value::from(light));
+    }
+    if old_refl != Some(reflectance) {
+        put(t, "reflectance", Value::from(reflectance));
+    }
+    // A free cell's target is ignored by the design; it is written when the file has one or it is set.
+    let target_shown = new.free.is_none() || t.contains_key("target") || new.target != Vector3::zeros();
+    let target_same = old.is_some_and(|(c, _)| c.target == new.target && c.notation == new.notation);
+    if target_shown && !target_same {
+        put(t, "target", target_value(new));
+    }
+    sync_value(t, "weight", old.map(|(c, _)| c.weight), new.weight, 1.0, Value::from);
+    let group = new.free.and_then(|g| palette.free.get(g)).map(|g| g.name.as_str());
+    let old_group = old.map(|(c, p)| c.free.and_then(|g| p.free.get(g)).map(|g| g.name.as_str()));
+    if old_group != Some(group) {
+        match group {
+            Some(g) => put(t, "free", Value::from(g)),
+            None => {
+                t.remove("free");
+            }
+        }
+    }
+    sync_value(t, "use", old.map(|(c, _)| c.enabled), new.enabled, true, Value::from);
+}

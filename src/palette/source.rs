@@ -1,0 +1,102 @@
+//! Resolving a spectrum entry's source into samples: the raw spectrum its source key names, then (lights)
+//! the normalisation and the scale (DESIGN_SPEC §1).
+
+use super::{Kind, Source, SpectrumEntry};
+use crate::spectrum::csv::{SpectrumCsvError, read_spectrum_csv};
+use crate::spectrum::{Normalize, NormalizeError, SAMPLES, Samples, Spectrum};
+use std::path::Path;
+
+/// Why a source cannot give samples.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceError {
+    #[error("unknown illuminant `{name}` (valid: {valid})")]
+    UnknownIlluminant { name: String, valid: String },
+    #[error("unknown ColorChecker patch `{name}` (valid: {valid})")]
+    UnknownColorChecker { name: String, valid: String },
+    #[error("Planck temperature must be a finite number of kelvin above 0, got {0}")]
+    BadTemperature(f64),
+    #[error("expected {SAMPLES} samples (400..=700 nm in 10 nm steps), got {0}")]
+    SampleCount(usize),
+    #[error("the samples must be finite numbers")]
+    NotFinite,
+    #[error("a CSV source needs the palette file's folder to resolve `{0}`")]
+    CsvWithoutFolder(String),
+    #[error(transparent)]
+    Csv(#[from] SpectrumCsvError),
+    #[error("{0}")]
+    Normalize(#[from] NormalizeError),
+}
+
+impl Source {
+    /// The source key as written in a palette file.
+    pub fn key(&self) -> &'static str {
+        match self {
+            Source::Illuminant(_) => "illuminant",
+            Source::ColorChecker(_) => "colorchecker",
+            Source::Planck(_) => "planck",
+            Source::Flat(_) => "flat",
+            Source::Samples(_) => "samples",
+            Source::Csv(_) => "csv",
+        }
+    }
+
+    /// All source keys a palette file may use.
+    pub const KEYS: [&'static str; 6] = ["illuminant", "colorchecker", "planck", "flat", "samples", "csv"];
+
+    /// The raw samples the source names, before any normalisation or scale. A CSV path is taken relative to
+    /// `base_dir` (the palette file's folder); without one a CSV source is an error.
+    pub fn raw_spectrum(&self, base_dir: Option<&Path>) -> Result<Spectrum, SourceError> {
+        let spectrum = match self {
+            Source::Illuminant(name) => Spectrum::illuminant(name).ok_or_else(|| SourceError::UnknownIlluminant {
+                name: name.clone(),
+                valid: Spectrum::illuminant_names().collect::<Vec<_>>().join(", "),
+            })?,
+            Source::ColorChecker(name) => {
+                Spectrum::colorchecker(name).ok_or_else(|| SourceError::UnknownColorChecker {
+                    name: name.clone(),
+                    valid: Spectrum::colorchecker_names().collect::<Vec<_>>().join(", "),
+                })?
+            }
+            Source::Planck(kelvin) => Spectrum::planck(*kelvin).ok_or(SourceError::BadTemperature(*kelvin))?,
+            Source::Flat(v) => Spectrum::flat(*v),
+            Source::Samples(values) => Spectrum::from_slice(values).ok_or(SourceError::SampleCount(values.len()))?,
+            Source::Csv(file) => match base_dir {
+                Some(dir) => read_spectrum_csv(&dir.join(file))?,
+                None => return Err(SourceError::CsvWithoutFolder(file.clone())),
+            },
+        };
+        if spectrum.is_finite() { Ok(spectrum) } else { Err(SourceError::NotFinite) }
+    }
+}
+
+/// Apply a spectrum's normalisation (lights only; reflectances are never normalised) and then its scale.
+pub fn finish(
+    raw: &Spectrum,
+    kind: Kind,
+    normalize: Normalize,
+    scale: f64,
+    luminance_weights: &Samples,
+) -> Result<Spectrum, NormalizeError> {
+    let normalized = match kind {
+        Kind::Light => raw.normalized(normalize, luminance_weights)?,
+        Kind::Reflectance => *raw,
+    };
+    let out = normalized.scaled(scale);
+    if out.is_finite() { Ok(out) } else { Err(NormalizeError::NotFinite) }
+}
+
+impl SpectrumEntry {
+    /// The samples this entry's source, normalisation and scale produce (ignoring any designed samples).
+    pub fn resolve(&self, base_dir: Option<&Path>, luminance_weights: &Samples) -> Result<Spectrum, SourceError> {
+        let raw = self.source.raw_spectrum(base_dir)?;
+        Ok(finish(&raw, self.kind, self.normalize, self.scale, luminance_weights)?)
+    }
+}
+
+/// True when two spectra agree to a relative tolerance of 1e-12 of the larger magnitude (plus 1e-300
+/// absolute so all-zero spectra compare equal): the threshold below which a spectrum counts as "as its
+/// source resolves" rather than "designed or edited".
+pub fn spectra_agree(a: &Spectrum, b: &Spectrum) -> bool {
+    let scale = a.0.amax().max(b.0.amax());
+    (a.0 - b.0).amax() <= 1e-12 * scale + 1e-300
+}
