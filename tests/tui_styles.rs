@@ -37,7 +37,10 @@ fn cells_show_desired_full_and_model_colours() {
     assert_eq!(desired.fg, Color::Rgb(0x6a, 0x7b, 0x5c));
     let model = &buf[(x + 1, y)];
     assert_eq!(model.symbol(), "▀");
-    let full = linear_to_srgb8(&c.rgb(&p.lights[0].spectrum, &p.reflectances[1].spectrum));
+    // `block` is designed: the achieved colour is that of its solved spectrum.
+    let solved = &s.solve.current().expect("the demo palette solves").palette;
+    assert_ne!(solved.reflectances[1].spectrum, p.reflectances[1].spectrum);
+    let full = linear_to_srgb8(&c.rgb(&p.lights[0].spectrum, &solved.reflectances[1].spectrum));
     assert_eq!(model.fg, rgb(full), "top half: full 31-sample colour");
     // Without a basis the subspace half repeats the full colour.
     assert_eq!(model.bg, rgb(full));
@@ -59,11 +62,14 @@ fn unused_cells_are_dimmed_and_designed_spectra_marked() {
     }
     let (x, y) = cell_origin(&s, &buf, 2, 2);
     assert_eq!(buf[(x + 5, y)].symbol(), "○");
-    // `D` beside the designed light `split`, in the design colour.
+    // `D` beside the designed reflectances, in the design colour; none beside the fixed light `split`.
     let (x, _) = cell_origin(&s, &buf, 2, 0);
-    assert_eq!(buf[(x + 5, 2)].symbol(), "D");
-    assert_eq!(buf[(x + 5, 2)].fg, Color::LightRed);
+    assert_eq!(buf[(x + 5, 2)].symbol(), " ");
     assert!(text.contains("block   ██ D"));
+    assert!(text.contains("tissue  ██ D"));
+    let line = text.lines().position(|l| l.contains("block   ██ D")).expect("block's row on screen");
+    let column = text.lines().nth(line).and_then(|l| l.chars().position(|c| c == 'D')).expect("a D marker");
+    assert_eq!(buf[(column as u16, line as u16)].fg, Color::LightRed);
 }
 
 #[test]

@@ -1,10 +1,13 @@
 //! `metamer design PALETTE.toml`: the terminal palette designer, or with `--replay` a headless run of a
 //! key script that writes the screen as text.
 
+use crate::basis::store::sidecar_path;
 use crate::palette::Palette;
+use crate::palette::file::PaletteFile;
 use crate::tui::colour::ColourMode;
 use crate::tui::event_loop::{self, Io, Saver};
 use crate::tui::terminal::{TerminalEvents, TerminalGuard};
+use crate::tui::worker::{BasisMode, WorkerConfig};
 use crate::tui::{State, replay};
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
@@ -49,6 +52,13 @@ pub struct Args {
     /// Cap on one solve, in seconds.
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
     pub time_limit: f64,
+    /// Do not train the spectral factor basis: no subspace colours (palettes that fit in the subspace then
+    /// cannot be solved).
+    #[arg(long)]
+    pub no_basis: bool,
+    /// Train the basis without reading or writing its sidecar cache (PALETTE.basis.json).
+    #[arg(long, conflicts_with = "no_basis")]
+    pub no_basis_cache: bool,
     /// Light-dial preview of a scene (not available in this build: the renderer is not merged).
     #[arg(long, value_name = "SCENE.toml")]
     pub scene: Option<PathBuf>,
@@ -72,19 +82,16 @@ fn parse_colours(text: &str) -> Result<ColourMode, String> {
     }
 }
 
-/// Read a palette file (the palette model's reader).
-fn load(path: &Path) -> anyhow::Result<Palette> {
-    bail!("{}: the palette file reader is not merged yet", path.display())
-}
-
-/// Saves to the palette file.
+/// Saves to the palette file through its document, so comments, key order and unknown keys survive
+/// (atomically: a temporary file renamed over the old one).
 struct FileSaver {
-    path: PathBuf,
+    file: PaletteFile,
 }
 
 impl Saver for FileSaver {
-    fn save(&mut self, _palette: &Palette) -> Result<String, String> {
-        Err(format!("{}: the palette file writer is not merged yet", self.path.display()))
+    fn save(&mut self, palette: &Palette) -> Result<String, String> {
+        self.file.save(palette).map_err(|e| e.to_string())?;
+        Ok(format!("saved {}", self.file.path.as_deref().unwrap_or(Path::new("?")).display()))
     }
 }
 
@@ -95,18 +102,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !(args.time_limit.is_finite() && args.time_limit > 0.0) {
         bail!("--time-limit must be a positive number of seconds, not {}", args.time_limit);
     }
-    let palette = load(&args.input)?;
+    let file = PaletteFile::load(&args.input)?;
     let colours = args.colours.unwrap_or_else(ColourMode::detect);
-    let mut state = State::new(args.input.clone(), palette, colours);
-    let mut saver = FileSaver { path: args.input.clone() };
-    let time_limit = Duration::from_secs_f64(args.time_limit);
+    let mut state = State::new(args.input.clone(), file.palette.clone(), colours);
+    if !file.warnings.is_empty() {
+        state.say(file.warnings.join("; "));
+    }
+    let mut saver = FileSaver { file };
+    let worker = WorkerConfig {
+        time_limit: Duration::from_secs_f64(args.time_limit),
+        basis: if args.no_basis {
+            BasisMode::Off
+        } else {
+            BasisMode::Train { sidecar: (!args.no_basis_cache).then(|| sidecar_path(&args.input)) }
+        },
+    };
     match &args.replay {
         Some(script_path) => {
             let text = std::fs::read_to_string(script_path)
                 .with_context(|| format!("cannot read the key script {}", script_path.display()))?;
             let steps = replay::parse_script(&text).with_context(|| format!("{}", script_path.display()))?;
             let (w, h) = args.size;
-            let (frames, _) = replay::run(&mut state, steps, w, h, args.every_frame, &mut saver)
+            let (frames, _) = replay::run(&mut state, steps, w, h, args.every_frame, &mut saver, worker)
                 .with_context(|| format!("replaying {}", script_path.display()))?;
             let out = if args.every_frame {
                 frames.iter().enumerate().map(|(k, f)| format!("── frame {k} ──\n{f}")).collect::<String>()
@@ -114,9 +131,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 frames.concat()
             };
             match &args.screen {
-                Some(path) => {
-                    std::fs::write(path, out).with_context(|| format!("cannot write {}", path.display()))?
-                }
+                Some(path) => std::fs::write(path, out).with_context(|| format!("cannot write {}", path.display()))?,
                 None => print!("{out}"),
             }
             Ok(())
@@ -125,12 +140,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let mut guard = TerminalGuard::enter()
                 .context("metamer design needs a terminal (use --replay KEYS.txt for headless runs)")?;
             let mut events = TerminalEvents;
-            event_loop::run_main_loop(&mut guard.terminal, &mut state, Io {
-                events: &mut events,
-                saver: &mut saver,
-                on_frame: None,
-                solve_time_limit: time_limit,
-            })
+            event_loop::run_main_loop(
+                &mut guard.terminal,
+                &mut state,
+                Io { events: &mut events, saver: &mut saver, on_frame: None, worker },
+            )
             .context("the terminal failed")?;
             drop(guard);
             Ok(())

@@ -227,6 +227,12 @@ pub struct SolveStatus {
     pub error: Option<DesignError>,
     /// Wall-clock time of the latest finished solve.
     pub last_time: Option<Duration>,
+    /// A basis is being trained.
+    pub training: bool,
+    /// Generation of the palette the shown basis was trained for.
+    pub basis_generation: u64,
+    /// Why the basis could not be trained.
+    pub basis_error: Option<String>,
 }
 
 impl SolveStatus {
@@ -372,6 +378,14 @@ impl State {
     /// Show an error until the next key.
     pub fn complain(&mut self, text: impl Into<String>) {
         self.message = Some(Message { text: text.into(), is_error: true });
+    }
+
+    /// The palette file's folder (CSV paths are relative to it).
+    pub fn base_dir(&self) -> PathBuf {
+        match self.path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        }
     }
 
     /// The index into `palette.colours` of the cell at (light, reflectance).

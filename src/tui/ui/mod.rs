@@ -65,12 +65,10 @@ pub fn areas(state: &State, inner: Rect) -> Areas {
 
 impl Widget for &State {
     fn render(self, area: Rect, buf: &mut Buffer) {
-        let outer = Block::bordered()
-            .title_top(status::title_left(self))
-            .title_top(status::title_right(self).right_aligned())
-            .title_bottom(status::bottom_line(self, area.width.saturating_sub(4)));
+        let outer = Block::bordered().title_bottom(status::bottom_line(self, area.width.saturating_sub(4)));
         let inner = outer.inner(area);
         outer.render(area, buf);
+        status::draw_title(self, area, buf);
         let a = areas(self, inner);
         matrix::Matrix(self).render(a.matrix, buf);
         if a.sliders_compact {
