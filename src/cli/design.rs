@@ -2,10 +2,9 @@
 //! key script that writes the screen as text.
 
 use crate::basis::store::sidecar_path;
-use crate::palette::Palette;
 use crate::palette::file::PaletteFile;
 use crate::tui::colour::ColourMode;
-use crate::tui::event_loop::{self, Io, Saver};
+use crate::tui::event_loop::{self, FileSaver, Io};
 use crate::tui::terminal::{TerminalEvents, TerminalGuard};
 use crate::tui::worker::{BasisMode, WorkerConfig};
 use crate::tui::{State, replay};
@@ -79,19 +78,6 @@ fn parse_colours(text: &str) -> Result<ColourMode, String> {
         "truecolor" | "24bit" => Ok(ColourMode::TrueColor),
         "256" => Ok(ColourMode::Indexed256),
         _ => Err(format!("'{text}' is not truecolor or 256")),
-    }
-}
-
-/// Saves to the palette file through its document, so comments, key order and unknown keys survive
-/// (atomically: a temporary file renamed over the old one).
-struct FileSaver {
-    file: PaletteFile,
-}
-
-impl Saver for FileSaver {
-    fn save(&mut self, palette: &Palette) -> Result<String, String> {
-        self.file.save(palette).map_err(|e| e.to_string())?;
-        Ok(format!("saved {}", self.file.path.as_deref().unwrap_or(Path::new("?")).display()))
     }
 }
 

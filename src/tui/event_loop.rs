@@ -4,6 +4,7 @@
 //! for synchronous solving (replay, for reproducible screens).
 
 use crate::palette::Palette;
+use crate::palette::file::PaletteFile;
 use crate::tui::app::State;
 use crate::tui::update::{self, Effects};
 use crate::tui::worker::{Reply, Worker, WorkerConfig};
@@ -42,6 +43,21 @@ pub trait Events {
 pub trait Saver {
     /// Save `palette`; the text says where it went, the error why it failed.
     fn save(&mut self, palette: &Palette) -> Result<String, String>;
+}
+
+/// Saves to the palette file through its document, so comments, key order and unknown keys survive
+/// (atomically: a temporary file renamed over the old one; see [`PaletteFile::save`]).
+#[derive(Debug)]
+pub struct FileSaver {
+    pub file: PaletteFile,
+}
+
+impl Saver for FileSaver {
+    fn save(&mut self, palette: &Palette) -> Result<String, String> {
+        self.file.save(palette).map_err(|e| e.to_string())?;
+        let path = self.file.path.as_ref().map_or("the palette".to_string(), |p| p.display().to_string());
+        Ok(format!("saved {path}"))
+    }
 }
 
 /// What the loop needs besides the terminal and the state.
