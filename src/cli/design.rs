@@ -9,7 +9,7 @@ use crate::tui::terminal::{TerminalEvents, TerminalGuard};
 use crate::tui::worker::{BasisMode, WorkerConfig};
 use crate::tui::{State, replay};
 use anyhow::{Context, bail};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Duration;
 
 const AFTER_HELP: &str = "\
