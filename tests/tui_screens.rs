@@ -118,3 +118,16 @@ fn quit_asks_first_when_unsaved() {
     replay(&mut s, "q", 100, 30);
     assert!(s.quit);
 }
+
+#[test]
+fn help_and_diagnostics_at_80x24() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "?", 80, 24);
+    snap!("help_80x24", text);
+    let (text, _) = replay(&mut s, "Down *20", 80, 24);
+    snap!("help_80x24_scrolled", text);
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "!", 100, 30);
+    assert!(!s.diagnostics().is_empty(), "the demo palette has unmet cells");
+    snap!("popup_diagnostics", text);
+}

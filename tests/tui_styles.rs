@@ -91,3 +91,23 @@ fn selection_brackets_follow_the_arrows() {
     let text = buffer_text(&buf);
     assert!(text.contains("block × tungsten"));
 }
+
+#[test]
+fn subspace_halves_show_the_trained_basis_colour() {
+    use metamer::tui::replay::MemorySaver;
+    use metamer::tui::worker::BasisMode;
+    let p = demo_palette();
+    let mut s = state(p.clone(), ColourMode::TrueColor);
+    let (text, buf) =
+        tui_support::replay_with(&mut s, "", 100, 30, &mut MemorySaver::default(), BasisMode::Train { sidecar: None });
+    let basis = s.basis.clone().expect("the replay waits for the basis");
+    assert_eq!(basis.dimension(), p.settings.basis_dimension);
+    let solved = &s.solve.current().expect("solved").palette;
+    // skin (fixed) under tungsten: bottom half = factor-model colour, top half = full colour.
+    let (x, y) = cell_origin(&s, &buf, 1, 0);
+    let (e, r) = (&solved.lights[1].spectrum, &solved.reflectances[0].spectrum);
+    assert_eq!(buf[(x + 1, y)].bg, rgb(linear_to_srgb8(&basis.rgb_factor(e, r))));
+    assert_eq!(buf[(x + 1, y)].fg, rgb(linear_to_srgb8(&Colorimetry::default().rgb(e, r))));
+    assert!(text.contains("V7 ΔE"), "{text}");
+    assert!(!text.contains("V7 n/a"), "{text}");
+}

@@ -168,6 +168,10 @@ pub enum Popup {
     Help {
         scroll: u16,
     },
+    /// The latest solve's diagnostics (`!`).
+    Diagnostics {
+        scroll: u16,
+    },
     Prompt(Prompt),
     /// Choose the light or the reflectance of the selected cell for a spectrum operation.
     ChooseSpectrum {
@@ -386,6 +390,14 @@ impl State {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         }
+    }
+
+    /// The latest solution's diagnostics (of the current palette, else the last one solved).
+    pub fn diagnostics(&self) -> &[crate::design::Diagnostic] {
+        self.solve
+            .current()
+            .or(self.solve.solution.as_ref().map(|(_, s)| s.as_ref()))
+            .map_or(&[], |s| s.diagnostics.as_slice())
     }
 
     /// The index into `palette.colours` of the cell at (light, reflectance).

@@ -212,6 +212,14 @@ fn update_main(state: &mut State, action: Action) -> Effects {
             state.popup = Some(Popup::Help { scroll: 0 });
             Effects::NONE
         }
+        Action::Diagnostics => {
+            if state.diagnostics().is_empty() {
+                state.say("no diagnostics: every criterion is met");
+            } else {
+                state.popup = Some(Popup::Diagnostics { scroll: 0 });
+            }
+            Effects::NONE
+        }
         Action::Quit => {
             if state.is_dirty() {
                 state.popup = Some(Popup::ConfirmQuit);
@@ -480,6 +488,15 @@ fn update_popup(state: &mut State, popup: Popup, action: Action) -> Effects {
                 Action::Move(Direction::Up) => Some(Popup::Help { scroll: scroll.saturating_sub(1) }),
                 Action::Move(Direction::Down) => Some(Popup::Help { scroll: scroll.saturating_add(1).min(200) }),
                 _ => Some(Popup::Help { scroll }),
+            };
+            Effects::NONE
+        }
+        Popup::Diagnostics { scroll } => {
+            state.popup = match action {
+                Action::Back => None,
+                Action::Move(Direction::Up) => Some(Popup::Diagnostics { scroll: scroll.saturating_sub(1) }),
+                Action::Move(Direction::Down) => Some(Popup::Diagnostics { scroll: scroll.saturating_add(1).min(500) }),
+                _ => Some(Popup::Diagnostics { scroll }),
             };
             Effects::NONE
         }

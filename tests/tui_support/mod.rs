@@ -140,8 +140,20 @@ pub fn replay_saving(
     height: u16,
     saver: &mut MemorySaver,
 ) -> (String, ratatui::buffer::Buffer) {
+    replay_with(state, script, width, height, saver, BasisMode::Off)
+}
+
+/// Like [`replay_saving`], training the basis as `basis` says.
+pub fn replay_with(
+    state: &mut State,
+    script: &str,
+    width: u16,
+    height: u16,
+    saver: &mut MemorySaver,
+    basis: BasisMode,
+) -> (String, ratatui::buffer::Buffer) {
     let steps = replay::parse_script(script).expect("valid script");
-    let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
+    let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis };
     let (frames, buf) = replay::run(state, steps, width, height, false, saver, worker).expect("replay runs");
     (frames.last().cloned().unwrap_or_default(), buf)
 }

@@ -17,7 +17,7 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::widgets::{Block, Borders, Widget};
 
 /// Rows the full sliders panel needs.
-pub const SLIDERS_ROWS: u16 = 7;
+pub const SLIDERS_ROWS: u16 = 8;
 /// Columns the full sliders panel needs; narrower screens get the one-line sliders.
 pub const SLIDERS_COLS: u16 = 38;
 /// Below this width the sliders collapse to one line under the matrix.

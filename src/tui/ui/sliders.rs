@@ -102,6 +102,11 @@ impl Widget for Sliders<'_> {
                     de(view.and_then(|c| c.delta_e_subspace))
                 );
                 put(buf, area, x0, 5, &line, Style::new());
+                let cell_index = state.cell_index(light, reflectance);
+                if let Some(d) = state.diagnostics().iter().find(|d| d.cell.is_some() && d.cell == cell_index) {
+                    let text = format!("⚠ {}", d.message);
+                    put(buf, area, x0, 7, &fit(&text, w.saturating_sub(2)), Style::new().fg(Color::Yellow));
+                }
                 if let Some(v) = view {
                     let mode = state.colour_mode;
                     let mut x = put(buf, area, x0, 6, "target ", Style::new().fg(Color::Gray));
