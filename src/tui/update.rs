@@ -587,7 +587,7 @@ fn pick(state: &mut State, kind: Kind, item: Option<PickItem>) -> Effects {
             return open_prompt(
                 state,
                 &title,
-                "path (relative to the palette file): one sample per row, 400–700 nm",
+                "path relative to the palette: rows of nm,value over 400–700 nm",
                 String::new(),
                 PromptPurpose::CsvPath(kind),
             );

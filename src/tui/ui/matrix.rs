@@ -16,9 +16,25 @@ pub struct Matrix<'a>(pub &'a State);
 
 /// Width of a matrix column: `[`, four cell characters, `]`, the marker, a gap.
 pub const MIN_COLUMN: usize = 8;
-const MAX_COLUMN: usize = 14;
+/// Columns and the name column grow to show whole names up to these widths, space permitting.
+const MAX_COLUMN: usize = 25;
 const MIN_NAME: usize = 5;
-const MAX_NAME: usize = 16;
+const MAX_NAME: usize = 24;
+
+/// The widths the matrix would like: (reflectance-name width, column width), showing every name whole.
+fn ideal_widths(state: &State) -> (usize, usize) {
+    let p = &state.palette;
+    let name_width = p.reflectances.iter().map(|r| r.name.chars().count()).max().unwrap_or(0).clamp(MIN_NAME, MAX_NAME);
+    let column_width =
+        p.lights.iter().map(|l| l.name.chars().count() + 1).max().unwrap_or(0).clamp(MIN_COLUMN, MAX_COLUMN);
+    (name_width, column_width)
+}
+
+/// Columns the whole matrix needs to show every light with its whole name.
+pub fn width_needed(state: &State) -> u16 {
+    let (name_width, column_width) = ideal_widths(state);
+    (name_width + 6 + column_width * state.palette.lights.len()) as u16
+}
 
 /// Column geometry of the matrix for a state and width.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,12 +53,18 @@ pub struct Geometry {
 
 /// Where the matrix's columns and rows fall, scrolled so the selection is visible.
 pub fn geometry(state: &State, area: Rect) -> Geometry {
-    let p = &state.palette;
-    let name_width = p.reflectances.iter().map(|r| r.name.chars().count()).max().unwrap_or(0).clamp(MIN_NAME, MAX_NAME);
+    let (mut name_width, mut column_width) = ideal_widths(state);
+    let width = usize::from(area.width);
+    let lights = state.palette.lights.len().max(1);
+    // Too wide: narrow the columns (names then end in …) before scrolling, and the name column last.
+    if name_width + 6 + column_width * lights > width {
+        column_width = (width.saturating_sub(name_width + 6) / lights).clamp(MIN_COLUMN, column_width);
+        if name_width + 6 + column_width * lights > width {
+            name_width = width.saturating_sub(6 + column_width * lights).clamp(MIN_NAME, name_width);
+        }
+    }
     let left_width = name_width + 6;
-    let column_width =
-        p.lights.iter().map(|l| l.name.chars().count() + 1).max().unwrap_or(0).clamp(MIN_COLUMN, MAX_COLUMN);
-    let visible_lights = (usize::from(area.width).saturating_sub(left_width) / column_width).max(1);
+    let visible_lights = (width.saturating_sub(left_width) / column_width).max(1);
     let visible_reflectances = (usize::from(area.height).saturating_sub(2) / 2).max(1);
     let first = |selected: usize, visible: usize| if selected >= visible { selected + 1 - visible } else { 0 };
     let sel_light = state.selection.col.saturating_sub(1);

@@ -42,8 +42,9 @@ pub fn areas(state: &State, inner: Rect) -> Areas {
     let wide = inner.width + 2 >= WIDE;
     let settings_rows = 2u16;
     let available = inner.height.saturating_sub(settings_rows);
-    let compact_rows = if wide { 0 } else { 1 };
-    let want_top = if wide { matrix_rows.max(SLIDERS_ROWS) } else { matrix_rows + compact_rows };
+    let compact_rows = 1;
+    let fits_beside = inner.width >= matrix::width_needed(state) + SLIDERS_COLS;
+    let want_top = if wide && fits_beside { matrix_rows.max(SLIDERS_ROWS) } else { matrix_rows + compact_rows };
     let mut top = want_top.min(available.saturating_sub(SPECTRA_MIN)).max(available.min(4));
     if top > available {
         top = available;
@@ -52,7 +53,9 @@ pub fn areas(state: &State, inner: Rect) -> Areas {
     let [top_area, settings, spectra_area] =
         Layout::vertical([Constraint::Length(top), Constraint::Length(settings_rows), Constraint::Length(spectra)])
             .areas(inner);
-    let compact = !wide || top < SLIDERS_ROWS;
+    // Full sliders only when the whole matrix fits beside them; else they take one line under it.
+    let fits_beside = inner.width >= matrix::width_needed(state) + SLIDERS_COLS;
+    let compact = !wide || top < SLIDERS_ROWS || !fits_beside;
     let (matrix, sliders) = if wide && !compact {
         let [m, s] = Layout::horizontal([Constraint::Min(20), Constraint::Length(SLIDERS_COLS)]).areas(top_area);
         (m, s)
