@@ -21,7 +21,8 @@ fn cell_origin(s: &metamer::tui::State, buf: &Buffer, j: usize, i: usize) -> (u1
     let inner = Rect { x: 1, y: 1, width: buf.area.width - 2, height: buf.area.height - 2 };
     let a = areas(s, inner);
     let g = geometry(s, a.matrix);
-    (a.matrix.x + (g.left_width + j * g.column_width) as u16 + 1, a.matrix.y + 2 + 2 * i as u16)
+    let x = g.column_x(j).expect("column shown");
+    (a.matrix.x + x as u16 + 1, a.matrix.y + 2 + 2 * i as u16)
 }
 
 #[test]
