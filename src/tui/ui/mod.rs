@@ -20,8 +20,6 @@ use ratatui::widgets::{Block, Borders, Widget};
 pub const SLIDERS_ROWS: u16 = 8;
 /// Columns the full sliders panel needs; narrower screens get the one-line sliders.
 pub const SLIDERS_COLS: u16 = 38;
-/// Below this width the sliders collapse to one line under the matrix.
-pub const WIDE: u16 = 90;
 /// Smallest spectra panel worth drawing (rows, with its top rule).
 pub const SPECTRA_MIN: u16 = 5;
 
@@ -39,12 +37,11 @@ pub struct Areas {
 /// Lay the panels out inside the outer border.
 pub fn areas(state: &State, inner: Rect) -> Areas {
     let matrix_rows = 2 + 2 * state.palette.reflectances.len() as u16;
-    let wide = inner.width + 2 >= WIDE;
     let settings_rows = 2u16;
     let available = inner.height.saturating_sub(settings_rows);
     let compact_rows = 1;
     let fits_beside = inner.width >= matrix::width_needed(state) + SLIDERS_COLS;
-    let want_top = if wide && fits_beside { matrix_rows.max(SLIDERS_ROWS) } else { matrix_rows + compact_rows };
+    let want_top = if fits_beside { matrix_rows.max(SLIDERS_ROWS) } else { matrix_rows + compact_rows };
     let mut top = want_top.min(available.saturating_sub(SPECTRA_MIN)).max(available.min(4));
     if top > available {
         top = available;
@@ -54,9 +51,8 @@ pub fn areas(state: &State, inner: Rect) -> Areas {
         Layout::vertical([Constraint::Length(top), Constraint::Length(settings_rows), Constraint::Length(spectra)])
             .areas(inner);
     // Full sliders only when the whole matrix fits beside them; else they take one line under it.
-    let fits_beside = inner.width >= matrix::width_needed(state) + SLIDERS_COLS;
-    let compact = !wide || top < SLIDERS_ROWS || !fits_beside;
-    let (matrix, sliders) = if wide && !compact {
+    let compact = top < SLIDERS_ROWS || !fits_beside;
+    let (matrix, sliders) = if !compact {
         let [m, s] = Layout::horizontal([Constraint::Min(20), Constraint::Length(SLIDERS_COLS)]).areas(top_area);
         (m, s)
     } else {
