@@ -131,3 +131,18 @@ fn help_and_diagnostics_at_80x24() {
     assert!(!s.diagnostics().is_empty(), "the demo palette has unmet cells");
     snap!("popup_diagnostics", text);
 }
+
+#[test]
+fn main_screen_80x24_and_focused_panels() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "", 80, 24);
+    snap!("main_80x24", text);
+    // Sliders focused on the weight slider, then the settings row focused on smoothness.
+    let (text, _) = replay(&mut s, "Down\nEnter\nDown *3", 100, 30);
+    snap!("focus_sliders_weight", text);
+    let (text, _) = replay(&mut s, "Tab\nRight *5", 100, 30);
+    snap!("focus_settings_smoothness", text);
+    // A light swatch selected: the panel shows the light's details.
+    let (text, _) = replay(&mut s, "Esc\nUp *3\nRight", 100, 30);
+    snap!("select_light", text);
+}

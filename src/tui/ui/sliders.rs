@@ -154,12 +154,14 @@ impl Widget for Sliders<'_> {
                 } else {
                     put(buf, area, x0, 3, "fixed (d or Enter: design it)", Style::new().fg(Color::Gray));
                 }
-                let keys = if kind == Kind::Light {
-                    "p Planck · n/N normalise · s scale · x remove"
+                let keys: &[&str] = if kind == Kind::Light {
+                    &["p Planck · n/N normalise", "s scale · x remove · d design"]
                 } else {
-                    "s scale · x remove"
+                    &["s scale · x remove · d design"]
                 };
-                put(buf, area, x0, 5, &fit(keys, w.saturating_sub(2)), Style::new().fg(Color::Gray));
+                for (k, line) in keys.iter().enumerate() {
+                    put(buf, area, x0, 5 + k as u16, &fit(line, w.saturating_sub(2)), Style::new().fg(Color::Gray));
+                }
             }
             Target::Nothing => {}
         }
