@@ -702,12 +702,7 @@ fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Effects {
         })
     })();
     match result {
-        Ok(effects) => {
-            if state.message.as_ref().is_some_and(|m| m.is_error) {
-                state.popup = None;
-            }
-            effects
-        }
+        Ok(effects) => effects,
         Err(reason) => {
             state.message = None;
             prompt.error = Some(reason);
