@@ -146,3 +146,16 @@ fn main_screen_80x24_and_focused_panels() {
     let (text, _) = replay(&mut s, "Esc\nUp *3\nRight", 100, 30);
     snap!("select_light", text);
 }
+
+#[test]
+fn many_reflectances_fold_to_one_row_each() {
+    let mut p = square_palette(14);
+    p.lights.truncate(5);
+    p.colours.retain(|c| c.light < 5);
+    let mut s = state(p.clone(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "", 100, 30);
+    snap!("main_100x30_5x14", text);
+    for e in p.lights.iter().chain(&p.reflectances) {
+        assert!(text.contains(&e.name), "{} is not on screen", e.name);
+    }
+}

@@ -22,7 +22,7 @@ fn cell_origin(s: &metamer::tui::State, buf: &Buffer, j: usize, i: usize) -> (u1
     let a = areas(s, inner);
     let g = geometry(s, a.matrix);
     let x = g.column_x(j).expect("column shown");
-    (a.matrix.x + x as u16 + 1, a.matrix.y + 2 + 2 * i as u16)
+    (a.matrix.x + x as u16 + 1, a.matrix.y + (2 + g.row_height * i) as u16)
 }
 
 #[test]

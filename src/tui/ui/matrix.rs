@@ -31,6 +31,12 @@ fn column_width(state: &State, j: usize) -> usize {
     state.palette.lights.get(j).map_or(0, |l| l.name.chars().count() + 1).clamp(MIN_COLUMN, MAX_COLUMN)
 }
 
+/// Rows the matrix needs with two rows per reflectance (`compact`: one).
+pub fn rows_needed(state: &State, compact: bool) -> u16 {
+    let n = state.palette.reflectances.len() as u16;
+    2 + if compact { n } else { 2 * n }
+}
+
 /// Columns the whole matrix needs to show every light with its whole name.
 pub fn width_needed(state: &State) -> u16 {
     let columns: usize = (0..state.palette.lights.len()).map(|j| column_width(state, j)).sum();
@@ -49,6 +55,8 @@ pub struct Geometry {
     /// First reflectance shown and how many rows fit.
     pub first_reflectance: usize,
     pub visible_reflectances: usize,
+    /// Screen rows per reflectance: 2 (square-ish cells), or 1 when that shows more names.
+    pub row_height: usize,
 }
 
 impl Geometry {
@@ -82,11 +90,13 @@ pub fn geometry(state: &State, area: Rect) -> Geometry {
         columns.push((j, x, *w));
         x += w;
     }
-    let visible_reflectances = (usize::from(area.height).saturating_sub(2) / 2).max(1);
+    let rows = usize::from(area.height).saturating_sub(2);
+    let row_height = if rows >= 2 * state.palette.reflectances.len() { 2 } else { 1 };
+    let visible_reflectances = (rows / row_height).max(1);
     let sel_reflectance = state.selection.row.saturating_sub(1);
     let first_reflectance =
         if sel_reflectance >= visible_reflectances { sel_reflectance + 1 - visible_reflectances } else { 0 };
-    Geometry { name_width, left_width, columns, first_reflectance, visible_reflectances }
+    Geometry { name_width, left_width, columns, first_reflectance, visible_reflectances, row_height }
 }
 
 /// The style of a cell's three colours.
@@ -159,19 +169,20 @@ impl Widget for Matrix<'_> {
         // Reflectances down the left, and the cells.
         let rows = g.first_reflectance..(g.first_reflectance + g.visible_reflectances).min(p.reflectances.len());
         for (k, i) in rows.clone().enumerate() {
-            let y = 2 + 2 * k as u16;
+            let y = (2 + g.row_height * k) as u16;
+            let height = g.row_height as u16;
             let entry = &p.reflectances[i];
             let selected_row = matches!(target, Target::Reflectance(r) if r == i);
             let name_style = if selected_row { head.fg(Color::LightGreen) } else { head };
             put(buf, area, 0, y, &fit(&entry.name, g.name_width), name_style);
             let sx = (g.name_width + 2) as u16;
             if let Some(rgb) = d.reflectance_swatches.get(i) {
-                for dy in 0..2 {
+                for dy in 0..height {
                     put(buf, area, sx, y + dy, "██", swatch(state.colour_mode, rgb));
                 }
             }
             if selected_row {
-                for dy in 0..2 {
+                for dy in 0..height {
                     put(buf, area, sx - 1, y + dy, "[", sel);
                     put(buf, area, sx + 2, y + dy, "]", sel);
                 }
@@ -184,7 +195,7 @@ impl Widget for Matrix<'_> {
                 let Some(cell) = d.cell(j, i) else { continue };
                 let (desired, model) = cell_styles(state, cell);
                 let left = if cell.desired.is_some() { "▌" } else { "·" };
-                for dy in 0..2 {
+                for dy in 0..height {
                     put(buf, area, x + 1, y + dy, left, desired);
                     put(buf, area, x + 2, y + dy, "▀▀▀", model);
                 }
@@ -203,7 +214,7 @@ impl Widget for Matrix<'_> {
                     put(buf, area, x + 6, y, &marker, style);
                 }
                 if matches!(target, Target::Cell { light, reflectance } if light == j && reflectance == i) {
-                    for dy in 0..2 {
+                    for dy in 0..height {
                         put(buf, area, x, y + dy, "[", sel);
                         put(buf, area, x + 5, y + dy, "]", sel);
                     }

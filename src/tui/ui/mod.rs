@@ -36,9 +36,14 @@ pub struct Areas {
 
 /// Lay the panels out inside the outer border.
 pub fn areas(state: &State, inner: Rect) -> Areas {
-    let matrix_rows = 2 + 2 * state.palette.reflectances.len() as u16;
     let settings_rows = 2u16;
     let available = inner.height.saturating_sub(settings_rows);
+    // Two rows per reflectance when they fit above a useful spectra panel, else one (same three colours).
+    let matrix_rows = if matrix::rows_needed(state, false) + SPECTRA_MIN <= available {
+        matrix::rows_needed(state, false)
+    } else {
+        matrix::rows_needed(state, true)
+    };
     let compact_rows = 1;
     let fits_beside = inner.width >= matrix::width_needed(state) + SLIDERS_COLS;
     let want_top = if fits_beside { matrix_rows.max(SLIDERS_ROWS) } else { matrix_rows + compact_rows };
