@@ -42,15 +42,22 @@ struct PairTerm {
     light: usize,
     reflectance: usize,
     target: Vector3<f64>,
-    weight: Matrix3<f64>,
+    /// W, row-major.
+    weight: [[f64; 3]; 3],
 }
 
 /// The perceptually weighted factor-model error over a training set.
 #[derive(Clone, Debug)]
 pub struct Objective {
+    /// 31×L and its transpose.
     lights: DMatrix<f64>,
+    lights_t: DMatrix<f64>,
+    /// 31×R and its transpose.
     reflectances: DMatrix<f64>,
+    reflectances_t: DMatrix<f64>,
+    /// `Q_rgb,31` and its transpose.
     q_rgb: DMatrix<f64>,
+    q_rgb_t: DMatrix<f64>,
     pairs: Vec<PairTerm>,
     scale: f64,
 }
@@ -72,12 +79,22 @@ impl Objective {
             }
             for (r, s) in set.reflectances.iter().enumerate() {
                 let target = colorimetry.rgb(e, s);
-                let weight = local_metric(colorimetry, &target, e);
+                let w = local_metric(colorimetry, &target, e);
+                let weight = [0, 1, 2].map(|i| [w[(i, 0)], w[(i, 1)], w[(i, 2)]]);
                 pairs.push(PairTerm { light: l, reflectance: r, target, weight });
             }
         }
         let scale = if pairs.is_empty() { 0.0 } else { 1.0 / pairs.len() as f64 };
-        Objective { lights, reflectances, q_rgb, pairs, scale }
+        Objective {
+            lights_t: lights.transpose(),
+            lights,
+            reflectances_t: reflectances.transpose(),
+            reflectances,
+            q_rgb_t: q_rgb.transpose(),
+            q_rgb,
+            pairs,
+            scale,
+        }
     }
 
     /// Number of pairs in the objective.
@@ -96,33 +113,55 @@ impl Objective {
     }
 
     fn evaluate(&self, b: &DMatrix<f64>, with_gradient: bool) -> Option<(f64, Option<DMatrix<f64>>)> {
+        // Dense products go through nalgebra (matrixmultiply for the larger ones); the per-pair loop is
+        // written on slices so it stays fast in unoptimised builds too.
         let m = b.ncols();
-        let chol = b.tr_mul(b).cholesky()?;
-        let p = chol.solve(&b.transpose());
+        let bt = b.transpose();
+        let chol = (&bt * b).cholesky()?;
+        let k = chol.inverse();
+        let p = &k * &bt;
         let e = &p * &self.lights;
         let s = &p * &self.reflectances;
         let qm = &self.q_rgb * b;
+        let (es, ss, qs) = (e.as_slice(), s.as_slice(), qm.as_slice());
         let mut cost = 0.0;
         let mut g_qm = DMatrix::<f64>::zeros(3, m);
         let mut ge = DMatrix::<f64>::zeros(m, e.ncols());
         let mut gs = DMatrix::<f64>::zeros(m, s.ncols());
-        let mut c = DVector::<f64>::zeros(m);
+        let mut c = vec![0.0; m];
         for pair in &self.pairs {
-            c.copy_from(&e.column(pair.light));
-            c.component_mul_assign(&s.column(pair.reflectance));
-            let pred = &qm * &c;
-            let diff = Vector3::new(pred[0], pred[1], pred[2]) - pair.target;
-            let res = pair.weight * diff;
-            cost += res.norm_squared();
+            let (eo, so) = (pair.light * m, pair.reflectance * m);
+            let mut pred = [0.0; 3];
+            for (kk, ck) in c.iter_mut().enumerate() {
+                *ck = es[eo + kk] * ss[so + kk];
+                pred[0] += qs[3 * kk] * *ck;
+                pred[1] += qs[3 * kk + 1] * *ck;
+                pred[2] += qs[3 * kk + 2] * *ck;
+            }
+            let w = &pair.weight;
+            let d = [pred[0] - pair.target[0], pred[1] - pair.target[1], pred[2] - pair.target[2]];
+            let res = [
+                w[0][0] * d[0] + w[0][1] * d[1] + w[0][2] * d[2],
+                w[1][0] * d[0] + w[1][1] * d[1] + w[1][2] * d[2],
+                w[2][0] * d[0] + w[2][1] * d[1] + w[2][2] * d[2],
+            ];
+            cost += res[0] * res[0] + res[1] * res[1] + res[2] * res[2];
             if with_gradient {
-                let g = pair.weight.transpose() * res * (2.0 * self.scale);
-                let gd = DVector::from_column_slice(g.as_slice());
-                g_qm.ger(1.0, &gd, &c, 1.0);
-                let gamma = qm.tr_mul(&gd);
-                let mut col = ge.column_mut(pair.light);
-                col += gamma.component_mul(&s.column(pair.reflectance));
-                let mut col = gs.column_mut(pair.reflectance);
-                col += gamma.component_mul(&e.column(pair.light));
+                let f = 2.0 * self.scale;
+                let g = [
+                    f * (w[0][0] * res[0] + w[1][0] * res[1] + w[2][0] * res[2]),
+                    f * (w[0][1] * res[0] + w[1][1] * res[1] + w[2][1] * res[2]),
+                    f * (w[0][2] * res[0] + w[1][2] * res[1] + w[2][2] * res[2]),
+                ];
+                let (gq, ges, gss) = (g_qm.as_mut_slice(), ge.as_mut_slice(), gs.as_mut_slice());
+                for (kk, ck) in c.iter().enumerate() {
+                    gq[3 * kk] += g[0] * ck;
+                    gq[3 * kk + 1] += g[1] * ck;
+                    gq[3 * kk + 2] += g[2] * ck;
+                    let gamma = qs[3 * kk] * g[0] + qs[3 * kk + 1] * g[1] + qs[3 * kk + 2] * g[2];
+                    ges[eo + kk] += gamma * ss[so + kk];
+                    gss[so + kk] += gamma * es[eo + kk];
+                }
             }
         }
         cost *= self.scale;
@@ -132,10 +171,10 @@ impl Objective {
         if !with_gradient {
             return Some((cost, None));
         }
-        let g_p = &ge * self.lights.transpose() + &gs * self.reflectances.transpose();
-        let k = chol.inverse();
+        let g_p = &ge * &self.lights_t + &gs * &self.reflectances_t;
+        let pt = p.transpose();
         let gpt_k = g_p.transpose() * &k;
-        let grad = self.q_rgb.transpose() * g_qm - p.transpose() * &g_p * p.transpose() + &gpt_k - b * (&p * &gpt_k);
+        let grad = &self.q_rgb_t * g_qm - &pt * (&g_p * &pt) + &gpt_k - b * (&p * &gpt_k);
         grad.iter().all(|v| v.is_finite()).then_some((cost, Some(grad)))
     }
 }
@@ -202,12 +241,17 @@ impl Best {
 }
 
 /// The objective as a function of a flat parameter vector.
+/// The last evaluation: argmin's L-BFGS asks for the cost and then (twice) the gradient at the same point,
+/// so every evaluation computes both and keeps them.
+type LastEvaluation = Option<(DVector<f64>, f64, DVector<f64>)>;
+
 struct Problem<'a> {
     objective: &'a Objective,
     /// `Some(B0)`: the parameters are T (m×m, column-major) and `B = B0 T`. `None`: they are B itself.
     b0: Option<&'a DMatrix<f64>>,
     m: usize,
     best: &'a Best,
+    last: Mutex<LastEvaluation>,
 }
 
 impl Problem<'_> {
@@ -219,6 +263,12 @@ impl Problem<'_> {
     }
 
     fn eval(&self, x: &DVector<f64>) -> Result<(f64, DVector<f64>), Error> {
+        if let Ok(guard) = self.last.lock()
+            && let Some((lx, cost, grad)) = guard.as_ref()
+            && lx == x
+        {
+            return Ok((*cost, grad.clone()));
+        }
         let b = self.basis(x);
         let (cost, grad_b) =
             self.objective.cost_and_gradient(&b).ok_or_else(|| Error::msg("the basis became rank deficient"))?;
@@ -227,7 +277,11 @@ impl Problem<'_> {
             Some(b0) => b0.tr_mul(&grad_b),
             None => grad_b,
         };
-        Ok((cost, DVector::from_column_slice(grad.as_slice())))
+        let grad = DVector::from_column_slice(grad.as_slice());
+        if let Ok(mut guard) = self.last.lock() {
+            *guard = Some((x.clone(), cost, grad.clone()));
+        }
+        Ok((cost, grad))
     }
 }
 
@@ -236,14 +290,7 @@ impl CostFunction for Problem<'_> {
     type Output = f64;
 
     fn cost(&self, x: &Self::Param) -> Result<f64, Error> {
-        let b = self.basis(x);
-        let cost = self.objective.cost_of(&b);
-        if cost.is_finite() {
-            self.best.record(cost, x);
-            Ok(cost)
-        } else {
-            Err(Error::msg("the basis became rank deficient"))
-        }
+        self.eval(x).map(|(c, _)| c)
     }
 }
 
@@ -260,7 +307,7 @@ fn run(objective: &Objective, b0: Option<&DMatrix<f64>>, start: &DMatrix<f64>, i
     let m = start.ncols();
     let x0 = DVector::from_column_slice(start.as_slice());
     let best = Best(Mutex::new(None));
-    let problem = Problem { objective, b0, m, best: &best };
+    let problem = Problem { objective, b0, m, best: &best, last: Mutex::new(None) };
     let start_cost = match problem.cost(&x0) {
         Ok(c) => c,
         Err(e) => return RefineOutcome::Kept { reason: e.to_string() },

@@ -163,7 +163,11 @@ impl Classifier {
         let mut alpha = vec![0f32; LUT_BINS];
         for b in 0..LUT_BINS {
             let v = lo + b as f32 * bin_width;
-            if let Some((i, m)) = materials.iter().enumerate().find(|(_, m)| v >= m.range[0] - 0.5 * bin_width && v <= m.range[1] + 0.5 * bin_width) {
+            if let Some((i, m)) = materials
+                .iter()
+                .enumerate()
+                .find(|(_, m)| v >= m.range[0] - 0.5 * bin_width && v <= m.range[1] + 0.5 * bin_width)
+            {
                 let a = f64::from(m.opacity.clamp(0.0, 1.0));
                 let corrected = 1.0 - (1.0 - a).powf(step);
                 if corrected > 0.0 {
@@ -430,14 +434,16 @@ impl RayContext<'_> {
             hi[a] = (p[a] + 1.0).min((d[a] - 1) as f64);
             let span = hi[a] - lo[a];
             if span > 0.0 {
-                g[a] = f64::from(self.sample_trilinear(hi) - self.sample_trilinear(lo)) / (span * self.volume.spacing[a]);
+                g[a] =
+                    f64::from(self.sample_trilinear(hi) - self.sample_trilinear(lo)) / (span * self.volume.spacing[a]);
             }
         }
         let n = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
         if n < 1e-6 {
             return 1.0;
         }
-        let cos = (g[0] * self.view.view_world[0] + g[1] * self.view.view_world[1] + g[2] * self.view.view_world[2]) / n;
+        let cos =
+            (g[0] * self.view.view_world[0] + g[1] * self.view.view_world[1] + g[2] * self.view.view_world[2]) / n;
         let a = self.options.ambient.clamp(0.0, 1.0);
         (a + (1.0 - a) * cos.abs()) as f32
     }
@@ -446,7 +452,10 @@ impl RayContext<'_> {
         if self.options.interpolation == Interpolation::Trilinear {
             self.sample(p)
         } else {
-            let ctx = RayContext { options: &RaycastOptions { interpolation: Interpolation::Trilinear, ..self.options.clone() }, ..*self };
+            let ctx = RayContext {
+                options: &RaycastOptions { interpolation: Interpolation::Trilinear, ..self.options.clone() },
+                ..*self
+            };
             ctx.sample(p)
         }
     }
@@ -457,9 +466,11 @@ impl RayContext<'_> {
         let vol = self.volume;
         let d = vol.dims;
         let sx = ((px as f64 + 0.5) / self.width as f64 * 2.0 - 1.0) * view.half_extent;
-        let sy = (1.0 - (py as f64 + 0.5) / self.height as f64 * 2.0) * view.half_extent * self.height as f64 / self.width as f64;
+        let sy = (1.0 - (py as f64 + 0.5) / self.height as f64 * 2.0) * view.half_extent * self.height as f64
+            / self.width as f64;
         // Start on the near side of the bounding sphere, in index space.
-        let start_world = [0, 1, 2].map(|a| view.centre_world[a] + sx * view.right[a] + sy * view.up[a] - view.radius * view.view_world[a]);
+        let start_world = [0, 1, 2]
+            .map(|a| view.centre_world[a] + sx * view.right[a] + sy * view.up[a] - view.radius * view.view_world[a]);
         let origin = [0, 1, 2].map(|a| start_world[a] / vol.spacing[a]);
         let dir = view.dir;
         // Clip against the box [0, dims − 1] (slab method), in units of steps.

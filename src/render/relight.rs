@@ -247,7 +247,12 @@ mod tests {
         let bands = [0usize, 5, 10, 15, 20, 25, 31];
         let b = DMatrix::from_fn(SAMPLES, 6, |r, c| if r >= bands[c] && r < bands[c + 1] { 1.0 } else { 0.0 });
         let basis = Basis::from_matrix(b, &col).unwrap();
-        let band = |vals: [f64; 6]| Spectrum::from_slice(&(0..SAMPLES).map(|i| vals[(0..6).rfind(|c| i >= bands[*c]).unwrap()]).collect::<Vec<_>>()).unwrap();
+        let band = |vals: [f64; 6]| {
+            Spectrum::from_slice(
+                &(0..SAMPLES).map(|i| vals[(0..6).rfind(|c| i >= bands[*c]).unwrap()]).collect::<Vec<_>>(),
+            )
+            .unwrap()
+        };
         let s = band([0.1, 0.4, 0.8, 0.3, 0.6, 0.9]);
         let e = band([0.5, 1.0, 1.5, 1.2, 0.8, 0.7]);
         let model = ColourModel::factor(col.clone(), basis);
