@@ -317,7 +317,7 @@ mod tests {
     }
 
     fn quick() -> TrainOptions {
-        TrainOptions { sharpen: true, transform_iterations: 100, full_iterations: 100 }
+        TrainOptions { sharpen: true, transform_iterations: 100, full_iterations: 100, ..TrainOptions::default() }
     }
 
     #[test]

@@ -249,7 +249,8 @@ mod tests {
     fn relight_kernel_matches_the_factor_model() {
         let c = Colorimetry::default();
         let set = TrainingSet::colorchecker_seven_lights(&c);
-        let opts = TrainOptions { sharpen: true, transform_iterations: 30, full_iterations: 0 };
+        let opts =
+            TrainOptions { sharpen: true, transform_iterations: 30, full_iterations: 0, ..TrainOptions::default() };
         let basis = train::train(&set, 5, &c, &opts).unwrap().basis;
         let e = &set.lights[2];
         let coefficients: Vec<f32> = set
@@ -276,7 +277,12 @@ mod tests {
             dimensions: 3..=4,
             pixels: 1000,
             runs: 2,
-            training: TrainOptions { sharpen: true, transform_iterations: 20, full_iterations: 20 },
+            training: TrainOptions {
+                sharpen: true,
+                transform_iterations: 20,
+                full_iterations: 20,
+                ..TrainOptions::default()
+            },
         };
         let md = run_and_write(&options, dir.path()).unwrap();
         assert!(md.contains("| 3 |") && md.contains("| 4 |") && md.contains("RGB factor model"), "{md}");
