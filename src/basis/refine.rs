@@ -216,11 +216,13 @@ impl Objective {
         let n = self.pairs.len();
         let u = b * e;
         let v = b * s;
+        let (us, vs) = (u.as_slice(), v.as_slice());
         let mut w = DMatrix::<f64>::zeros(SAMPLES, n);
-        for (idx, pair) in self.pairs.iter().enumerate() {
-            let (uc, vc) = (u.column(pair.light), v.column(pair.reflectance));
-            for (i, x) in w.column_mut(idx).iter_mut().enumerate() {
-                *x = uc[i] * vc[i];
+        for (col, pair) in w.as_mut_slice().chunks_exact_mut(SAMPLES).zip(&self.pairs) {
+            let uc = &us[pair.light * SAMPLES..(pair.light + 1) * SAMPLES];
+            let vc = &vs[pair.reflectance * SAMPLES..(pair.reflectance + 1) * SAMPLES];
+            for ((x, a), b) in col.iter_mut().zip(uc).zip(vc) {
+                *x = a * b;
             }
         }
         let c = p * &w;
@@ -228,13 +230,15 @@ impl Objective {
         let mu = self.lambda_weight * self.scale;
         let mut cost = 0.0;
         let mut g = DMatrix::<f64>::zeros(3, n);
-        for (idx, pair) in self.pairs.iter().enumerate() {
+        for ((pr, gc), pair) in
+            pred.as_slice().chunks_exact(3).zip(g.as_mut_slice().chunks_exact_mut(3)).zip(&self.pairs)
+        {
             let wt = &pair.weight;
-            let d = [0, 1, 2].map(|i| pred[(i, idx)] - pair.target[i]);
+            let d = [pr[0] - pair.target[0], pr[1] - pair.target[1], pr[2] - pair.target[2]];
             let res = [0, 1, 2].map(|i| wt[i][0] * d[0] + wt[i][1] * d[1] + wt[i][2] * d[2]);
             cost += res[0] * res[0] + res[1] * res[1] + res[2] * res[2];
-            for j in 0..3 {
-                g[(j, idx)] = 2.0 * mu * (wt[0][j] * res[0] + wt[1][j] * res[1] + wt[2][j] * res[2]);
+            for (j, gj) in gc.iter_mut().enumerate() {
+                *gj = 2.0 * mu * (wt[0][j] * res[0] + wt[1][j] * res[1] + wt[2][j] * res[2]);
             }
         }
         cost *= mu;
@@ -247,11 +251,12 @@ impl Objective {
         let omega = p.transpose() * &gamma;
         let mut du = DMatrix::<f64>::zeros(SAMPLES, u.ncols());
         let mut dv = DMatrix::<f64>::zeros(SAMPLES, v.ncols());
-        for (idx, pair) in self.pairs.iter().enumerate() {
-            let om = omega.column(idx);
-            for i in 0..SAMPLES {
-                du[(i, pair.light)] += om[i] * v[(i, pair.reflectance)];
-                dv[(i, pair.reflectance)] += om[i] * u[(i, pair.light)];
+        let (dus, dvs) = (du.as_mut_slice(), dv.as_mut_slice());
+        for (om, pair) in omega.as_slice().chunks_exact(SAMPLES).zip(&self.pairs) {
+            let (lo, ro) = (pair.light * SAMPLES, pair.reflectance * SAMPLES);
+            for (i, o) in om.iter().enumerate() {
+                dus[lo + i] += o * vs[ro + i];
+                dvs[ro + i] += o * us[lo + i];
             }
         }
         *ge += b.transpose() * &du;
