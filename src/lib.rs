@@ -11,4 +11,7 @@ pub mod cli;
 pub mod colorimetry;
 pub mod design;
 pub mod palette;
+pub mod render;
 pub mod spectrum;
+pub mod tui;
+pub mod volume;

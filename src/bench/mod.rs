@@ -3,6 +3,8 @@
 
 pub mod basis;
 pub mod plot;
+pub mod render;
+pub mod solve;
 
 use std::time::Instant;
 

@@ -2,14 +2,37 @@
 //! designed spectrum and the free colours, an SVD solve, then bounds by L-BFGS-B.
 //!
 //! Interface pinned for the other modules (TUI, CLI, renderer); the engine fills it in.
+//!
+//! * [`system`]: assembly of the exact objective (rows, bounds, blocks);
+//! * [`lsq`]: minimum-norm SVD least squares, then L-BFGS-B and an exact active-set finish under bounds;
+//! * [`lbfgsb`]: L-BFGS-B as an argmin `Solver`;
+//! * [`joint`]: bilinear blocks (light and reflectance both designed);
+//! * [`solve`](mod@solve): blocks in parallel, shared factorisations;
+//! * [`report`]: per-cell colours (full and spectral-factor-model) and diagnostics.
+//!
+//! A palette that uses `fit_in_subspace` or `subspace_error > 0` needs a basis: without one,
+//! [`solve()`] returns [`DesignError::Invalid`] saying so. Without a basis the subspace colours of
+//! [`CellResult`] are `None`.
+//!
+//! `Solution::kkt_residual` is the largest over the blocks of the projected-gradient infinity norm
+//! `‖x − P(x − ∇f(x))‖∞` divided by `1 + ‖∇f(0)‖∞` (linear blocks) or `1 + f(x)` (bilinear blocks).
+
+pub mod joint;
+pub mod lbfgsb;
+pub mod lsq;
+pub mod random;
+pub mod report;
+pub mod solve;
+pub mod system;
 
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
-use crate::palette::Palette;
+use crate::palette::{Palette, Source};
+use crate::spectrum::Normalize;
 use nalgebra::Vector3;
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
-use std::time::Duration;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 /// Options of a solve.
 #[derive(Clone, Debug)]
@@ -78,11 +101,107 @@ pub enum DesignError {
 }
 
 /// Solve a palette's design.
+///
+/// Returns the optimum of the pinned objective (DESIGN_SPEC §2) for palettes without bilinear cells
+/// (exactly, up to rounding), a local optimum reached by a monotone descent for joint designs, and
+/// diagnostics for cells that cannot be met. Cancelling returns [`DesignError::Cancelled`]; reaching
+/// the time limit returns the best solution so far with a diagnostic.
 pub fn solve(
-    _palette: &Palette,
-    _basis: Option<&Basis>,
-    _colorimetry: &Colorimetry,
-    _options: &SolveOptions,
+    palette: &Palette,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    options: &SolveOptions,
 ) -> Result<Solution, DesignError> {
-    Err(DesignError::NotBuilt)
+    solve_with(palette, basis, colorimetry, options, true)
+}
+
+/// [`solve()`] with block parallelism switchable (benchmarks compare both).
+pub fn solve_with(
+    palette: &Palette,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    options: &SolveOptions,
+    parallel: bool,
+) -> Result<Solution, DesignError> {
+    let started = Instant::now();
+    let cancelled = || options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
+    if cancelled() {
+        return Err(DesignError::Cancelled);
+    }
+    let design = system::Design::new(palette, basis, colorimetry)?;
+    let start = design.start_values();
+    let limits = joint::JointLimits::new(started + options.time_limit, options.cancel.clone());
+    let (values, blocks) = solve::solve_all(&design, &start, &limits, parallel);
+    if cancelled() {
+        return Err(DesignError::Cancelled);
+    }
+    let all_finite = values.lights.iter().chain(&values.reflectances).all(|s| s.is_finite())
+        && values.free.iter().all(|f| f.iter().all(|v| v.is_finite()));
+    let mut diagnostics = Vec::new();
+    let values = if all_finite {
+        values
+    } else {
+        diagnostics.push(Diagnostic {
+            cell: None,
+            message: "the solve produced non-finite values; the starting spectra are returned unchanged".into(),
+        });
+        start
+    };
+    for b in &blocks {
+        if let Some(why) = &b.stopped {
+            diagnostics.push(Diagnostic {
+                cell: None,
+                message: format!(
+                    "joint design of {} unknown spectra stopped early ({why}); objective {:.6e} is the best found",
+                    b.units.iter().filter(|u| !matches!(u, system::Unit::Free(_))).count(),
+                    b.objective
+                ),
+            });
+        }
+    }
+    let objective = design.objective(&values);
+    let kkt_residual = blocks.iter().map(|b| b.kkt).fold(0.0, f64::max);
+    let cells = report::cell_results(palette, basis, colorimetry, &values);
+    diagnostics.extend(report::diagnostics(&design, colorimetry, &values, &cells));
+    let mut solved = palette.clone();
+    for (entries, spectra) in [(&mut solved.lights, &values.lights), (&mut solved.reflectances, &values.reflectances)] {
+        for (e, s) in entries.iter_mut().zip(spectra) {
+            if e.design {
+                e.spectrum = *s;
+                e.source = Source::Samples(s.to_vec());
+                // The solution is never normalised again (DESIGN_SPEC §1).
+                e.normalize = Normalize::None;
+                e.scale = 1.0;
+            }
+        }
+    }
+    Ok(Solution {
+        palette: solved,
+        free: values.free.clone(),
+        objective,
+        kkt_residual,
+        seconds: started.elapsed().as_secs_f64(),
+        cells,
+        diagnostics,
+    })
+}
+
+/// The pinned objective (DESIGN_SPEC §2) of a palette as it stands, with the given free colours (one
+/// per group). Errors as [`solve()`] for invalid palettes.
+pub fn objective_of(
+    palette: &Palette,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    free: &[Vector3<f64>],
+) -> Result<f64, DesignError> {
+    let design = system::Design::new(palette, basis, colorimetry)?;
+    let mut v = design.start_values();
+    if free.len() != v.free.len() {
+        return Err(DesignError::Invalid(format!("{} free colours given for {} groups", free.len(), v.free.len())));
+    }
+    v.free.copy_from_slice(free);
+    // start_values clamps designed spectra into their bounds; evaluate the palette exactly as given.
+    v.lights = palette.lights.iter().map(|e| e.spectrum).collect();
+    v.reflectances = palette.reflectances.iter().map(|e| e.spectrum).collect();
+    Ok(design.objective(&v))
 }

@@ -59,6 +59,8 @@ pub struct PaletteFile {
     csv_raw: HashMap<String, Spectrum>,
     /// The file used CRLF line endings (the document keeps LF; saving writes CRLF back).
     crlf: bool,
+    /// The file ended without a newline (saving keeps it that way).
+    no_final_newline: bool,
 }
 
 /// Line and column (1-based, columns in characters) of a byte offset.
@@ -109,6 +111,7 @@ impl PaletteFile {
             warnings: outcome.warnings,
             csv_raw: outcome.csv_raw,
             crlf: text.contains("\r\n"),
+            no_final_newline: !text.ends_with('\n'),
         })
     }
 
@@ -130,6 +133,7 @@ impl PaletteFile {
             warnings: Vec::new(),
             csv_raw: HashMap::new(),
             crlf: false,
+            no_final_newline: false,
         }
     }
 
@@ -140,7 +144,10 @@ impl PaletteFile {
 
     /// A document's text with this file's line endings.
     fn text_of(&self, document: &DocumentMut) -> String {
-        let text = document.to_string();
+        let mut text = document.to_string();
+        if self.no_final_newline && text.ends_with('\n') {
+            text.pop();
+        }
         if self.crlf { text.replace("\r\n", "\n").replace('\n', "\r\n") } else { text }
     }
 

@@ -1,0 +1,153 @@
+//! The solve driver: split the design into independent blocks, solve them in parallel (rayon) — linear
+//! blocks by the exact bounded least squares of [`super::lsq`], bilinear blocks by [`super::joint`] — and
+//! share factorisations between blocks with identical matrices.
+
+use super::joint::{self, JointLimits};
+use super::lsq::{self, Factor};
+use super::system::{Block, Design, Layout, Unit, Values};
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex};
+
+/// A matrix and its factorisation.
+type Cached = (DMatrix<f64>, Arc<Factor>);
+
+/// Factorisations keyed by the exact bits of A (equal matrices share one SVD).
+#[derive(Default)]
+pub struct FactorCache {
+    map: Mutex<HashMap<u64, Vec<Cached>>>,
+}
+
+impl FactorCache {
+    /// The factorisation of `a`, computed once per distinct matrix.
+    pub fn get(&self, a: &DMatrix<f64>) -> Arc<Factor> {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        a.shape().hash(&mut h);
+        for v in a.iter() {
+            v.to_bits().hash(&mut h);
+        }
+        let key = h.finish();
+        if let Ok(map) = self.map.lock()
+            && let Some(list) = map.get(&key)
+            && let Some((_, f)) = list.iter().find(|(m, _)| m == a)
+        {
+            return f.clone();
+        }
+        let f = Arc::new(Factor::new(a));
+        if let Ok(mut map) = self.map.lock() {
+            let list = map.entry(key).or_default();
+            if list.len() < 4 {
+                list.push((a.clone(), f.clone()));
+            }
+        }
+        f
+    }
+
+    /// Number of distinct factorisations computed.
+    pub fn len(&self) -> usize {
+        self.map.lock().map(|m| m.values().map(|l| l.len()).sum()).unwrap_or(0)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// How one block was solved.
+#[derive(Clone, Debug)]
+pub struct BlockReport {
+    pub units: Vec<Unit>,
+    pub bilinear: bool,
+    /// The block's part of the objective at the end.
+    pub objective: f64,
+    pub kkt: f64,
+    pub bounds_active: bool,
+    /// Joint blocks: objective after each accepted stage (non-increasing).
+    pub history: Vec<f64>,
+    pub stopped: Option<String>,
+    /// New values of the block's units.
+    pub values: Vec<(Unit, Vec<f64>)>,
+}
+
+/// Solve one block starting from `v` (which holds the fixed spectra too).
+pub fn solve_block(
+    design: &Design,
+    block: &Block,
+    v: &Values,
+    cache: &FactorCache,
+    limits: &JointLimits,
+) -> BlockReport {
+    let mut report = BlockReport {
+        units: block.units.clone(),
+        bilinear: block.bilinear,
+        objective: 0.0,
+        kkt: 0.0,
+        bounds_active: false,
+        history: Vec::new(),
+        stopped: None,
+        values: Vec::new(),
+    };
+    let mut local;
+    let vals: &Values = if block.bilinear {
+        local = v.clone();
+        let out = joint::solve_block(design, block, &mut local, cache, limits);
+        report.history = out.history;
+        report.kkt = out.kkt;
+        report.stopped = out.stopped;
+        report.bounds_active = true;
+        &local
+    } else {
+        let layout = Layout::new(&block.units);
+        let sys = design.linear_system(&layout, &block.terms, v);
+        local = v.clone();
+        if sys.a.nrows() > 0 {
+            let factor = cache.get(&sys.a);
+            let out = lsq::solve(&sys, &factor);
+            if out.x.iter().all(|x| x.is_finite()) {
+                layout.scatter(&out.x, &mut local);
+            }
+            report.kkt = out.kkt;
+            report.bounds_active = out.bounds_active;
+        }
+        &local
+    };
+    report.objective = design.block_objective(block, vals);
+    report.values = block.units.iter().map(|u| (*u, vals.get(*u).to_vec())).collect();
+    report
+}
+
+/// Solve every block (in parallel) and return the new values and the per-block reports.
+pub fn solve_all(design: &Design, start: &Values, limits: &JointLimits, parallel: bool) -> (Values, Vec<BlockReport>) {
+    let blocks = design.blocks();
+    let cache = FactorCache::default();
+    let reports: Vec<BlockReport> = if parallel {
+        blocks.par_iter().map(|b| solve_block(design, b, start, &cache, limits)).collect()
+    } else {
+        blocks.iter().map(|b| solve_block(design, b, start, &cache, limits)).collect()
+    };
+    let mut v = start.clone();
+    for r in &reports {
+        for (u, x) in &r.values {
+            v.set(*u, x);
+        }
+    }
+    (v, reports)
+}
+
+/// Solve all unknowns as one dense system (no block splitting, no factor sharing): the baseline the
+/// benchmarks compare blocks against. Only for designs without bilinear cells; returns None otherwise.
+pub fn solve_dense(design: &Design, start: &Values) -> Option<(Values, f64)> {
+    let units = design.units();
+    let all: Vec<usize> = (0..design.terms.len()).collect();
+    if design.terms.iter().any(|t| design.is_bilinear(t)) {
+        return None;
+    }
+    let layout = Layout::new(&units);
+    let sys = design.linear_system(&layout, &all, start);
+    let out = lsq::solve_system(&sys);
+    let mut v = start.clone();
+    layout.scatter(&out.x, &mut v);
+    Some((v, out.kkt))
+}

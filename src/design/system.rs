@@ -1,0 +1,651 @@
+//! Assembly of the pinned objective (DESIGN_SPEC §2, seed Eqs. 18–24).
+//!
+//! The unknowns are grouped in [`Unit`]s: the 31 samples of one designed light or reflectance, or the
+//! linear-RGB colour of one free group. Every active cell contributes
+//!
+//! * 3 colour rows `ω/√3 · (T(E, S) − c)`, where `T(E, S) = Q_rgb,31 (E ∘ S)` (full) or
+//!   `Q_rgb,m Λ(Q_m,31 E) Q_m,31 S` (subspace, `fit_in_subspace`) and `c` is the target or the group's
+//!   unknown colour, and
+//! * 3 subspace-error rows `ω_F · ω/√3 · F(E) S` when `subspace_error > 0`,
+//!
+//! and every designed spectrum 31 smoothness rows `ω_D · D x` with D the 2/−1 tridiagonal scaled by
+//! `1/(√31·√6)`. Both T and F are symmetric bilinear forms (`Λ(a) b = Λ(b) a` because
+//! `G_ijk = B⁺_i (B_j ∘ B_k)` is symmetric in j, k), so fixing either side leaves a linear map of the
+//! other: [`Design::operator`] builds it.
+//!
+//! Which rows exist: a cell with `use = false` or weight 0 has none; a cell whose light and reflectance
+//! are both fixed and that joins no free group has none either (its residual is a constant the design
+//! cannot change, and the table of DESIGN_SPEC §2 only defines rows with a designed side or a free
+//! colour). The subspace-error rows exist only where a side is designed.
+
+use crate::basis::Basis;
+use crate::colorimetry::{Colorimetry, Q31};
+use crate::palette::{Bounds, Kind, Palette};
+use crate::spectrum::{SAMPLES, Spectrum};
+use nalgebra::{DMatrix, DVector, Vector3};
+use std::collections::HashMap;
+
+use super::DesignError;
+
+/// The scale of the smoothness operator: `D / (√31 · √6)`.
+pub fn smoothness_scale() -> f64 {
+    1.0 / ((SAMPLES as f64).sqrt() * 6f64.sqrt())
+}
+
+/// The 31×31 smoothness matrix `D/(√31·√6)` (2 on the diagonal, −1 beside it, then scaled).
+pub fn smoothness_matrix() -> DMatrix<f64> {
+    let s = smoothness_scale();
+    DMatrix::from_fn(SAMPLES, SAMPLES, |i, j| {
+        if i == j {
+            2.0 * s
+        } else if i.abs_diff(j) == 1 {
+            -s
+        } else {
+            0.0
+        }
+    })
+}
+
+/// A group of unknowns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Unit {
+    Light(usize),
+    Reflectance(usize),
+    Free(usize),
+}
+
+impl Unit {
+    /// Number of unknowns in the unit.
+    pub fn len(&self) -> usize {
+        match self {
+            Unit::Free(_) => 3,
+            _ => SAMPLES,
+        }
+    }
+
+    /// Never empty; present for clippy's `len_without_is_empty`.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+}
+
+/// Which bilinear form a row block uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Form {
+    /// `Q_rgb,31 (E ∘ S)`.
+    Full,
+    /// `Q_rgb,m Λ(Q_m,31 E) Q_m,31 S`.
+    Subspace,
+    /// `F(E) S`, full minus subspace.
+    Error,
+}
+
+/// The rows one active cell contributes.
+#[derive(Clone, Debug)]
+pub struct CellTerm {
+    /// Index into `palette.colours`.
+    pub cell: usize,
+    pub light: usize,
+    pub reflectance: usize,
+    pub free: Option<usize>,
+    /// Linear-RGB target (unused for a free cell).
+    pub target: Vector3<f64>,
+    /// ω/√3.
+    pub scale: f64,
+    /// Full or subspace colour rows.
+    pub form: Form,
+    /// ω_F·ω/√3, 0 when there are no subspace-error rows.
+    pub error_scale: f64,
+}
+
+/// Current values of every spectrum and free colour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Values {
+    pub lights: Vec<Spectrum>,
+    pub reflectances: Vec<Spectrum>,
+    pub free: Vec<Vector3<f64>>,
+}
+
+impl Values {
+    /// The samples of a unit as a slice.
+    pub fn get(&self, unit: Unit) -> &[f64] {
+        match unit {
+            Unit::Light(i) => self.lights[i].as_slice(),
+            Unit::Reflectance(i) => self.reflectances[i].as_slice(),
+            Unit::Free(g) => self.free[g].as_slice(),
+        }
+    }
+
+    /// Overwrite a unit's values.
+    pub fn set(&mut self, unit: Unit, v: &[f64]) {
+        match unit {
+            Unit::Light(i) => self.lights[i].0.copy_from_slice(v),
+            Unit::Reflectance(i) => self.reflectances[i].0.copy_from_slice(v),
+            Unit::Free(g) => self.free[g].copy_from_slice(v),
+        }
+    }
+}
+
+/// The design problem of a palette: which units are unknown and which rows exist.
+#[derive(Clone, Debug)]
+pub struct Design<'a> {
+    pub palette: &'a Palette,
+    pub basis: Option<&'a Basis>,
+    pub q_rgb: Q31,
+    pub terms: Vec<CellTerm>,
+    /// ω_D (0 = no smoothness rows).
+    pub smoothness: f64,
+}
+
+impl<'a> Design<'a> {
+    /// Check the palette and build its terms. Errors name what is wrong.
+    pub fn new(palette: &'a Palette, basis: Option<&'a Basis>, colorimetry: &Colorimetry) -> Result<Self, DesignError> {
+        validate(palette)?;
+        let s = &palette.settings;
+        let uses_basis = s.fit_in_subspace || s.subspace_error > 0.0;
+        if uses_basis && basis.is_none() {
+            return Err(DesignError::Invalid(format!(
+                "palette \"{}\": settings use {} but no trained basis was given to the solver",
+                palette.name,
+                if s.fit_in_subspace { "fit_in_subspace = true" } else { "subspace_error > 0" }
+            )));
+        }
+        let form = if s.fit_in_subspace { Form::Subspace } else { Form::Full };
+        let mut terms = Vec::new();
+        for (k, c) in palette.colours.iter().enumerate() {
+            if !c.is_active() {
+                continue;
+            }
+            let ld = palette.lights[c.light].design;
+            let rd = palette.reflectances[c.reflectance].design;
+            if !(ld || rd || c.free.is_some()) {
+                continue;
+            }
+            let scale = c.weight / 3f64.sqrt();
+            let error_scale = if ld || rd { s.subspace_error * scale } else { 0.0 };
+            terms.push(CellTerm {
+                cell: k,
+                light: c.light,
+                reflectance: c.reflectance,
+                free: c.free,
+                target: c.target,
+                scale,
+                form,
+                error_scale,
+            });
+        }
+        Ok(Design { palette, basis, q_rgb: colorimetry.q_rgb, terms, smoothness: s.smoothness })
+    }
+
+    /// Is this unit an unknown of the design?
+    pub fn is_designed(&self, unit: Unit) -> bool {
+        match unit {
+            Unit::Light(i) => self.palette.lights[i].design,
+            Unit::Reflectance(i) => self.palette.reflectances[i].design,
+            Unit::Free(_) => true,
+        }
+    }
+
+    /// Every unknown unit, in a fixed order (lights, reflectances, free groups).
+    pub fn units(&self) -> Vec<Unit> {
+        let p = self.palette;
+        let lights = (0..p.lights.len()).filter(|&i| p.lights[i].design).map(Unit::Light);
+        let refl = (0..p.reflectances.len()).filter(|&i| p.reflectances[i].design).map(Unit::Reflectance);
+        lights.chain(refl).chain((0..p.free.len()).map(Unit::Free)).collect()
+    }
+
+    /// The starting values: the palette's spectra, free colours at the mean of their cells' current
+    /// colours, clamped to the group's box.
+    pub fn start_values(&self) -> Values {
+        let p = self.palette;
+        let lights: Vec<Spectrum> = p.lights.iter().map(|e| e.spectrum).collect();
+        let reflectances: Vec<Spectrum> = p.reflectances.iter().map(|e| e.spectrum).collect();
+        let mut free = vec![Vector3::zeros(); p.free.len()];
+        let mut count = vec![0usize; p.free.len()];
+        for c in &p.colours {
+            if let Some(g) = c.free {
+                free[g] += self.q_rgb * lights[c.light].0.component_mul(&reflectances[c.reflectance].0);
+                count[g] += 1;
+            }
+        }
+        for (g, f) in free.iter_mut().enumerate() {
+            if count[g] > 0 {
+                *f /= count[g] as f64;
+            }
+            for ch in 0..3 {
+                f[ch] = clamp_finite(f[ch], p.free[g].lower[ch], p.free[g].upper[ch]);
+            }
+        }
+        let mut v = Values { lights, reflectances, free };
+        // Designed spectra start inside their bounds.
+        for unit in self.units() {
+            let b = self.bounds_of(unit);
+            let x: Vec<f64> = v.get(unit).iter().enumerate().map(|(i, &x)| clamp_finite(x, b.0[i], b.1[i])).collect();
+            v.set(unit, &x);
+        }
+        v
+    }
+
+    /// Lower and upper bounds of a unit's unknowns.
+    pub fn bounds_of(&self, unit: Unit) -> (Vec<f64>, Vec<f64>) {
+        let p = self.palette;
+        let spectrum = |b: Bounds| (vec![b.lower; SAMPLES], vec![b.upper; SAMPLES]);
+        match unit {
+            Unit::Light(i) => spectrum(p.bounds_of(&p.lights[i])),
+            Unit::Reflectance(i) => spectrum(p.bounds_of(&p.reflectances[i])),
+            Unit::Free(g) => (p.free[g].lower.as_slice().to_vec(), p.free[g].upper.as_slice().to_vec()),
+        }
+    }
+
+    /// The 3×31 linear map `x ↦ form(partner, x)` (the bilinear forms are symmetric).
+    pub fn operator(&self, form: Form, partner: &Spectrum) -> Q31 {
+        match (form, self.basis) {
+            (Form::Full, _) => diag_right(&self.q_rgb, partner),
+            (Form::Subspace, Some(b)) => b.subspace_operator(partner),
+            (Form::Error, Some(b)) => diag_right(&self.q_rgb, partner) - b.subspace_operator(partner),
+            // Design::new refuses subspace forms without a basis.
+            (_, None) => Q31::zeros(),
+        }
+    }
+
+    /// `form(E, S)`.
+    pub fn apply(&self, form: Form, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
+        let full = || self.q_rgb * e.0.component_mul(&s.0);
+        match (form, self.basis) {
+            (Form::Full, _) => full(),
+            (Form::Subspace, Some(b)) => b.rgb_lambda(e, s),
+            (Form::Error, Some(b)) => full() - b.rgb_lambda(e, s),
+            (_, None) => Vector3::zeros(),
+        }
+    }
+
+    /// The colour residual `ω/√3 (T(E,S) − c)` and the error residual of one term.
+    pub fn term_residuals(&self, t: &CellTerm, v: &Values) -> (Vector3<f64>, Vector3<f64>) {
+        let e = &v.lights[t.light];
+        let s = &v.reflectances[t.reflectance];
+        let c = t.free.map(|g| v.free[g]).unwrap_or(t.target);
+        let colour = (self.apply(t.form, e, s) - c) * t.scale;
+        let error = if t.error_scale > 0.0 { self.apply(Form::Error, e, s) * t.error_scale } else { Vector3::zeros() };
+        (colour, error)
+    }
+
+    /// The pinned objective at `v`: the sum of squares of every row.
+    pub fn objective(&self, v: &Values) -> f64 {
+        let mut f = 0.0;
+        for t in &self.terms {
+            let (c, e) = self.term_residuals(t, v);
+            f += c.norm_squared() + e.norm_squared();
+        }
+        f + self.smoothness_objective(v)
+    }
+
+    /// The smoothness part of the objective.
+    pub fn smoothness_objective(&self, v: &Values) -> f64 {
+        if self.smoothness <= 0.0 {
+            return 0.0;
+        }
+        let w = self.smoothness * smoothness_scale();
+        self.units().iter().filter(|u| !matches!(u, Unit::Free(_))).map(|u| smoothness_sq(v.get(*u), w)).sum()
+    }
+
+    /// The units each term touches (designed spectra and its free group).
+    pub fn term_units(&self, t: &CellTerm) -> Vec<Unit> {
+        let mut u = Vec::with_capacity(3);
+        if self.palette.lights[t.light].design {
+            u.push(Unit::Light(t.light));
+        }
+        if self.palette.reflectances[t.reflectance].design {
+            u.push(Unit::Reflectance(t.reflectance));
+        }
+        if let Some(g) = t.free {
+            u.push(Unit::Free(g));
+        }
+        u
+    }
+
+    /// Is the term bilinear (light and reflectance both designed)?
+    pub fn is_bilinear(&self, t: &CellTerm) -> bool {
+        self.palette.lights[t.light].design && self.palette.reflectances[t.reflectance].design
+    }
+
+    /// Split the unknowns into independent blocks: units connected through a shared term.
+    pub fn blocks(&self) -> Vec<Block> {
+        let all: Vec<usize> = (0..self.terms.len()).collect();
+        self.components(&self.units(), &all)
+    }
+
+    /// Connected components of `units` through `terms` (indices into [`Design::terms`]); units outside
+    /// `units` count as fixed and connect nothing. Each term goes to the component of its first unit in
+    /// the set (terms touching none of `units` are dropped).
+    pub fn components(&self, units: &[Unit], terms: &[usize]) -> Vec<Block> {
+        let index: HashMap<Unit, usize> = units.iter().enumerate().map(|(i, u)| (*u, i)).collect();
+        let mut parent: Vec<usize> = (0..units.len()).collect();
+        fn find(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
+        }
+        let in_set =
+            |t: &CellTerm| -> Vec<usize> { self.term_units(t).iter().filter_map(|u| index.get(u).copied()).collect() };
+        for &ti in terms {
+            let us = in_set(&self.terms[ti]);
+            for w in us.windows(2) {
+                let a = find(&mut parent, w[0]);
+                let b = find(&mut parent, w[1]);
+                if a != b {
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+        }
+        let mut by_root: HashMap<usize, usize> = HashMap::new();
+        let mut blocks: Vec<Block> = Vec::new();
+        for (i, unit) in units.iter().enumerate() {
+            let r = find(&mut parent, i);
+            let k = *by_root.entry(r).or_insert_with(|| {
+                blocks.push(Block::default());
+                blocks.len() - 1
+            });
+            blocks[k].units.push(*unit);
+        }
+        for &ti in terms {
+            let t = &self.terms[ti];
+            let us = in_set(t);
+            if let Some(&first) = us.first() {
+                let k = by_root[&find(&mut parent, first)];
+                blocks[k].terms.push(ti);
+                let both =
+                    index.contains_key(&Unit::Light(t.light)) && index.contains_key(&Unit::Reflectance(t.reflectance));
+                blocks[k].bilinear |= both;
+            }
+        }
+        blocks
+    }
+
+    /// The part of the objective a block owns: its terms and its spectra's smoothness.
+    pub fn block_objective(&self, block: &Block, v: &Values) -> f64 {
+        let mut f = 0.0;
+        for &ti in &block.terms {
+            let (c, e) = self.term_residuals(&self.terms[ti], v);
+            f += c.norm_squared() + e.norm_squared();
+        }
+        if self.smoothness > 0.0 {
+            let w = self.smoothness * smoothness_scale();
+            for u in &block.units {
+                if !matches!(u, Unit::Free(_)) {
+                    f += smoothness_sq(v.get(*u), w);
+                }
+            }
+        }
+        f
+    }
+
+    /// Assemble the linear least-squares system `min ‖A x − b‖²` over `layout`'s units with every other
+    /// spectrum and free colour held at `v`. No term may have both of its sides in the layout.
+    /// Only `terms` (indices into `self.terms`) are assembled; with `smoothness`, the layout's spectra get
+    /// their smoothness rows.
+    pub fn linear_system(&self, layout: &Layout, terms: &[usize], v: &Values) -> LinearSystem {
+        let n = layout.len();
+        let w_d = self.smoothness * smoothness_scale();
+        let spectra: Vec<(Unit, usize)> =
+            layout.units.iter().copied().filter(|(u, _)| !matches!(u, Unit::Free(_))).collect();
+        let mut rows = 0;
+        for &ti in terms {
+            let t = &self.terms[ti];
+            rows += 3 + if t.error_scale > 0.0 { 3 } else { 0 };
+        }
+        if w_d > 0.0 {
+            rows += SAMPLES * spectra.len();
+        }
+        let mut a = DMatrix::zeros(rows, n);
+        let mut b = DVector::zeros(rows);
+        let mut r0 = 0;
+        for &ti in terms {
+            let t = &self.terms[ti];
+            let e = &v.lights[t.light];
+            let s = &v.reflectances[t.reflectance];
+            let lo = layout.offset(Unit::Light(t.light));
+            let ro = layout.offset(Unit::Reflectance(t.reflectance));
+            debug_assert!(!(lo.is_some() && ro.is_some()));
+            let mut blocks = vec![(t.form, t.scale, r0)];
+            if t.error_scale > 0.0 {
+                blocks.push((Form::Error, t.error_scale, r0 + 3));
+            }
+            for (form, scale, row) in blocks {
+                let constant = match (lo, ro) {
+                    (Some(off), None) => {
+                        let op = self.operator(form, s) * scale;
+                        a.view_mut((row, off), (3, SAMPLES)).copy_from(&op);
+                        Vector3::zeros()
+                    }
+                    (None, Some(off)) => {
+                        let op = self.operator(form, e) * scale;
+                        a.view_mut((row, off), (3, SAMPLES)).copy_from(&op);
+                        Vector3::zeros()
+                    }
+                    _ => self.apply(form, e, s) * scale,
+                };
+                let mut rhs = -constant;
+                if form != Form::Error {
+                    match t.free {
+                        Some(g) => match layout.offset(Unit::Free(g)) {
+                            Some(off) => {
+                                for k in 0..3 {
+                                    a[(row + k, off + k)] = -scale;
+                                }
+                            }
+                            None => rhs += v.free[g] * scale,
+                        },
+                        None => rhs += t.target * scale,
+                    }
+                }
+                b.rows_mut(row, 3).copy_from(&rhs);
+            }
+            r0 += 3 + if t.error_scale > 0.0 { 3 } else { 0 };
+        }
+        if w_d > 0.0 {
+            for (_, off) in &spectra {
+                for i in 0..SAMPLES {
+                    a[(r0 + i, off + i)] = 2.0 * w_d;
+                    if i > 0 {
+                        a[(r0 + i, off + i - 1)] = -w_d;
+                    }
+                    if i + 1 < SAMPLES {
+                        a[(r0 + i, off + i + 1)] = -w_d;
+                    }
+                }
+                r0 += SAMPLES;
+            }
+        }
+        let (lower, upper) = layout.bounds(self);
+        LinearSystem { a, b, lower, upper }
+    }
+}
+
+/// `‖w D x‖²` with D the unscaled 2/−1 tridiagonal.
+pub fn smoothness_sq(x: &[f64], w: f64) -> f64 {
+    let n = x.len();
+    let mut f = 0.0;
+    for i in 0..n {
+        let mut d = 2.0 * x[i];
+        if i > 0 {
+            d -= x[i - 1];
+        }
+        if i + 1 < n {
+            d -= x[i + 1];
+        }
+        f += (w * d).powi(2);
+    }
+    f
+}
+
+/// `2 w² DᵀD x` added into `g` (the gradient of [`smoothness_sq`]).
+pub fn smoothness_grad(x: &[f64], w: f64, g: &mut [f64]) {
+    let n = x.len();
+    let mut d = vec![0.0; n];
+    for i in 0..n {
+        d[i] = 2.0 * x[i] - if i > 0 { x[i - 1] } else { 0.0 } - if i + 1 < n { x[i + 1] } else { 0.0 };
+    }
+    for i in 0..n {
+        let dtd = 2.0 * d[i] - if i > 0 { d[i - 1] } else { 0.0 } - if i + 1 < n { d[i + 1] } else { 0.0 };
+        g[i] += 2.0 * w * w * dtd;
+    }
+}
+
+/// Clamp into [lo, hi]; a non-finite value becomes the nearest finite bound or 0.
+fn clamp_finite(x: f64, lo: f64, hi: f64) -> f64 {
+    let x = if x.is_finite() { x } else { 0.0 };
+    x.max(lo).min(hi)
+}
+
+/// `Q · diag(p)`.
+fn diag_right(q: &Q31, p: &Spectrum) -> Q31 {
+    let mut m = *q;
+    for (c, v) in p.0.iter().enumerate() {
+        m.column_mut(c).scale_mut(*v);
+    }
+    m
+}
+
+/// A set of units that must be solved together, and the terms that touch them.
+#[derive(Clone, Debug, Default)]
+pub struct Block {
+    pub units: Vec<Unit>,
+    /// Indices into [`Design::terms`].
+    pub terms: Vec<usize>,
+    /// True when a term has both its light and its reflectance in the block.
+    pub bilinear: bool,
+}
+
+/// Where each unit's unknowns sit in a stacked vector.
+#[derive(Clone, Debug)]
+pub struct Layout {
+    pub units: Vec<(Unit, usize)>,
+    len: usize,
+}
+
+impl Layout {
+    pub fn new(units: &[Unit]) -> Layout {
+        let mut off = 0;
+        let units = units
+            .iter()
+            .map(|u| {
+                let o = off;
+                off += u.len();
+                (*u, o)
+            })
+            .collect();
+        Layout { units, len: off }
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Offset of a unit, if it is in the layout.
+    pub fn offset(&self, unit: Unit) -> Option<usize> {
+        // Layouts are small (a few dozen units at most in practice); a linear scan beats hashing.
+        self.units.iter().find(|(u, _)| *u == unit).map(|(_, o)| *o)
+    }
+
+    /// Gather the layout's values from `v`.
+    pub fn gather(&self, v: &Values) -> DVector<f64> {
+        let mut x = DVector::zeros(self.len);
+        for (u, o) in &self.units {
+            x.rows_mut(*o, u.len()).copy_from_slice(v.get(*u));
+        }
+        x
+    }
+
+    /// Scatter `x` into `v`.
+    pub fn scatter(&self, x: &DVector<f64>, v: &mut Values) {
+        for (u, o) in &self.units {
+            v.set(*u, x.rows(*o, u.len()).as_slice());
+        }
+    }
+
+    /// Bounds of the stacked unknowns.
+    pub fn bounds(&self, design: &Design) -> (DVector<f64>, DVector<f64>) {
+        let mut lo = DVector::zeros(self.len);
+        let mut hi = DVector::zeros(self.len);
+        for (u, o) in &self.units {
+            let (l, h) = design.bounds_of(*u);
+            lo.rows_mut(*o, u.len()).copy_from_slice(&l);
+            hi.rows_mut(*o, u.len()).copy_from_slice(&h);
+        }
+        (lo, hi)
+    }
+}
+
+/// `min ‖A x − b‖²` subject to `lower ≤ x ≤ upper`.
+#[derive(Clone, Debug)]
+pub struct LinearSystem {
+    pub a: DMatrix<f64>,
+    pub b: DVector<f64>,
+    pub lower: DVector<f64>,
+    pub upper: DVector<f64>,
+}
+
+/// Refuse palettes whose numbers cannot be designed with: non-finite spectra, targets, weights or
+/// settings, negative weights, crossed bounds, dangling indices.
+fn validate(p: &Palette) -> Result<(), DesignError> {
+    let bad = |what: String| Err(DesignError::Invalid(format!("palette \"{}\": {what}", p.name)));
+    let s = &p.settings;
+    for (key, v) in [("smoothness", s.smoothness), ("subspace_error", s.subspace_error)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return bad(format!("settings.{key} = {v} must be a finite number ≥ 0"));
+        }
+    }
+    for (key, b) in [("reflectance_bounds", s.reflectance_bounds), ("light_bounds", s.light_bounds)] {
+        if b.lower.is_nan() || b.upper.is_nan() || b.lower > b.upper {
+            return bad(format!("settings.{key} = [{}, {}] is not an interval", b.lower, b.upper));
+        }
+    }
+    for (kind, entries) in [(Kind::Light, &p.lights), (Kind::Reflectance, &p.reflectances)] {
+        for e in entries {
+            if !e.spectrum.is_finite() {
+                return bad(format!("{} \"{}\" has a non-finite sample", kind.as_str(), e.name));
+            }
+            if let Some(b) = e.bounds
+                && (b.lower.is_nan() || b.upper.is_nan() || b.lower > b.upper)
+            {
+                return bad(format!(
+                    "{} \"{}\": bounds [{}, {}] are not an interval",
+                    kind.as_str(),
+                    e.name,
+                    b.lower,
+                    b.upper
+                ));
+            }
+        }
+    }
+    for g in &p.free {
+        for ch in 0..3 {
+            if g.lower[ch].is_nan() || g.upper[ch].is_nan() || g.lower[ch] > g.upper[ch] {
+                return bad(format!("free group \"{}\": lower/upper cross in channel {ch}", g.name));
+            }
+        }
+    }
+    for (k, c) in p.colours.iter().enumerate() {
+        if c.light >= p.lights.len() || c.reflectance >= p.reflectances.len() {
+            return bad(format!("colours[{k}] refers to a light or reflectance that does not exist"));
+        }
+        if let Some(g) = c.free
+            && g >= p.free.len()
+        {
+            return bad(format!("colours[{k}] refers to a free group that does not exist"));
+        }
+        if !(c.weight.is_finite() && c.weight >= 0.0) {
+            return bad(format!("colours[{k}].weight = {} must be a finite number ≥ 0", c.weight));
+        }
+        if c.free.is_none() && c.is_active() && !(c.target.iter().all(|v| v.is_finite())) {
+            return bad(format!("colours[{k}].target is not finite"));
+        }
+    }
+    Ok(())
+}

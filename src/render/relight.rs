@@ -1,0 +1,280 @@
+//! Post-illumination (seed §2.2.2): the raycast image holds, per pixel, the composited reflectance in
+//! one of three colour representations; a frame under light E is one 3×K matrix applied to every pixel.
+//!
+//! | mode | per-pixel channels (K) | frame matrix |
+//! |---|---|---|
+//! | `factor` | `s = B⁺S`, m coefficients | `Q_rgb,m · diag(e)`, `e = B⁺E` |
+//! | `full` | the 31 samples of S | `Q_rgb,31 · diag(E)` (the reference) |
+//! | `rgb` | `σ = Q_rgb,31 S` (reflectance under a flat white light) | `diag(ε / w)`, `ε = Q_rgb,31 E`, `w = Q_rgb,31 1` |
+//!
+//! Every matrix has one exposure folded in; the result is sRGB-encoded through a lookup table.
+
+use crate::basis::Basis;
+use crate::colorimetry::{Colorimetry, srgb_encode};
+use crate::render::raycast::ChannelImage;
+use crate::spectrum::{SAMPLES, Spectrum};
+
+/// Which colour model carries the image from raycast to frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Mode {
+    /// The m-dimensional spectral factor model (post-illumination by componentwise products).
+    #[default]
+    Factor,
+    /// Full 31-sample spectra: the reference.
+    Full,
+    /// The RGB factor model (seed Eq. 13).
+    Rgb,
+}
+
+impl Mode {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Mode::Factor => "factor",
+            Mode::Full => "full",
+            Mode::Rgb => "rgb",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Mode> {
+        match s {
+            "factor" => Some(Mode::Factor),
+            "full" => Some(Mode::Full),
+            "rgb" => Some(Mode::Rgb),
+            _ => None,
+        }
+    }
+}
+
+/// A colour model ready to produce material vectors and frame matrices.
+#[derive(Clone, Debug)]
+pub struct ColourModel {
+    pub mode: Mode,
+    pub colorimetry: Colorimetry,
+    /// The sharpened basis (factor mode only).
+    pub basis: Option<Basis>,
+}
+
+/// The 3×K matrix of one frame, row-major, exposure included.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameMatrix {
+    pub channels: usize,
+    pub m: Vec<f32>,
+}
+
+impl ColourModel {
+    /// The spectral factor model over `basis`.
+    pub fn factor(colorimetry: Colorimetry, basis: Basis) -> ColourModel {
+        ColourModel { mode: Mode::Factor, colorimetry, basis: Some(basis) }
+    }
+
+    /// The full-spectrum reference.
+    pub fn full(colorimetry: Colorimetry) -> ColourModel {
+        ColourModel { mode: Mode::Full, colorimetry, basis: None }
+    }
+
+    /// The RGB factor model.
+    pub fn rgb(colorimetry: Colorimetry) -> ColourModel {
+        ColourModel { mode: Mode::Rgb, colorimetry, basis: None }
+    }
+
+    /// Number of channels per pixel (K).
+    pub fn channels(&self) -> usize {
+        match (self.mode, &self.basis) {
+            (Mode::Factor, Some(b)) => b.dimension(),
+            (Mode::Factor, None) => 0,
+            (Mode::Full, _) => SAMPLES,
+            (Mode::Rgb, _) => 3,
+        }
+    }
+
+    /// The channels a reflectance contributes to the raycast image.
+    pub fn material_vector(&self, s: &Spectrum) -> Vec<f32> {
+        match (self.mode, &self.basis) {
+            (Mode::Factor, Some(b)) => b.coefficients(s).iter().map(|v| *v as f32).collect(),
+            (Mode::Factor, None) => Vec::new(),
+            (Mode::Full, _) => s.as_slice().iter().map(|v| *v as f32).collect(),
+            (Mode::Rgb, _) => {
+                let c = self.colorimetry.q_rgb * s.0;
+                vec![c[0] as f32, c[1] as f32, c[2] as f32]
+            }
+        }
+    }
+
+    /// The frame matrix for light `e`, scaled by `exposure`.
+    pub fn frame_matrix(&self, e: &Spectrum, exposure: f64) -> FrameMatrix {
+        let q = &self.colorimetry.q_rgb;
+        let rows: Vec<Vec<f64>> = match (self.mode, &self.basis) {
+            (Mode::Factor, Some(b)) => {
+                let ec = b.coefficients(e);
+                (0..3).map(|r| (0..b.dimension()).map(|c| b.q_rgb_m[(r, c)] * ec[c]).collect()).collect()
+            }
+            (Mode::Factor, None) => vec![Vec::new(); 3],
+            (Mode::Full, _) => (0..3).map(|r| (0..SAMPLES).map(|c| q[(r, c)] * e.0[c]).collect()).collect(),
+            (Mode::Rgb, _) => {
+                let eps = q * e.0;
+                let w = q * Spectrum::flat(1.0).0;
+                (0..3).map(|r| (0..3).map(|c| if r == c { eps[r] / w[r] } else { 0.0 }).collect()).collect()
+            }
+        };
+        let m = rows.iter().flat_map(|r| r.iter().map(|v| (v * exposure) as f32)).collect();
+        FrameMatrix { channels: self.channels(), m }
+    }
+}
+
+/// Linear → 8-bit sRGB through a table of 2¹⁶ entries over [0, 1] (values outside are clamped). The
+/// table's quantisation (1/65535 in linear) is below half an 8-bit code everywhere.
+pub struct SrgbLut {
+    table: Vec<u8>,
+}
+
+impl Default for SrgbLut {
+    fn default() -> Self {
+        SrgbLut::new()
+    }
+}
+
+impl SrgbLut {
+    const N: usize = 1 << 16;
+
+    pub fn new() -> SrgbLut {
+        let table = (0..Self::N)
+            .map(|i| (srgb_encode(i as f64 / (Self::N - 1) as f64) * 255.0).round().clamp(0.0, 255.0) as u8)
+            .collect();
+        SrgbLut { table }
+    }
+
+    #[inline(always)]
+    pub fn encode(&self, v: f32) -> u8 {
+        // NaN maps to 0 through the saturating cast.
+        let i = (v.clamp(0.0, 1.0) * (Self::N - 1) as f32 + 0.5) as usize;
+        self.table[i.min(Self::N - 1)]
+    }
+}
+
+/// Apply a frame matrix to every pixel: linear RGB, 3 values per pixel.
+pub fn relight_linear(image: &ChannelImage, frame: &FrameMatrix) -> Vec<f32> {
+    let mut out = vec![0f32; image.width * image.height * 3];
+    relight_with(image, frame, |i, rgb| out[3 * i..3 * i + 3].copy_from_slice(&rgb));
+    out
+}
+
+/// Apply a frame matrix to every pixel and sRGB-encode into `out` (3 bytes per pixel).
+pub fn relight_srgb8(image: &ChannelImage, frame: &FrameMatrix, lut: &SrgbLut, out: &mut [u8]) {
+    relight_with(image, frame, |i, rgb| {
+        out[3 * i] = lut.encode(rgb[0]);
+        out[3 * i + 1] = lut.encode(rgb[1]);
+        out[3 * i + 2] = lut.encode(rgb[2]);
+    });
+}
+
+fn relight_with(image: &ChannelImage, frame: &FrameMatrix, sink: impl FnMut(usize, [f32; 3])) {
+    assert_eq!(image.channels, frame.channels, "image and frame matrix disagree on the channel count");
+    match image.channels {
+        3 => kernel::<3>(image, frame, sink),
+        5 => kernel::<5>(image, frame, sink),
+        6 => kernel::<6>(image, frame, sink),
+        7 => kernel::<7>(image, frame, sink),
+        8 => kernel::<8>(image, frame, sink),
+        SAMPLES => kernel::<SAMPLES>(image, frame, sink),
+        _ => kernel_dyn(image, frame, sink),
+    }
+}
+
+#[inline(always)]
+fn kernel<const K: usize>(image: &ChannelImage, frame: &FrameMatrix, mut sink: impl FnMut(usize, [f32; 3])) {
+    let mut m = [[0f32; K]; 3];
+    for (r, row) in m.iter_mut().enumerate() {
+        row.copy_from_slice(&frame.m[r * K..(r + 1) * K]);
+    }
+    for (i, px) in image.data.chunks_exact(K).enumerate() {
+        let mut rgb = [0f32; 3];
+        for (r, row) in m.iter().enumerate() {
+            let mut acc = 0f32;
+            for c in 0..K {
+                acc += row[c] * px[c];
+            }
+            rgb[r] = acc;
+        }
+        sink(i, rgb);
+    }
+}
+
+fn kernel_dyn(image: &ChannelImage, frame: &FrameMatrix, mut sink: impl FnMut(usize, [f32; 3])) {
+    let k = image.channels.max(1);
+    for (i, px) in image.data.chunks_exact(k).enumerate() {
+        let mut rgb = [0f32; 3];
+        for (r, v) in rgb.iter_mut().enumerate() {
+            *v = frame.m[r * k..(r + 1) * k].iter().zip(px).map(|(a, b)| a * b).sum();
+        }
+        sink(i, rgb);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::raycast::MaterialWeights;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn full_and_rgb_models_match_their_definitions() {
+        let col = Colorimetry::cie1931_srgb();
+        let s = Spectrum::colorchecker("moderate_red").unwrap();
+        let e = Spectrum::illuminant("A").unwrap();
+        let want = col.rgb(&e, &s);
+        for model in [ColourModel::full(col.clone())] {
+            let img = ChannelImage { width: 1, height: 1, channels: model.channels(), data: model.material_vector(&s) };
+            let got = relight_linear(&img, &model.frame_matrix(&e, 2.0));
+            for c in 0..3 {
+                assert!((f64::from(got[c]) - 2.0 * want[c]).abs() < 1e-5, "{got:?} vs {want:?}");
+            }
+        }
+        // RGB factor model: σ ε / w per channel.
+        let rgb = ColourModel::rgb(col.clone());
+        let img = ChannelImage { width: 1, height: 1, channels: 3, data: rgb.material_vector(&s) };
+        let got = relight_linear(&img, &rgb.frame_matrix(&e, 1.0));
+        let (sig, eps, w) = (col.q_rgb * s.0, col.q_rgb * e.0, col.q_rgb * Spectrum::flat(1.0).0);
+        for c in 0..3 {
+            assert!((f64::from(got[c]) - sig[c] * eps[c] / w[c]).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn factor_model_is_exact_for_a_box_basis_on_band_constant_spectra() {
+        // A basis of disjoint bands multiplies exactly (B_j ∘ B_k = δ_jk B_j); spectra constant on each
+        // band lie in its span, so the factor model must reproduce the full colour (tolerance: f32).
+        let col = Colorimetry::cie1931_srgb();
+        let bands = [0usize, 5, 10, 15, 20, 25, 31];
+        let b = DMatrix::from_fn(SAMPLES, 6, |r, c| if r >= bands[c] && r < bands[c + 1] { 1.0 } else { 0.0 });
+        let basis = Basis::from_matrix(b, &col).unwrap();
+        let band = |vals: [f64; 6]| {
+            Spectrum::from_slice(
+                &(0..SAMPLES).map(|i| vals[(0..6).rfind(|c| i >= bands[*c]).unwrap()]).collect::<Vec<_>>(),
+            )
+            .unwrap()
+        };
+        let s = band([0.1, 0.4, 0.8, 0.3, 0.6, 0.9]);
+        let e = band([0.5, 1.0, 1.5, 1.2, 0.8, 0.7]);
+        let model = ColourModel::factor(col.clone(), basis);
+        let w = MaterialWeights { width: 1, height: 1, materials: 1, data: vec![0.7] };
+        let img = w.project(&[model.material_vector(&s)]);
+        let got = relight_linear(&img, &model.frame_matrix(&e, 1.0));
+        let want = col.rgb(&e, &s) * 0.7;
+        for c in 0..3 {
+            assert!((f64::from(got[c]) - want[c]).abs() < 1e-5, "{got:?} vs {want:?}");
+        }
+    }
+
+    #[test]
+    fn srgb_lut_matches_the_transfer_function() {
+        let lut = SrgbLut::new();
+        for i in 0..=1000 {
+            let v = i as f64 / 1000.0;
+            let exact = (srgb_encode(v) * 255.0).round() as i32;
+            assert!((i32::from(lut.encode(v as f32)) - exact).abs() <= 1, "{v}");
+        }
+        assert_eq!(lut.encode(-1.0), 0);
+        assert_eq!(lut.encode(f32::NAN), 0);
+        assert_eq!(lut.encode(7.0), 255);
+    }
+}

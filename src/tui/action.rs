@@ -1,0 +1,64 @@
+//! Everything the user can ask of the designer. Keys become actions through [`crate::tui::keymap`];
+//! [`crate::tui::update::update`] carries them out.
+
+/// An arrow direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    Up,
+    Down,
+    Left,
+    Right,
+}
+
+/// One user intent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Action {
+    /// Move the selection in the focused panel (matrix cell, slider, setting) or change a slider.
+    Move(Direction),
+    /// A large slider step (±16/255, ±1 weight) up or down.
+    BigStep {
+        up: bool,
+    },
+    FocusNext,
+    FocusPrev,
+    /// Matrix: edit the cell's sliders; settings: toggle or edit the field.
+    Activate,
+    /// Close the popup, or go back to the matrix.
+    Back,
+    HexEntry,
+    EditWeight,
+    ToggleDesign,
+    ToggleUse,
+    AssignFree,
+    FreeBounds,
+    FitColour,
+    FitAll,
+    Planck,
+    NormaliseLuminance,
+    NormaliseL2,
+    Scale,
+    AddLight,
+    AddReflectance,
+    Remove,
+    ToggleBounds,
+    ToggleFitInSubspace,
+    Undo,
+    Redo,
+    Save,
+    Help,
+    Quit,
+    // Inside popups.
+    /// Type a character into the prompt.
+    Input(char),
+    Backspace,
+    ClearInput,
+    /// Accept the prompt or the highlighted list entry.
+    Submit,
+    /// Choose the light / the reflectance of the selected cell.
+    ChooseLight,
+    ChooseReflectance,
+    /// Quit without saving.
+    Discard,
+    /// Save, then quit.
+    SaveAndQuit,
+}

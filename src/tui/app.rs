@@ -1,0 +1,381 @@
+//! The designer's state: the palette being edited, the selection, popups, undo history and the latest
+//! solve. Everything the view draws is read from here; only [`crate::tui::update`] changes it.
+
+use crate::basis::Basis;
+use crate::colorimetry::Colorimetry;
+use crate::design::{DesignError, Solution};
+use crate::palette::{Bounds, Kind, Palette};
+use crate::tui::colour::ColourMode;
+use crate::tui::derived::Derived;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Which panel takes the arrow keys.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Focus {
+    Matrix,
+    Sliders,
+    Settings,
+}
+
+/// The selection in the design matrix. Column 0 is the reflectance column down the left, row 0 the light
+/// row across the top; column `j + 1` is light `j`, row `i + 1` is reflectance `i`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Selection {
+    pub col: usize,
+    pub row: usize,
+}
+
+/// What the selection points at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// The cell of light `light` on reflectance `reflectance` (whether or not it has a colour criterion).
+    Cell { light: usize, reflectance: usize },
+    /// A light's swatch across the top.
+    Light(usize),
+    /// A reflectance's swatch down the left.
+    Reflectance(usize),
+    /// The palette has no lights and no reflectances.
+    Nothing,
+}
+
+/// The sliders of the selected cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slider {
+    Red,
+    Green,
+    Blue,
+    Weight,
+}
+
+impl Slider {
+    pub const ALL: [Slider; 4] = [Slider::Red, Slider::Green, Slider::Blue, Slider::Weight];
+}
+
+/// The fields of the settings row, in order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SettingField {
+    Bounds,
+    ReflectanceLower,
+    ReflectanceUpper,
+    LightLower,
+    LightUpper,
+    Smoothness,
+    SubspaceError,
+    FitInSubspace,
+    BasisDimension,
+}
+
+impl SettingField {
+    pub const ALL: [SettingField; 9] = [
+        SettingField::Bounds,
+        SettingField::ReflectanceLower,
+        SettingField::ReflectanceUpper,
+        SettingField::LightLower,
+        SettingField::LightUpper,
+        SettingField::Smoothness,
+        SettingField::SubspaceError,
+        SettingField::FitInSubspace,
+        SettingField::BasisDimension,
+    ];
+}
+
+/// An operation on one spectrum (a light or a reflectance).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpectrumOp {
+    ToggleDesign,
+    NormaliseLuminance,
+    NormaliseL2,
+    Scale,
+    Planck,
+    Remove,
+}
+
+impl SpectrumOp {
+    pub fn label(self) -> &'static str {
+        match self {
+            SpectrumOp::ToggleDesign => "toggle design",
+            SpectrumOp::NormaliseLuminance => "normalise to luminance 1",
+            SpectrumOp::NormaliseL2 => "normalise to L2 norm 1",
+            SpectrumOp::Scale => "scale",
+            SpectrumOp::Planck => "make Planck",
+            SpectrumOp::Remove => "remove",
+        }
+    }
+}
+
+/// What a text prompt's answer is for.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PromptPurpose {
+    /// `#rrggbb` target of colour cell `cell` (index into `palette.colours`), or of a new cell.
+    Hex { light: usize, reflectance: usize },
+    /// Weight of a cell.
+    Weight { light: usize, reflectance: usize },
+    /// Free-colour group name of a cell (empty = none).
+    FreeGroup { light: usize, reflectance: usize },
+    /// Bounds of free group `group`.
+    FreeBounds { group: usize },
+    /// Planck temperature of light `light`.
+    Planck { light: usize },
+    /// Scale factor of a spectrum.
+    Scale { kind: Kind, index: usize },
+    /// A numeric setting.
+    Setting(SettingField),
+    /// Path of a CSV file to import as a new light or reflectance.
+    CsvPath(Kind),
+    /// Temperature of a new Planck light.
+    NewPlanck,
+}
+
+/// A one-line text prompt.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prompt {
+    pub title: String,
+    pub hint: String,
+    pub input: String,
+    pub purpose: PromptPurpose,
+    /// Why the last answer was refused.
+    pub error: Option<String>,
+}
+
+/// One entry of an "add" list.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PickItem {
+    Illuminant(&'static str),
+    ColorChecker(&'static str),
+    Flat(f64),
+    Planck,
+    Csv,
+}
+
+impl PickItem {
+    pub fn label(&self) -> String {
+        match self {
+            PickItem::Illuminant(n) => format!("illuminant {n}"),
+            PickItem::ColorChecker(n) => format!("ColorChecker {n}"),
+            PickItem::Flat(v) => format!("flat {v}"),
+            PickItem::Planck => "Planck black body… (temperature)".to_string(),
+            PickItem::Csv => "import CSV file… (path)".to_string(),
+        }
+    }
+}
+
+/// A popup over the main screen. `Esc` closes any of them.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Popup {
+    /// Every key (`?`).
+    Help {
+        scroll: u16,
+    },
+    Prompt(Prompt),
+    /// Choose the light or the reflectance of the selected cell for a spectrum operation.
+    ChooseSpectrum {
+        op: SpectrumOp,
+        light: usize,
+        reflectance: usize,
+    },
+    /// Choose what to add.
+    Pick {
+        kind: Kind,
+        items: Vec<PickItem>,
+        selected: usize,
+    },
+    /// `q` with unsaved changes.
+    ConfirmQuit,
+}
+
+/// A short message in the bottom line until the next key.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Message {
+    pub text: String,
+    pub is_error: bool,
+}
+
+/// Groups consecutive edits of one slider of one cell into one undo step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EditKey {
+    Slider { light: usize, reflectance: usize, slider: usize },
+    Other,
+}
+
+/// Undo / redo as whole palette snapshots (palettes are small).
+#[derive(Clone, Debug, Default)]
+pub struct History {
+    pub undo: Vec<Palette>,
+    pub redo: Vec<Palette>,
+    pub last_edit: Option<EditKey>,
+}
+
+impl History {
+    /// Most undo steps kept.
+    pub const LIMIT: usize = 500;
+}
+
+/// The latest solve, as far as the view is concerned.
+#[derive(Clone, Debug, Default)]
+pub struct SolveStatus {
+    /// Generation of the palette: bumped by every edit. A reply for an older generation is stale.
+    pub generation: u64,
+    /// The generation now being solved, if any.
+    pub running: Option<u64>,
+    /// How long the running solve has been going (updated on ticks; shown as progress).
+    pub running_for: Duration,
+    /// The latest solution and the generation it belongs to.
+    pub solution: Option<(u64, Arc<Solution>)>,
+    /// The latest solve's failure, if it failed.
+    pub error: Option<DesignError>,
+    /// Wall-clock time of the latest finished solve.
+    pub last_time: Option<Duration>,
+}
+
+impl SolveStatus {
+    /// The solution of the current palette, if solved.
+    pub fn current(&self) -> Option<&Solution> {
+        self.solution.as_ref().filter(|(g, _)| *g == self.generation).map(|(_, s)| s.as_ref())
+    }
+}
+
+/// The whole model of the designer.
+#[derive(Debug)]
+pub struct State {
+    /// The palette file (shown in the title; saved to).
+    pub path: PathBuf,
+    pub palette: Palette,
+    /// The palette as last loaded or saved (the `●` marker shows when they differ).
+    pub saved: Palette,
+    pub colorimetry: Colorimetry,
+    /// The spectral factor basis for subspace colours, when one is available.
+    pub basis: Option<Arc<Basis>>,
+    pub selection: Selection,
+    pub focus: Focus,
+    pub slider: usize,
+    pub setting: usize,
+    pub popup: Option<Popup>,
+    pub history: History,
+    pub solve: SolveStatus,
+    pub colour_mode: ColourMode,
+    /// Replay runs hide wall-clock times so their screens are reproducible.
+    pub hide_times: bool,
+    pub message: Option<Message>,
+    /// Bounds to restore when bounds are switched back on.
+    pub remembered_bounds: (Bounds, Bounds),
+    /// Colours and errors derived from the palette and the latest solution (recomputed on change).
+    pub derived: Derived,
+    pub quit: bool,
+    /// Frames drawn so far (spinner phase).
+    pub ticks: u64,
+}
+
+impl State {
+    /// A designer on `palette`, read from `path`.
+    pub fn new(path: PathBuf, palette: Palette, colour_mode: ColourMode) -> State {
+        let colorimetry = Colorimetry::default();
+        let mut state = State {
+            path,
+            saved: palette.clone(),
+            palette,
+            colorimetry,
+            basis: None,
+            selection: Selection { col: 1, row: 1 },
+            focus: Focus::Matrix,
+            slider: 0,
+            setting: 0,
+            popup: None,
+            history: History::default(),
+            solve: SolveStatus::default(),
+            colour_mode,
+            hide_times: false,
+            message: None,
+            remembered_bounds: (Bounds::new(0.0, 1.0), Bounds::new(0.0, f64::INFINITY)),
+            derived: Derived::default(),
+            quit: false,
+            ticks: 0,
+        };
+        state.clamp_selection();
+        state.refresh();
+        state
+    }
+
+    /// True when the palette differs from the file.
+    pub fn is_dirty(&self) -> bool {
+        self.palette != self.saved
+    }
+
+    /// Recompute the derived colours (after any change of palette or solution).
+    pub fn refresh(&mut self) {
+        self.derived = Derived::compute(
+            &self.palette,
+            self.solve.current().or(self.solve.solution.as_ref().map(|(_, s)| s.as_ref())),
+            &self.colorimetry,
+            self.basis.as_deref(),
+        );
+    }
+
+    /// What the selection points at.
+    pub fn target(&self) -> Target {
+        let (nl, nr) = (self.palette.lights.len(), self.palette.reflectances.len());
+        let Selection { col, row } = self.selection;
+        match (col, row) {
+            (0, 0) => Target::Nothing,
+            (0, r) if r <= nr => Target::Reflectance(r - 1),
+            (c, 0) if c <= nl => Target::Light(c - 1),
+            (c, r) if c <= nl && r <= nr => Target::Cell { light: c - 1, reflectance: r - 1 },
+            _ => Target::Nothing,
+        }
+    }
+
+    /// The light and reflectance whose spectra the plot shows: the selected cell's, or the selected swatch.
+    pub fn plotted(&self) -> (Option<usize>, Option<usize>) {
+        match self.target() {
+            Target::Cell { light, reflectance } => (Some(light), Some(reflectance)),
+            Target::Light(l) => (Some(l), None),
+            Target::Reflectance(r) => (None, Some(r)),
+            Target::Nothing => (None, None),
+        }
+    }
+
+    /// Keep the selection inside the matrix (after removing a spectrum, or on an empty palette).
+    pub fn clamp_selection(&mut self) {
+        let (nl, nr) = (self.palette.lights.len(), self.palette.reflectances.len());
+        let s = &mut self.selection;
+        s.col = s.col.min(nl);
+        s.row = s.row.min(nr);
+        if s.col == 0 && s.row == 0 {
+            if nl > 0 {
+                s.col = 1;
+            } else if nr > 0 {
+                s.row = 1;
+            }
+        }
+    }
+
+    /// Record the palette before an edit so it can be undone. Consecutive edits with the same
+    /// slider key coalesce into one step.
+    pub fn remember(&mut self, key: EditKey) {
+        let coalesce = key != EditKey::Other && self.history.last_edit == Some(key);
+        if !coalesce {
+            self.history.undo.push(self.palette.clone());
+            if self.history.undo.len() > History::LIMIT {
+                self.history.undo.remove(0);
+            }
+        }
+        self.history.redo.clear();
+        self.history.last_edit = Some(key);
+    }
+
+    /// Show a message until the next key.
+    pub fn say(&mut self, text: impl Into<String>) {
+        self.message = Some(Message { text: text.into(), is_error: false });
+    }
+
+    /// Show an error until the next key.
+    pub fn complain(&mut self, text: impl Into<String>) {
+        self.message = Some(Message { text: text.into(), is_error: true });
+    }
+
+    /// The index into `palette.colours` of the cell at (light, reflectance).
+    pub fn cell_index(&self, light: usize, reflectance: usize) -> Option<usize> {
+        self.palette.colours.iter().position(|c| c.light == light && c.reflectance == reflectance)
+    }
+}

@@ -1,0 +1,135 @@
+//! What the view shows, derived once per change (not per frame) from the palette and the latest
+//! solution: the colour of every light × reflectance cell in the full 31-sample model and in the
+//! subspace model, its desired colour and the CIEDE2000 errors between them.
+
+use crate::basis::Basis;
+use crate::colorimetry::Colorimetry;
+use crate::design::Solution;
+use crate::palette::{Palette, SpectrumEntry};
+use crate::spectrum::Spectrum;
+use nalgebra::Vector3;
+
+/// One cell of the design matrix as drawn.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CellView {
+    /// The desired colour (a free cell's is its group's solved colour, once solved), linear sRGB.
+    pub desired: Option<Vector3<f64>>,
+    /// The colour in the full 31-sample model.
+    pub full: Vector3<f64>,
+    /// The colour in the subspace (spectral factor) model, when a basis is available.
+    pub subspace: Option<Vector3<f64>>,
+    pub delta_e_full: Option<f64>,
+    pub delta_e_subspace: Option<f64>,
+    /// The cell has a colour criterion in the palette.
+    pub has_criterion: bool,
+    /// The criterion contributes to the objective (use colour on, weight > 0).
+    pub active: bool,
+    /// The free-colour group of the cell.
+    pub free: Option<usize>,
+}
+
+/// Derived colours of a palette.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Derived {
+    pub lights: usize,
+    pub reflectances: usize,
+    /// Row-major: `cells[reflectance * lights + light]`.
+    pub cells: Vec<CellView>,
+    /// Each light on a flat white reflectance.
+    pub light_swatches: Vec<Vector3<f64>>,
+    /// Each reflectance under a flat white light.
+    pub reflectance_swatches: Vec<Vector3<f64>>,
+    /// The spectra as they stand (solved where a current solution has them).
+    pub light_spectra: Vec<Spectrum>,
+    pub reflectance_spectra: Vec<Spectrum>,
+    /// Largest full-model CIEDE2000 over the active cells.
+    pub worst_delta_e: Option<f64>,
+    /// True when the shown spectra come from a solution.
+    pub solved: bool,
+}
+
+/// True when `a` and `b` list the same spectra by name, in order.
+fn same_names(a: &[SpectrumEntry], b: &[SpectrumEntry]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.name == y.name)
+}
+
+impl Derived {
+    /// Derive the view of `palette`, taking the spectra from `solution` when it solved a palette with the
+    /// same lights and reflectances (a stale solution keeps the matrix steady while the next one runs).
+    pub fn compute(
+        palette: &Palette,
+        solution: Option<&Solution>,
+        colorimetry: &Colorimetry,
+        basis: Option<&Basis>,
+    ) -> Derived {
+        let solution = solution.filter(|s| {
+            same_names(&s.palette.lights, &palette.lights) && same_names(&s.palette.reflectances, &palette.reflectances)
+        });
+        let pick = |own: &SpectrumEntry, solved: Option<&SpectrumEntry>| match solved {
+            Some(s) if own.design => s.spectrum,
+            _ => own.spectrum,
+        };
+        let light_spectra: Vec<Spectrum> = palette
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(j, e)| pick(e, solution.and_then(|s| s.palette.lights.get(j))))
+            .collect();
+        let reflectance_spectra: Vec<Spectrum> = palette
+            .reflectances
+            .iter()
+            .enumerate()
+            .map(|(i, e)| pick(e, solution.and_then(|s| s.palette.reflectances.get(i))))
+            .collect();
+        let white = Spectrum::flat(1.0);
+        let light_swatches = light_spectra.iter().map(|e| colorimetry.rgb(e, &white)).collect();
+        let reflectance_swatches = reflectance_spectra.iter().map(|s| colorimetry.rgb(&white, s)).collect();
+        let (nl, nr) = (light_spectra.len(), reflectance_spectra.len());
+        let mut cells = Vec::with_capacity(nl * nr);
+        let mut worst: Option<f64> = None;
+        for (i, s) in reflectance_spectra.iter().enumerate() {
+            for (j, e) in light_spectra.iter().enumerate() {
+                let full = colorimetry.rgb(e, s);
+                let subspace = basis.filter(|b| b.b.nrows() == crate::spectrum::SAMPLES).map(|b| b.rgb_lambda(e, s));
+                let criterion = palette.cell(j, i);
+                let desired = criterion.and_then(|c| match c.free {
+                    Some(g) => solution.and_then(|s| s.free.get(g).copied()),
+                    None => Some(c.target),
+                });
+                let de = |rgb: &Vector3<f64>| desired.map(|d| colorimetry.delta_e00_under(&d, rgb, e));
+                let delta_e_full = de(&full);
+                let delta_e_subspace = subspace.as_ref().and_then(de);
+                let active = criterion.is_some_and(|c| c.is_active());
+                if active && let Some(d) = delta_e_full.filter(|d| d.is_finite()) {
+                    worst = Some(worst.map_or(d, |w: f64| w.max(d)));
+                }
+                cells.push(CellView {
+                    desired,
+                    full,
+                    subspace,
+                    delta_e_full,
+                    delta_e_subspace,
+                    has_criterion: criterion.is_some(),
+                    active,
+                    free: criterion.and_then(|c| c.free),
+                });
+            }
+        }
+        Derived {
+            lights: nl,
+            reflectances: nr,
+            cells,
+            light_swatches,
+            reflectance_swatches,
+            light_spectra,
+            reflectance_spectra,
+            worst_delta_e: worst,
+            solved: solution.is_some(),
+        }
+    }
+
+    /// The cell of light `light` on reflectance `reflectance`.
+    pub fn cell(&self, light: usize, reflectance: usize) -> Option<&CellView> {
+        if light < self.lights { self.cells.get(reflectance * self.lights + light) } else { None }
+    }
+}

@@ -1,0 +1,209 @@
+//! The event loop, generic over the ratatui backend: the real terminal and the off-screen `TestBackend`
+//! (tests, `--replay`) run the same code. Each turn applies finished solves, draws, then waits for one
+//! input (a key, a resize, the end of a script) — but never for a solve, unless the input source asks
+//! for synchronous solving (replay, for reproducible screens).
+
+use crate::palette::Palette;
+use crate::tui::app::State;
+use crate::tui::update::{self, Effects};
+use crate::tui::worker::{Reply, Worker};
+use crate::tui::{keymap, ui};
+use ratatui::Terminal;
+use ratatui::backend::Backend;
+use ratatui::buffer::Buffer;
+use ratatui::crossterm::event::KeyEvent;
+use std::io;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// One input to the designer.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Input {
+    Key(KeyEvent),
+    /// The terminal changed size.
+    Resize,
+    /// Wait until the running solve has finished (replay scripts).
+    WaitSolve,
+    /// No more input: stop.
+    End,
+}
+
+/// Where inputs come from.
+pub trait Events {
+    /// The next input, waiting at most `timeout`; `None` when nothing came.
+    fn next(&mut self, timeout: Duration) -> io::Result<Option<Input>>;
+    /// True when every solve must finish before the next input is read and before drawing (replay).
+    fn synchronous(&self) -> bool {
+        false
+    }
+}
+
+/// Writes the palette to its file.
+pub trait Saver {
+    /// Save `palette`; the text says where it went, the error why it failed.
+    fn save(&mut self, palette: &Palette) -> Result<String, String>;
+}
+
+/// What the loop needs besides the terminal and the state.
+pub struct Io<'a> {
+    pub events: &'a mut dyn Events,
+    pub saver: &'a mut dyn Saver,
+    /// Called with every drawn frame.
+    pub on_frame: Option<&'a mut dyn FnMut(&Buffer)>,
+    /// Cap on one solve.
+    pub solve_time_limit: Duration,
+}
+
+fn backend_error(e: impl std::fmt::Display) -> io::Error {
+    io::Error::other(e.to_string())
+}
+
+/// Apply a solver reply to the state.
+fn apply_reply(state: &mut State, reply: Reply, worker: &Worker) {
+    if reply.generation != state.solve.generation {
+        // Stale: a newer palette is being (or will be) solved.
+        state.solve.running = worker.pending();
+        return;
+    }
+    state.solve.running = worker.pending();
+    state.solve.last_time = Some(reply.elapsed);
+    match reply.result {
+        Ok(solution) => {
+            state.solve.solution = Some((reply.generation, solution));
+            state.solve.error = None;
+        }
+        Err(e) => {
+            state.solve.error = Some(e);
+        }
+    }
+    state.refresh();
+}
+
+fn submit(state: &mut State, worker: &mut Worker) {
+    worker.submit(state.solve.generation, state.palette.clone(), state.basis.clone());
+    state.solve.running = worker.pending();
+    state.solve.running_for = Duration::ZERO;
+}
+
+/// The palette to write: designed spectra replaced by the current solution's (stored as samples, DESIGN_SPEC §3).
+pub fn palette_to_save(state: &State) -> Palette {
+    let mut palette = state.palette.clone();
+    if let Some(solution) = state.solve.current() {
+        let solved = |own: &mut Vec<crate::palette::SpectrumEntry>, theirs: &[crate::palette::SpectrumEntry]| {
+            for (e, s) in own.iter_mut().zip(theirs) {
+                if e.design && e.name == s.name {
+                    e.spectrum = s.spectrum;
+                    e.source = crate::palette::Source::Samples(s.spectrum.to_vec());
+                }
+            }
+        };
+        solved(&mut palette.lights, &solution.palette.lights);
+        solved(&mut palette.reflectances, &solution.palette.reflectances);
+    }
+    palette
+}
+
+fn run_effects(state: &mut State, effects: Effects, worker: &mut Worker, saver: &mut dyn Saver) {
+    if effects.solve {
+        submit(state, worker);
+    }
+    if effects.save {
+        let palette = palette_to_save(state);
+        match saver.save(&palette) {
+            Ok(text) => {
+                let solution = state.solve.current().map(|s| Arc::new(s.clone()));
+                let changed = palette != state.palette;
+                state.saved = palette.clone();
+                state.palette = palette;
+                if changed {
+                    // The palette now starts from its solution: keep showing that solution for the new generation.
+                    state.solve.generation += 1;
+                    if let Some(s) = solution {
+                        state.solve.solution = Some((state.solve.generation, s));
+                    }
+                    state.refresh();
+                }
+                state.say(text);
+                if effects.quit_after_save {
+                    state.quit = true;
+                }
+            }
+            Err(e) => state.complain(format!("not saved: {e}")),
+        }
+    }
+}
+
+/// Run the designer until it quits or the input ends.
+pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, io: Io<'_>) -> io::Result<()> {
+    let Io { events, saver, mut on_frame, solve_time_limit } = io;
+    let mut worker = Worker::start(solve_time_limit)?;
+    submit(state, &mut worker);
+    let mut solve_started = Instant::now();
+    let mut redraw = true;
+    loop {
+        if events.synchronous() {
+            while worker.pending().is_some() {
+                match worker.wait_reply(Duration::from_secs(3600)) {
+                    Some(reply) => apply_reply(state, reply, &worker),
+                    None => break,
+                }
+            }
+        }
+        while let Some(reply) = worker.try_reply() {
+            apply_reply(state, reply, &worker);
+            redraw = true;
+        }
+        if state.solve.running.is_some() {
+            state.solve.running_for = solve_started.elapsed();
+        }
+        if redraw {
+            let frame = terminal.draw(|f| f.render_widget(&*state, f.area())).map_err(backend_error)?;
+            if let Some(cb) = on_frame.as_mut() {
+                cb(frame.buffer);
+            }
+            redraw = false;
+        }
+        if state.quit {
+            return Ok(());
+        }
+        let timeout = if worker.pending().is_some() { Duration::from_millis(80) } else { Duration::from_millis(500) };
+        match events.next(timeout)? {
+            None => {
+                if worker.pending().is_some() {
+                    state.ticks += 1;
+                    redraw = true;
+                }
+            }
+            Some(Input::End) => return Ok(()),
+            Some(Input::Resize) => {
+                terminal.autoresize().map_err(backend_error)?;
+                terminal.clear().map_err(backend_error)?;
+                redraw = true;
+            }
+            Some(Input::WaitSolve) => {
+                while worker.pending().is_some() {
+                    match worker.wait_reply(Duration::from_secs(3600)) {
+                        Some(reply) => apply_reply(state, reply, &worker),
+                        None => break,
+                    }
+                }
+                redraw = true;
+            }
+            Some(Input::Key(key)) => {
+                redraw = true;
+                if let Some(action) = keymap::action_for(state, key) {
+                    let effects = update::update(state, action);
+                    if effects.solve {
+                        solve_started = Instant::now();
+                    }
+                    run_effects(state, effects, &mut worker, saver);
+                }
+            }
+        }
+    }
+}
+
+/// The screen of a buffer as text (re-exported for callers of the loop).
+pub fn screen_text(buf: &Buffer) -> String {
+    ui::buffer_text(buf)
+}

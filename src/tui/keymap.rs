@@ -1,0 +1,216 @@
+//! The one keymap: which key does what in each mode. The help popup (`?`) lists these same tables, so
+//! what it shows is exactly what the keys do.
+
+use crate::tui::action::{Action, Direction};
+use crate::tui::app::{Popup, State};
+use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
+
+/// A key with its modifiers (Shift is folded into the character for letter keys).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Key {
+    pub code: KeyCode,
+    pub modifiers: KeyModifiers,
+}
+
+const fn plain(code: KeyCode) -> Key {
+    Key { code, modifiers: KeyModifiers::NONE }
+}
+
+const fn ch(c: char) -> Key {
+    plain(KeyCode::Char(c))
+}
+
+const fn ctrl(c: char) -> Key {
+    Key { code: KeyCode::Char(c), modifiers: KeyModifiers::CONTROL }
+}
+
+/// One line of the keymap: the keys, the action and what the help says.
+#[derive(Clone, Copy, Debug)]
+pub struct Binding {
+    pub keys: &'static [Key],
+    pub action: Action,
+    pub help: &'static str,
+}
+
+const fn bind(keys: &'static [Key], action: Action, help: &'static str) -> Binding {
+    Binding { keys, action, help }
+}
+
+use Action as A;
+use KeyCode as K;
+
+/// The main screen.
+pub const MAIN: &[Binding] = &[
+    bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "move up; sliders: previous slider"),
+    bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "move down; sliders: next slider"),
+    bind(&[plain(K::Left), ch('h')], A::Move(Direction::Left), "move left; sliders: decrease"),
+    bind(&[plain(K::Right), ch('l')], A::Move(Direction::Right), "move right; sliders: increase"),
+    bind(&[plain(K::PageUp), ch('+')], A::BigStep { up: true }, "slider: large step up"),
+    bind(&[plain(K::PageDown), ch('-')], A::BigStep { up: false }, "slider: large step down"),
+    bind(&[plain(K::Tab)], A::FocusNext, "next panel: matrix/sliders/settings"),
+    bind(&[plain(K::BackTab)], A::FocusPrev, "previous panel"),
+    bind(&[plain(K::Enter)], A::Activate, "edit cell / toggle or edit setting"),
+    bind(&[plain(K::Esc)], A::Back, "back to the matrix; close popups"),
+    bind(&[ch('#')], A::HexEntry, "type the target as #rrggbb"),
+    bind(&[ch('w')], A::EditWeight, "type the weight"),
+    bind(&[ch('d')], A::ToggleDesign, "design spectrum on/off"),
+    bind(&[ch('u'), plain(K::Char(' '))], A::ToggleUse, "use colour on/off"),
+    bind(&[ch('f')], A::AssignFree, "free-colour group (empty: none)"),
+    bind(&[ch('b')], A::FreeBounds, "bounds of the free-colour group"),
+    bind(&[ch('F')], A::FitColour, "fit colour (target := colour now)"),
+    bind(&[ch('A')], A::FitAll, "fit all targets"),
+    bind(&[ch('p')], A::Planck, "make Planck light (temperature)"),
+    bind(&[ch('n')], A::NormaliseLuminance, "normalise light to luminance 1"),
+    bind(&[ch('N')], A::NormaliseL2, "normalise light to L2 norm 1"),
+    bind(&[ch('s')], A::Scale, "scale light or reflectance"),
+    bind(&[ch('L')], A::AddLight, "add light (illuminant/Planck/CSV)"),
+    bind(&[ch('R')], A::AddReflectance, "add reflectance (patch/flat/CSV)"),
+    bind(&[ch('x'), plain(K::Delete)], A::Remove, "remove light or reflectance"),
+    bind(&[ch('B')], A::ToggleBounds, "bounds on/off"),
+    bind(&[ch('V')], A::ToggleFitInSubspace, "fit in the subspace model on/off"),
+    bind(&[ch('z'), ctrl('z')], A::Undo, "undo"),
+    bind(&[ch('Z'), ctrl('y')], A::Redo, "redo"),
+    bind(&[ctrl('s')], A::Save, "save (atomic, keeps comments)"),
+    bind(&[ch('?'), plain(K::F(1))], A::Help, "this help"),
+    bind(&[ch('q'), ctrl('c')], A::Quit, "quit (asks if unsaved)"),
+];
+
+/// A text prompt: printable keys type.
+pub const PROMPT: &[Binding] = &[
+    bind(&[plain(K::Enter)], A::Submit, "accept"),
+    bind(&[plain(K::Esc)], A::Back, "cancel"),
+    bind(&[plain(K::Backspace)], A::Backspace, "delete"),
+    bind(&[ctrl('u')], A::ClearInput, "clear"),
+];
+
+/// A list to pick from.
+pub const PICK: &[Binding] = &[
+    bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "previous"),
+    bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "next"),
+    bind(&[plain(K::PageUp)], A::BigStep { up: true }, "page up"),
+    bind(&[plain(K::PageDown)], A::BigStep { up: false }, "page down"),
+    bind(&[plain(K::Enter)], A::Submit, "add"),
+    bind(&[plain(K::Esc)], A::Back, "cancel"),
+];
+
+/// Light or reflectance of the selected cell.
+pub const CHOOSE: &[Binding] = &[
+    bind(&[ch('l')], A::ChooseLight, "the cell's light"),
+    bind(&[ch('r')], A::ChooseReflectance, "the cell's reflectance"),
+    bind(&[plain(K::Esc)], A::Back, "cancel"),
+];
+
+/// Quitting with unsaved changes.
+pub const CONFIRM_QUIT: &[Binding] = &[
+    bind(&[ch('s')], A::SaveAndQuit, "save and quit"),
+    bind(&[ch('y')], A::Discard, "quit without saving"),
+    bind(&[ch('n'), plain(K::Esc)], A::Back, "stay"),
+];
+
+/// The help popup.
+pub const HELP: &[Binding] = &[
+    bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
+    bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
+    bind(&[plain(K::Esc), ch('?'), ch('q')], A::Back, "close"),
+];
+
+/// Every table with its title, in the order the help shows them.
+pub const TABLES: &[(&str, &[Binding])] = &[
+    ("main screen", MAIN),
+    ("prompts", PROMPT),
+    ("add lists", PICK),
+    ("light or reflectance?", CHOOSE),
+    ("quit with unsaved changes", CONFIRM_QUIT),
+    ("help", HELP),
+];
+
+/// The table in force for the state's popup.
+pub fn table_for(state: &State) -> &'static [Binding] {
+    match state.popup {
+        None => MAIN,
+        Some(Popup::Help { .. }) => HELP,
+        Some(Popup::Prompt(_)) => PROMPT,
+        Some(Popup::ChooseSpectrum { .. }) => CHOOSE,
+        Some(Popup::Pick { .. }) => PICK,
+        Some(Popup::ConfirmQuit) => CONFIRM_QUIT,
+    }
+}
+
+/// Fold Shift into letters (terminals report `F` as Shift+`F`) and drop key releases.
+pub fn normalise(event: KeyEvent) -> Option<Key> {
+    if event.kind == KeyEventKind::Release {
+        return None;
+    }
+    let mut modifiers = event.modifiers;
+    if matches!(event.code, KeyCode::Char(_) | KeyCode::BackTab) {
+        modifiers.remove(KeyModifiers::SHIFT);
+    }
+    Some(Key { code: event.code, modifiers })
+}
+
+/// The action a key asks for in the current mode.
+pub fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
+    let key = normalise(event)?;
+    let table = table_for(state);
+    if let Some(b) = table.iter().find(|b| b.keys.contains(&key)) {
+        return Some(b.action);
+    }
+    match (&state.popup, key.code) {
+        (Some(Popup::Prompt(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => Some(Action::Input(c)),
+        _ => None,
+    }
+}
+
+/// How a key is written in the help and in replay scripts.
+pub fn key_label(key: &Key) -> String {
+    let base = match key.code {
+        K::Char(' ') => "Space".to_string(),
+        K::Char(c) => c.to_string(),
+        K::Up => "↑".into(),
+        K::Down => "↓".into(),
+        K::Left => "←".into(),
+        K::Right => "→".into(),
+        K::PageUp => "PgUp".into(),
+        K::PageDown => "PgDn".into(),
+        K::Tab => "Tab".into(),
+        K::BackTab => "Shift-Tab".into(),
+        K::Enter => "Enter".into(),
+        K::Esc => "Esc".into(),
+        K::Backspace => "Backspace".into(),
+        K::Delete => "Del".into(),
+        K::F(n) => format!("F{n}"),
+        other => format!("{other:?}"),
+    };
+    if key.modifiers.contains(KeyModifiers::CONTROL) { format!("Ctrl-{base}") } else { base }
+}
+
+/// All keys of a binding, as the help shows them.
+pub fn keys_label(binding: &Binding) -> String {
+    binding.keys.iter().map(key_label).collect::<Vec<_>>().join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn no_key_is_bound_twice_in_a_table() {
+        for (name, table) in TABLES {
+            let mut seen = Vec::new();
+            for b in *table {
+                for k in b.keys {
+                    assert!(!seen.contains(k), "{name}: {k:?} bound twice");
+                    seen.push(*k);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn shift_is_folded_into_letters() {
+        let e = KeyEvent::new(KeyCode::Char('F'), KeyModifiers::SHIFT);
+        assert_eq!(normalise(e), Some(ch('F')));
+        let e = KeyEvent::new(KeyCode::Char('s'), KeyModifiers::CONTROL);
+        assert_eq!(normalise(e), Some(ctrl('s')));
+    }
+}

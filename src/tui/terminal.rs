@@ -1,0 +1,43 @@
+//! The real terminal: raw mode and the alternate screen, restored by a guard on every way out — normal
+//! return, error, and (through ratatui's panic hook) a panic.
+
+use crate::tui::event_loop::{Events, Input};
+use ratatui::DefaultTerminal;
+use ratatui::crossterm::event::{self, Event};
+use std::io;
+use std::time::Duration;
+
+/// Owns the terminal while the designer runs; restores it when dropped.
+pub struct TerminalGuard {
+    pub terminal: DefaultTerminal,
+}
+
+impl TerminalGuard {
+    /// Enter raw mode and the alternate screen; installs a panic hook that restores the terminal first.
+    pub fn enter() -> io::Result<TerminalGuard> {
+        let terminal = ratatui::try_init()?;
+        Ok(TerminalGuard { terminal })
+    }
+}
+
+impl Drop for TerminalGuard {
+    fn drop(&mut self) {
+        ratatui::restore();
+    }
+}
+
+/// Keys and resizes from the terminal.
+pub struct TerminalEvents;
+
+impl Events for TerminalEvents {
+    fn next(&mut self, timeout: Duration) -> io::Result<Option<Input>> {
+        if !event::poll(timeout)? {
+            return Ok(None);
+        }
+        Ok(match event::read()? {
+            Event::Key(k) => Some(Input::Key(k)),
+            Event::Resize(_, _) => Some(Input::Resize),
+            _ => None,
+        })
+    }
+}

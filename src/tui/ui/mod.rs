@@ -1,0 +1,171 @@
+//! The view: draws a [`State`] without changing it. `impl Widget for &State` lays out the screen after
+//! the seed's Fig. 1 (matrix top left, sliders top right, settings in the middle, spectra at the bottom)
+//! and hands each panel a borrowed view of the state.
+
+pub mod matrix;
+pub mod popup;
+pub mod settings;
+pub mod sliders;
+pub mod spectra;
+pub mod status;
+
+use crate::tui::app::State;
+use crate::tui::colour::ColourMode;
+use ratatui::buffer::Buffer;
+use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::style::{Color, Modifier, Style};
+use ratatui::widgets::{Block, Borders, Widget};
+
+/// Rows the full sliders panel needs.
+pub const SLIDERS_ROWS: u16 = 7;
+/// Columns the full sliders panel needs; narrower screens get the one-line sliders.
+pub const SLIDERS_COLS: u16 = 38;
+/// Below this width the sliders collapse to one line under the matrix.
+pub const WIDE: u16 = 90;
+/// Smallest spectra panel worth drawing (rows, with its top rule).
+pub const SPECTRA_MIN: u16 = 5;
+
+/// The panels' rectangles for a screen of `area`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Areas {
+    pub matrix: Rect,
+    /// Full sliders to the right of the matrix, or one line under it.
+    pub sliders: Rect,
+    pub sliders_compact: bool,
+    pub settings: Rect,
+    pub spectra: Rect,
+}
+
+/// Lay the panels out inside the outer border.
+pub fn areas(state: &State, inner: Rect) -> Areas {
+    let matrix_rows = 2 + 2 * state.palette.reflectances.len() as u16;
+    let wide = inner.width + 2 >= WIDE;
+    let settings_rows = 2u16;
+    let available = inner.height.saturating_sub(settings_rows);
+    let compact_rows = if wide { 0 } else { 1 };
+    let want_top = if wide { matrix_rows.max(SLIDERS_ROWS) } else { matrix_rows + compact_rows };
+    let mut top = want_top.min(available.saturating_sub(SPECTRA_MIN)).max(available.min(4));
+    if top > available {
+        top = available;
+    }
+    let spectra = available - top;
+    let [top_area, settings, spectra_area] =
+        Layout::vertical([Constraint::Length(top), Constraint::Length(settings_rows), Constraint::Length(spectra)])
+            .areas(inner);
+    let compact = !wide || top < SLIDERS_ROWS;
+    let (matrix, sliders) = if wide && !compact {
+        let [m, s] = Layout::horizontal([Constraint::Min(20), Constraint::Length(SLIDERS_COLS)]).areas(top_area);
+        (m, s)
+    } else {
+        let [m, s] = Layout::vertical([Constraint::Min(0), Constraint::Length(1)]).areas(top_area);
+        (m, s)
+    };
+    Areas { matrix, sliders, sliders_compact: compact, settings, spectra: spectra_area }
+}
+
+impl Widget for &State {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let outer = Block::bordered()
+            .title_top(status::title_left(self))
+            .title_top(status::title_right(self).right_aligned())
+            .title_bottom(status::bottom_line(self, area.width.saturating_sub(4)));
+        let inner = outer.inner(area);
+        outer.render(area, buf);
+        let a = areas(self, inner);
+        matrix::Matrix(self).render(a.matrix, buf);
+        if a.sliders_compact {
+            sliders::CompactSliders(self).render(a.sliders, buf);
+        } else {
+            let block = Block::new().borders(Borders::LEFT);
+            let inner = block.inner(a.sliders);
+            block.render(a.sliders, buf);
+            sliders::Sliders(self).render(inner, buf);
+        }
+        let block = Block::new().borders(Borders::TOP).title(" settings ");
+        let inner = block.inner(a.settings);
+        block.render(a.settings, buf);
+        settings::SettingsRow(self).render(inner, buf);
+        if a.spectra.height >= 3 {
+            let block = Block::new().borders(Borders::TOP).title(" spectra ");
+            let inner = block.inner(a.spectra);
+            block.render(a.spectra, buf);
+            spectra::SpectraPlot(self).render(inner, buf);
+        }
+        if self.popup.is_some() {
+            popup::PopupView(self).render(area, buf);
+        }
+    }
+}
+
+/// A number as the screen shows it: short, `inf` for infinities.
+pub fn num(v: f64) -> String {
+    if v == f64::INFINITY {
+        "inf".into()
+    } else if v == f64::NEG_INFINITY {
+        "-inf".into()
+    } else if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e5) {
+        format!("{v:.2e}")
+    } else {
+        let s = format!("{v:.4}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        if s.is_empty() || s == "-0" { "0".into() } else { s.to_string() }
+    }
+}
+
+/// Style of the selection brackets (the seed's green border).
+pub fn selected_style() -> Style {
+    Style::new().fg(Color::LightGreen).add_modifier(Modifier::BOLD)
+}
+
+/// Style of a designed-spectrum marker (the seed's red border).
+pub fn design_style() -> Style {
+    Style::new().fg(Color::LightRed).add_modifier(Modifier::BOLD)
+}
+
+/// Foreground-only style of a colour swatch.
+pub fn swatch(mode: ColourMode, rgb: &nalgebra::Vector3<f64>) -> Style {
+    Style::new().fg(mode.linear(rgb))
+}
+
+/// Write `text` clipped to `area`'s row `dy`, starting at column `dx`; returns the column after it.
+pub fn put(buf: &mut Buffer, area: Rect, dx: u16, dy: u16, text: &str, style: Style) -> u16 {
+    if dy >= area.height || dx >= area.width {
+        return dx;
+    }
+    let (x, _) = buf.set_stringn(area.x + dx, area.y + dy, text, usize::from(area.width - dx), style);
+    x - area.x
+}
+
+/// Truncate `text` to `width` characters, marking a cut with `…`.
+pub fn fit(text: &str, width: usize) -> String {
+    if text.chars().count() <= width {
+        text.to_string()
+    } else if width == 0 {
+        String::new()
+    } else {
+        let mut s: String = text.chars().take(width - 1).collect();
+        s.push('…');
+        s
+    }
+}
+
+/// The screen as plain text, one line per row, trailing blanks trimmed (for `--screen`).
+pub fn buffer_text(buf: &Buffer) -> String {
+    let width = usize::from(buf.area.width.max(1));
+    let mut out = String::with_capacity(buf.content.len() + usize::from(buf.area.height));
+    for row in buf.content.chunks(width) {
+        let mut line = String::with_capacity(width);
+        let mut skip = 0usize;
+        for cell in row {
+            if skip > 0 {
+                skip -= 1;
+                continue;
+            }
+            line.push_str(cell.symbol());
+            skip = ratatui::text::Span::raw(cell.symbol()).width().saturating_sub(1);
+        }
+        out.push_str(line.trim_end());
+        out.push('\n');
+    }
+    out
+}

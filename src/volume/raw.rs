@@ -1,0 +1,46 @@
+//! Raw volumes: a headerless file of voxel values with dimensions, type and byte order given by the
+//! caller (gzip-compressed files are recognised by their magic bytes).
+
+use super::{Endian, ScalarType, Volume, VolumeError, decode_values, voxel_count};
+use flate2::read::MultiGzDecoder;
+use std::io::Read;
+use std::path::Path;
+
+/// Read a raw volume of `dims` values of type `ty` (x fastest) with the given byte order and spacing.
+/// The file must hold exactly that many bytes (after gzip decompression when it is gzipped).
+pub fn read(
+    path: &Path,
+    dims: [usize; 3],
+    ty: ScalarType,
+    endian: Endian,
+    spacing: [f64; 3],
+) -> Result<Volume, VolumeError> {
+    let count = voxel_count(path, dims)?;
+    let stored = std::fs::read(path).map_err(|e| VolumeError::io(path, e))?;
+    let bytes = if stored.starts_with(&[0x1f, 0x8b]) {
+        let mut out = Vec::new();
+        MultiGzDecoder::new(&stored[..])
+            .read_to_end(&mut out)
+            .map_err(|e| VolumeError::invalid(path, format!("gzip data cannot be decompressed: {e}")))?;
+        out
+    } else {
+        stored
+    };
+    let expected = count * ty.size();
+    if bytes.len() < expected {
+        return Err(VolumeError::invalid(
+            path,
+            format!(
+                "data is truncated: {dims:?} values of {ty:?} need {expected} bytes, the file holds {}",
+                bytes.len()
+            ),
+        ));
+    }
+    if bytes.len() > expected {
+        return Err(VolumeError::invalid(
+            path,
+            format!("holds {} bytes but {dims:?} values of {ty:?} need {expected}", bytes.len()),
+        ));
+    }
+    Volume::new(path, dims, spacing, decode_values(&bytes, ty, endian))
+}

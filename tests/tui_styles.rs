@@ -1,0 +1,87 @@
+//! The colours the designer draws, checked on buffer cells (text snapshots drop styles).
+
+mod tui_support;
+
+use metamer::colorimetry::{Colorimetry, linear_to_srgb8};
+use metamer::spectrum::Spectrum;
+use metamer::tui::colour::{ColourMode, nearest_xterm256};
+use metamer::tui::ui::matrix::geometry;
+use metamer::tui::ui::{areas, buffer_text};
+use ratatui::buffer::Buffer;
+use ratatui::layout::Rect;
+use ratatui::style::{Color, Modifier};
+use tui_support::{demo_palette, replay, state};
+
+fn rgb(c: [u8; 3]) -> Color {
+    Color::Rgb(c[0], c[1], c[2])
+}
+
+/// Screen position of the top-left character of the cell (light j, reflectance i), when no scrolling.
+fn cell_origin(s: &metamer::tui::State, buf: &Buffer, j: usize, i: usize) -> (u16, u16) {
+    let inner = Rect { x: 1, y: 1, width: buf.area.width - 2, height: buf.area.height - 2 };
+    let a = areas(s, inner);
+    let g = geometry(s, a.matrix);
+    (a.matrix.x + (g.left_width + j * g.column_width) as u16 + 1, a.matrix.y + 2 + 2 * i as u16)
+}
+
+#[test]
+fn cells_show_desired_full_and_model_colours() {
+    let p = demo_palette();
+    let c = Colorimetry::default();
+    let mut s = state(p.clone(), ColourMode::TrueColor);
+    let (_, buf) = replay(&mut s, "", 100, 30);
+    // Cell daylight × block has target #6a7b5c and is in use.
+    let (x, y) = cell_origin(&s, &buf, 0, 1);
+    let desired = &buf[(x, y)];
+    assert_eq!(desired.symbol(), "▌");
+    assert_eq!(desired.fg, Color::Rgb(0x6a, 0x7b, 0x5c));
+    let model = &buf[(x + 1, y)];
+    assert_eq!(model.symbol(), "▀");
+    let full = linear_to_srgb8(&c.rgb(&p.lights[0].spectrum, &p.reflectances[1].spectrum));
+    assert_eq!(model.fg, rgb(full), "top half: full 31-sample colour");
+    // Without a basis the subspace half repeats the full colour.
+    assert_eq!(model.bg, rgb(full));
+    assert!(!model.modifier.contains(Modifier::DIM));
+    // Light swatch: the light on flat white.
+    let swatch = linear_to_srgb8(&c.rgb(&p.lights[1].spectrum, &Spectrum::flat(1.0)));
+    let (lx, _) = cell_origin(&s, &buf, 1, 0);
+    assert_eq!(buf[(lx, 2)].fg, rgb(swatch));
+}
+
+#[test]
+fn unused_cells_are_dimmed_and_designed_spectra_marked() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (text, buf) = replay(&mut s, "", 100, 30);
+    // split × tissue has `use = false`; skin × daylight has no criterion at all.
+    for (j, i) in [(2, 2), (0, 0)] {
+        let (x, y) = cell_origin(&s, &buf, j, i);
+        assert!(buf[(x + 1, y)].modifier.contains(Modifier::DIM), "cell ({j}, {i}) should be dimmed");
+    }
+    let (x, y) = cell_origin(&s, &buf, 2, 2);
+    assert_eq!(buf[(x + 5, y)].symbol(), "○");
+    // `D` beside the designed light `split`, in the design colour.
+    let (x, _) = cell_origin(&s, &buf, 2, 0);
+    assert_eq!(buf[(x + 5, 2)].symbol(), "D");
+    assert_eq!(buf[(x + 5, 2)].fg, Color::LightRed);
+    assert!(text.contains("block   ██ D"));
+}
+
+#[test]
+fn the_256_colour_mode_uses_the_nearest_palette_entry() {
+    let mut s = state(demo_palette(), ColourMode::Indexed256);
+    let (_, buf) = replay(&mut s, "", 100, 30);
+    let (x, y) = cell_origin(&s, &buf, 0, 1);
+    assert_eq!(buf[(x, y)].fg, Color::Indexed(nearest_xterm256([0x6a, 0x7b, 0x5c])));
+}
+
+#[test]
+fn selection_brackets_follow_the_arrows() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (_, buf) = replay(&mut s, "Right\nDown", 100, 30);
+    let (x, y) = cell_origin(&s, &buf, 1, 1);
+    assert_eq!(buf[(x - 1, y)].symbol(), "[");
+    assert_eq!(buf[(x + 4, y + 1)].symbol(), "]");
+    assert_eq!(buf[(x - 1, y)].fg, Color::LightGreen);
+    let text = buffer_text(&buf);
+    assert!(text.contains("block × tungsten"));
+}
