@@ -159,8 +159,18 @@ pub fn for_palette_with(
     cache: Option<&Path>,
     options: &TrainOptions,
 ) -> Result<(Basis, Report), StoreError> {
+    for_set(&TrainingSet::from_palette(palette)?, m, cache, options)
+}
+
+/// As [`for_palette_with`] for any training set (e.g. a scene's dial lights × its materials).
+pub fn for_set(
+    set: &TrainingSet,
+    m: usize,
+    cache: Option<&Path>,
+    options: &TrainOptions,
+) -> Result<(Basis, Report), StoreError> {
     let colorimetry = Colorimetry::default();
-    let set = TrainingSet::from_palette(palette)?;
+    let set = set.clone();
     let key = cache_key(&set, m);
     let mut notes = Vec::new();
     let mut sidecar = match cache {
