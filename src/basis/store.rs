@@ -127,6 +127,8 @@ struct Entry {
     /// The columns of `B0 T` before all of B was refined.
     #[serde(default)]
     transform_only: Option<Vec<Vec<f64>>>,
+    #[serde(default)]
+    stages: Vec<StageResult>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -185,7 +187,7 @@ pub fn for_set(
         Some((basis, entry)) => {
             notes.extend(entry.notes.iter().cloned());
             let t = entry.transform_only.as_ref().and_then(|cols| columns_basis(cols, m, &colorimetry));
-            (basis, t, (true, entry.training_seconds, Vec::new(), entry.signal_rank, entry.padded))
+            (basis, t, (true, entry.training_seconds, entry.stages.clone(), entry.signal_rank, entry.padded))
         }
         None => {
             let start = Instant::now();
@@ -204,6 +206,7 @@ pub fn for_set(
                     notes: trained.notes.clone(),
                     basis: columns(&trained.basis.b),
                     transform_only: Some(columns(&trained.transform_only)),
+                    stages: trained.stages.clone(),
                 });
                 let excess = sidecar.entries.len().saturating_sub(MAX_ENTRIES);
                 sidecar.entries.drain(..excess);
@@ -343,6 +346,7 @@ mod tests {
         assert!(r2.from_cache);
         assert_eq!(b1, b2, "a cached basis is bit-identical");
         assert_eq!(r1.accuracy, r2.accuracy);
+        assert_eq!(r1.stages, r2.stages);
         // Another dimension is another entry; the first stays.
         let (_, r3) = for_palette_with(&p, 4, Some(&path), &quick()).unwrap();
         assert!(!r3.from_cache);

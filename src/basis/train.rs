@@ -192,7 +192,7 @@ impl TrainOptions {
 }
 
 /// A training stage, in order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Stage {
     Pca,
@@ -202,7 +202,7 @@ pub enum Stage {
 }
 
 /// What one stage reached: its objective (mean squared local ΔE00 over the pairs) and iterations.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StageResult {
     pub stage: Stage,
     pub objective: f64,
@@ -533,6 +533,22 @@ mod tests {
         // The three signals lie in the span, so the factor model is still good on them.
         let s = accuracy::stats(&set, Model::Factor(&trained.basis), &c);
         assert!(s.max < 1.0, "{s:?}");
+    }
+
+    #[test]
+    fn light_scale_does_not_matter() {
+        // The objective is invariant to the scale of the lights (CIELAB is relative to the light's white), so
+        // very bright or very dim lights train as well as luminance-normalised ones.
+        let c = Colorimetry::default();
+        let full = small_set(&c);
+        for k in [1e-6, 1e6] {
+            let set =
+                TrainingSet::new(full.lights.iter().map(|l| l.scaled(k)).collect(), full.reflectances.clone()).unwrap();
+            let trained = train(&set, 5, &c, &quick()).unwrap();
+            assert_usable(&trained, 5);
+            let s = accuracy::stats(&set, Model::Factor(&trained.basis), &c);
+            assert!(s.mean < 1.0, "scale {k}: {s:?}");
+        }
     }
 
     #[test]
