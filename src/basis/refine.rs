@@ -33,6 +33,9 @@ use std::sync::Mutex;
 
 /// Target size (ΔE00) of the probe steps used to measure the local metric.
 const METRIC_PROBE_DELTA_E: f64 = 0.5;
+/// Refinement stops once the objective (mean squared ΔE00) is below this: an RMS error of 0.01 ΔE00 is a
+/// hundredth of a just-noticeable difference, and small palettes reach it long before the iteration limit.
+pub const TARGET_COST: f64 = 1e-4;
 /// L-BFGS history length.
 const LBFGS_MEMORY: usize = 12;
 
@@ -414,7 +417,8 @@ fn run(objective: &Objective, b0: Option<&DMatrix<f64>>, start: &DMatrix<f64>, i
         Ok(s) => s,
         Err(e) => return RefineOutcome::Kept { reason: e.to_string() },
     };
-    let result = Executor::new(problem, solver).configure(|s| s.param(x0).max_iters(iterations)).run();
+    let result =
+        Executor::new(problem, solver).configure(|s| s.param(x0).max_iters(iterations).target_cost(TARGET_COST)).run();
     let (iters, aborted) = match result {
         Ok(r) => (r.state().get_iter(), None),
         Err(e) => (iterations, Some(e.to_string())),
