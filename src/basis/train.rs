@@ -32,7 +32,7 @@ use nalgebra::Vector3;
 use nalgebra::{DMatrix, DVector};
 
 /// Bumped whenever a change to training changes its result (it is part of the cache key).
-pub const TRAINING_VERSION: u32 = 2;
+pub const TRAINING_VERSION: u32 = 3;
 
 /// Default weight μ of the full-Λ colour error while refining all of B. On ColorChecker × 7 lights, m = 7,
 /// μ = 0.3 brings the full-Λ model (Eq. 7, which DESIGN_SPEC §2's subspace criteria use) from mean ΔE00
