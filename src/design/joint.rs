@@ -209,12 +209,13 @@ type NormalEntry = (DMatrix<f64>, Arc<DMatrix<f64>>);
 
 /// `AᵀA` shared between components with the same A within one half-step.
 #[derive(Default)]
-struct NormalCache {
+pub struct NormalCache {
     map: std::sync::Mutex<Vec<NormalEntry>>,
 }
 
 impl NormalCache {
-    fn get(&self, a: &DMatrix<f64>) -> Arc<DMatrix<f64>> {
+    /// `AᵀA`, computed once per distinct A.
+    pub fn get(&self, a: &DMatrix<f64>) -> Arc<DMatrix<f64>> {
         if let Ok(list) = self.map.lock()
             && let Some((_, h)) = list.iter().find(|(m, _)| m == a)
         {
@@ -222,7 +223,7 @@ impl NormalCache {
         }
         let h = Arc::new(a.tr_mul(a));
         if let Ok(mut list) = self.map.lock()
-            && list.len() < 8
+            && list.len() < 64
         {
             list.push((a.clone(), h.clone()));
         }
