@@ -4,6 +4,7 @@
 pub mod basis;
 pub mod plot;
 pub mod render;
+pub mod solve;
 
 use std::time::Instant;
 

@@ -1,0 +1,286 @@
+//! Solver benchmarks: run time against error for single bounded designs, batches of independent
+//! designs, n×n joint palettes (TOG 2009 Fig. 3 capacity protocol), bounded vs unbounded, and blocks vs
+//! one dense system. Printed as a Markdown table and drawn as a PNG plot (time vs error).
+//!
+//! The error of a palette is the mean over its cells of the CIELAB ΔE*ab (and CIEDE2000) between the
+//! target and the achieved full colour, against the white of the cell's light.
+
+use super::plot::{self, Scale, Series, XyPlot};
+use super::{Timing, format_seconds, markdown_table, time_runs};
+use crate::colorimetry::Colorimetry;
+use crate::design::{self, Solution, SolveOptions, random};
+use crate::palette::{Bounds, Palette};
+use std::path::Path;
+use std::time::Duration;
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// Repetitions per timed case (medians are reported).
+    pub runs: usize,
+    /// Batch sizes (independent bounded single-reflectance designs under 3 lights).
+    pub batches: Vec<usize>,
+    /// Joint palette sizes n (n lights × n reflectances, all designed).
+    pub joint_sizes: Vec<usize>,
+    /// Seeds per joint size (errors and times are averaged over them).
+    pub joint_seeds: u64,
+    /// Time cap per joint solve.
+    pub time_limit: Duration,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            runs: 5,
+            batches: vec![1, 10, 100, 1200],
+            joint_sizes: (3..=15).collect(),
+            joint_seeds: 3,
+            time_limit: Duration::from_secs(10),
+        }
+    }
+}
+
+impl Config {
+    /// A quick configuration (for smoke tests of the benchmark code itself).
+    pub fn quick() -> Config {
+        Config {
+            runs: 1,
+            batches: vec![1, 10],
+            joint_sizes: vec![3, 4],
+            joint_seeds: 1,
+            time_limit: Duration::from_secs(5),
+        }
+    }
+}
+
+/// One measured case.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub group: String,
+    pub case: String,
+    /// Designs (spectra solved) in the case.
+    pub designs: usize,
+    pub timing: Timing,
+    /// Median time per designed spectrum.
+    pub per_design: f64,
+    pub mean_delta_e_ab: f64,
+    pub mean_delta_e00: f64,
+    pub objective: f64,
+}
+
+/// All results.
+#[derive(Clone, Debug, Default)]
+pub struct Report {
+    pub rows: Vec<Row>,
+}
+
+impl Report {
+    /// The Markdown table.
+    pub fn markdown(&self) -> String {
+        let rows: Vec<Vec<String>> = self
+            .rows
+            .iter()
+            .map(|r| {
+                vec![
+                    r.group.clone(),
+                    r.case.clone(),
+                    r.designs.to_string(),
+                    r.timing.display(),
+                    format_seconds(r.per_design),
+                    format!("{:.3}", r.mean_delta_e_ab),
+                    format!("{:.3}", r.mean_delta_e00),
+                    format!("{:.4e}", r.objective),
+                ]
+            })
+            .collect();
+        markdown_table(
+            &["group", "case", "designs", "time (median, IQR)", "per design", "mean ΔE*ab", "mean ΔE00", "objective"],
+            &rows,
+        )
+    }
+
+    /// Draw run time against mean ΔE*ab, one series per group.
+    pub fn plot(&self, path: &Path) -> Result<(), plot::PlotError> {
+        let mut groups: Vec<String> = Vec::new();
+        for r in &self.rows {
+            if !groups.contains(&r.group) {
+                groups.push(r.group.clone());
+            }
+        }
+        let series = groups
+            .iter()
+            .map(|g| Series {
+                label: g.clone(),
+                points: self
+                    .rows
+                    .iter()
+                    .filter(|r| &r.group == g)
+                    .map(|r| (r.timing.median, r.mean_delta_e_ab.max(1e-6)))
+                    .collect(),
+                spread: None,
+                line: true,
+            })
+            .collect();
+        let p = XyPlot {
+            title: "metamer solve: run time against colour error".into(),
+            x_label: "run time per solve (s)".into(),
+            y_label: "mean CIELAB ΔE*ab".into(),
+            x_scale: Scale::Log,
+            y_scale: Scale::Log,
+            series,
+            pareto: false,
+        };
+        plot::draw(&p, path, 1000, 700)
+    }
+}
+
+/// Mean ΔE*ab and ΔE00 over the active cells of a solution.
+pub fn mean_errors(palette: &Palette, sol: &Solution, colorimetry: &Colorimetry) -> (f64, f64) {
+    let (mut ab, mut e00, mut n) = (0.0, 0.0, 0usize);
+    for c in &sol.cells {
+        let cell = &palette.colours[c.cell];
+        if !cell.is_active() {
+            continue;
+        }
+        let light = &sol.palette.lights[cell.light].spectrum;
+        let a = colorimetry.lab_under(&c.target, light);
+        let b = colorimetry.lab_under(&c.rgb_full, light);
+        ab += ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        e00 += c.delta_e_full;
+        n += 1;
+    }
+    let n = n.max(1) as f64;
+    (ab / n, e00 / n)
+}
+
+fn unbounded(mut p: Palette) -> Palette {
+    p.settings.reflectance_bounds = Bounds::UNBOUNDED;
+    p.settings.light_bounds = Bounds::UNBOUNDED;
+    p
+}
+
+fn measure(
+    group: &str,
+    case: String,
+    palette: &Palette,
+    designs: usize,
+    runs: usize,
+    options: &SolveOptions,
+    parallel: bool,
+) -> Option<Row> {
+    let col = Colorimetry::default();
+    let (timing, sol) = time_runs(runs, || design::solve_with(palette, None, &col, options, parallel));
+    let sol = sol.ok()?;
+    let (ab, e00) = mean_errors(palette, &sol, &col);
+    Some(Row {
+        group: group.into(),
+        case,
+        designs,
+        timing,
+        per_design: timing.median / designs.max(1) as f64,
+        mean_delta_e_ab: ab,
+        mean_delta_e00: e00,
+        objective: sol.objective,
+    })
+}
+
+/// Batches of independent bounded designs (and the same unbounded).
+pub fn batches(cfg: &Config) -> Vec<Row> {
+    let col = Colorimetry::default();
+    let options = SolveOptions::default();
+    let mut rows = Vec::new();
+    for &n in &cfg.batches {
+        let p = random::batch_palette(n, 1, &col);
+        let runs = if n >= 1000 { cfg.runs.max(3) } else { cfg.runs * 4 };
+        rows.extend(measure("bounded [0,1], blocks", format!("{n} designs"), &p, n, runs, &options, true));
+        rows.extend(measure("unbounded, blocks", format!("{n} designs"), &unbounded(p), n, runs, &options, true));
+    }
+    rows
+}
+
+/// Blocks (parallel, shared factorisations) against one dense stacked system, for modest batches.
+pub fn blocks_vs_dense(cfg: &Config) -> Vec<Row> {
+    let col = Colorimetry::default();
+    let mut rows = Vec::new();
+    for n in [5usize, 20] {
+        let p = random::batch_palette(n, 2, &col);
+        rows.extend(measure(
+            "bounded, blocks",
+            format!("{n} designs"),
+            &p,
+            n,
+            cfg.runs,
+            &SolveOptions::default(),
+            true,
+        ));
+        let design = match design::system::Design::new(&p, None, &col) {
+            Ok(d) => d,
+            Err(_) => continue,
+        };
+        let start = design.start_values();
+        let (timing, out) = time_runs(cfg.runs, || design::solve::solve_dense(&design, &start));
+        if let Some((v, _)) = out {
+            rows.push(Row {
+                group: "bounded, one dense system".into(),
+                case: format!("{n} designs"),
+                designs: n,
+                timing,
+                per_design: timing.median / n as f64,
+                mean_delta_e_ab: f64::NAN,
+                mean_delta_e00: f64::NAN,
+                objective: design.objective(&v),
+            });
+        }
+    }
+    rows
+}
+
+/// The capacity protocol: n×n palettes, everything designed, averaged over seeds.
+pub fn joint(cfg: &Config) -> Vec<Row> {
+    let col = Colorimetry::default();
+    let options = SolveOptions { time_limit: cfg.time_limit, cancel: None };
+    let mut rows = Vec::new();
+    for &n in &cfg.joint_sizes {
+        let mut times = Vec::new();
+        let (mut ab, mut e00, mut obj) = (0.0, 0.0, 0.0);
+        for seed in 0..cfg.joint_seeds {
+            let p = random::capacity_palette(n, seed, &col);
+            let t = std::time::Instant::now();
+            let Ok(sol) = design::solve(&p, None, &col, &options) else { continue };
+            times.push(t.elapsed().as_secs_f64());
+            let (a, e) = mean_errors(&p, &sol, &col);
+            ab += a;
+            e00 += e;
+            obj += sol.objective;
+        }
+        let k = times.len().max(1) as f64;
+        if let Some(timing) = Timing::from_samples(&times) {
+            rows.push(Row {
+                group: "joint n×n, positivity".into(),
+                case: format!("{n}×{n}"),
+                designs: 2 * n,
+                timing,
+                per_design: timing.median / (2 * n) as f64,
+                mean_delta_e_ab: ab / k,
+                mean_delta_e00: e00 / k,
+                objective: obj / k,
+            });
+        }
+    }
+    rows
+}
+
+/// Run everything, print the table to stdout, and draw the plot to `plot_path` when given.
+pub fn run(cfg: &Config, plot_path: Option<&Path>) -> Report {
+    let mut report = Report::default();
+    report.rows.extend(batches(cfg));
+    report.rows.extend(blocks_vs_dense(cfg));
+    report.rows.extend(joint(cfg));
+    println!("{}", report.markdown());
+    if let Some(path) = plot_path
+        && let Err(e) = report.plot(path)
+    {
+        eprintln!("could not draw the plot: {e}");
+    }
+    report
+}
