@@ -108,7 +108,7 @@ impl SpectrumOp {
 /// What a text prompt's answer is for.
 #[derive(Clone, Debug, PartialEq)]
 pub enum PromptPurpose {
-    /// `#rrggbb` target of colour cell `cell` (index into `palette.colours`), or of a new cell.
+    /// `#rrggbb` target of the cell at (light, reflectance), created if absent.
     Hex { light: usize, reflectance: usize },
     /// Weight of a cell.
     Weight { light: usize, reflectance: usize },
