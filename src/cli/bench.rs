@@ -1,11 +1,11 @@
-//! `metamer bench`: benchmark reports (Markdown + PNG plots). Built so far: `render`.
+//! `metamer bench`: benchmark reports (Markdown + PNG plots). Built so far: `render`, `basis`.
 
 use anyhow::bail;
 use std::path::PathBuf;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Which benchmark to run: render.
+    /// Which benchmark to run: render, basis.
     pub which: Option<String>,
     /// Output folder for the reports and plots.
     #[arg(short, long, default_value = "bench")]
@@ -32,7 +32,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!("wrote {}", args.output.join("render.md").display());
             Ok(())
         }
-        Some(other) => bail!("`metamer bench {other}` is not built yet (built: render)"),
-        None => bail!("name a benchmark: `metamer bench render` (others are not built yet)"),
+        Some("basis") => {
+            std::fs::create_dir_all(&args.output)
+                .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", args.output.display()))?;
+            let options = crate::bench::basis::BenchOptions { runs: args.runs.max(1), ..Default::default() };
+            let markdown = crate::bench::basis::run_and_write(&options, &args.output)?;
+            println!("{markdown}");
+            println!("wrote {}", args.output.join("basis.md").display());
+            Ok(())
+        }
+        Some(other) => bail!("`metamer bench {other}` is not built yet (built: render, basis)"),
+        None => bail!("name a benchmark: `metamer bench render` or `metamer bench basis` (others are not built yet)"),
     }
 }
