@@ -26,7 +26,7 @@ pub struct Preview {
     pub materials: Vec<(String, Spectrum)>,
     /// The dial's lights by name, with the scene's own spectra as fallback.
     pub dial: Vec<(String, Spectrum)>,
-    /// Multiplies linear colours so the brightest pixel of the first frame is white.
+    /// Multiplies linear colours so the brightest channel anywhere along the dial is 1.
     pub exposure: f64,
 }
 
@@ -50,8 +50,13 @@ impl Preview {
         let materials = scene.materials.iter().map(|m| (m.reflectance.clone(), m.spectrum)).collect();
         let dial = scene.dial.stops.iter().map(|s| (s.name.clone(), s.spectrum)).collect();
         let mut preview = Preview { weights, materials, dial, exposure: 1.0 };
-        let first = preview.linear(&scene.palette, &Derived::default(), colorimetry, 0.0);
-        let brightest = first.iter().flat_map(|c| c.iter().copied()).fold(0.0f64, f64::max);
+        // One exposure for the whole dial (as the renderer's sweep): the brightest channel over five dial
+        // positions with the scene's own spectra maps to 1.
+        let brightest = [0.0, 0.25, 0.5, 0.75, 1.0]
+            .iter()
+            .flat_map(|t| preview.linear(&scene.palette, &Derived::default(), colorimetry, *t))
+            .flat_map(|c| [c[0], c[1], c[2]])
+            .fold(0.0f64, f64::max);
         preview.exposure = if brightest > 1e-12 { 1.0 / brightest } else { 1.0 };
         preview
     }
