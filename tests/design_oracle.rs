@@ -171,8 +171,12 @@ fn oracle(s: &Stacked) -> DVector<f64> {
 }
 
 fn check(seed: u64) {
+    check_palette(&random::convex_palette(seed, &Colorimetry::default()), seed);
+}
+
+fn check_palette(p: &Palette, seed: u64) {
+    let p = p.clone();
     let col = Colorimetry::default();
-    let p = random::convex_palette(seed, &col);
     let sol = design::solve(&p, None, &col, &SolveOptions::default()).expect("solve");
     let st = stack(&p, &col);
     // Our solution as a stacked vector.
@@ -219,4 +223,39 @@ proptest! {
     fn random_convex_palettes_match_the_oracle(seed in any::<u64>()) {
         check(seed);
     }
+}
+
+/// Two similar lights, one designed reflectance, both cells in one bounded free group (a metamer pair).
+#[test]
+fn free_group_metamer_matches_the_oracle() {
+    let c = Colorimetry::default();
+    let lights = ["D65", "D50"]
+        .iter()
+        .map(|n| random::luminance_light(n, metamer::spectrum::Spectrum::illuminant(n).unwrap(), &c, false))
+        .collect();
+    let mut cells: Vec<_> = (0..2).map(|l| random::cell(l, 0, nalgebra::Vector3::zeros(), 1.0)).collect();
+    for cell in &mut cells {
+        cell.free = Some(0);
+    }
+    let p = Palette {
+        name: "metamer pair".into(),
+        settings: metamer::palette::Settings {
+            reflectance_bounds: metamer::palette::Bounds::new(0.0, 1.0),
+            ..Default::default()
+        },
+        lights,
+        reflectances: vec![random::entry(
+            "S",
+            metamer::palette::Kind::Reflectance,
+            metamer::spectrum::Spectrum::flat(0.5),
+            true,
+        )],
+        colours: cells,
+        free: vec![metamer::palette::FreeGroup {
+            name: "G".into(),
+            lower: nalgebra::Vector3::from_element(0.2),
+            upper: nalgebra::Vector3::from_element(0.4),
+        }],
+    };
+    check_palette(&p, 0);
 }

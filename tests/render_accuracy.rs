@@ -18,8 +18,17 @@ fn check(scene: &Scene, size: usize, frames: usize, what: &str) {
     let col = Colorimetry::default();
     let r = compare_models(scene, &col, size, frames).expect("render");
     println!(
-        "{what}: {} frames, {} px, m = {}: factor ΔE00 mean {:.3} p95 {:.3} max {:.3} | rgb ΔE00 mean {:.3} p95 {:.3} max {:.3}",
-        r.frames, r.pixels, r.dimension, r.factor.mean, r.factor.p95, r.factor.max, r.rgb.mean, r.rgb.p95, r.rgb.max
+        "{what}: {} frames, {} px, m = {}: factor ΔE00 mean {:.3} p95 {:.3} max {:.3} (unquantised mean {:.4}) | rgb ΔE00 mean {:.3} p95 {:.3} max {:.3}",
+        r.frames,
+        r.pixels,
+        r.dimension,
+        r.factor.mean,
+        r.factor.p95,
+        r.factor.max,
+        r.factor_unquantised.mean,
+        r.rgb.mean,
+        r.rgb.p95,
+        r.rgb.max
     );
     assert!(r.pixels > size * size / 20, "{what}: too few non-black pixels ({}) for a meaningful check", r.pixels);
     assert!(r.factor.mean <= 1.5, "{what}: factor model mean ΔE00 {:.3} exceeds 1.5", r.factor.mean);

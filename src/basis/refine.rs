@@ -33,6 +33,9 @@ use std::sync::Mutex;
 
 /// Target size (ΔE00) of the probe steps used to measure the local metric.
 const METRIC_PROBE_DELTA_E: f64 = 0.5;
+/// Refinement stops once the objective (mean squared ΔE00) is below this: an RMS error of 0.01 ΔE00 is a
+/// hundredth of a just-noticeable difference, and small palettes reach it long before the iteration limit.
+pub const TARGET_COST: f64 = 1e-4;
 /// L-BFGS history length.
 const LBFGS_MEMORY: usize = 12;
 
@@ -60,6 +63,8 @@ pub struct Objective {
     q_rgb_t: DMatrix<f64>,
     pairs: Vec<PairTerm>,
     scale: f64,
+    /// μ ≥ 0: weight of the full-Λ (Eq. 7) colour error beside the factor-model error.
+    lambda_weight: f64,
 }
 
 impl Objective {
@@ -94,7 +99,15 @@ impl Objective {
             q_rgb,
             pairs,
             scale,
+            lambda_weight: 0.0,
         }
+    }
+
+    /// Also weigh the colour error of the full-Λ model (seed Eq. 7, `Q_rgb,31 B B⁺(B e ∘ B s)`) by `mu`, so
+    /// that refining B keeps its span good for Λ too (the design criteria of DESIGN_SPEC §2 use Λ).
+    pub fn with_lambda_weight(mut self, mu: f64) -> Objective {
+        self.lambda_weight = if mu.is_finite() { mu.max(0.0) } else { 0.0 };
+        self
     }
 
     /// Number of pairs in the objective.
@@ -165,6 +178,15 @@ impl Objective {
             }
         }
         cost *= self.scale;
+        let mut grad_direct = None;
+        if self.lambda_weight > 0.0 && !self.pairs.is_empty() {
+            cost += self.lambda_term(b, &p, &e, &s, &qm, with_gradient.then_some((&mut g_qm, &mut ge, &mut gs))).map(
+                |(c, g)| {
+                    grad_direct = g;
+                    c
+                },
+            )?;
+        }
         if !cost.is_finite() {
             return None;
         }
@@ -174,8 +196,81 @@ impl Objective {
         let g_p = &ge * &self.lights_t + &gs * &self.reflectances_t;
         let pt = p.transpose();
         let gpt_k = g_p.transpose() * &k;
-        let grad = &self.q_rgb_t * g_qm - &pt * (&g_p * &pt) + &gpt_k - b * (&p * &gpt_k);
+        let mut grad = &self.q_rgb_t * g_qm - &pt * (&g_p * &pt) + &gpt_k - b * (&p * &gpt_k);
+        if let Some(d) = grad_direct {
+            grad += d;
+        }
         grad.iter().all(|v| v.is_finite()).then_some((cost, Some(grad)))
+    }
+
+    /// The full-Λ term `μ/N Σ ‖W_p (Q B P (B e_l ∘ B s_r) − r_p)‖²` (seed Eq. 7 colours). With a gradient
+    /// request it adds into the accumulators of `Q B` (`g_qm`), `e` (`ge`) and `s` (`gs`) and returns the
+    /// part of ∂/∂B that enters through the projections `u = B e`, `v = B s`.
+    #[allow(clippy::type_complexity)]
+    fn lambda_term(
+        &self,
+        b: &DMatrix<f64>,
+        p: &DMatrix<f64>,
+        e: &DMatrix<f64>,
+        s: &DMatrix<f64>,
+        qm: &DMatrix<f64>,
+        grads: Option<(&mut DMatrix<f64>, &mut DMatrix<f64>, &mut DMatrix<f64>)>,
+    ) -> Option<(f64, Option<DMatrix<f64>>)> {
+        let n = self.pairs.len();
+        let u = b * e;
+        let v = b * s;
+        let (us, vs) = (u.as_slice(), v.as_slice());
+        let mut w = DMatrix::<f64>::zeros(SAMPLES, n);
+        for (col, pair) in w.as_mut_slice().chunks_exact_mut(SAMPLES).zip(&self.pairs) {
+            let uc = &us[pair.light * SAMPLES..(pair.light + 1) * SAMPLES];
+            let vc = &vs[pair.reflectance * SAMPLES..(pair.reflectance + 1) * SAMPLES];
+            for ((x, a), b) in col.iter_mut().zip(uc).zip(vc) {
+                *x = a * b;
+            }
+        }
+        let c = p * &w;
+        let pred = qm * &c;
+        let mu = self.lambda_weight * self.scale;
+        let mut cost = 0.0;
+        let mut g = DMatrix::<f64>::zeros(3, n);
+        for ((pr, gc), pair) in
+            pred.as_slice().chunks_exact(3).zip(g.as_mut_slice().chunks_exact_mut(3)).zip(&self.pairs)
+        {
+            let wt = &pair.weight;
+            let d = [pr[0] - pair.target[0], pr[1] - pair.target[1], pr[2] - pair.target[2]];
+            let res = [0, 1, 2].map(|i| wt[i][0] * d[0] + wt[i][1] * d[1] + wt[i][2] * d[2]);
+            cost += res[0] * res[0] + res[1] * res[1] + res[2] * res[2];
+            for (j, gj) in gc.iter_mut().enumerate() {
+                *gj = 2.0 * mu * (wt[0][j] * res[0] + wt[1][j] * res[1] + wt[2][j] * res[2]);
+            }
+        }
+        cost *= mu;
+        let Some((g_qm, ge, gs)) = grads else {
+            return Some((cost, None));
+        };
+        *g_qm += &g * c.transpose();
+        let gamma = qm.transpose() * &g;
+        // c = P w with w = u ∘ v: ∂/∂w = Pᵀγ, ∂/∂u = Pᵀγ ∘ v, ∂/∂v = Pᵀγ ∘ u; u = B e, v = B s.
+        let omega = p.transpose() * &gamma;
+        let mut du = DMatrix::<f64>::zeros(SAMPLES, u.ncols());
+        let mut dv = DMatrix::<f64>::zeros(SAMPLES, v.ncols());
+        let (dus, dvs) = (du.as_mut_slice(), dv.as_mut_slice());
+        for (om, pair) in omega.as_slice().chunks_exact(SAMPLES).zip(&self.pairs) {
+            let (lo, ro) = (pair.light * SAMPLES, pair.reflectance * SAMPLES);
+            for (i, o) in om.iter().enumerate() {
+                dus[lo + i] += o * vs[ro + i];
+                dvs[ro + i] += o * us[lo + i];
+            }
+        }
+        *ge += b.transpose() * &du;
+        *gs += b.transpose() * &dv;
+        // ∂/∂P through c = P w is γ wᵀ, chained through P = B⁺ as in the module docs.
+        let g_p_extra = &gamma * w.transpose();
+        let k = (b.transpose() * b).try_inverse()?;
+        let pt = p.transpose();
+        let gpt_k = g_p_extra.transpose() * &k;
+        let direct = du * e.transpose() + dv * s.transpose() - &pt * (&g_p_extra * &pt) + &gpt_k - b * (p * &gpt_k);
+        Some((cost, Some(direct)))
     }
 }
 
@@ -322,7 +417,8 @@ fn run(objective: &Objective, b0: Option<&DMatrix<f64>>, start: &DMatrix<f64>, i
         Ok(s) => s,
         Err(e) => return RefineOutcome::Kept { reason: e.to_string() },
     };
-    let result = Executor::new(problem, solver).configure(|s| s.param(x0).max_iters(iterations)).run();
+    let result =
+        Executor::new(problem, solver).configure(|s| s.param(x0).max_iters(iterations).target_cost(TARGET_COST)).run();
     let (iters, aborted) = match result {
         Ok(r) => (r.state().get_iter(), None),
         Err(e) => (iterations, Some(e.to_string())),

@@ -14,7 +14,7 @@
 use super::plot::{Scale, Series, XyPlot, draw};
 use super::{format_seconds, markdown_table, time_runs};
 use crate::colorimetry::Colorimetry;
-use crate::render::accuracy::{AccuracyReport, compare_models};
+use crate::render::accuracy::{AccuracyReport, ModelError, compare_models};
 use crate::render::raycast::{BrickMap, ChannelImage};
 use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
 use crate::render::scene::{Scene, engine_check_scene, generated_check_scene};
@@ -62,6 +62,8 @@ impl Default for RenderBenchOptions {
 pub struct RaycastRow {
     pub accel: Acceleration,
     pub median_s: f64,
+    /// Process CPU time per raycast (all threads; Linux only, from /proc/self/stat), when known.
+    pub cpu_s: Option<f64>,
     pub samples: u64,
     pub skipped: u64,
 }
@@ -82,6 +84,8 @@ pub struct RelightRow {
 pub struct RenderBenchReport {
     pub volume: String,
     pub threads: usize,
+    /// 1-minute load average when the benchmark started (other processes compete for the cores).
+    pub load_average: Option<f64>,
     pub brick_build_s: f64,
     pub raycast: Vec<RaycastRow>,
     pub bandwidth_bytes_per_s: f64,
@@ -103,6 +107,21 @@ pub fn find_shared_engine() -> Option<PathBuf> {
         PathBuf::from("/work/shared/volumes/engine.nhdr"),
     ];
     candidates.into_iter().find(|p| p.is_file())
+}
+
+/// User + system CPU seconds of this process so far (Linux `/proc/self/stat`, 100 ticks per second).
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// The 1-minute load average (Linux), to judge how contended the timings were.
+pub fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
 }
 
 /// Streaming bandwidth of this machine (one thread, read + write of a 64 MiB buffer, best of 3), bytes/s.
@@ -133,6 +152,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
     std::fs::create_dir_all(&options.out_dir)
         .map_err(|e| RenderError::Output { path: options.out_dir.clone(), reason: e.to_string() })?;
     let runs = options.runs.max(1);
+    let load = load_average();
 
     // Raycast with the four switch combinations.
     let t = Instant::now();
@@ -143,10 +163,19 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
     for (et, ess) in [(true, true), (true, false), (false, true), (false, false)] {
         let accel = Acceleration { early_termination: et, empty_space_skipping: ess };
         let size = options.raycast_size;
+        let cpu0 = process_cpu_seconds();
         let (timing, views) =
             time_runs(runs, || render_views(&scene, vec![factor.clone()], size, size, accel, Some(&bricks)));
+        // time_runs makes one warm-up call besides the timed runs.
+        let cpu_s = cpu0.zip(process_cpu_seconds()).map(|(a, b)| (b - a) / (runs + 1) as f64);
         let stats = views.first().map(|v| v.stats).unwrap_or_default();
-        raycast.push(RaycastRow { accel, median_s: timing.median, samples: stats.samples, skipped: stats.skipped });
+        raycast.push(RaycastRow {
+            accel,
+            median_s: timing.median,
+            cpu_s,
+            samples: stats.samples,
+            skipped: stats.skipped,
+        });
     }
 
     // Relight kernels against the bandwidth bound.
@@ -210,6 +239,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
     let mut report = RenderBenchReport {
         volume: volume_name,
         threads: rayon::current_num_threads(),
+        load_average: load,
         brick_build_s,
         raycast,
         bandwidth_bytes_per_s: bandwidth,
@@ -247,6 +277,7 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
                 onoff(x.accel.early_termination).into(),
                 onoff(x.accel.empty_space_skipping).into(),
                 format_seconds(x.median_s),
+                x.cpu_s.map_or("–".into(), format_seconds),
                 format!("{:.1}", x.samples as f64 / 1e6),
                 format!("{:.1}", x.skipped as f64 / 1e6),
                 format!("{:.2}×", base / x.median_s.max(1e-12)),
@@ -254,8 +285,10 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         })
         .collect();
     let mut s = format!(
-        "# Renderer benchmark\n\nVolume: {}; {} rayon threads; four ColorChecker materials, dial D65 → A → F11.\n\n",
-        r.volume, r.threads
+        "# Renderer benchmark\n\nVolume: {}; {} rayon threads; 1-minute load average at the start: {}; four ColorChecker materials, dial D65 → A → F11.\n\n",
+        r.volume,
+        r.threads,
+        r.load_average.map_or("unknown".into(), |l| format!("{l:.2}"))
     );
     s += &format!(
         "## Raycast at {0}×{0} (min/max bricks built once in {1})\n\n",
@@ -266,7 +299,8 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         &[
             "early termination",
             "empty-space skipping",
-            "median time",
+            "median wall time",
+            "CPU time (all threads)",
             "samples (M)",
             "skipped steps (M)",
             "speed-up vs both off",
@@ -313,21 +347,21 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         "\n## Accuracy against the full 31-sample frames ({0}×{0}, {1} frames, {2} non-black pixels, 8-bit frames as written)\n\n",
         o.accuracy_size, a.frames, a.pixels
     );
+    let row = |name: String, e: &ModelError, u: &ModelError| {
+        vec![
+            name,
+            format!("{:.3}", e.mean),
+            format!("{:.3}", e.p95),
+            format!("{:.3}", e.max),
+            format!("{:.4}", u.mean),
+            format!("{:.3}", u.max),
+        ]
+    };
     s += &markdown_table(
-        &["model", "mean ΔE00", "p95 ΔE00", "max ΔE00"],
+        &["model", "mean ΔE00", "p95 ΔE00", "max ΔE00", "mean ΔE00 before 8-bit", "max ΔE00 before 8-bit"],
         &[
-            vec![
-                format!("spectral factor (m = {})", a.dimension),
-                format!("{:.3}", a.factor.mean),
-                format!("{:.3}", a.factor.p95),
-                format!("{:.3}", a.factor.max),
-            ],
-            vec![
-                "RGB factor".into(),
-                format!("{:.3}", a.rgb.mean),
-                format!("{:.3}", a.rgb.p95),
-                format!("{:.3}", a.rgb.max),
-            ],
+            row(format!("spectral factor (m = {}, trained basis)", a.dimension), &a.factor, &a.factor_unquantised),
+            row("RGB factor".into(), &a.rgb, &a.rgb_unquantised),
         ],
     );
     s += "\nRerun: `cargo run --release -- bench render` (options: see `metamer bench --help`).\n";

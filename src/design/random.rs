@@ -198,12 +198,12 @@ pub fn convex_palette(seed: u64, colorimetry: &Colorimetry) -> Palette {
         })
         .collect();
     let mut colours = Vec::new();
-    for l in 0..nl {
-        for r in 0..nr {
-            if lights[l].design && reflectances[r].design {
+    for (l, light) in lights.iter().enumerate() {
+        for (r, refl) in reflectances.iter().enumerate() {
+            if light.design && refl.design {
                 continue;
             }
-            if !lights[l].design && !reflectances[r].design && rng.uniform() < 0.5 {
+            if !light.design && !refl.design && rng.uniform() < 0.5 {
                 continue;
             }
             if rng.uniform() < 0.2 {

@@ -13,6 +13,7 @@ use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
 use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Vector3};
+use rayon::prelude::*;
 
 /// A cell counts as met when its full colour is within this CIEDE2000 of its target.
 pub const MET_DELTA_E: f64 = 1.0;
@@ -67,16 +68,23 @@ fn closest_reachable(
     target: &Vector3<f64>,
 ) -> Vector3<f64> {
     let op = design.operator(form, partner);
-    let a = DMatrix::from_column_slice(3, SAMPLES, op.as_slice());
-    let sys = LinearSystem {
-        a: a.clone(),
-        b: DVector::from_column_slice(target.as_slice()),
-        lower: DVector::from_vec(bounds.0),
-        upper: DVector::from_vec(bounds.1),
-    };
+    // The colour rows plus a tiny ridge (1e-4·I) so the normal equations stay definite and the active-set
+    // solve takes its fast path; the ridge moves the reachable colour by far less than a ΔE00 of 0.01.
+    const RIDGE: f64 = 1e-4;
+    let a = DMatrix::from_fn(3 + SAMPLES, SAMPLES, |r, c| {
+        if r < 3 {
+            op[(r, c)]
+        } else if r - 3 == c {
+            RIDGE
+        } else {
+            0.0
+        }
+    });
+    let mut b = DVector::zeros(3 + SAMPLES);
+    b.rows_mut(0, 3).copy_from(target);
+    let sys = LinearSystem { a, b, lower: DVector::from_vec(bounds.0), upper: DVector::from_vec(bounds.1) };
     let out = lsq::solve_system(&sys);
-    let r = a * out.x;
-    Vector3::new(r[0], r[1], r[2])
+    op * nalgebra::SVector::<f64, SAMPLES>::from_column_slice(out.x.as_slice())
 }
 
 /// Diagnostics about the palette and the solution.
@@ -85,13 +93,15 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
     let mut out = Vec::new();
     let say = |cell: Option<usize>, message: String| Diagnostic { cell, message };
     // Designed spectra without any colour criterion.
-    for (kind, entries, is_light) in [("light", &p.lights, true), ("reflectance", &p.reflectances, false)] {
+    let mut light_used = vec![false; p.lights.len()];
+    let mut refl_used = vec![false; p.reflectances.len()];
+    for t in &design.terms {
+        light_used[t.light] = true;
+        refl_used[t.reflectance] = true;
+    }
+    for (kind, entries, used) in [("light", &p.lights, &light_used), ("reflectance", &p.reflectances, &refl_used)] {
         for (i, e) in entries.iter().enumerate() {
-            if !e.design {
-                continue;
-            }
-            let used = design.terms.iter().any(|t| if is_light { t.light == i } else { t.reflectance == i });
-            if !used {
+            if e.design && !used[i] {
                 out.push(say(
                     None,
                     format!(
@@ -103,14 +113,12 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
         }
     }
     // Duplicated cells.
+    let mut first: std::collections::HashMap<(usize, usize), usize> = std::collections::HashMap::new();
     for (k, c) in p.colours.iter().enumerate() {
         if !c.is_active() {
             continue;
         }
-        if let Some(j) = (0..k).find(|&j| {
-            let d = &p.colours[j];
-            d.is_active() && d.light == c.light && d.reflectance == c.reflectance
-        }) {
+        if let Some(&j) = first.get(&(c.light, c.reflectance)) {
             out.push(say(
                 Some(k),
                 format!(
@@ -118,14 +126,58 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
                     p.lights[c.light].name, p.reflectances[c.reflectance].name
                 ),
             ));
+        } else {
+            first.insert((c.light, c.reflectance), k);
         }
     }
-    // Unmet cells, with a reason.
+    // Unmet cells, with a reason (in parallel: each may run a small bounded solve).
+    let mut by_reflectance: Vec<Vec<usize>> = vec![Vec::new(); p.reflectances.len()];
+    for (k, c) in p.colours.iter().enumerate() {
+        if c.is_active() {
+            by_reflectance[c.reflectance].push(k);
+        }
+    }
+    // Cells under a zero light: black whatever the reflectance, and ΔE00 against a black white is meaningless.
     for r in cells {
         let c = &p.colours[r.cell];
-        if !c.is_active() || r.delta_e_full <= MET_DELTA_E {
-            continue;
+        if c.is_active() && is_zero(&v.lights[c.light]) {
+            out.push(say(
+                Some(r.cell),
+                format!(
+                    "cell {} × {} not met: light \"{}\" is zero, so every reflectance is black under it (target {})",
+                    p.lights[c.light].name,
+                    p.reflectances[c.reflectance].name,
+                    p.lights[c.light].name,
+                    fmt_rgb(&r.target)
+                ),
+            ));
         }
+    }
+    let unmet: Vec<&CellResult> = cells
+        .iter()
+        .filter(|r| {
+            let c = &p.colours[r.cell];
+            c.is_active() && r.delta_e_full > MET_DELTA_E && !is_zero(&v.lights[c.light])
+        })
+        .collect();
+    let reasons: Vec<Diagnostic> =
+        unmet.par_iter().map(|r| unmet_reason(design, colorimetry, v, r, &by_reflectance)).collect();
+    out.extend(reasons);
+    out
+}
+
+/// Why one cell is not met.
+fn unmet_reason(
+    design: &Design,
+    colorimetry: &Colorimetry,
+    v: &Values,
+    r: &CellResult,
+    by_reflectance: &[Vec<usize>],
+) -> Diagnostic {
+    let p = design.palette;
+    let say = |cell: Option<usize>, message: String| Diagnostic { cell, message };
+    {
+        let c = &p.colours[r.cell];
         let light = &p.lights[c.light];
         let refl = &p.reflectances[c.reflectance];
         let e = &v.lights[c.light];
@@ -177,8 +229,8 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
                 );
                 if refl.design {
                     // Near-identical lights asked for different colours on this reflectance?
-                    for d in &p.colours {
-                        if d.is_active() && d.reflectance == c.reflectance && d.light != c.light {
+                    for d in by_reflectance[c.reflectance].iter().map(|&k| &p.colours[k]) {
+                        if d.light != c.light {
                             let e2 = &v.lights[d.light];
                             let scale = e.l2_norm().max(e2.l2_norm());
                             if scale > 0.0 && (e.0 - e2.0).norm() <= NEAR_IDENTICAL * scale {
@@ -195,7 +247,6 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
         } else {
             "light and reflectance are designed jointly; this cell conflicts with the other cells sharing them (or the smoothness)".to_string()
         };
-        out.push(say(Some(r.cell), format!("{head}: {why}")));
+        say(Some(r.cell), format!("{head}: {why}"))
     }
-    out
 }

@@ -4,7 +4,7 @@
 //! on a flat white reflectance, DESIGN_SPEC §1), over the pixels that are not black in the reference.
 
 use super::dial::Dial;
-use super::relight::SrgbLut;
+use super::relight::{SrgbLut, relight_linear};
 use super::scene::Scene;
 use super::sweep::{frame_srgb8, sweep_exposure};
 use super::{Acceleration, RenderError, colour_model, relight::Mode, render_views};
@@ -23,8 +23,12 @@ pub struct ModelError {
 /// The factor and RGB models against the full reference.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AccuracyReport {
+    /// On the 8-bit frames as written.
     pub factor: ModelError,
     pub rgb: ModelError,
+    /// On the exposed linear frames before 8-bit quantisation (clamped to the display range).
+    pub factor_unquantised: ModelError,
+    pub rgb_unquantised: ModelError,
     /// Non-black reference pixels compared, summed over frames.
     pub pixels: usize,
     pub frames: usize,
@@ -49,7 +53,7 @@ pub fn compare_models(
     let reflectances: Vec<_> = scene.materials.iter().map(|m| m.spectrum).collect();
     let exposure = sweep_exposure(colorimetry, &reflectances, &scene.dial, frames, scene.settings.exposure);
     let lut = SrgbLut::new();
-    let per_frame: Vec<(Vec<f64>, Vec<f64>)> = (0..frames.max(1))
+    let per_frame: Vec<[Vec<f64>; 4]> = (0..frames.max(1))
         .into_par_iter()
         .map(|k| {
             let light = scene.dial.light_at(Dial::position(k, frames));
@@ -63,28 +67,42 @@ pub fn compare_models(
                     srgb_decode(f64::from(f[3 * p + 2]) / 255.0),
                 )
             };
-            let mut de_factor = Vec::new();
-            let mut de_rgb = Vec::new();
+            let linear = |i: usize| {
+                let m = views[i].model.frame_matrix(&light, exposure);
+                relight_linear(&views[i].image, &m)
+            };
+            let (full_l, factor_l, rgb_l) = (linear(0), linear(1), linear(2));
+            let unq = |f: &[f32], p: usize| {
+                Vector3::new(f64::from(f[3 * p]), f64::from(f[3 * p + 1]), f64::from(f[3 * p + 2]))
+                    .map(|v| v.clamp(0.0, 1.0))
+            };
+            let mut de: [Vec<f64>; 4] = Default::default();
             for p in 0..full.len() / 3 {
                 if full[3 * p..3 * p + 3].iter().all(|v| *v == 0) {
                     continue;
                 }
                 let reference = lin(&full, p);
-                de_factor.push(colorimetry.delta_e00_under(&reference, &lin(&factor, p), &light));
-                de_rgb.push(colorimetry.delta_e00_under(&reference, &lin(&rgb, p), &light));
+                de[0].push(colorimetry.delta_e00_under(&reference, &lin(&factor, p), &light));
+                de[1].push(colorimetry.delta_e00_under(&reference, &lin(&rgb, p), &light));
+                let reference = unq(&full_l, p);
+                de[2].push(colorimetry.delta_e00_under(&reference, &unq(&factor_l, p), &light));
+                de[3].push(colorimetry.delta_e00_under(&reference, &unq(&rgb_l, p), &light));
             }
-            (de_factor, de_rgb)
+            de
         })
         .collect();
-    let (mut all_factor, mut all_rgb) = (Vec::new(), Vec::new());
-    for (f, r) in per_frame {
-        all_factor.extend(f);
-        all_rgb.extend(r);
+    let mut all: [Vec<f64>; 4] = Default::default();
+    for frame in per_frame {
+        for (a, f) in all.iter_mut().zip(frame) {
+            a.extend(f);
+        }
     }
     Ok(AccuracyReport {
-        factor: stats(&mut all_factor),
-        rgb: stats(&mut all_rgb),
-        pixels: all_factor.len(),
+        factor: stats(&mut all[0]),
+        rgb: stats(&mut all[1]),
+        factor_unquantised: stats(&mut all[2]),
+        rgb_unquantised: stats(&mut all[3]),
+        pixels: all[0].len(),
         frames,
         dimension,
     })

@@ -18,8 +18,7 @@ pub mod sweep;
 
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
-use crate::spectrum::{SAMPLES, Spectrum};
-use nalgebra::DMatrix;
+use crate::spectrum::SAMPLES;
 use raycast::{BrickMap, ChannelImage, RaycastOptions, RaycastStats, raycast};
 use relight::{ColourModel, Mode};
 use scene::Scene;
@@ -65,7 +64,7 @@ impl Default for Acceleration {
 /// The colour model of a mode for a scene (factor mode trains its basis on the scene).
 pub fn colour_model(scene: &Scene, mode: Mode, colorimetry: &Colorimetry) -> Result<ColourModel, RenderError> {
     Ok(match mode {
-        Mode::Factor => ColourModel::factor(colorimetry.clone(), scene_basis(scene, colorimetry)?),
+        Mode::Factor => ColourModel::factor(colorimetry.clone(), scene_basis(scene)?),
         Mode::Full => ColourModel::full(colorimetry.clone()),
         Mode::Rgb => ColourModel::rgb(colorimetry.clone()),
     })
@@ -110,64 +109,14 @@ pub fn render_views(
         .collect()
 }
 
-/// The sharpened basis the factor model renders a scene with: trained on the scene's colour signals
-/// (every dial light on every material reflectance, plus the lights and reflectances themselves).
-///
-/// Stand-in until the trained basis lands: the first m principal components of those signals,
-/// sharpened by concentrating each basis vector on one of m equal wavelength bands (the eigenvector of
-/// the band-energy quotient within the PCA span), scaled so a flat spectrum has all-unity coefficients.
-pub fn scene_basis(scene: &Scene, colorimetry: &Colorimetry) -> Result<Basis, RenderError> {
-    let lights: Vec<Spectrum> = scene.dial.stops.iter().map(|s| s.spectrum).collect();
-    let refl: Vec<Spectrum> = scene.materials.iter().map(|m| m.spectrum).collect();
+/// The sharpened basis the factor model renders a scene with: the palette's trained basis of dimension
+/// `settings.basis_dimension` ([`crate::basis::store::for_palette`]: PCA of all light × reflectance colour
+/// signals, sharpened and refined), read from / stored in the palette's `.basis.json` sidecar when the
+/// scene came from files, so repeated renders skip training.
+pub fn scene_basis(scene: &Scene) -> Result<Basis, RenderError> {
     let m = scene.palette.settings.basis_dimension.clamp(1, SAMPLES);
-    sharpened_basis(&lights, &refl, m, colorimetry)
-}
-
-/// See [`scene_basis`].
-pub fn sharpened_basis(
-    lights: &[Spectrum],
-    reflectances: &[Spectrum],
-    m: usize,
-    colorimetry: &Colorimetry,
-) -> Result<Basis, RenderError> {
-    let mut signals: Vec<Spectrum> = Vec::new();
-    for e in lights {
-        let peak = e.0.max().max(f64::MIN_POSITIVE);
-        for s in reflectances {
-            signals.push(e.product(s).scaled(1.0 / peak));
-        }
-        signals.push(e.scaled(1.0 / peak));
-    }
-    signals.extend(reflectances.iter().copied());
-    signals.push(Spectrum::flat(1.0));
-    let a = DMatrix::from_fn(SAMPLES, signals.len(), |r, c| signals[c].0[r]);
-    let svd = a.svd(true, false);
-    let u = svd.u.ok_or_else(|| RenderError::Invalid("SVD of the colour signals failed".into()))?;
-    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
-    order.sort_by(|x, y| svd.singular_values[*y].total_cmp(&svd.singular_values[*x]));
-    let k = m.min(order.len());
-    let p = DMatrix::from_fn(SAMPLES, k, |r, c| u[(r, order[c])]);
-    // Sharpen: column j concentrates on band j.
-    let mut b = DMatrix::zeros(SAMPLES, k);
-    for j in 0..k {
-        let (lo, hi) = (j * SAMPLES / k, (j + 1) * SAMPLES / k);
-        let w = DMatrix::from_fn(SAMPLES, SAMPLES, |r, c| if r == c && r >= lo && r < hi { 1.0 } else { 0.0 });
-        let q = p.transpose() * w * &p;
-        let eig = nalgebra::SymmetricEigen::new(q);
-        let best = (0..k).max_by(|x, y| eig.eigenvalues[*x].total_cmp(&eig.eigenvalues[*y])).unwrap_or(0);
-        let mut col = &p * eig.eigenvectors.column(best);
-        if col.rows(lo, hi - lo).sum() < 0.0 {
-            col = -col;
-        }
-        b.set_column(j, &col);
-    }
-    let basis = Basis::from_matrix(b.clone(), colorimetry).map_err(|e| RenderError::Invalid(format!("basis: {e}")))?;
-    // Flat white gets all-unity coefficients.
-    let ones = basis.coefficients(&Spectrum::flat(1.0));
-    if ones.iter().all(|v| v.abs() > 1e-6) {
-        for (j, mut col) in b.column_iter_mut().enumerate() {
-            col *= ones[j];
-        }
-    }
-    Basis::from_matrix(b, colorimetry).map_err(|e| RenderError::Invalid(format!("basis: {e}")))
+    let sidecar = scene.palette_path.as_deref().map(crate::basis::store::sidecar_path);
+    crate::basis::store::for_palette(&scene.palette, m, sidecar.as_deref())
+        .map(|(basis, _)| basis)
+        .map_err(|e| RenderError::Invalid(format!("palette `{}`: {e}", scene.palette.name)))
 }

@@ -67,6 +67,8 @@ impl Default for SceneSettings {
 pub struct Scene {
     /// The scene file, if any.
     pub path: Option<PathBuf>,
+    /// The palette file, if any (its folder holds the trained basis sidecar).
+    pub palette_path: Option<PathBuf>,
     pub palette: Palette,
     pub volume: Volume,
     pub materials: Vec<Material>,
@@ -131,8 +133,7 @@ struct RawFile {
 
 /// Loads the palette a scene names (the palette file reader lives in `crate::palette::file`).
 fn load_palette(path: &Path) -> Result<Palette, String> {
-    // TEMPORARY until the palette file reader is merged from main.
-    Err(format!("{}: palette files cannot be read on this branch yet", path.display()))
+    crate::palette::file::PaletteFile::load(path).map(|f| f.palette).map_err(|e| e.to_string())
 }
 
 impl Scene {
@@ -190,7 +191,16 @@ impl Scene {
         let camera = camera_of(path, file.camera.as_ref())?;
         let materials = materials_of(path, &palette, &file.materials)?;
         let dial = dial_of(path, &palette, file.dial.as_ref().and_then(|d| d.path.as_deref()))?;
-        Ok(Scene { path: Some(path.to_path_buf()), palette, volume, materials, camera, dial, settings })
+        Ok(Scene {
+            path: Some(path.to_path_buf()),
+            palette_path: Some(palette_path),
+            palette,
+            volume,
+            materials,
+            camera,
+            dial,
+            settings,
+        })
     }
 
     /// The embedded default: the generated engine-like volume (no data files needed) with its
@@ -222,6 +232,7 @@ impl Scene {
         let dial = dial_of(origin, &palette, None)?;
         Ok(Scene {
             path: None,
+            palette_path: None,
             volume: generate::engine_like(size),
             materials,
             camera: Camera { azimuth_deg: 35.0, elevation_deg: 25.0, zoom: 1.1 },
@@ -418,20 +429,22 @@ fn entry(name: &str, kind: Kind, source: crate::palette::Source, spectrum: Spect
     }
 }
 
-/// The built-in palette of the embedded default scene: fixed ColorChecker materials under D65, A and
-/// F11.
-pub fn builtin_palette() -> Palette {
-    colorchecker_palette(
-        "builtin",
-        &["D65", "A", "F11"],
-        &[("smoke", "neutral_6_5"), ("block", "foliage"), ("inner", "orange")],
-    )
-    .unwrap_or_default()
+/// The designed engine palette (`volumes/engine_palette.toml`), embedded for the default scene.
+pub const BUILTIN_PALETTE_TOML: &str = include_str!("../../volumes/engine_palette.toml");
+
+/// The built-in palette of the embedded default scene: the designed engine palette (smoke, block, inner;
+/// lights hide, split, glow).
+pub fn builtin_palette() -> Result<Palette, RenderError> {
+    let origin = Path::new("volumes/engine_palette.toml (embedded)");
+    crate::palette::file::PaletteFile::parse(BUILTIN_PALETTE_TOML, origin)
+        .map(|f| f.palette)
+        .map_err(|e| scene_err(origin, "palette", e.to_string()))
 }
 
-/// The embedded default scene (generated engine-like volume of `size` voxels across, built-in palette).
+/// The embedded default scene: the generated engine-like volume of `size` voxels across with the
+/// built-in palette (the same scene as `volumes/engine_generated.toml`).
 pub fn builtin_scene(size: usize) -> Result<Scene, RenderError> {
-    Scene::builtin(builtin_palette(), size)
+    Scene::builtin(builtin_palette()?, size)
 }
 
 /// The accuracy-check scene of issue 5: four fixed ColorChecker materials (dark skin, foliage, orange,
@@ -454,6 +467,7 @@ pub fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities
     let dial = Dial::new(stops).unwrap_or(Dial { stops: Vec::new() });
     Scene {
         path: None,
+        palette_path: None,
         palette,
         volume,
         materials,

@@ -46,6 +46,8 @@ pub enum Action {
     Redo,
     Save,
     Help,
+    /// List the solver's diagnostics.
+    Diagnostics,
     Quit,
     // Inside popups.
     /// Type a character into the prompt.

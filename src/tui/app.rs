@@ -168,6 +168,10 @@ pub enum Popup {
     Help {
         scroll: u16,
     },
+    /// The latest solve's diagnostics (`!`).
+    Diagnostics {
+        scroll: u16,
+    },
     Prompt(Prompt),
     /// Choose the light or the reflectance of the selected cell for a spectrum operation.
     ChooseSpectrum {
@@ -227,6 +231,12 @@ pub struct SolveStatus {
     pub error: Option<DesignError>,
     /// Wall-clock time of the latest finished solve.
     pub last_time: Option<Duration>,
+    /// A basis is being trained.
+    pub training: bool,
+    /// Generation of the palette the shown basis was trained for.
+    pub basis_generation: u64,
+    /// Why the basis could not be trained.
+    pub basis_error: Option<String>,
 }
 
 impl SolveStatus {
@@ -372,6 +382,22 @@ impl State {
     /// Show an error until the next key.
     pub fn complain(&mut self, text: impl Into<String>) {
         self.message = Some(Message { text: text.into(), is_error: true });
+    }
+
+    /// The palette file's folder (CSV paths are relative to it).
+    pub fn base_dir(&self) -> PathBuf {
+        match self.path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        }
+    }
+
+    /// The latest solution's diagnostics (of the current palette, else the last one solved).
+    pub fn diagnostics(&self) -> &[crate::design::Diagnostic] {
+        self.solve
+            .current()
+            .or(self.solve.solution.as_ref().map(|(_, s)| s.as_ref()))
+            .map_or(&[], |s| s.diagnostics.as_slice())
     }
 
     /// The index into `palette.colours` of the cell at (light, reflectance).
