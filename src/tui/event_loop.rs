@@ -146,6 +146,7 @@ fn run_effects(state: &mut State, effects: Effects, worker: &mut Worker, saver: 
         let palette = palette_to_save(state);
         match saver.save(&palette) {
             Ok(text) => {
+                let solved = state.solve.current().is_some();
                 let changed = palette != state.palette;
                 state.saved = palette.clone();
                 state.palette = palette;
@@ -160,7 +161,11 @@ fn run_effects(state: &mut State, effects: Effects, worker: &mut Worker, saver: 
                         submit(state, worker);
                     }
                 }
-                state.say(text);
+                if solved {
+                    state.say(text);
+                } else {
+                    state.say(format!("{text} (not solved yet: designed spectra kept as they were)"));
+                }
                 if effects.quit_after_save {
                     state.quit = true;
                 }
