@@ -4,7 +4,9 @@
 pub mod basis;
 pub mod plot;
 pub mod render;
+pub mod report;
 pub mod solve;
+pub mod summary;
 
 use std::time::Instant;
 

@@ -1,47 +1,55 @@
-//! `metamer bench`: benchmark reports (Markdown + PNG plots). Built so far: `render`, `basis`.
+//! `metamer bench [solve|basis|render|all] [-o DIR] [--quick]`: run the benchmark suites and write a
+//! Markdown report (`DIR/README.md`, plus one file per suite) and PNG plots.
 
-use anyhow::bail;
+use crate::bench::report::{self, ReportOptions, Suite};
+use anyhow::Context;
 use std::path::PathBuf;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Which {
+    /// The design engine: batches, blocks vs dense, joint n×n palettes, condition numbers.
+    Solve,
+    /// The spectral factor model: dimension against error and relighting cost.
+    Basis,
+    /// The renderer: raycast, relight, sweep cost, accuracy of the factor and RGB models.
+    Render,
+    /// Every suite, one report.
+    All,
+}
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Which benchmark to run: render, basis.
-    pub which: Option<String>,
-    /// Output folder for the reports and plots.
+    /// Which benchmark to run.
+    #[arg(value_enum, default_value_t = Which::All)]
+    pub which: Which,
+    /// Output folder for the report (README.md) and plots.
     #[arg(short, long, default_value = "bench")]
     pub output: PathBuf,
-    /// Timed repetitions per measurement.
-    #[arg(long, default_value_t = 5)]
-    pub runs: usize,
+    /// A small, fast version of every suite (smoke test; figures are not meaningful).
+    #[arg(long)]
+    pub quick: bool,
+    /// Timed repetitions per measurement (default: each suite's own).
+    #[arg(long)]
+    pub runs: Option<usize>,
     /// Renderer benchmark: volume to use instead of ../shared/volumes/engine.nhdr.
     #[arg(long)]
     pub volume: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    match args.which.as_deref() {
-        Some("render") => {
-            let options = crate::bench::render::RenderBenchOptions {
-                out_dir: args.output.clone(),
-                runs: args.runs,
-                volume: args.volume.clone(),
-                ..Default::default()
-            };
-            let report = crate::bench::render::run(&options)?;
-            println!("{}", report.markdown);
-            println!("wrote {}", args.output.join("render.md").display());
-            Ok(())
-        }
-        Some("basis") => {
-            std::fs::create_dir_all(&args.output)
-                .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", args.output.display()))?;
-            let options = crate::bench::basis::BenchOptions { runs: args.runs.max(1), ..Default::default() };
-            let markdown = crate::bench::basis::run_and_write(&options, &args.output)?;
-            println!("{markdown}");
-            println!("wrote {}", args.output.join("basis.md").display());
-            Ok(())
-        }
-        Some(other) => bail!("`metamer bench {other}` is not built yet (built: render, basis)"),
-        None => bail!("name a benchmark: `metamer bench render` or `metamer bench basis` (others are not built yet)"),
+    let suites: Vec<Suite> = match args.which {
+        Which::Solve => vec![Suite::Solve],
+        Which::Basis => vec![Suite::Basis],
+        Which::Render => vec![Suite::Render],
+        Which::All => Suite::ALL.to_vec(),
+    };
+    let options =
+        ReportOptions { out_dir: args.output.clone(), quick: args.quick, runs: args.runs, volume: args.volume };
+    let report =
+        report::run(&suites, &options).with_context(|| format!("benchmark report into {}", args.output.display()))?;
+    println!("{}", report.markdown);
+    for f in &report.files {
+        println!("wrote {}", f.display());
     }
+    Ok(())
 }

@@ -4,6 +4,7 @@
 
 pub mod matrix;
 pub mod popup;
+pub mod preview;
 pub mod settings;
 pub mod sliders;
 pub mod spectra;
@@ -88,10 +89,21 @@ impl Widget for &State {
         block.render(a.settings, buf);
         settings::SettingsRow(self).render(inner, buf);
         if a.spectra.height >= 3 {
-            let block = Block::new().borders(Borders::TOP).title(" spectra ");
-            let inner = block.inner(a.spectra);
-            block.render(a.spectra, buf);
-            spectra::SpectraPlot(self).render(inner, buf);
+            match &self.preview {
+                Some(p) if self.show_preview => {
+                    let title = format!(" light dial: {} · [ ] move · v spectra ", p.caption(self.dial));
+                    let block = Block::new().borders(Borders::TOP).title(title);
+                    let inner = block.inner(a.spectra);
+                    block.render(a.spectra, buf);
+                    preview::PreviewPanel(self).render(inner, buf);
+                }
+                _ => {
+                    let block = Block::new().borders(Borders::TOP).title(" spectra ");
+                    let inner = block.inner(a.spectra);
+                    block.render(a.spectra, buf);
+                    spectra::SpectraPlot(self).render(inner, buf);
+                }
+            }
         }
         if self.popup.is_some() {
             popup::PopupView(self).render(area, buf);
