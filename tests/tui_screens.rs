@@ -159,3 +159,22 @@ fn many_reflectances_fold_to_one_row_each() {
         assert!(text.contains(&e.name), "{} is not on screen", e.name);
     }
 }
+
+#[test]
+fn main_keys_work_through_help_and_esc_bursts() {
+    use metamer::tui::replay::MemorySaver;
+    // With the help open, Ctrl-s saves (closing the help) and q quits.
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let mut saver = MemorySaver::default();
+    tui_support::replay_saving(&mut s, "Down\nu\n?\nCtrl-s", 100, 30, &mut saver);
+    assert_eq!(saver.saved.len(), 1);
+    assert!(s.popup.is_none());
+    replay(&mut s, "?\nq", 100, 30);
+    assert!(s.quit);
+    // Esc and a key sent together arrive as Alt+key: taken as Esc, then the key.
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let mut saver = MemorySaver::default();
+    tui_support::replay_saving(&mut s, "Down\nu\n?\nAlt-Ctrl-s", 100, 30, &mut saver);
+    assert_eq!(saver.saved.len(), 1);
+    assert!(s.popup.is_none());
+}

@@ -12,7 +12,7 @@ use crate::tui::{keymap, ui};
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::buffer::Buffer;
-use ratatui::crossterm::event::KeyEvent;
+use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use std::io;
 use std::time::{Duration, Instant};
 
@@ -233,12 +233,24 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
             }
             Some(Input::Key(key)) => {
                 redraw = true;
-                if let Some(action) = keymap::action_for(state, key) {
-                    let effects = update::update(state, action);
-                    if effects.solve {
-                        solve_started = Instant::now();
+                // Esc followed at once by a key reaches us as Alt+key (the terminal cannot tell them
+                // apart); nothing is bound to Alt, so take it as Esc, then the key.
+                let keys = match keymap::action_for(state, key) {
+                    None if key.modifiers.contains(KeyModifiers::ALT) => {
+                        let mut plain = key;
+                        plain.modifiers.remove(KeyModifiers::ALT);
+                        vec![KeyEvent::new(KeyCode::Esc, KeyModifiers::NONE), plain]
                     }
-                    run_effects(state, effects, &mut worker, saver);
+                    _ => vec![key],
+                };
+                for key in keys {
+                    if let Some(action) = keymap::action_for(state, key) {
+                        let effects = update::update(state, action);
+                        if effects.solve {
+                            solve_started = Instant::now();
+                        }
+                        run_effects(state, effects, &mut worker, saver);
+                    }
                 }
             }
         }

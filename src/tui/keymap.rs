@@ -115,14 +115,14 @@ pub const CONFIRM_QUIT: &[Binding] = &[
 pub const HELP: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
-    bind(&[plain(K::Esc), ch('?'), ch('q')], A::Back, "close"),
+    bind(&[plain(K::Esc), ch('?')], A::Back, "close (other keys act on the main screen)"),
 ];
 
 /// The diagnostics list.
 pub const DIAGNOSTICS: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
-    bind(&[plain(K::Esc), ch('!'), ch('q')], A::Back, "close"),
+    bind(&[plain(K::Esc), ch('!')], A::Back, "close (other keys act on the main screen)"),
 ];
 
 /// Every table with its title, in the order the help shows them.
@@ -170,6 +170,10 @@ pub fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
     }
     match (&state.popup, key.code) {
         (Some(Popup::Prompt(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => Some(Action::Input(c)),
+        // Help and diagnostics only read: any other key closes them and acts on the main screen.
+        (Some(Popup::Help { .. } | Popup::Diagnostics { .. }), _) => {
+            MAIN.iter().find(|b| b.keys.contains(&key)).map(|b| b.action)
+        }
         _ => None,
     }
 }

@@ -506,7 +506,7 @@ fn update_popup(state: &mut State, popup: Popup, action: Action) -> Effects {
                 Action::Back => None,
                 Action::Move(Direction::Up) => Some(Popup::Help { scroll: scroll.saturating_sub(1) }),
                 Action::Move(Direction::Down) => Some(Popup::Help { scroll: scroll.saturating_add(1).min(200) }),
-                _ => Some(Popup::Help { scroll }),
+                other => return update_main(state, other),
             };
             Effects::NONE
         }
@@ -515,7 +515,7 @@ fn update_popup(state: &mut State, popup: Popup, action: Action) -> Effects {
                 Action::Back => None,
                 Action::Move(Direction::Up) => Some(Popup::Diagnostics { scroll: scroll.saturating_sub(1) }),
                 Action::Move(Direction::Down) => Some(Popup::Diagnostics { scroll: scroll.saturating_add(1).min(500) }),
-                _ => Some(Popup::Diagnostics { scroll }),
+                other => return update_main(state, other),
             };
             Effects::NONE
         }
