@@ -6,12 +6,13 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use metamer::basis::train::{self, TrainOptions, TrainingSet};
 use metamer::colorimetry::Colorimetry;
 use std::hint::black_box;
+use std::time::Duration;
 
 fn training(c: &mut Criterion) {
     let colorimetry = Colorimetry::default();
     let set = TrainingSet::colorchecker_seven_lights(&colorimetry);
     let mut group = c.benchmark_group("basis training, ColorChecker x 7 lights, m = 7");
-    group.sample_size(10);
+    group.sample_size(10).measurement_time(Duration::from_secs(20));
     for (name, options) in [
         ("pca", TrainOptions::pca_only()),
         ("pca + sharpening + T", TrainOptions::transform_only()),

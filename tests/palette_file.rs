@@ -321,7 +321,13 @@ fn files_in(dir: &Path) -> Vec<String> {
 #[test]
 fn unchanged_save_is_byte_identical() {
     let with_oddities = format!("{VALID}\n# trailing comment\nextra_top = {{ a = 1 }}   # kept\n");
-    for text in [VALID.to_string(), with_oddities, VALID.replace('\n', "\r\n")] {
+    // Found by fuzzing: a byte order mark and a missing final newline must survive too.
+    let bom = format!("\u{feff}{VALID}");
+    let no_final_newline = VALID.trim_end().to_string();
+    let mixed_line_endings = VALID.replacen('\n', "\r\n", 3);
+    for text in
+        [VALID.to_string(), with_oddities, VALID.replace('\n', "\r\n"), bom, no_final_newline, mixed_line_endings]
+    {
         let (_dir, path) = temp_palette(&text);
         let mut file = PaletteFile::load(&path).unwrap();
         let palette = file.palette.clone();
@@ -536,4 +542,125 @@ fn edits_through_the_helpers_save_and_reload() {
     let saved = std::fs::read_to_string(&path).unwrap();
     assert!(saved.contains("# A small palette used by the tests."), "{saved}");
     assert!(!saved.contains("[[free]]"), "{saved}");
+}
+
+#[test]
+fn csv_sources_resolve_relative_to_the_palette_and_report_their_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| std::fs::write(dir.path().join(name), text).unwrap();
+    write("good.csv", "wavelength,value\n380,0.2\n720,0.6\n");
+    write("short.csv", "400,0.2\n650,0.6\n");
+    write("unsorted.csv", "400,0.2\n700,0.6\n500,0.1\n");
+    write("word.csv", "400,0.2\n500,oops\n700,0.6\n");
+    let load = |csv: &str| {
+        let text = mutate("flat = 0.5", &format!("csv = \"{csv}\""));
+        let path = dir.path().join("p.toml");
+        std::fs::write(&path, text).unwrap();
+        PaletteFile::load(&path)
+    };
+    let p = load("good.csv").unwrap().palette;
+    // Linear from 0.2 at 380 nm to 0.6 at 720 nm: 0.2 + 0.4 · (λ − 380)/340 (to 1e-12).
+    for (i, w) in metamer::spectrum::Grid::STANDARD.wavelengths().into_iter().enumerate() {
+        let expected = 0.2 + 0.4 * (w - 380.0) / 340.0;
+        assert!((p.reflectances[1].spectrum.0[i] - expected).abs() < 1e-12);
+    }
+    for (csv, reason) in [
+        ("short.csv", "must cover 400–700 nm"),
+        ("unsorted.csv", "line 3: wavelengths must increase strictly"),
+        ("word.csv", "line 2, column 5: `oops` is not a number"),
+        ("missing.csv", "cannot read the file"),
+    ] {
+        let e = load(csv).unwrap_err();
+        let msg = e.to_string();
+        assert_eq!(e.key(), Some("reflectances[1].csv"), "{msg}");
+        assert!(msg.contains(reason) && msg.contains(csv) && msg.contains("p.toml"), "{msg}");
+    }
+}
+
+#[test]
+fn an_inconsistent_model_is_refused_not_half_saved() {
+    let (_dir, path) = temp_palette(VALID);
+    let mut file = PaletteFile::load(&path).unwrap();
+    // Two cells on the same light and reflectance.
+    let mut p = file.palette.clone();
+    let dup = p.colours[0].clone();
+    p.colours.push(dup);
+    let e = file.save(&p).unwrap_err();
+    assert!(e.to_string().contains("duplicate cell"), "{e}");
+    // A cell pointing past the lights.
+    let mut p = file.palette.clone();
+    p.colours[0].light = 9;
+    assert!(file.save(&p).is_err());
+    // Two lights with one name.
+    let mut p = file.palette.clone();
+    p.lights[1].name = "daylight".into();
+    let e = file.save(&p).unwrap_err();
+    assert!(e.to_string().contains("duplicate light name"), "{e}");
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), VALID);
+}
+
+/// Inputs the fuzzer found (tests/data/fuzz/): they parse without panicking, and what parses saves back
+/// byte-identical and reads back to the same palette.
+#[test]
+fn fuzz_findings_stay_fixed() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let bytes = std::fs::read(&path).unwrap();
+        n += 1;
+        let Ok(file) = PaletteFile::parse_bytes(&bytes, &path) else { continue };
+        let (_, reread) = file.render(&file.palette, &path).unwrap();
+        assert_eq!(reread.text().as_bytes(), bytes.as_slice(), "{}", path.display());
+        assert_eq!(reread.palette, file.palette, "{}", path.display());
+    }
+    assert!(n >= 2, "the fuzz findings in {} are missing", dir.display());
+}
+
+#[test]
+fn new_settings_and_name_go_to_the_top() {
+    let text = "# lights only\n[[lights]]\nname = \"e\"\nflat = 1.0\n\n[[reflectances]]\nname = \"r\"\nflat = 0.5\n";
+    let (_dir, path) = temp_palette(text);
+    let mut file = PaletteFile::load(&path).unwrap();
+    let mut p = file.palette.clone();
+    p.settings.smoothness = 0.25;
+    p.name = "renamed".into();
+    file.save(&p).unwrap();
+    let saved = std::fs::read_to_string(&path).unwrap();
+    let pos = |s: &str| saved.find(s).unwrap_or_else(|| panic!("`{s}` missing: {saved}"));
+    assert!(pos("name = \"renamed\"") < pos("[settings]"), "{saved}");
+    assert!(pos("[settings]") < pos("[[lights]]"), "{saved}");
+    assert!(pos("smoothness = 0.25") < pos("[[lights]]"), "{saved}");
+    // The comment above [[lights]] stays with it.
+    assert!(saved.contains("# lights only\n[[lights]]"), "{saved}");
+    assert_eq!(PaletteFile::load(&path).unwrap().palette, p);
+}
+
+#[test]
+fn validation_errors_give_the_line_of_the_key() {
+    let line_of = |text: &str, needle: &str| text.lines().position(|l| l.starts_with(needle)).unwrap() + 1;
+    let text = mutate("light = \"warm\"", "light = \"cold\"");
+    match parse(&text) {
+        Err(PaletteError::Invalid { line, .. }) => assert_eq!(line, Some(line_of(&text, "light = \"cold\""))),
+        other => panic!("{other:?}"),
+    }
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!("/nonexistent/test.toml:{}: colours[1].light:", line_of(&text, "light = \"cold\"")))
+    );
+    // A missing key points at its table.
+    let text = mutate("light = \"warm\"\n", "");
+    match parse(&text) {
+        Err(PaletteError::Invalid { line: Some(l), key, .. }) => {
+            assert_eq!(key, "colours[1].light");
+            assert_eq!(text.lines().nth(l - 1), Some("[[colours]]"));
+        }
+        other => panic!("{other:?}"),
+    }
+    // An element of an array.
+    let text = mutate("dial = [0.0, 1.0]", "dial = [0.0,\n  nan]");
+    match parse(&text) {
+        Err(PaletteError::Invalid { line, .. }) => assert_eq!(line, Some(line_of(&text, "  nan]"))),
+        other => panic!("{other:?}"),
+    }
 }

@@ -118,3 +118,44 @@ fn quit_asks_first_when_unsaved() {
     replay(&mut s, "q", 100, 30);
     assert!(s.quit);
 }
+
+#[test]
+fn help_and_diagnostics_at_80x24() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "?", 80, 24);
+    snap!("help_80x24", text);
+    let (text, _) = replay(&mut s, "Down *20", 80, 24);
+    snap!("help_80x24_scrolled", text);
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "!", 100, 30);
+    assert!(!s.diagnostics().is_empty(), "the demo palette has unmet cells");
+    snap!("popup_diagnostics", text);
+}
+
+#[test]
+fn main_screen_80x24_and_focused_panels() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "", 80, 24);
+    snap!("main_80x24", text);
+    // Sliders focused on the weight slider, then the settings row focused on smoothness.
+    let (text, _) = replay(&mut s, "Down\nEnter\nDown *3", 100, 30);
+    snap!("focus_sliders_weight", text);
+    let (text, _) = replay(&mut s, "Tab\nRight *5", 100, 30);
+    snap!("focus_settings_smoothness", text);
+    // A light swatch selected: the panel shows the light's details.
+    let (text, _) = replay(&mut s, "Esc\nUp *3\nRight", 100, 30);
+    snap!("select_light", text);
+}
+
+#[test]
+fn many_reflectances_fold_to_one_row_each() {
+    let mut p = square_palette(14);
+    p.lights.truncate(5);
+    p.colours.retain(|c| c.light < 5);
+    let mut s = state(p.clone(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "", 100, 30);
+    snap!("main_100x30_5x14", text);
+    for e in p.lights.iter().chain(&p.reflectances) {
+        assert!(text.contains(&e.name), "{} is not on screen", e.name);
+    }
+}

@@ -21,7 +21,8 @@ fn cell_origin(s: &metamer::tui::State, buf: &Buffer, j: usize, i: usize) -> (u1
     let inner = Rect { x: 1, y: 1, width: buf.area.width - 2, height: buf.area.height - 2 };
     let a = areas(s, inner);
     let g = geometry(s, a.matrix);
-    (a.matrix.x + (g.left_width + j * g.column_width) as u16 + 1, a.matrix.y + 2 + 2 * i as u16)
+    let x = g.column_x(j).expect("column shown");
+    (a.matrix.x + x as u16 + 1, a.matrix.y + (2 + g.row_height * i) as u16)
 }
 
 #[test]
@@ -37,7 +38,10 @@ fn cells_show_desired_full_and_model_colours() {
     assert_eq!(desired.fg, Color::Rgb(0x6a, 0x7b, 0x5c));
     let model = &buf[(x + 1, y)];
     assert_eq!(model.symbol(), "▀");
-    let full = linear_to_srgb8(&c.rgb(&p.lights[0].spectrum, &p.reflectances[1].spectrum));
+    // `block` is designed: the achieved colour is that of its solved spectrum.
+    let solved = &s.solve.current().expect("the demo palette solves").palette;
+    assert_ne!(solved.reflectances[1].spectrum, p.reflectances[1].spectrum);
+    let full = linear_to_srgb8(&c.rgb(&p.lights[0].spectrum, &solved.reflectances[1].spectrum));
     assert_eq!(model.fg, rgb(full), "top half: full 31-sample colour");
     // Without a basis the subspace half repeats the full colour.
     assert_eq!(model.bg, rgb(full));
@@ -59,11 +63,14 @@ fn unused_cells_are_dimmed_and_designed_spectra_marked() {
     }
     let (x, y) = cell_origin(&s, &buf, 2, 2);
     assert_eq!(buf[(x + 5, y)].symbol(), "○");
-    // `D` beside the designed light `split`, in the design colour.
+    // `D` beside the designed reflectances, in the design colour; none beside the fixed light `split`.
     let (x, _) = cell_origin(&s, &buf, 2, 0);
-    assert_eq!(buf[(x + 5, 2)].symbol(), "D");
-    assert_eq!(buf[(x + 5, 2)].fg, Color::LightRed);
+    assert_eq!(buf[(x + 5, 2)].symbol(), " ");
     assert!(text.contains("block   ██ D"));
+    assert!(text.contains("tissue  ██ D"));
+    let line = text.lines().position(|l| l.contains("block   ██ D")).expect("block's row on screen");
+    let column = text.lines().nth(line).and_then(|l| l.chars().position(|c| c == 'D')).expect("a D marker");
+    assert_eq!(buf[(column as u16, line as u16)].fg, Color::LightRed);
 }
 
 #[test]
@@ -84,4 +91,24 @@ fn selection_brackets_follow_the_arrows() {
     assert_eq!(buf[(x - 1, y)].fg, Color::LightGreen);
     let text = buffer_text(&buf);
     assert!(text.contains("block × tungsten"));
+}
+
+#[test]
+fn subspace_halves_show_the_trained_basis_colour() {
+    use metamer::tui::replay::MemorySaver;
+    use metamer::tui::worker::BasisMode;
+    let p = demo_palette();
+    let mut s = state(p.clone(), ColourMode::TrueColor);
+    let (text, buf) =
+        tui_support::replay_with(&mut s, "", 100, 30, &mut MemorySaver::default(), BasisMode::Train { sidecar: None });
+    let basis = s.basis.clone().expect("the replay waits for the basis");
+    assert_eq!(basis.dimension(), p.settings.basis_dimension);
+    let solved = &s.solve.current().expect("solved").palette;
+    // skin (fixed) under tungsten: bottom half = factor-model colour, top half = full colour.
+    let (x, y) = cell_origin(&s, &buf, 1, 0);
+    let (e, r) = (&solved.lights[1].spectrum, &solved.reflectances[0].spectrum);
+    assert_eq!(buf[(x + 1, y)].bg, rgb(linear_to_srgb8(&basis.rgb_factor(e, r))));
+    assert_eq!(buf[(x + 1, y)].fg, rgb(linear_to_srgb8(&Colorimetry::default().rgb(e, r))));
+    assert!(text.contains("V7 ΔE"), "{text}");
+    assert!(!text.contains("V7 n/a"), "{text}");
 }

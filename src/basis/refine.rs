@@ -33,6 +33,9 @@ use std::sync::Mutex;
 
 /// Target size (ΔE00) of the probe steps used to measure the local metric.
 const METRIC_PROBE_DELTA_E: f64 = 0.5;
+/// Refinement stops once the objective (mean squared ΔE00) is below this: an RMS error of 0.01 ΔE00 is a
+/// hundredth of a just-noticeable difference, and small palettes reach it long before the iteration limit.
+pub const TARGET_COST: f64 = 1e-4;
 /// L-BFGS history length.
 const LBFGS_MEMORY: usize = 12;
 
@@ -42,17 +45,26 @@ struct PairTerm {
     light: usize,
     reflectance: usize,
     target: Vector3<f64>,
-    weight: Matrix3<f64>,
+    /// W, row-major.
+    weight: [[f64; 3]; 3],
 }
 
 /// The perceptually weighted factor-model error over a training set.
 #[derive(Clone, Debug)]
 pub struct Objective {
+    /// 31×L and its transpose.
     lights: DMatrix<f64>,
+    lights_t: DMatrix<f64>,
+    /// 31×R and its transpose.
     reflectances: DMatrix<f64>,
+    reflectances_t: DMatrix<f64>,
+    /// `Q_rgb,31` and its transpose.
     q_rgb: DMatrix<f64>,
+    q_rgb_t: DMatrix<f64>,
     pairs: Vec<PairTerm>,
     scale: f64,
+    /// μ ≥ 0: weight of the full-Λ (Eq. 7) colour error beside the factor-model error.
+    lambda_weight: f64,
 }
 
 impl Objective {
@@ -72,12 +84,30 @@ impl Objective {
             }
             for (r, s) in set.reflectances.iter().enumerate() {
                 let target = colorimetry.rgb(e, s);
-                let weight = local_metric(colorimetry, &target, e);
+                let w = local_metric(colorimetry, &target, e);
+                let weight = [0, 1, 2].map(|i| [w[(i, 0)], w[(i, 1)], w[(i, 2)]]);
                 pairs.push(PairTerm { light: l, reflectance: r, target, weight });
             }
         }
         let scale = if pairs.is_empty() { 0.0 } else { 1.0 / pairs.len() as f64 };
-        Objective { lights, reflectances, q_rgb, pairs, scale }
+        Objective {
+            lights_t: lights.transpose(),
+            lights,
+            reflectances_t: reflectances.transpose(),
+            reflectances,
+            q_rgb_t: q_rgb.transpose(),
+            q_rgb,
+            pairs,
+            scale,
+            lambda_weight: 0.0,
+        }
+    }
+
+    /// Also weigh the colour error of the full-Λ model (seed Eq. 7, `Q_rgb,31 B B⁺(B e ∘ B s)`) by `mu`, so
+    /// that refining B keeps its span good for Λ too (the design criteria of DESIGN_SPEC §2 use Λ).
+    pub fn with_lambda_weight(mut self, mu: f64) -> Objective {
+        self.lambda_weight = if mu.is_finite() { mu.max(0.0) } else { 0.0 };
+        self
     }
 
     /// Number of pairs in the objective.
@@ -96,47 +126,151 @@ impl Objective {
     }
 
     fn evaluate(&self, b: &DMatrix<f64>, with_gradient: bool) -> Option<(f64, Option<DMatrix<f64>>)> {
+        // Dense products go through nalgebra (matrixmultiply for the larger ones); the per-pair loop is
+        // written on slices so it stays fast in unoptimised builds too.
         let m = b.ncols();
-        let chol = b.tr_mul(b).cholesky()?;
-        let p = chol.solve(&b.transpose());
+        let bt = b.transpose();
+        let chol = (&bt * b).cholesky()?;
+        let k = chol.inverse();
+        let p = &k * &bt;
         let e = &p * &self.lights;
         let s = &p * &self.reflectances;
         let qm = &self.q_rgb * b;
+        let (es, ss, qs) = (e.as_slice(), s.as_slice(), qm.as_slice());
         let mut cost = 0.0;
         let mut g_qm = DMatrix::<f64>::zeros(3, m);
         let mut ge = DMatrix::<f64>::zeros(m, e.ncols());
         let mut gs = DMatrix::<f64>::zeros(m, s.ncols());
-        let mut c = DVector::<f64>::zeros(m);
+        let mut c = vec![0.0; m];
         for pair in &self.pairs {
-            c.copy_from(&e.column(pair.light));
-            c.component_mul_assign(&s.column(pair.reflectance));
-            let pred = &qm * &c;
-            let diff = Vector3::new(pred[0], pred[1], pred[2]) - pair.target;
-            let res = pair.weight * diff;
-            cost += res.norm_squared();
+            let (eo, so) = (pair.light * m, pair.reflectance * m);
+            let mut pred = [0.0; 3];
+            for (kk, ck) in c.iter_mut().enumerate() {
+                *ck = es[eo + kk] * ss[so + kk];
+                pred[0] += qs[3 * kk] * *ck;
+                pred[1] += qs[3 * kk + 1] * *ck;
+                pred[2] += qs[3 * kk + 2] * *ck;
+            }
+            let w = &pair.weight;
+            let d = [pred[0] - pair.target[0], pred[1] - pair.target[1], pred[2] - pair.target[2]];
+            let res = [
+                w[0][0] * d[0] + w[0][1] * d[1] + w[0][2] * d[2],
+                w[1][0] * d[0] + w[1][1] * d[1] + w[1][2] * d[2],
+                w[2][0] * d[0] + w[2][1] * d[1] + w[2][2] * d[2],
+            ];
+            cost += res[0] * res[0] + res[1] * res[1] + res[2] * res[2];
             if with_gradient {
-                let g = pair.weight.transpose() * res * (2.0 * self.scale);
-                let gd = DVector::from_column_slice(g.as_slice());
-                g_qm.ger(1.0, &gd, &c, 1.0);
-                let gamma = qm.tr_mul(&gd);
-                let mut col = ge.column_mut(pair.light);
-                col += gamma.component_mul(&s.column(pair.reflectance));
-                let mut col = gs.column_mut(pair.reflectance);
-                col += gamma.component_mul(&e.column(pair.light));
+                let f = 2.0 * self.scale;
+                let g = [
+                    f * (w[0][0] * res[0] + w[1][0] * res[1] + w[2][0] * res[2]),
+                    f * (w[0][1] * res[0] + w[1][1] * res[1] + w[2][1] * res[2]),
+                    f * (w[0][2] * res[0] + w[1][2] * res[1] + w[2][2] * res[2]),
+                ];
+                let (gq, ges, gss) = (g_qm.as_mut_slice(), ge.as_mut_slice(), gs.as_mut_slice());
+                for (kk, ck) in c.iter().enumerate() {
+                    gq[3 * kk] += g[0] * ck;
+                    gq[3 * kk + 1] += g[1] * ck;
+                    gq[3 * kk + 2] += g[2] * ck;
+                    let gamma = qs[3 * kk] * g[0] + qs[3 * kk + 1] * g[1] + qs[3 * kk + 2] * g[2];
+                    ges[eo + kk] += gamma * ss[so + kk];
+                    gss[so + kk] += gamma * es[eo + kk];
+                }
             }
         }
         cost *= self.scale;
+        let mut grad_direct = None;
+        if self.lambda_weight > 0.0 && !self.pairs.is_empty() {
+            cost += self.lambda_term(b, &p, &e, &s, &qm, with_gradient.then_some((&mut g_qm, &mut ge, &mut gs))).map(
+                |(c, g)| {
+                    grad_direct = g;
+                    c
+                },
+            )?;
+        }
         if !cost.is_finite() {
             return None;
         }
         if !with_gradient {
             return Some((cost, None));
         }
-        let g_p = &ge * self.lights.transpose() + &gs * self.reflectances.transpose();
-        let k = chol.inverse();
+        let g_p = &ge * &self.lights_t + &gs * &self.reflectances_t;
+        let pt = p.transpose();
         let gpt_k = g_p.transpose() * &k;
-        let grad = self.q_rgb.transpose() * g_qm - p.transpose() * &g_p * p.transpose() + &gpt_k - b * (&p * &gpt_k);
+        let mut grad = &self.q_rgb_t * g_qm - &pt * (&g_p * &pt) + &gpt_k - b * (&p * &gpt_k);
+        if let Some(d) = grad_direct {
+            grad += d;
+        }
         grad.iter().all(|v| v.is_finite()).then_some((cost, Some(grad)))
+    }
+
+    /// The full-Λ term `μ/N Σ ‖W_p (Q B P (B e_l ∘ B s_r) − r_p)‖²` (seed Eq. 7 colours). With a gradient
+    /// request it adds into the accumulators of `Q B` (`g_qm`), `e` (`ge`) and `s` (`gs`) and returns the
+    /// part of ∂/∂B that enters through the projections `u = B e`, `v = B s`.
+    #[allow(clippy::type_complexity)]
+    fn lambda_term(
+        &self,
+        b: &DMatrix<f64>,
+        p: &DMatrix<f64>,
+        e: &DMatrix<f64>,
+        s: &DMatrix<f64>,
+        qm: &DMatrix<f64>,
+        grads: Option<(&mut DMatrix<f64>, &mut DMatrix<f64>, &mut DMatrix<f64>)>,
+    ) -> Option<(f64, Option<DMatrix<f64>>)> {
+        let n = self.pairs.len();
+        let u = b * e;
+        let v = b * s;
+        let (us, vs) = (u.as_slice(), v.as_slice());
+        let mut w = DMatrix::<f64>::zeros(SAMPLES, n);
+        for (col, pair) in w.as_mut_slice().chunks_exact_mut(SAMPLES).zip(&self.pairs) {
+            let uc = &us[pair.light * SAMPLES..(pair.light + 1) * SAMPLES];
+            let vc = &vs[pair.reflectance * SAMPLES..(pair.reflectance + 1) * SAMPLES];
+            for ((x, a), b) in col.iter_mut().zip(uc).zip(vc) {
+                *x = a * b;
+            }
+        }
+        let c = p * &w;
+        let pred = qm * &c;
+        let mu = self.lambda_weight * self.scale;
+        let mut cost = 0.0;
+        let mut g = DMatrix::<f64>::zeros(3, n);
+        for ((pr, gc), pair) in
+            pred.as_slice().chunks_exact(3).zip(g.as_mut_slice().chunks_exact_mut(3)).zip(&self.pairs)
+        {
+            let wt = &pair.weight;
+            let d = [pr[0] - pair.target[0], pr[1] - pair.target[1], pr[2] - pair.target[2]];
+            let res = [0, 1, 2].map(|i| wt[i][0] * d[0] + wt[i][1] * d[1] + wt[i][2] * d[2]);
+            cost += res[0] * res[0] + res[1] * res[1] + res[2] * res[2];
+            for (j, gj) in gc.iter_mut().enumerate() {
+                *gj = 2.0 * mu * (wt[0][j] * res[0] + wt[1][j] * res[1] + wt[2][j] * res[2]);
+            }
+        }
+        cost *= mu;
+        let Some((g_qm, ge, gs)) = grads else {
+            return Some((cost, None));
+        };
+        *g_qm += &g * c.transpose();
+        let gamma = qm.transpose() * &g;
+        // c = P w with w = u ∘ v: ∂/∂w = Pᵀγ, ∂/∂u = Pᵀγ ∘ v, ∂/∂v = Pᵀγ ∘ u; u = B e, v = B s.
+        let omega = p.transpose() * &gamma;
+        let mut du = DMatrix::<f64>::zeros(SAMPLES, u.ncols());
+        let mut dv = DMatrix::<f64>::zeros(SAMPLES, v.ncols());
+        let (dus, dvs) = (du.as_mut_slice(), dv.as_mut_slice());
+        for (om, pair) in omega.as_slice().chunks_exact(SAMPLES).zip(&self.pairs) {
+            let (lo, ro) = (pair.light * SAMPLES, pair.reflectance * SAMPLES);
+            for (i, o) in om.iter().enumerate() {
+                dus[lo + i] += o * vs[ro + i];
+                dvs[ro + i] += o * us[lo + i];
+            }
+        }
+        *ge += b.transpose() * &du;
+        *gs += b.transpose() * &dv;
+        // ∂/∂P through c = P w is γ wᵀ, chained through P = B⁺ as in the module docs.
+        let g_p_extra = &gamma * w.transpose();
+        let k = (b.transpose() * b).try_inverse()?;
+        let pt = p.transpose();
+        let gpt_k = g_p_extra.transpose() * &k;
+        let direct = du * e.transpose() + dv * s.transpose() - &pt * (&g_p_extra * &pt) + &gpt_k - b * (p * &gpt_k);
+        Some((cost, Some(direct)))
     }
 }
 
@@ -202,12 +336,17 @@ impl Best {
 }
 
 /// The objective as a function of a flat parameter vector.
+/// The last evaluation: argmin's L-BFGS asks for the cost and then (twice) the gradient at the same point,
+/// so every evaluation computes both and keeps them.
+type LastEvaluation = Option<(DVector<f64>, f64, DVector<f64>)>;
+
 struct Problem<'a> {
     objective: &'a Objective,
     /// `Some(B0)`: the parameters are T (m×m, column-major) and `B = B0 T`. `None`: they are B itself.
     b0: Option<&'a DMatrix<f64>>,
     m: usize,
     best: &'a Best,
+    last: Mutex<LastEvaluation>,
 }
 
 impl Problem<'_> {
@@ -219,6 +358,12 @@ impl Problem<'_> {
     }
 
     fn eval(&self, x: &DVector<f64>) -> Result<(f64, DVector<f64>), Error> {
+        if let Ok(guard) = self.last.lock()
+            && let Some((lx, cost, grad)) = guard.as_ref()
+            && lx == x
+        {
+            return Ok((*cost, grad.clone()));
+        }
         let b = self.basis(x);
         let (cost, grad_b) =
             self.objective.cost_and_gradient(&b).ok_or_else(|| Error::msg("the basis became rank deficient"))?;
@@ -227,7 +372,11 @@ impl Problem<'_> {
             Some(b0) => b0.tr_mul(&grad_b),
             None => grad_b,
         };
-        Ok((cost, DVector::from_column_slice(grad.as_slice())))
+        let grad = DVector::from_column_slice(grad.as_slice());
+        if let Ok(mut guard) = self.last.lock() {
+            *guard = Some((x.clone(), cost, grad.clone()));
+        }
+        Ok((cost, grad))
     }
 }
 
@@ -236,14 +385,7 @@ impl CostFunction for Problem<'_> {
     type Output = f64;
 
     fn cost(&self, x: &Self::Param) -> Result<f64, Error> {
-        let b = self.basis(x);
-        let cost = self.objective.cost_of(&b);
-        if cost.is_finite() {
-            self.best.record(cost, x);
-            Ok(cost)
-        } else {
-            Err(Error::msg("the basis became rank deficient"))
-        }
+        self.eval(x).map(|(c, _)| c)
     }
 }
 
@@ -260,7 +402,7 @@ fn run(objective: &Objective, b0: Option<&DMatrix<f64>>, start: &DMatrix<f64>, i
     let m = start.ncols();
     let x0 = DVector::from_column_slice(start.as_slice());
     let best = Best(Mutex::new(None));
-    let problem = Problem { objective, b0, m, best: &best };
+    let problem = Problem { objective, b0, m, best: &best, last: Mutex::new(None) };
     let start_cost = match problem.cost(&x0) {
         Ok(c) => c,
         Err(e) => return RefineOutcome::Kept { reason: e.to_string() },
@@ -275,7 +417,8 @@ fn run(objective: &Objective, b0: Option<&DMatrix<f64>>, start: &DMatrix<f64>, i
         Ok(s) => s,
         Err(e) => return RefineOutcome::Kept { reason: e.to_string() },
     };
-    let result = Executor::new(problem, solver).configure(|s| s.param(x0).max_iters(iterations)).run();
+    let result =
+        Executor::new(problem, solver).configure(|s| s.param(x0).max_iters(iterations).target_cost(TARGET_COST)).run();
     let (iters, aborted) = match result {
         Ok(r) => (r.state().get_iter(), None),
         Err(e) => (iterations, Some(e.to_string())),

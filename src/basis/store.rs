@@ -127,6 +127,8 @@ struct Entry {
     /// The columns of `B0 T` before all of B was refined.
     #[serde(default)]
     transform_only: Option<Vec<Vec<f64>>>,
+    #[serde(default)]
+    stages: Vec<StageResult>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -159,8 +161,18 @@ pub fn for_palette_with(
     cache: Option<&Path>,
     options: &TrainOptions,
 ) -> Result<(Basis, Report), StoreError> {
+    for_set(&TrainingSet::from_palette(palette)?, m, cache, options)
+}
+
+/// As [`for_palette_with`] for any training set (e.g. a scene's dial lights × its materials).
+pub fn for_set(
+    set: &TrainingSet,
+    m: usize,
+    cache: Option<&Path>,
+    options: &TrainOptions,
+) -> Result<(Basis, Report), StoreError> {
     let colorimetry = Colorimetry::default();
-    let set = TrainingSet::from_palette(palette)?;
+    let set = set.clone();
     let key = cache_key(&set, m);
     let mut notes = Vec::new();
     let mut sidecar = match cache {
@@ -175,7 +187,7 @@ pub fn for_palette_with(
         Some((basis, entry)) => {
             notes.extend(entry.notes.iter().cloned());
             let t = entry.transform_only.as_ref().and_then(|cols| columns_basis(cols, m, &colorimetry));
-            (basis, t, (true, entry.training_seconds, Vec::new(), entry.signal_rank, entry.padded))
+            (basis, t, (true, entry.training_seconds, entry.stages.clone(), entry.signal_rank, entry.padded))
         }
         None => {
             let start = Instant::now();
@@ -194,6 +206,7 @@ pub fn for_palette_with(
                     notes: trained.notes.clone(),
                     basis: columns(&trained.basis.b),
                     transform_only: Some(columns(&trained.transform_only)),
+                    stages: trained.stages.clone(),
                 });
                 let excess = sidecar.entries.len().saturating_sub(MAX_ENTRIES);
                 sidecar.entries.drain(..excess);
@@ -317,7 +330,7 @@ mod tests {
     }
 
     fn quick() -> TrainOptions {
-        TrainOptions { sharpen: true, transform_iterations: 100, full_iterations: 100 }
+        TrainOptions { sharpen: true, transform_iterations: 100, full_iterations: 100, ..TrainOptions::default() }
     }
 
     #[test]
@@ -333,6 +346,7 @@ mod tests {
         assert!(r2.from_cache);
         assert_eq!(b1, b2, "a cached basis is bit-identical");
         assert_eq!(r1.accuracy, r2.accuracy);
+        assert_eq!(r1.stages, r2.stages);
         // Another dimension is another entry; the first stays.
         let (_, r3) = for_palette_with(&p, 4, Some(&path), &quick()).unwrap();
         assert!(!r3.from_cache);

@@ -3,7 +3,10 @@
 
 pub mod basis;
 pub mod plot;
+pub mod render;
+pub mod report;
 pub mod solve;
+pub mod summary;
 
 use std::time::Instant;
 

@@ -1,13 +1,55 @@
-//! `metamer bench` (not built yet: it says so and exits non-zero).
+//! `metamer bench [solve|basis|render|all] [-o DIR] [--quick]`: run the benchmark suites and write a
+//! Markdown report (`DIR/README.md`, plus one file per suite) and PNG plots.
 
+use crate::bench::report::{self, ReportOptions, Suite};
+use anyhow::Context;
 use std::path::PathBuf;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Which {
+    /// The design engine: batches, blocks vs dense, joint n×n palettes, condition numbers.
+    Solve,
+    /// The spectral factor model: dimension against error and relighting cost.
+    Basis,
+    /// The renderer: raycast, relight, sweep cost, accuracy of the factor and RGB models.
+    Render,
+    /// Every suite, one report.
+    All,
+}
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Input file.
-    pub input: Option<PathBuf>,
+    /// Which benchmark to run.
+    #[arg(value_enum, default_value_t = Which::All)]
+    pub which: Which,
+    /// Output folder for the report (README.md) and plots.
+    #[arg(short, long, default_value = "bench")]
+    pub output: PathBuf,
+    /// A small, fast version of every suite (smoke test; figures are not meaningful).
+    #[arg(long)]
+    pub quick: bool,
+    /// Timed repetitions per measurement (default: each suite's own).
+    #[arg(long)]
+    pub runs: Option<usize>,
+    /// Renderer benchmark: volume to use instead of ../shared/volumes/engine.nhdr.
+    #[arg(long)]
+    pub volume: Option<PathBuf>,
 }
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`metamer bench` is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let suites: Vec<Suite> = match args.which {
+        Which::Solve => vec![Suite::Solve],
+        Which::Basis => vec![Suite::Basis],
+        Which::Render => vec![Suite::Render],
+        Which::All => Suite::ALL.to_vec(),
+    };
+    let options =
+        ReportOptions { out_dir: args.output.clone(), quick: args.quick, runs: args.runs, volume: args.volume };
+    let report =
+        report::run(&suites, &options).with_context(|| format!("benchmark report into {}", args.output.display()))?;
+    println!("{}", report.markdown);
+    for f in &report.files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
 }

@@ -1,13 +1,142 @@
-//! `metamer design` (not built yet: it says so and exits non-zero).
+//! `metamer design PALETTE.toml`: the terminal palette designer, or with `--replay` a headless run of a
+//! key script that writes the screen as text.
 
+use crate::basis::store::sidecar_path;
+use crate::palette::file::PaletteFile;
+use crate::tui::colour::ColourMode;
+use crate::tui::event_loop::{self, FileSaver, Io};
+use crate::tui::preview::Preview;
+use crate::tui::terminal::{TerminalEvents, TerminalGuard};
+use crate::tui::worker::{BasisMode, WorkerConfig};
+use crate::tui::{State, replay};
+use anyhow::{Context, bail};
 use std::path::PathBuf;
+use std::time::Duration;
+
+const AFTER_HELP: &str = "\
+Keys: arrows move, Enter edits the cell's sliders, Tab switches panel, ? lists every key, Esc closes popups,
+Ctrl-s saves (atomically, keeping comments and unknown keys), q quits (asking first when unsaved).
+
+Replay scripts (--replay KEYS.txt), one step per line:
+  # a comment                  (a line that is exactly # is the # key)
+  Down                         a named key: Up Down Left Right Enter Esc Tab BackTab Backspace Delete
+                               Home End PageUp PageDown Space Hash F1..F12
+  Right *3                     any step repeated 3 times
+  Ctrl-s                       with modifiers Ctrl- Alt- Shift-
+  q                            a single character is that key
+  \"#ff8800\"                    text in double quotes types each character (\\\" and \\\\ escape)
+  wait-solve                   wait for the running solve
+Every solve is waited for after each key, and times are hidden, so screens are reproducible.
+Ctrl-s in a script saves the palette file for real.";
 
 #[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// Input file.
-    pub input: Option<PathBuf>,
+    /// The palette file to design.
+    pub input: PathBuf,
+    /// Run this key script headless (no terminal needed) instead of opening the designer.
+    #[arg(long, value_name = "KEYS.txt")]
+    pub replay: Option<PathBuf>,
+    /// With --replay: write the final screen here as text (default: standard output).
+    #[arg(long, value_name = "OUT.txt", requires = "replay")]
+    pub screen: Option<PathBuf>,
+    /// With --replay: the screen size, WIDTHxHEIGHT.
+    #[arg(long, value_name = "WxH", default_value = "100x30", value_parser = parse_size, requires = "replay")]
+    pub size: (u16, u16),
+    /// With --replay: write every frame, not only the last.
+    #[arg(long, requires = "replay")]
+    pub every_frame: bool,
+    /// Colours: `truecolor` or `256` (default: truecolor when COLORTERM says truecolor or 24bit).
+    #[arg(long, value_name = "MODE", value_parser = parse_colours)]
+    pub colours: Option<ColourMode>,
+    /// Cap on one solve, in seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
+    pub time_limit: f64,
+    /// Do not train the spectral factor basis: no subspace colours (palettes that fit in the subspace then
+    /// cannot be solved).
+    #[arg(long)]
+    pub no_basis: bool,
+    /// Train the basis without reading or writing its sidecar cache (PALETTE.basis.json).
+    #[arg(long, conflicts_with = "no_basis")]
+    pub no_basis_cache: bool,
+    /// Show a half-block preview of this scene (DESIGN_SPEC §4), relit live with the designed spectra as
+    /// `[` and `]` move along its light dial (`v` switches between preview and spectra).
+    #[arg(long, value_name = "SCENE.toml")]
+    pub scene: Option<PathBuf>,
 }
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`metamer design` is not built yet")
+fn parse_size(text: &str) -> Result<(u16, u16), String> {
+    let (w, h) = text.split_once(['x', 'X']).ok_or(format!("'{text}' is not WIDTHxHEIGHT"))?;
+    let w: u16 = w.trim().parse().map_err(|_| format!("'{w}' is not a width"))?;
+    let h: u16 = h.trim().parse().map_err(|_| format!("'{h}' is not a height"))?;
+    if !(20..=1000).contains(&w) || !(8..=1000).contains(&h) {
+        return Err(format!("{w}x{h} is outside 20x8 … 1000x1000"));
+    }
+    Ok((w, h))
+}
+
+fn parse_colours(text: &str) -> Result<ColourMode, String> {
+    match text {
+        "truecolor" | "24bit" => Ok(ColourMode::TrueColor),
+        "256" => Ok(ColourMode::Indexed256),
+        _ => Err(format!("'{text}' is not truecolor or 256")),
+    }
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if !(args.time_limit.is_finite() && args.time_limit > 0.0) {
+        bail!("--time-limit must be a positive number of seconds, not {}", args.time_limit);
+    }
+    let file = PaletteFile::load(&args.input)?;
+    let colours = args.colours.unwrap_or_else(ColourMode::detect);
+    let mut state = State::new(args.input.clone(), file.palette.clone(), colours);
+    if !file.warnings.is_empty() {
+        state.say(file.warnings.join("; "));
+    }
+    if let Some(scene) = &args.scene {
+        let preview = Preview::load(scene, &state.colorimetry).context("--scene")?;
+        state.set_preview(preview);
+    }
+    let mut saver = FileSaver { file };
+    let worker = WorkerConfig {
+        time_limit: Duration::from_secs_f64(args.time_limit),
+        basis: if args.no_basis {
+            BasisMode::Off
+        } else {
+            BasisMode::Train { sidecar: (!args.no_basis_cache).then(|| sidecar_path(&args.input)) }
+        },
+    };
+    match &args.replay {
+        Some(script_path) => {
+            let text = std::fs::read_to_string(script_path)
+                .with_context(|| format!("cannot read the key script {}", script_path.display()))?;
+            let steps = replay::parse_script(&text).with_context(|| format!("{}", script_path.display()))?;
+            let (w, h) = args.size;
+            let (frames, _) = replay::run(&mut state, steps, w, h, args.every_frame, &mut saver, worker)
+                .with_context(|| format!("replaying {}", script_path.display()))?;
+            let out = if args.every_frame {
+                frames.iter().enumerate().map(|(k, f)| format!("── frame {k} ──\n{f}")).collect::<String>()
+            } else {
+                frames.concat()
+            };
+            match &args.screen {
+                Some(path) => std::fs::write(path, out).with_context(|| format!("cannot write {}", path.display()))?,
+                None => print!("{out}"),
+            }
+            Ok(())
+        }
+        None => {
+            let mut guard = TerminalGuard::enter()
+                .context("metamer design needs a terminal (use --replay KEYS.txt for headless runs)")?;
+            let mut events = TerminalEvents;
+            event_loop::run_main_loop(
+                &mut guard.terminal,
+                &mut state,
+                Io { events: &mut events, saver: &mut saver, on_frame: None, worker },
+            )
+            .context("the terminal failed")?;
+            drop(guard);
+            Ok(())
+        }
+    }
 }

@@ -1,13 +1,159 @@
-//! `metamer render` (not built yet: it says so and exits non-zero).
+//! `metamer render`: raycast a scene once and write a PNG sequence sweeping its light dial.
 
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::time::Instant;
+
+use crate::colorimetry::Colorimetry;
+use crate::render::relight::Mode;
+use crate::render::scene::Scene;
+use crate::render::sweep::{SweepOptions, sweep_exposure, write_sweep};
+use crate::render::{Acceleration, colour_model, render_views};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Input file.
-    pub input: Option<PathBuf>,
+    /// Scene file (DESIGN_SPEC §4). Without it (or with --builtin) the embedded default renders: a
+    /// generated engine-like volume with a built-in palette, no data files needed.
+    pub scene: Option<PathBuf>,
+    /// Render the embedded default scene.
+    #[arg(long)]
+    pub builtin: bool,
+    /// Frames in the whole sweep (N): frame k sits at t = k/(N−1) along the dial path.
+    #[arg(long, default_value_t = 48)]
+    pub frames: usize,
+    /// Image width and height in pixels.
+    #[arg(long, default_value_t = 384)]
+    pub size: usize,
+    /// Output folder for frame_0000.png …
+    #[arg(short, long, default_value = "frames")]
+    pub output: PathBuf,
+    /// Colour model: factor (m-D spectral factor model), full (31 samples, reference) or rgb (RGB factor model).
+    #[arg(long, default_value = "factor", value_parser = ["factor", "full", "rgb"])]
+    pub mode: String,
+    /// Also write a contact sheet of the written frames.
+    #[arg(long)]
+    pub contact_sheet: Option<PathBuf>,
+    /// Render only frames A..B (end exclusive) of the N; numbering and exposure stay those of the whole
+    /// sweep, so split runs combine.
+    #[arg(long, value_name = "A..B")]
+    pub frame_range: Option<String>,
+    /// Size of the generated volume of the built-in scene (voxels along x and y).
+    #[arg(long, default_value_t = 160)]
+    pub builtin_volume_size: usize,
+    /// Turn off early ray termination (for benchmarking).
+    #[arg(long)]
+    pub no_early_termination: bool,
+    /// Turn off empty-space skipping (for benchmarking).
+    #[arg(long)]
+    pub no_empty_space_skipping: bool,
 }
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`metamer render` is not built yet")
+/// Parse `A..B` (end exclusive); either end may be omitted.
+fn parse_range(s: &str, frames: usize) -> anyhow::Result<std::ops::Range<usize>> {
+    let (a, b) = s.split_once("..").with_context(|| format!("--frame-range `{s}`: expected A..B"))?;
+    let num = |t: &str, default: usize| -> anyhow::Result<usize> {
+        if t.trim().is_empty() {
+            Ok(default)
+        } else {
+            t.trim().parse().with_context(|| format!("--frame-range `{s}`: `{t}` is not a frame number"))
+        }
+    };
+    let (a, b) = (num(a, 0)?, num(b, frames)?);
+    if a >= b || b > frames {
+        bail!("--frame-range `{s}`: must satisfy A < B ≤ {frames} (the --frames count)");
+    }
+    Ok(a..b)
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if args.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    if !(8..=8192).contains(&args.size) {
+        bail!("--size {} is outside 8..=8192", args.size);
+    }
+    let mode = Mode::parse(&args.mode).with_context(|| format!("--mode `{}` is unknown", args.mode))?;
+    let range = match &args.frame_range {
+        Some(s) => parse_range(s, args.frames)?,
+        None => 0..args.frames,
+    };
+    let colorimetry = Colorimetry::default();
+    let scene = match (&args.scene, args.builtin) {
+        (Some(p), false) => Scene::load(p)?,
+        (Some(_), true) => bail!("give either a scene file or --builtin, not both"),
+        (None, _) => crate::render::scene::builtin_scene(args.builtin_volume_size)?,
+    };
+    let model = colour_model(&scene, mode, &colorimetry)?;
+    let accel = Acceleration {
+        early_termination: !args.no_early_termination,
+        empty_space_skipping: !args.no_empty_space_skipping,
+    };
+    let start = Instant::now();
+    let view = render_views(&scene, vec![model], args.size, args.size, accel, None)
+        .pop()
+        .context("the raycast produced no image")?;
+    let reflectances: Vec<_> = scene.materials.iter().map(|m| m.spectrum).collect();
+    let exposure = sweep_exposure(&colorimetry, &reflectances, &scene.dial, args.frames, scene.settings.exposure);
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new(range.len() as u64);
+        b.set_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let options = SweepOptions {
+        frames: args.frames,
+        range: range.clone(),
+        exposure,
+        out_dir: args.output.clone(),
+        contact_sheet: args.contact_sheet.clone(),
+    };
+    let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
+    bar.finish_and_clear();
+    let path: Vec<&str> = scene.dial.stops.iter().map(|s| s.name.as_str()).collect();
+    println!(
+        "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}",
+        report.written.len(),
+        range.start,
+        range.end,
+        args.frames,
+        mode.as_str(),
+        view.image.channels,
+        path.join(" → "),
+        args.output.display()
+    );
+    println!(
+        "raycast {:.1} ms ({} samples, {} skipped), relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms",
+        view.seconds * 1e3,
+        view.stats.samples,
+        view.stats.skipped,
+        report.seconds * 1e3,
+        report.seconds * 1e3 / report.written.len().max(1) as f64,
+        start.elapsed().as_secs_f64() * 1e3
+    );
+    if let Some(sheet) = &args.contact_sheet {
+        println!("contact sheet {}", sheet.display());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_ranges_parse() {
+        assert_eq!(parse_range("2..5", 10).unwrap(), 2..5);
+        assert_eq!(parse_range("..5", 10).unwrap(), 0..5);
+        assert_eq!(parse_range("7..", 10).unwrap(), 7..10);
+        assert!(parse_range("5..2", 10).is_err());
+        assert!(parse_range("0..11", 10).is_err());
+        assert!(parse_range("x..2", 10).is_err());
+        assert!(parse_range("3", 10).is_err());
+    }
 }

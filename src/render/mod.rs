@@ -1,7 +1,135 @@
 //! Spectral volume rendering with post-illumination (seed §2.2 and §5.1): a volume is raycast once per
 //! view under a flat white light, with reflectance spectra assigned by a transfer function of materials;
 //! each frame of a light-dial sweep then only relights the stored image with one 3×K matrix per frame.
+//!
+//! - [`scene`]: scene files (DESIGN_SPEC §4) and the built-in default scene;
+//! - [`raycast`]: the raycaster (material weights per pixel → K-channel image);
+//! - [`relight`]: the factor / full / RGB colour models and the per-frame matrix;
+//! - [`dial`]: the light dial path;
+//! - [`sweep`]: frames to PNG, exposure, contact sheet;
+//! - [`accuracy`]: factor and RGB model frames against the full-spectrum reference (ΔE00).
 
+pub mod accuracy;
 pub mod dial;
 pub mod raycast;
 pub mod relight;
+pub mod scene;
+pub mod sweep;
+
+use crate::basis::Basis;
+use crate::colorimetry::Colorimetry;
+use crate::spectrum::SAMPLES;
+use raycast::{BrickMap, ChannelImage, RaycastOptions, RaycastStats, raycast};
+use relight::{ColourModel, Mode};
+use scene::Scene;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Why rendering failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// A scene file problem: the file, the key and the reason.
+    #[error("{}: {key}: {reason}", path.display())]
+    Scene { path: PathBuf, key: String, reason: String },
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
+    #[error("{}: {reason}", path.display())]
+    Output { path: PathBuf, reason: String },
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// One raycast view: the K-channel image of the chosen colour model, ready for relighting.
+pub struct RenderedView {
+    pub image: ChannelImage,
+    pub model: ColourModel,
+    pub stats: RaycastStats,
+    /// Wall-clock seconds of the raycast (including projection onto the model's channels).
+    pub seconds: f64,
+}
+
+/// Switches of the raycaster that do not change the picture (beyond the termination threshold).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Acceleration {
+    pub early_termination: bool,
+    pub empty_space_skipping: bool,
+}
+
+impl Default for Acceleration {
+    fn default() -> Self {
+        Acceleration { early_termination: true, empty_space_skipping: true }
+    }
+}
+
+/// The colour model of a mode for a scene (factor mode trains its basis on the scene).
+pub fn colour_model(scene: &Scene, mode: Mode, colorimetry: &Colorimetry) -> Result<ColourModel, RenderError> {
+    Ok(match mode {
+        Mode::Factor => ColourModel::factor(colorimetry.clone(), scene_basis(scene)?),
+        Mode::Full => ColourModel::full(colorimetry.clone()),
+        Mode::Rgb => ColourModel::rgb(colorimetry.clone()),
+    })
+}
+
+/// Raycast options of a scene at `width × height`.
+pub fn raycast_options(scene: &Scene, width: usize, height: usize, accel: Acceleration) -> RaycastOptions {
+    RaycastOptions {
+        width,
+        height,
+        step: scene.settings.step,
+        ambient: scene.settings.ambient,
+        interpolation: scene.settings.interpolation,
+        early_termination: accel.early_termination,
+        empty_space_skipping: accel.empty_space_skipping,
+        ..RaycastOptions::default()
+    }
+}
+
+/// Raycast a scene once and project onto every model given (one image per model, same geometry).
+pub fn render_views(
+    scene: &Scene,
+    models: Vec<ColourModel>,
+    width: usize,
+    height: usize,
+    accel: Acceleration,
+    bricks: Option<&BrickMap>,
+) -> Vec<RenderedView> {
+    let start = Instant::now();
+    let classes: Vec<_> = scene.materials.iter().map(|m| m.class.clone()).collect();
+    let opts = raycast_options(scene, width, height, accel);
+    let (weights, stats) = raycast(&scene.volume, &classes, bricks, &scene.camera, &opts);
+    let cast = start.elapsed().as_secs_f64();
+    models
+        .into_iter()
+        .map(|model| {
+            let t = Instant::now();
+            let colours: Vec<Vec<f32>> = scene.materials.iter().map(|m| model.material_vector(&m.spectrum)).collect();
+            let image = weights.project(&colours);
+            RenderedView { image, model, stats, seconds: cast + t.elapsed().as_secs_f64() }
+        })
+        .collect()
+}
+
+/// The sharpened basis the factor model renders a scene with: the palette's trained basis of dimension
+/// `settings.basis_dimension` ([`crate::basis::store::for_palette`]: PCA of all light × reflectance colour
+/// signals, sharpened and refined), read from / stored in the palette's `.basis.json` sidecar when the
+/// scene came from files, so repeated renders skip training.
+///
+/// The basis module reports the factor-model error of its refined basis and of the basis whose sharpening
+/// transform alone was refined; when the latter is more accurate on the palette's own pairs, that one is
+/// trained (uncached) and used instead.
+pub fn scene_basis(scene: &Scene) -> Result<Basis, RenderError> {
+    use crate::basis::store::{for_palette, for_palette_with, sidecar_path};
+    use crate::basis::train::TrainOptions;
+    let m = scene.palette.settings.basis_dimension.clamp(1, SAMPLES);
+    let sidecar = scene.palette_path.as_deref().map(sidecar_path);
+    let err =
+        |e: crate::basis::store::StoreError| RenderError::Invalid(format!("palette `{}`: {e}", scene.palette.name));
+    let (basis, report) = for_palette(&scene.palette, m, sidecar.as_deref()).map_err(err)?;
+    let refined = report.accuracy.factor_model.mean;
+    match report.accuracy.transform_only {
+        Some(t) if t.mean < refined => {
+            Ok(for_palette_with(&scene.palette, m, None, &TrainOptions::transform_only()).map_err(err)?.0)
+        }
+        _ => Ok(basis),
+    }
+}

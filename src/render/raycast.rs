@@ -67,7 +67,7 @@ pub struct RaycastOptions {
     pub termination_transmittance: f64,
     /// Skip bricks whose value range holds no material.
     pub empty_space_skipping: bool,
-    /// Edge of a skipping brick in voxels.
+    /// Edge of a skipping brick in voxels (rounded up to a power of two).
     pub brick_size: usize,
 }
 
@@ -198,7 +198,10 @@ impl Classifier {
 /// Per-brick min/max of voxel values (each brick also covers the one-voxel seam to its neighbours, so
 /// every trilinear cell starting inside a brick is bounded by it).
 pub struct BrickMap {
+    /// Edge in voxels, a power of two.
     pub size: usize,
+    /// log2 of `size`.
+    pub shift: u32,
     pub counts: [usize; 3],
     pub min: Vec<f32>,
     pub max: Vec<f32>,
@@ -206,7 +209,8 @@ pub struct BrickMap {
 
 impl BrickMap {
     pub fn new(volume: &Volume, size: usize) -> BrickMap {
-        let size = size.max(1);
+        let size = size.clamp(1, 1 << 12).next_power_of_two();
+        let shift = size.trailing_zeros();
         let d = volume.dims;
         let counts = [0, 1, 2].map(|a| d[a].div_ceil(size));
         let n = counts[0] * counts[1] * counts[2];
@@ -232,7 +236,7 @@ impl BrickMap {
                 (lo, hi)
             })
             .unzip();
-        BrickMap { size, counts, min, max }
+        BrickMap { size, shift, counts, min, max }
     }
 }
 
@@ -370,6 +374,41 @@ pub fn raycast(
     (MaterialWeights { width: w, height: h, materials: n_mat, data }, stats)
 }
 
+/// The eight voxels around a sample and the sample's fractional position among them
+/// (`v[x + 2y + 4z]`).
+struct Cell {
+    v: [f32; 8],
+    f: [f32; 3],
+}
+
+impl Cell {
+    /// Trilinear interpolation.
+    #[inline(always)]
+    fn value(&self) -> f32 {
+        let [fx, fy, fz] = self.f;
+        let v = &self.v;
+        let c00 = v[0] + fx * (v[1] - v[0]);
+        let c10 = v[2] + fx * (v[3] - v[2]);
+        let c01 = v[4] + fx * (v[5] - v[4]);
+        let c11 = v[6] + fx * (v[7] - v[6]);
+        let c0 = c00 + fy * (c10 - c00);
+        let c1 = c01 + fy * (c11 - c01);
+        c0 + fz * (c1 - c0)
+    }
+
+    /// Gradient of the trilinear interpolant at the sample, per voxel index.
+    #[inline(always)]
+    fn gradient(&self) -> [f32; 3] {
+        let [fx, fy, fz] = self.f;
+        let v = &self.v;
+        let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
+        let dx = gy * gz * (v[1] - v[0]) + fy * gz * (v[3] - v[2]) + gy * fz * (v[5] - v[4]) + fy * fz * (v[7] - v[6]);
+        let dy = gx * gz * (v[2] - v[0]) + fx * gz * (v[3] - v[1]) + gx * fz * (v[6] - v[4]) + fx * fz * (v[7] - v[5]);
+        let dz = gx * gy * (v[4] - v[0]) + fx * gy * (v[5] - v[1]) + gx * fy * (v[6] - v[2]) + fx * fy * (v[7] - v[3]);
+        [dx, dy, dz]
+    }
+}
+
 struct RayContext<'a> {
     volume: &'a Volume,
     classifier: &'a Classifier,
@@ -388,76 +427,61 @@ impl RayContext<'_> {
         self.volume.data[x + d[0] * (y + d[1] * z)]
     }
 
-    /// Reconstructed value at index-space point p (inside [0, dims−1]).
+    /// The trilinear cell around index-space point p (clamped into [0, dims−1]).
     #[inline(always)]
-    fn sample(&self, p: [f64; 3]) -> f32 {
+    fn cell(&self, p: [f64; 3]) -> Cell {
         let d = self.volume.dims;
-        match self.options.interpolation {
-            Interpolation::Nearest => {
-                let c = [0, 1, 2].map(|a| (p[a].round().max(0.0) as usize).min(d[a] - 1));
-                self.voxel(c[0], c[1], c[2])
-            }
-            Interpolation::Trilinear => {
-                let mut i = [0usize; 3];
-                let mut f = [0f32; 3];
-                for a in 0..3 {
-                    let q = p[a].clamp(0.0, (d[a] - 1) as f64);
-                    let fl = q.floor();
-                    i[a] = (fl as usize).min(d[a].saturating_sub(2));
-                    f[a] = (q - i[a] as f64) as f32;
-                }
-                let sx = usize::from(d[0] > 1);
-                let sy = if d[1] > 1 { d[0] } else { 0 };
-                let sz = if d[2] > 1 { d[0] * d[1] } else { 0 };
-                let base = i[0] + d[0] * (i[1] + d[1] * i[2]);
-                let v = &self.volume.data;
-                let c00 = v[base] + f[0] * (v[base + sx] - v[base]);
-                let c10 = v[base + sy] + f[0] * (v[base + sy + sx] - v[base + sy]);
-                let c01 = v[base + sz] + f[0] * (v[base + sz + sx] - v[base + sz]);
-                let c11 = v[base + sz + sy] + f[0] * (v[base + sz + sy + sx] - v[base + sz + sy]);
-                let c0 = c00 + f[1] * (c10 - c00);
-                let c1 = c01 + f[1] * (c11 - c01);
-                c0 + f[2] * (c1 - c0)
-            }
+        let mut i = [0usize; 3];
+        let mut f = [0f32; 3];
+        for a in 0..3 {
+            // p ≥ 0 after the clamp, so truncation is floor (and avoids a libm call).
+            let q = p[a].clamp(0.0, (d[a] - 1) as f64);
+            i[a] = (q as usize).min(d[a].saturating_sub(2));
+            f[a] = (q - i[a] as f64) as f32;
+        }
+        let sx = usize::from(d[0] > 1);
+        let sy = if d[1] > 1 { d[0] } else { 0 };
+        let sz = if d[2] > 1 { d[0] * d[1] } else { 0 };
+        let b = i[0] + d[0] * (i[1] + d[1] * i[2]);
+        let v = &self.volume.data;
+        Cell {
+            v: [
+                v[b],
+                v[b + sx],
+                v[b + sy],
+                v[b + sy + sx],
+                v[b + sz],
+                v[b + sz + sx],
+                v[b + sz + sy],
+                v[b + sz + sy + sx],
+            ],
+            f,
         }
     }
 
-    /// Diffuse shading from the value gradient (central differences of trilinear samples, one voxel
-    /// apart), lit from the eye: `ambient + (1 − ambient)·|n·v|`; 1 where the gradient vanishes.
-    fn shade(&self, p: [f64; 3]) -> f32 {
+    /// The nearest voxel's value.
+    #[inline(always)]
+    fn nearest(&self, p: [f64; 3]) -> f32 {
         let d = self.volume.dims;
-        let mut g = [0f64; 3];
-        for a in 0..3 {
-            let mut lo = p;
-            let mut hi = p;
-            lo[a] = (p[a] - 1.0).max(0.0);
-            hi[a] = (p[a] + 1.0).min((d[a] - 1) as f64);
-            let span = hi[a] - lo[a];
-            if span > 0.0 {
-                g[a] =
-                    f64::from(self.sample_trilinear(hi) - self.sample_trilinear(lo)) / (span * self.volume.spacing[a]);
-            }
-        }
-        let n = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-        if n < 1e-6 {
+        let c = [0, 1, 2].map(|a| ((p[a].max(0.0) + 0.5) as usize).min(d[a] - 1));
+        self.voxel(c[0], c[1], c[2])
+    }
+
+    /// Diffuse shading from the value gradient of the trilinear cell, lit from the eye:
+    /// `ambient + (1 − ambient)·|n·v|`; 1 where the gradient vanishes.
+    #[inline(always)]
+    fn shade(&self, cell: &Cell) -> f32 {
+        let g = cell.gradient();
+        let s = self.volume.spacing;
+        let g = [f64::from(g[0]) / s[0], f64::from(g[1]) / s[1], f64::from(g[2]) / s[2]];
+        let n2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+        if n2 < 1e-12 {
             return 1.0;
         }
-        let cos =
-            (g[0] * self.view.view_world[0] + g[1] * self.view.view_world[1] + g[2] * self.view.view_world[2]) / n;
+        let v = self.view.view_world;
+        let cos = (g[0] * v[0] + g[1] * v[1] + g[2] * v[2]) / n2.sqrt();
         let a = self.options.ambient.clamp(0.0, 1.0);
         (a + (1.0 - a) * cos.abs()) as f32
-    }
-
-    fn sample_trilinear(&self, p: [f64; 3]) -> f32 {
-        if self.options.interpolation == Interpolation::Trilinear {
-            self.sample(p)
-        } else {
-            let ctx = RayContext {
-                options: &RaycastOptions { interpolation: Interpolation::Trilinear, ..self.options.clone() },
-                ..*self
-            };
-            ctx.sample(p)
-        }
     }
 
     /// March the ray of pixel (px, py), accumulating material weights into `out`.
@@ -501,7 +525,7 @@ impl RayContext<'_> {
         while k <= t1 {
             let p = [origin[0] + k * dir[0], origin[1] + k * dir[1], origin[2] + k * dir[2]];
             if let Some((bm, empty)) = self.bricks {
-                let b = [0, 1, 2].map(|a| ((p[a].max(0.0) as usize) / bm.size).min(bm.counts[a] - 1));
+                let b = [0, 1, 2].map(|a| ((p[a].max(0.0) as usize) >> bm.shift).min(bm.counts[a] - 1));
                 let bi = b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2]);
                 if empty[bi] {
                     // Jump to the first whole step past this brick's far faces.
@@ -521,12 +545,21 @@ impl RayContext<'_> {
                 }
             }
             stats.samples += 1;
-            let v = self.sample(p);
+            let (v, cell) = match self.options.interpolation {
+                Interpolation::Trilinear => {
+                    let c = self.cell(p);
+                    (c.value(), Some(c))
+                }
+                Interpolation::Nearest => (self.nearest(p), None),
+            };
             let bin = self.classifier.bin(v);
             let m = self.classifier.material[bin];
             if m != 0 {
                 let alpha = self.classifier.alpha[bin];
-                let shade = self.shade(p);
+                let shade = match &cell {
+                    Some(c) => self.shade(c),
+                    None => self.shade(&self.cell(p)),
+                };
                 out[usize::from(m - 1)] += transmittance * alpha * shade;
                 transmittance *= 1.0 - alpha;
                 if self.options.early_termination && transmittance < threshold {

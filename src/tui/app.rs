@@ -108,7 +108,7 @@ impl SpectrumOp {
 /// What a text prompt's answer is for.
 #[derive(Clone, Debug, PartialEq)]
 pub enum PromptPurpose {
-    /// `#rrggbb` target of colour cell `cell` (index into `palette.colours`), or of a new cell.
+    /// `#rrggbb` target of the cell at (light, reflectance), created if absent.
     Hex { light: usize, reflectance: usize },
     /// Weight of a cell.
     Weight { light: usize, reflectance: usize },
@@ -166,6 +166,10 @@ impl PickItem {
 pub enum Popup {
     /// Every key (`?`).
     Help {
+        scroll: u16,
+    },
+    /// The latest solve's diagnostics (`!`).
+    Diagnostics {
         scroll: u16,
     },
     Prompt(Prompt),
@@ -227,6 +231,12 @@ pub struct SolveStatus {
     pub error: Option<DesignError>,
     /// Wall-clock time of the latest finished solve.
     pub last_time: Option<Duration>,
+    /// A basis is being trained.
+    pub training: bool,
+    /// Generation of the palette the shown basis was trained for.
+    pub basis_generation: u64,
+    /// Why the basis could not be trained.
+    pub basis_error: Option<String>,
 }
 
 impl SolveStatus {
@@ -265,6 +275,12 @@ pub struct State {
     pub quit: bool,
     /// Frames drawn so far (spinner phase).
     pub ticks: u64,
+    /// The scene preview (`--scene`), its dial position in [0, 1], whether it is shown, and its pixels
+    /// under the current spectra (recomputed with the derived colours).
+    pub preview: Option<crate::tui::preview::Preview>,
+    pub dial: f64,
+    pub show_preview: bool,
+    pub preview_frame: Vec<[u8; 3]>,
 }
 
 impl State {
@@ -291,6 +307,10 @@ impl State {
             derived: Derived::default(),
             quit: false,
             ticks: 0,
+            preview: None,
+            dial: 0.0,
+            show_preview: false,
+            preview_frame: Vec::new(),
         };
         state.clamp_selection();
         state.refresh();
@@ -310,6 +330,22 @@ impl State {
             &self.colorimetry,
             self.basis.as_deref(),
         );
+        self.relight();
+    }
+
+    /// Relight the scene preview with the current spectra at the current dial position.
+    pub fn relight(&mut self) {
+        self.preview_frame = match &self.preview {
+            Some(p) => p.frame(&self.palette, &self.derived, &self.colorimetry, self.dial),
+            None => Vec::new(),
+        };
+    }
+
+    /// Attach a scene preview and show it.
+    pub fn set_preview(&mut self, preview: crate::tui::preview::Preview) {
+        self.preview = Some(preview);
+        self.show_preview = true;
+        self.relight();
     }
 
     /// What the selection points at.
@@ -372,6 +408,22 @@ impl State {
     /// Show an error until the next key.
     pub fn complain(&mut self, text: impl Into<String>) {
         self.message = Some(Message { text: text.into(), is_error: true });
+    }
+
+    /// The palette file's folder (CSV paths are relative to it).
+    pub fn base_dir(&self) -> PathBuf {
+        match self.path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        }
+    }
+
+    /// The latest solution's diagnostics (of the current palette, else the last one solved).
+    pub fn diagnostics(&self) -> &[crate::design::Diagnostic] {
+        self.solve
+            .current()
+            .or(self.solve.solution.as_ref().map(|(_, s)| s.as_ref()))
+            .map_or(&[], |s| s.diagnostics.as_slice())
     }
 
     /// The index into `palette.colours` of the cell at (light, reflectance).

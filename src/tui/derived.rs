@@ -16,7 +16,8 @@ pub struct CellView {
     pub desired: Option<Vector3<f64>>,
     /// The colour in the full 31-sample model.
     pub full: Vector3<f64>,
-    /// The colour in the subspace (spectral factor) model, when a basis is available.
+    /// The colour in the spectral factor model (`Basis::rgb_factor`, what post-illumination renders and
+    /// what the solver reports), when a basis is available.
     pub subspace: Option<Vector3<f64>>,
     pub delta_e_full: Option<f64>,
     pub delta_e_subspace: Option<f64>,
@@ -90,7 +91,7 @@ impl Derived {
         for (i, s) in reflectance_spectra.iter().enumerate() {
             for (j, e) in light_spectra.iter().enumerate() {
                 let full = colorimetry.rgb(e, s);
-                let subspace = basis.filter(|b| b.b.nrows() == crate::spectrum::SAMPLES).map(|b| b.rgb_lambda(e, s));
+                let subspace = basis.filter(|b| b.b.nrows() == crate::spectrum::SAMPLES).map(|b| b.rgb_factor(e, s));
                 let criterion = palette.cell(j, i);
                 let desired = criterion.and_then(|c| match c.free {
                     Some(g) => solution.and_then(|s| s.free.get(g).copied()),

@@ -1,66 +1,59 @@
-//! The palette edits the designer performs, as one seam onto the palette model. Each returns a
-//! readable reason when the edit cannot be made; the caller keeps the palette unchanged then.
+//! The palette edits the designer performs, as one seam onto the palette model's edit operations
+//! ([`crate::palette::edit`]). Each returns a readable reason when the edit cannot be made; the caller
+//! then keeps the palette unchanged.
+//!
+//! Two small operations the model does not offer live here: setting a free group's bounds (validated like
+//! `Palette::add_free_group`) and adding a CSV spectrum relative to the palette file's folder.
 
-use crate::palette::{ColourCell, FreeGroup, Kind, Palette, Source, TargetNotation};
+use crate::colorimetry::Colorimetry;
+use crate::palette::source::finish;
+use crate::palette::{Kind, Palette, Source, SpectrumEntry};
+use crate::spectrum::Normalize;
 use nalgebra::Vector3;
+use std::path::Path;
 
 /// Why an edit was refused (shown in the message line).
 pub type EditResult = Result<(), String>;
 
-/// Index of the criterion at (light, reflectance), creating an enabled one with target `initial` when absent.
-pub fn ensure_cell(palette: &mut Palette, light: usize, reflectance: usize, initial: Vector3<f64>) -> usize {
-    if let Some(i) = palette.colours.iter().position(|c| c.light == light && c.reflectance == reflectance) {
-        return i;
+fn text(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+/// Make sure (light, reflectance) has a colour criterion, created in use with target `initial` when absent.
+pub fn ensure_cell(palette: &mut Palette, light: usize, reflectance: usize, initial: Vector3<f64>) -> EditResult {
+    if palette.cell_index(light, reflectance).is_none() {
+        palette.set_target(light, reflectance, initial).map_err(text)?;
     }
-    palette.colours.push(ColourCell {
-        light,
-        reflectance,
-        target: initial,
-        notation: TargetNotation::Hex,
-        weight: 1.0,
-        free: None,
-        enabled: true,
-    });
-    palette.colours.len() - 1
+    Ok(())
 }
 
 /// Set the target of a cell (created if absent).
 pub fn set_target(palette: &mut Palette, light: usize, reflectance: usize, rgb: Vector3<f64>) -> EditResult {
-    if !rgb.iter().all(|v| v.is_finite()) {
-        return Err("the target must be finite".into());
-    }
-    let i = ensure_cell(palette, light, reflectance, rgb);
-    palette.colours[i].target = rgb;
-    Ok(())
+    palette.set_target(light, reflectance, rgb).map_err(text)
 }
 
-/// Set the weight of an existing criterion.
-pub fn set_weight(palette: &mut Palette, light: usize, reflectance: usize, weight: f64) -> EditResult {
-    if !(weight.is_finite() && weight >= 0.0) {
-        return Err(format!("a weight must be a finite number ≥ 0, not {weight}"));
-    }
-    let cell = palette
-        .colours
-        .iter_mut()
-        .find(|c| c.light == light && c.reflectance == reflectance)
-        .ok_or("this cell has no colour criterion yet (press u to use it)")?;
-    cell.weight = weight;
-    Ok(())
+/// Set the weight of a cell (created with target `initial` if absent).
+pub fn set_weight(
+    palette: &mut Palette,
+    light: usize,
+    reflectance: usize,
+    weight: f64,
+    initial: Vector3<f64>,
+) -> EditResult {
+    ensure_cell(palette, light, reflectance, initial)?;
+    palette.set_weight(light, reflectance, weight).map_err(text)
 }
 
 /// Toggle "use colour"; a cell without a criterion gets one with target `current` (its colour now).
 pub fn toggle_use(palette: &mut Palette, light: usize, reflectance: usize, current: Vector3<f64>) -> EditResult {
-    match palette.colours.iter_mut().find(|c| c.light == light && c.reflectance == reflectance) {
-        Some(c) => c.enabled = !c.enabled,
-        None => {
-            ensure_cell(palette, light, reflectance, current);
-        }
+    match palette.cell(light, reflectance).map(|c| c.enabled) {
+        Some(enabled) => palette.set_enabled(light, reflectance, !enabled).map_err(text),
+        None => ensure_cell(palette, light, reflectance, current),
     }
-    Ok(())
 }
 
 /// Put a cell into free-colour group `name` (created with bounds [0, 1] per channel when new), or take it
-/// out of its group with `None`. Groups left without cells are kept (they may carry bounds).
+/// out of its group with `None`.
 pub fn set_free(
     palette: &mut Palette,
     light: usize,
@@ -68,37 +61,33 @@ pub fn set_free(
     name: Option<&str>,
     current: Vector3<f64>,
 ) -> EditResult {
-    let group = match name {
-        None => None,
+    match name.map(str::trim) {
+        None => {
+            if palette.cell_index(light, reflectance).is_some() {
+                palette.set_free(light, reflectance, None).map_err(text)?;
+            }
+            Ok(())
+        }
         Some(n) => {
-            let n = n.trim();
-            if n.is_empty() || n.chars().any(|c| c.is_whitespace() || c == '"') {
+            if n.is_empty() || n.chars().any(|c| c.is_whitespace() || c.is_control() || c == '"') {
                 return Err(format!("'{n}' is not a group name (use letters or digits, no spaces)"));
             }
-            Some(match palette.free.iter().position(|g| g.name == n) {
+            let group = match palette.free.iter().position(|g| g.name == n) {
                 Some(g) => g,
-                None => {
-                    palette.free.push(FreeGroup {
-                        name: n.to_string(),
-                        lower: Vector3::zeros(),
-                        upper: Vector3::repeat(1.0),
-                    });
-                    palette.free.len() - 1
-                }
-            })
+                None => palette.add_free_group(n, Vector3::zeros(), Vector3::repeat(1.0)).map_err(text)?,
+            };
+            ensure_cell(palette, light, reflectance, current)?;
+            palette.set_free(light, reflectance, Some(group)).map_err(text)
         }
-    };
-    let i = ensure_cell(palette, light, reflectance, current);
-    palette.colours[i].free = group;
-    Ok(())
+    }
 }
 
-/// Set the per-channel bounds of a free group.
+/// Set the per-channel bounds (linear sRGB) of a free group.
 pub fn set_free_bounds(palette: &mut Palette, group: usize, lower: Vector3<f64>, upper: Vector3<f64>) -> EditResult {
-    if (0..3).any(|k| lower[k].is_nan() || upper[k].is_nan() || lower[k] > upper[k]) {
-        return Err("each lower bound must be ≤ its upper bound".into());
+    if let Some(k) = (0..3).find(|&k| lower[k].is_nan() || upper[k].is_nan() || lower[k] > upper[k]) {
+        return Err(format!("channel {}: lower bound {} is not ≤ upper bound {}", k + 1, lower[k], upper[k]));
     }
-    let g = palette.free.get_mut(group).ok_or("no such free-colour group")?;
+    let g = palette.free.get_mut(group).ok_or(format!("there is no free group number {group}"))?;
     g.lower = lower;
     g.upper = upper;
     Ok(())
@@ -106,38 +95,59 @@ pub fn set_free_bounds(palette: &mut Palette, group: usize, lower: Vector3<f64>,
 
 /// Open a spectrum to design, or fix it again.
 pub fn toggle_design(palette: &mut Palette, kind: Kind, index: usize) -> EditResult {
-    let entry = match kind {
-        Kind::Light => palette.lights.get_mut(index),
-        Kind::Reflectance => palette.reflectances.get_mut(index),
+    palette.toggle_design(kind, index).map(|_| ()).map_err(text)
+}
+
+/// Make a light a Planck black body at `kelvin`.
+pub fn make_planck(palette: &mut Palette, light: usize, kelvin: f64, colorimetry: &Colorimetry) -> EditResult {
+    palette.make_planck(Kind::Light, light, kelvin, colorimetry).map_err(text)
+}
+
+/// Normalise a light (luminance 1 or unit L2 norm, before its scale).
+pub fn normalise(palette: &mut Palette, light: usize, how: Normalize, colorimetry: &Colorimetry) -> EditResult {
+    palette.set_normalize(light, how, colorimetry).map_err(text)
+}
+
+/// Set a spectrum's scale (the spectrum is its normalised source times the scale).
+pub fn scale(palette: &mut Palette, kind: Kind, index: usize, scale: f64, colorimetry: &Colorimetry) -> EditResult {
+    palette.set_scale(kind, index, scale, colorimetry).map_err(text)
+}
+
+/// Add a light or reflectance. A CSV path is read relative to `base_dir` (the palette file's folder).
+pub fn add(
+    palette: &mut Palette,
+    kind: Kind,
+    name: &str,
+    source: Source,
+    base_dir: &Path,
+    colorimetry: &Colorimetry,
+) -> EditResult {
+    if !matches!(source, Source::Csv(_)) {
+        return palette.add_spectrum(kind, name, source, colorimetry).map(|_| ()).map_err(text);
     }
-    .ok_or("no such spectrum")?;
-    entry.design = !entry.design;
+    if palette.entries(kind).iter().any(|e| e.name == name) {
+        return Err(format!("a {} named `{name}` already exists", kind.as_str()));
+    }
+    let raw = source.raw_spectrum(Some(base_dir)).map_err(text)?;
+    let normalize = Normalize::default();
+    let spectrum = finish(&raw, kind, normalize, 1.0, &colorimetry.luminance()).map_err(text)?;
+    palette.entries_mut(kind).push(SpectrumEntry {
+        name: name.to_string(),
+        kind,
+        source,
+        normalize,
+        scale: 1.0,
+        design: false,
+        bounds: None,
+        dial: None,
+        spectrum,
+    });
     Ok(())
 }
 
-/// Not available until the palette edit operations are on main.
-fn pending(what: &str) -> EditResult {
-    Err(format!("{what}: waiting for the palette edit operations"))
-}
-
-pub fn make_planck(_palette: &mut Palette, _light: usize, _kelvin: f64) -> EditResult {
-    pending("make Planck")
-}
-
-pub fn normalise(_palette: &mut Palette, _light: usize, _how: crate::spectrum::Normalize) -> EditResult {
-    pending("normalise")
-}
-
-pub fn scale(_palette: &mut Palette, _kind: Kind, _index: usize, _factor: f64) -> EditResult {
-    pending("scale")
-}
-
-pub fn add(_palette: &mut Palette, _kind: Kind, _name: &str, _source: Source) -> EditResult {
-    pending("add")
-}
-
-pub fn remove(_palette: &mut Palette, _kind: Kind, _index: usize) -> EditResult {
-    pending("remove")
+/// Remove a light or reflectance with its cells.
+pub fn remove(palette: &mut Palette, kind: Kind, index: usize) -> EditResult {
+    palette.remove_spectrum(kind, index).map(|_| ()).map_err(text)
 }
 
 /// A name not yet used on that side of the palette: `base`, else `base_2`, `base_3`…

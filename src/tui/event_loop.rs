@@ -4,9 +4,10 @@
 //! for synchronous solving (replay, for reproducible screens).
 
 use crate::palette::Palette;
+use crate::palette::file::PaletteFile;
 use crate::tui::app::State;
 use crate::tui::update::{self, Effects};
-use crate::tui::worker::{Reply, Worker};
+use crate::tui::worker::{Reply, Worker, WorkerConfig};
 use crate::tui::{keymap, ui};
 use ratatui::Terminal;
 use ratatui::backend::Backend;
@@ -44,44 +45,79 @@ pub trait Saver {
     fn save(&mut self, palette: &Palette) -> Result<String, String>;
 }
 
+/// Saves to the palette file through its document, so comments, key order and unknown keys survive
+/// (atomically: a temporary file renamed over the old one; see [`PaletteFile::save`]).
+#[derive(Debug)]
+pub struct FileSaver {
+    pub file: PaletteFile,
+}
+
+impl Saver for FileSaver {
+    fn save(&mut self, palette: &Palette) -> Result<String, String> {
+        self.file.save(palette).map_err(|e| e.to_string())?;
+        let path = self.file.path.as_ref().map_or("the palette".to_string(), |p| p.display().to_string());
+        Ok(format!("saved {path}"))
+    }
+}
+
 /// What the loop needs besides the terminal and the state.
 pub struct Io<'a> {
     pub events: &'a mut dyn Events,
     pub saver: &'a mut dyn Saver,
     /// Called with every drawn frame.
     pub on_frame: Option<&'a mut dyn FnMut(&Buffer)>,
-    /// Cap on one solve.
-    pub solve_time_limit: Duration,
+    /// Solve time cap and basis training.
+    pub worker: WorkerConfig,
 }
 
 fn backend_error(e: impl std::fmt::Display) -> io::Error {
     io::Error::other(e.to_string())
 }
 
-/// Apply a solver reply to the state.
+/// Apply a worker reply to the state.
 fn apply_reply(state: &mut State, reply: Reply, worker: &Worker) {
-    if reply.generation != state.solve.generation {
-        // Stale: a newer palette is being (or will be) solved.
-        state.solve.running = worker.pending();
-        return;
-    }
-    state.solve.running = worker.pending();
-    state.solve.last_time = Some(reply.elapsed);
-    match reply.result {
-        Ok(solution) => {
-            state.solve.solution = Some((reply.generation, solution));
-            state.solve.error = None;
+    state.solve.running = worker.solving();
+    state.solve.training = worker.training();
+    match reply {
+        Reply::Trained(t) => {
+            if t.generation < state.solve.basis_generation {
+                return;
+            }
+            state.solve.basis_generation = t.generation;
+            match t.result {
+                Ok(basis) => {
+                    state.basis = Some(basis);
+                    state.solve.basis_error = None;
+                }
+                Err(e) => state.solve.basis_error = Some(e),
+            }
         }
-        Err(e) => {
-            state.solve.error = Some(e);
+        Reply::Solved(s) => {
+            if s.generation != state.solve.generation {
+                // Stale: a newer palette is being (or will be) solved.
+                return;
+            }
+            if let Some(b) = s.basis {
+                state.basis = Some(b);
+                state.solve.basis_generation = state.solve.basis_generation.max(s.generation);
+            }
+            state.solve.last_time = Some(s.elapsed);
+            match s.result {
+                Ok(solution) => {
+                    state.solve.solution = Some((s.generation, solution));
+                    state.solve.error = None;
+                }
+                Err(e) => state.solve.error = Some(e),
+            }
         }
     }
     state.refresh();
 }
 
 fn submit(state: &mut State, worker: &mut Worker) {
-    worker.submit(state.solve.generation, state.palette.clone(), state.basis.clone());
-    state.solve.running = worker.pending();
+    worker.submit(state.solve.generation, &state.palette);
+    state.solve.running = worker.solving();
+    state.solve.training = worker.training();
     state.solve.running_for = Duration::ZERO;
 }
 
@@ -92,8 +128,8 @@ pub fn palette_to_save(state: &State) -> Palette {
         let solved = |own: &mut Vec<crate::palette::SpectrumEntry>, theirs: &[crate::palette::SpectrumEntry]| {
             for (e, s) in own.iter_mut().zip(theirs) {
                 if e.design && e.name == s.name {
-                    e.spectrum = s.spectrum;
-                    e.source = crate::palette::Source::Samples(s.spectrum.to_vec());
+                    // Samples, never normalised or scaled again (DESIGN_SPEC §1, §3).
+                    *e = s.clone();
                 }
             }
         };
@@ -135,14 +171,14 @@ fn run_effects(state: &mut State, effects: Effects, worker: &mut Worker, saver: 
 
 /// Run the designer until it quits or the input ends.
 pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, io: Io<'_>) -> io::Result<()> {
-    let Io { events, saver, mut on_frame, solve_time_limit } = io;
-    let mut worker = Worker::start(solve_time_limit)?;
+    let Io { events, saver, mut on_frame, worker } = io;
+    let mut worker = Worker::start(worker)?;
     submit(state, &mut worker);
     let mut solve_started = Instant::now();
     let mut redraw = true;
     loop {
         if events.synchronous() {
-            while worker.pending().is_some() {
+            while worker.busy() {
                 match worker.wait_reply(Duration::from_secs(3600)) {
                     Some(reply) => apply_reply(state, reply, &worker),
                     None => break,
@@ -153,7 +189,7 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
             apply_reply(state, reply, &worker);
             redraw = true;
         }
-        if state.solve.running.is_some() {
+        if state.solve.running.is_some() || state.solve.training {
             state.solve.running_for = solve_started.elapsed();
         }
         if redraw {
@@ -166,10 +202,10 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
         if state.quit {
             return Ok(());
         }
-        let timeout = if worker.pending().is_some() { Duration::from_millis(80) } else { Duration::from_millis(500) };
+        let timeout = if worker.busy() { Duration::from_millis(80) } else { Duration::from_millis(500) };
         match events.next(timeout)? {
             None => {
-                if worker.pending().is_some() {
+                if worker.busy() {
                     state.ticks += 1;
                     redraw = true;
                 }
@@ -181,7 +217,7 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
                 redraw = true;
             }
             Some(Input::WaitSolve) => {
-                while worker.pending().is_some() {
+                while worker.busy() {
                     match worker.wait_reply(Duration::from_secs(3600)) {
                         Some(reply) => apply_reply(state, reply, &worker),
                         None => break,

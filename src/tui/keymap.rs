@@ -71,6 +71,10 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('z'), ctrl('z')], A::Undo, "undo"),
     bind(&[ch('Z'), ctrl('y')], A::Redo, "redo"),
     bind(&[ctrl('s')], A::Save, "save (atomic, keeps comments)"),
+    bind(&[ch('!')], A::Diagnostics, "the solver's diagnostics"),
+    bind(&[ch(']')], A::Dial { forward: true }, "scene preview: light dial forward"),
+    bind(&[ch('[')], A::Dial { forward: false }, "scene preview: light dial back"),
+    bind(&[ch('v')], A::TogglePreview, "scene preview / spectra plot"),
     bind(&[ch('?'), plain(K::F(1))], A::Help, "this help"),
     bind(&[ch('q'), ctrl('c')], A::Quit, "quit (asks if unsaved)"),
 ];
@@ -114,6 +118,13 @@ pub const HELP: &[Binding] = &[
     bind(&[plain(K::Esc), ch('?'), ch('q')], A::Back, "close"),
 ];
 
+/// The diagnostics list.
+pub const DIAGNOSTICS: &[Binding] = &[
+    bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
+    bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
+    bind(&[plain(K::Esc), ch('!'), ch('q')], A::Back, "close"),
+];
+
 /// Every table with its title, in the order the help shows them.
 pub const TABLES: &[(&str, &[Binding])] = &[
     ("main screen", MAIN),
@@ -122,6 +133,7 @@ pub const TABLES: &[(&str, &[Binding])] = &[
     ("light or reflectance?", CHOOSE),
     ("quit with unsaved changes", CONFIRM_QUIT),
     ("help", HELP),
+    ("diagnostics", DIAGNOSTICS),
 ];
 
 /// The table in force for the state's popup.
@@ -129,6 +141,7 @@ pub fn table_for(state: &State) -> &'static [Binding] {
     match state.popup {
         None => MAIN,
         Some(Popup::Help { .. }) => HELP,
+        Some(Popup::Diagnostics { .. }) => DIAGNOSTICS,
         Some(Popup::Prompt(_)) => PROMPT,
         Some(Popup::ChooseSpectrum { .. }) => CHOOSE,
         Some(Popup::Pick { .. }) => PICK,

@@ -18,6 +18,7 @@ use crate::palette::Palette;
 use crate::tui::app::State;
 use crate::tui::event_loop::{self, Events, Input, Io, Saver};
 use crate::tui::ui;
+use crate::tui::worker::WorkerConfig;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
@@ -205,6 +206,7 @@ pub fn run(
     height: u16,
     every_frame: bool,
     saver: &mut dyn Saver,
+    worker: WorkerConfig,
 ) -> io::Result<(Vec<String>, ratatui::buffer::Buffer)> {
     state.hide_times = true;
     let mut terminal = Terminal::new(TestBackend::new(width, height)).map_err(io::Error::other)?;
@@ -222,7 +224,7 @@ pub fn run(
     event_loop::run_main_loop(
         &mut terminal,
         state,
-        Io { events: &mut events, saver, on_frame: Some(&mut on_frame), solve_time_limit: Duration::from_secs(30) },
+        Io { events: &mut events, saver, on_frame: Some(&mut on_frame), worker },
     )?;
     if !every_frame {
         frames.push(last);

@@ -15,8 +15,14 @@ pub struct TerminalGuard {
 impl TerminalGuard {
     /// Enter raw mode and the alternate screen; installs a panic hook that restores the terminal first.
     pub fn enter() -> io::Result<TerminalGuard> {
-        let terminal = ratatui::try_init()?;
-        Ok(TerminalGuard { terminal })
+        match ratatui::try_init() {
+            Ok(terminal) => Ok(TerminalGuard { terminal }),
+            Err(e) => {
+                // Undo whatever part of the set-up succeeded (raw mode without the alternate screen…).
+                let _ = ratatui::try_restore();
+                Err(e)
+            }
+        }
     }
 }
 

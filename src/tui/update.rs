@@ -1,7 +1,7 @@
 //! The update step: apply one [`Action`] to the [`State`] and say which side effects (a solve, a save)
 //! the event loop must run. Nothing here draws or blocks.
 
-use crate::colorimetry::{hex_to_linear, linear_to_hex, srgb_decode, srgb_encode};
+use crate::colorimetry::{Colorimetry, hex_to_linear, linear_to_hex, srgb_decode, srgb_encode};
 use crate::palette::{Bounds, Kind, Palette, Source};
 use crate::spectrum::{Normalize, Spectrum};
 use crate::tui::action::{Action, Direction};
@@ -41,9 +41,9 @@ pub fn update(state: &mut State, action: Action) -> Effects {
 }
 
 /// Make an edit on a copy of the palette; keep it (with an undo step) when it succeeds and changed something.
-fn edit(state: &mut State, key: EditKey, f: impl FnOnce(&mut Palette) -> EditResult) -> Effects {
+fn edit(state: &mut State, key: EditKey, f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult) -> Effects {
     let mut next = state.palette.clone();
-    match f(&mut next) {
+    match f(&mut next, &state.colorimetry) {
         Err(reason) => {
             state.complain(reason);
             Effects::NONE
@@ -109,7 +109,7 @@ fn update_main(state: &mut State, action: Action) -> Effects {
         Action::Planck => spectrum_op(state, SpectrumOp::Planck),
         Action::ToggleUse => with_cell(state, |state, light, reflectance| {
             let now = current_colour(state, light, reflectance);
-            edit(state, EditKey::Other, |p| edits::toggle_use(p, light, reflectance, now))
+            edit(state, EditKey::Other, |p, _| edits::toggle_use(p, light, reflectance, now))
         }),
         Action::AssignFree => with_cell(state, |state, light, reflectance| {
             let now = state.palette.cell(light, reflectance).and_then(|c| c.free);
@@ -147,7 +147,7 @@ fn update_main(state: &mut State, action: Action) -> Effects {
         }),
         Action::FitColour => with_cell(state, |state, light, reflectance| {
             let now = current_colour(state, light, reflectance);
-            edit(state, EditKey::Other, |p| edits::set_target(p, light, reflectance, now))
+            edit(state, EditKey::Other, |p, _| edits::set_target(p, light, reflectance, now))
         }),
         Action::FitAll => {
             let fits: Vec<(usize, usize, Vector3<f64>)> = state
@@ -157,7 +157,9 @@ fn update_main(state: &mut State, action: Action) -> Effects {
                 .filter(|c| c.free.is_none())
                 .map(|c| (c.light, c.reflectance, current_colour(state, c.light, c.reflectance)))
                 .collect();
-            edit(state, EditKey::Other, |p| fits.iter().try_for_each(|(l, r, rgb)| edits::set_target(p, *l, *r, *rgb)))
+            edit(state, EditKey::Other, |p, _| {
+                fits.iter().try_for_each(|(l, r, rgb)| edits::set_target(p, *l, *r, *rgb))
+            })
         }
         Action::AddLight => {
             let mut items: Vec<PickItem> = Spectrum::illuminant_names().map(PickItem::Illuminant).collect();
@@ -175,7 +177,7 @@ fn update_main(state: &mut State, action: Action) -> Effects {
             Effects::NONE
         }
         Action::ToggleBounds => toggle_bounds(state),
-        Action::ToggleFitInSubspace => edit(state, EditKey::Other, |p| {
+        Action::ToggleFitInSubspace => edit(state, EditKey::Other, |p, _| {
             p.settings.fit_in_subspace = !p.settings.fit_in_subspace;
             Ok(())
         }),
@@ -208,6 +210,33 @@ fn update_main(state: &mut State, action: Action) -> Effects {
         Action::Save => Effects { save: true, ..Effects::NONE },
         Action::Help => {
             state.popup = Some(Popup::Help { scroll: 0 });
+            Effects::NONE
+        }
+        Action::Dial { forward } => {
+            if state.preview.is_none() {
+                state.complain("no scene preview: start with --scene SCENE.toml");
+            } else {
+                let step = if forward { 0.05 } else { -0.05 };
+                state.dial = ((state.dial + step) * 20.0).round().clamp(0.0, 20.0) / 20.0;
+                state.show_preview = true;
+                state.relight();
+            }
+            Effects::NONE
+        }
+        Action::TogglePreview => {
+            if state.preview.is_none() {
+                state.complain("no scene preview: start with --scene SCENE.toml");
+            } else {
+                state.show_preview = !state.show_preview;
+            }
+            Effects::NONE
+        }
+        Action::Diagnostics => {
+            if state.diagnostics().is_empty() {
+                state.say("no diagnostics: every criterion is met");
+            } else {
+                state.popup = Some(Popup::Diagnostics { scroll: 0 });
+            }
             Effects::NONE
         }
         Action::Quit => {
@@ -305,10 +334,7 @@ fn step_slider(state: &mut State, sign: f64, big: bool) -> Effects {
             let w = state.palette.cell(light, reflectance).map_or(1.0, |c| c.weight);
             let step = if big { 1.0 } else { 0.1 };
             let next = ((w + sign * step) * 10.0).round() / 10.0;
-            edit(state, key, |p| {
-                edits::ensure_cell(p, light, reflectance, now);
-                edits::set_weight(p, light, reflectance, next.max(0.0))
-            })
+            edit(state, key, |p, _| edits::set_weight(p, light, reflectance, next.max(0.0), now))
         }
         channel => {
             let k = match channel {
@@ -322,7 +348,7 @@ fn step_slider(state: &mut State, sign: f64, big: bool) -> Effects {
             let next = ((display + sign * step) * 255.0).round().clamp(0.0, 255.0) / 255.0;
             let mut rgb = target;
             rgb[k] = srgb_decode(next);
-            edit(state, key, |p| edits::set_target(p, light, reflectance, rgb))
+            edit(state, key, |p, _| edits::set_target(p, light, reflectance, rgb))
         }
     }
 }
@@ -345,7 +371,7 @@ fn activate(state: &mut State) -> Effects {
             let field = SettingField::ALL[state.setting.min(SettingField::ALL.len() - 1)];
             match field {
                 SettingField::Bounds => toggle_bounds(state),
-                SettingField::FitInSubspace => edit(state, EditKey::Other, |p| {
+                SettingField::FitInSubspace => edit(state, EditKey::Other, |p, _| {
                     p.settings.fit_in_subspace = !p.settings.fit_in_subspace;
                     Ok(())
                 }),
@@ -390,14 +416,14 @@ fn toggle_bounds(state: &mut State) -> Effects {
     if bounds_on(&state.palette) {
         let s = &state.palette.settings;
         state.remembered_bounds = (s.reflectance_bounds, s.light_bounds);
-        edit(state, EditKey::Other, |p| {
+        edit(state, EditKey::Other, |p, _| {
             p.settings.reflectance_bounds = Bounds::UNBOUNDED;
             p.settings.light_bounds = Bounds::UNBOUNDED;
             Ok(())
         })
     } else {
         let (r, l) = state.remembered_bounds;
-        edit(state, EditKey::Other, |p| {
+        edit(state, EditKey::Other, |p, _| {
             p.settings.reflectance_bounds = r;
             p.settings.light_bounds = l;
             Ok(())
@@ -432,15 +458,15 @@ fn apply_spectrum_op(state: &mut State, op: SpectrumOp, kind: Kind, index: usize
         return Effects::NONE;
     };
     match op {
-        SpectrumOp::ToggleDesign => edit(state, EditKey::Other, |p| edits::toggle_design(p, kind, index)),
+        SpectrumOp::ToggleDesign => edit(state, EditKey::Other, |p, _| edits::toggle_design(p, kind, index)),
         SpectrumOp::NormaliseLuminance | SpectrumOp::NormaliseL2 if kind == Kind::Reflectance => {
             state.complain("reflectances are never normalised; scale them instead (s)");
             Effects::NONE
         }
         SpectrumOp::NormaliseLuminance => {
-            edit(state, EditKey::Other, |p| edits::normalise(p, index, Normalize::Luminance))
+            edit(state, EditKey::Other, |p, c| edits::normalise(p, index, Normalize::Luminance, c))
         }
-        SpectrumOp::NormaliseL2 => edit(state, EditKey::Other, |p| edits::normalise(p, index, Normalize::L2)),
+        SpectrumOp::NormaliseL2 => edit(state, EditKey::Other, |p, c| edits::normalise(p, index, Normalize::L2, c)),
         SpectrumOp::Planck if kind == Kind::Reflectance => {
             state.complain("Planck black bodies are lights: select a light");
             Effects::NONE
@@ -454,17 +480,17 @@ fn apply_spectrum_op(state: &mut State, op: SpectrumOp, kind: Kind, index: usize
             open_prompt(state, &title, "temperature in kelvin", format!("{t}"), PromptPurpose::Planck { light: index })
         }
         SpectrumOp::Scale => {
-            let title = format!("scale {name}");
-            open_prompt(
-                state,
-                &title,
-                "multiply the spectrum by (e.g. 2 or 0.5)",
-                "1".into(),
-                PromptPurpose::Scale { kind, index },
-            )
+            let title = format!("scale of {name}");
+            let now = num_text(state.palette.entries(kind)[index].scale);
+            let hint = if kind == Kind::Light {
+                "spectrum = normalised source × scale"
+            } else {
+                "spectrum = source × scale"
+            };
+            open_prompt(state, &title, hint, now, PromptPurpose::Scale { kind, index })
         }
         SpectrumOp::Remove => {
-            let effects = edit(state, EditKey::Other, |p| edits::remove(p, kind, index));
+            let effects = edit(state, EditKey::Other, |p, _| edits::remove(p, kind, index));
             if effects.solve {
                 state.say(format!("removed {} {name} (z undoes)", kind.as_str()));
             }
@@ -481,6 +507,15 @@ fn update_popup(state: &mut State, popup: Popup, action: Action) -> Effects {
                 Action::Move(Direction::Up) => Some(Popup::Help { scroll: scroll.saturating_sub(1) }),
                 Action::Move(Direction::Down) => Some(Popup::Help { scroll: scroll.saturating_add(1).min(200) }),
                 _ => Some(Popup::Help { scroll }),
+            };
+            Effects::NONE
+        }
+        Popup::Diagnostics { scroll } => {
+            state.popup = match action {
+                Action::Back => None,
+                Action::Move(Direction::Up) => Some(Popup::Diagnostics { scroll: scroll.saturating_sub(1) }),
+                Action::Move(Direction::Down) => Some(Popup::Diagnostics { scroll: scroll.saturating_add(1).min(500) }),
+                _ => Some(Popup::Diagnostics { scroll }),
             };
             Effects::NONE
         }
@@ -571,7 +606,7 @@ fn pick(state: &mut State, kind: Kind, item: Option<PickItem>) -> Effects {
             return open_prompt(
                 state,
                 &title,
-                "path (relative to the palette file): one sample per row, 400–700 nm",
+                "path relative to the palette: rows of nm,value over 400–700 nm",
                 String::new(),
                 PromptPurpose::CsvPath(kind),
             );
@@ -582,7 +617,8 @@ fn pick(state: &mut State, kind: Kind, item: Option<PickItem>) -> Effects {
 
 fn add_spectrum(state: &mut State, kind: Kind, base: &str, source: Source) -> Effects {
     let name = edits::unique_name(&state.palette, kind, base);
-    let effects = edit(state, EditKey::Other, |p| edits::add(p, kind, &name, source));
+    let base_dir = state.base_dir();
+    let effects = edit(state, EditKey::Other, |p, c| edits::add(p, kind, &name, source, &base_dir, c));
     if effects.solve {
         state.say(format!("added {} {name}", kind.as_str()));
         // Select the new spectrum's swatch.
@@ -595,6 +631,11 @@ fn add_spectrum(state: &mut State, kind: Kind, base: &str, source: Source) -> Ef
         state.clamp_selection();
     }
     effects
+}
+
+/// A number as prompts prefill it (shortest round-trip form).
+fn num_text(v: f64) -> String {
+    format!("{v}")
 }
 
 /// Parse a number the way prompts accept it (`inf`, `-inf` included; NaN refused).
@@ -613,20 +654,17 @@ fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Effects {
             PromptPurpose::Hex { light, reflectance } => {
                 let hex = if input.starts_with('#') { input.clone() } else { format!("#{input}") };
                 let rgb = hex_to_linear(&hex).ok_or(format!("'{input}' is not #rrggbb"))?;
-                edit_or_err(state, |p| edits::set_target(p, light, reflectance, rgb))?
+                edit_or_err(state, |p, _| edits::set_target(p, light, reflectance, rgb))?
             }
             PromptPurpose::Weight { light, reflectance } => {
                 let w = parse_number(&input)?;
                 let now = current_colour(state, light, reflectance);
-                edit_or_err(state, |p| {
-                    edits::ensure_cell(p, light, reflectance, now);
-                    edits::set_weight(p, light, reflectance, w)
-                })?
+                edit_or_err(state, |p, _| edits::set_weight(p, light, reflectance, w, now))?
             }
             PromptPurpose::FreeGroup { light, reflectance } => {
                 let now = current_colour(state, light, reflectance);
                 let name = (!input.is_empty()).then_some(input.as_str());
-                edit_or_err(state, |p| edits::set_free(p, light, reflectance, name, now))?
+                edit_or_err(state, |p, _| edits::set_free(p, light, reflectance, name, now))?
             }
             PromptPurpose::FreeBounds { group } => {
                 let v: Vec<f64> = input
@@ -639,14 +677,14 @@ fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Effects {
                     [a, b, c, d, e, f] => (Vector3::new(*a, *b, *c), Vector3::new(*d, *e, *f)),
                     _ => return Err("give 2 numbers (lower upper) or 6 (lower r g b, upper r g b)".into()),
                 };
-                edit_or_err(state, |p| edits::set_free_bounds(p, group, lower, upper))?
+                edit_or_err(state, |p, _| edits::set_free_bounds(p, group, lower, upper))?
             }
             PromptPurpose::Planck { light } => {
                 let t = parse_number(&input)?;
                 if !(t.is_finite() && t > 0.0) {
                     return Err("the temperature must be a positive number of kelvin".into());
                 }
-                edit_or_err(state, |p| edits::make_planck(p, light, t))?
+                edit_or_err(state, |p, c| edits::make_planck(p, light, t, c))?
             }
             PromptPurpose::NewPlanck => {
                 let t = parse_number(&input)?;
@@ -658,9 +696,9 @@ fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Effects {
             PromptPurpose::Scale { kind, index } => {
                 let k = parse_number(&input)?;
                 if !(k.is_finite() && k > 0.0) {
-                    return Err("the scale must be a positive number".into());
+                    return Err("the scale must be a positive finite number".into());
                 }
-                edit_or_err(state, |p| edits::scale(p, kind, index, k))?
+                edit_or_err(state, |p, c| edits::scale(p, kind, index, k, c))?
             }
             PromptPurpose::CsvPath(kind) => {
                 if input.is_empty() {
@@ -678,17 +716,12 @@ fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Effects {
             }
             PromptPurpose::Setting(field) => {
                 let v = parse_number(&input)?;
-                edit_or_err(state, |p| set_setting(p, field, v))?
+                edit_or_err(state, |p, _| set_setting(p, field, v))?
             }
         })
     })();
     match result {
-        Ok(effects) => {
-            if state.message.as_ref().is_some_and(|m| m.is_error) {
-                state.popup = None;
-            }
-            effects
-        }
+        Ok(effects) => effects,
         Err(reason) => {
             state.message = None;
             prompt.error = Some(reason);
@@ -699,7 +732,7 @@ fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Effects {
 }
 
 /// Like [`edit`], but a refused edit is an error for the prompt to show.
-fn edit_or_err(state: &mut State, f: impl FnOnce(&mut Palette) -> EditResult) -> Result<Effects, String> {
+fn edit_or_err(state: &mut State, f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult) -> Result<Effects, String> {
     let effects = edit(state, EditKey::Other, f);
     match state.message.take() {
         Some(m) if m.is_error => Err(m.text),

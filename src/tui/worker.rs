@@ -1,105 +1,245 @@
-//! The solver off the UI thread: one worker thread takes solve requests over a channel, always works on
-//! the newest one (older queued requests are dropped unread), and can be cancelled mid-solve through
-//! [`SolveOptions::cancel`]. Every request carries the palette's generation so the UI can drop replies
-//! to palettes that have since changed.
+//! Solving and basis training off the UI thread.
+//!
+//! Two threads: the solver and the basis trainer. Each takes requests over a channel and always works on
+//! the newest one (older queued requests are dropped unread); a running solve is cancelled through
+//! [`SolveOptions::cancel`] when a newer palette arrives. Every request carries the palette's generation
+//! so the UI can drop replies to palettes that have since changed.
+//!
+//! The basis (the spectral factor model, for the subspace colours of the matrix and for palettes that fit
+//! in the subspace) is trained by [`crate::basis::store::for_palette`] — optionally through its sidecar
+//! cache — and kept in memory by its training-set key, shared by both threads, so it is retrained only
+//! when a spectrum or the dimension changes.
 
 use crate::basis::Basis;
+use crate::basis::store::{self, cache_key, palette_uses_basis};
+use crate::basis::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
 use crate::design::{self, DesignError, Solution, SolveOptions};
 use crate::palette::Palette;
-use std::sync::Arc;
+use std::collections::HashMap;
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
-use std::thread::JoinHandle;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-/// A palette to solve.
-#[derive(Debug)]
-pub struct Request {
-    pub generation: u64,
-    pub palette: Palette,
-    pub basis: Option<Arc<Basis>>,
-    pub cancel: Arc<AtomicBool>,
+/// Whether and how the worker trains the palette's basis.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BasisMode {
+    /// Never train: no subspace colours, and palettes that need a basis report so.
+    Off,
+    /// Train when the spectra or the dimension change, reading and writing this sidecar cache if given.
+    Train { sidecar: Option<PathBuf> },
 }
 
-/// The outcome of one solve.
+/// How the worker runs.
+#[derive(Clone, Debug)]
+pub struct WorkerConfig {
+    /// Cap on one solve.
+    pub time_limit: Duration,
+    pub basis: BasisMode,
+}
+
+/// A finished solve.
 #[derive(Debug)]
-pub struct Reply {
+pub struct Solved {
     pub generation: u64,
     pub result: Result<Arc<Solution>, DesignError>,
-    /// Wall-clock time of the solve.
+    /// The basis the solve used, if it needed one.
+    pub basis: Option<Arc<Basis>>,
+    /// Wall-clock time of the solve (and of any basis training it waited for).
     pub elapsed: Duration,
 }
 
-/// Handle on the worker thread.
+/// A finished basis training (or cache hit).
 #[derive(Debug)]
-pub struct Worker {
-    requests: Option<Sender<Request>>,
-    replies: Receiver<Reply>,
-    /// Cancel flag of the newest request.
-    cancel: Option<Arc<AtomicBool>>,
-    /// The newest generation submitted and not yet answered.
-    pending: Option<u64>,
-    thread: Option<JoinHandle<()>>,
+pub struct Trained {
+    pub generation: u64,
+    pub result: Result<Arc<Basis>, String>,
 }
 
-/// Solve requests in order, skipping to the newest queued one.
-fn serve(requests: Receiver<Request>, replies: Sender<Reply>, time_limit: Duration) {
-    let colorimetry = Colorimetry::default();
-    while let Ok(mut request) = requests.recv() {
-        // Drop stale work: only the newest queued request matters.
-        loop {
-            match requests.try_recv() {
-                Ok(newer) => request = newer,
-                Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => return,
-            }
+/// Something the worker finished.
+#[derive(Debug)]
+pub enum Reply {
+    Solved(Solved),
+    Trained(Trained),
+}
+
+struct Request {
+    generation: u64,
+    palette: Palette,
+    cancel: Arc<AtomicBool>,
+}
+
+/// Bases by training-set key, shared by the two threads.
+type BasisCache = Arc<Mutex<HashMap<String, Arc<Basis>>>>;
+
+/// The palette's basis: from memory, else trained (through the sidecar when configured).
+fn basis_for(palette: &Palette, cache: &BasisCache, sidecar: Option<&PathBuf>) -> Result<Arc<Basis>, String> {
+    let m = palette.settings.basis_dimension;
+    let set = TrainingSet::from_palette(palette).map_err(|e| format!("cannot train the basis: {e}"))?;
+    let key = cache_key(&set, m);
+    if let Some(b) = cache.lock().ok().and_then(|c| c.get(&key).cloned()) {
+        return Ok(b);
+    }
+    let (basis, _) = store::for_palette(palette, m, sidecar.map(PathBuf::as_path)).map_err(|e| e.to_string())?;
+    let basis = Arc::new(basis);
+    if let Ok(mut c) = cache.lock() {
+        if c.len() > 32 {
+            c.clear();
         }
+        c.insert(key, basis.clone());
+    }
+    Ok(basis)
+}
+
+/// The newest request queued behind `first`.
+fn newest(first: Request, requests: &Receiver<Request>) -> Option<Request> {
+    let mut request = first;
+    loop {
+        match requests.try_recv() {
+            Ok(newer) => request = newer,
+            Err(TryRecvError::Empty) => return Some(request),
+            Err(TryRecvError::Disconnected) => return None,
+        }
+    }
+}
+
+fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: WorkerConfig, cache: BasisCache) {
+    let colorimetry = Colorimetry::default();
+    while let Ok(first) = requests.recv() {
+        let Some(request) = newest(first, &requests) else { return };
         let started = Instant::now();
-        let result = if request.cancel.load(Ordering::Relaxed) {
-            Err(DesignError::Cancelled)
-        } else {
-            let options = SolveOptions { time_limit, cancel: Some(request.cancel.clone()) };
-            design::solve(&request.palette, request.basis.as_deref(), &colorimetry, &options).map(Arc::new)
+        let cancelled = request.cancel.load(Ordering::Relaxed);
+        let basis = match (&config.basis, palette_uses_basis(&request.palette)) {
+            (BasisMode::Train { sidecar }, true) if !cancelled => {
+                Some(basis_for(&request.palette, &cache, sidecar.as_ref()))
+            }
+            _ => None,
         };
-        let reply = Reply { generation: request.generation, result, elapsed: started.elapsed() };
-        if replies.send(reply).is_err() {
+        let result = match &basis {
+            _ if cancelled || request.cancel.load(Ordering::Relaxed) => Err(DesignError::Cancelled),
+            Some(Err(e)) => Err(DesignError::Invalid(e.clone())),
+            _ => {
+                let options = SolveOptions { time_limit: config.time_limit, cancel: Some(request.cancel.clone()) };
+                let b = basis.as_ref().and_then(|b| b.as_ref().ok()).map(|b| b.as_ref());
+                design::solve(&request.palette, b, &colorimetry, &options).map(Arc::new)
+            }
+        };
+        let reply = Solved {
+            generation: request.generation,
+            result,
+            basis: basis.and_then(Result::ok),
+            elapsed: started.elapsed(),
+        };
+        if replies.send(Reply::Solved(reply)).is_err() {
             return;
         }
     }
 }
 
+fn serve_bases(requests: Receiver<Request>, replies: Sender<Reply>, sidecar: Option<PathBuf>, cache: BasisCache) {
+    while let Ok(first) = requests.recv() {
+        let Some(request) = newest(first, &requests) else { return };
+        let result = basis_for(&request.palette, &cache, sidecar.as_ref());
+        if replies.send(Reply::Trained(Trained { generation: request.generation, result })).is_err() {
+            return;
+        }
+    }
+}
+
+/// Handle on the worker threads.
+#[derive(Debug)]
+pub struct Worker {
+    solves: Option<Sender<Request>>,
+    bases: Option<Sender<Request>>,
+    replies: Receiver<Reply>,
+    /// Cancel flag of the newest solve request.
+    cancel: Option<Arc<AtomicBool>>,
+    /// The newest generations submitted and not yet answered.
+    pending_solve: Option<u64>,
+    pending_basis: Option<u64>,
+    /// Key of the newest basis asked for, to skip asking again for the same spectra.
+    basis_asked: Option<String>,
+}
+
 impl Worker {
-    /// Start the worker thread; each solve is capped at `time_limit`.
-    pub fn start(time_limit: Duration) -> std::io::Result<Worker> {
-        let (request_tx, request_rx) = mpsc::channel();
+    /// Start the worker threads.
+    pub fn start(config: WorkerConfig) -> std::io::Result<Worker> {
         let (reply_tx, reply_rx) = mpsc::channel();
-        let thread = std::thread::Builder::new()
-            .name("metamer-solve".into())
-            .spawn(move || serve(request_rx, reply_tx, time_limit))?;
-        Ok(Worker { requests: Some(request_tx), replies: reply_rx, cancel: None, pending: None, thread: Some(thread) })
+        let cache: BasisCache = Arc::default();
+        let (solve_tx, solve_rx) = mpsc::channel();
+        {
+            let (replies, config, cache) = (reply_tx.clone(), config.clone(), cache.clone());
+            std::thread::Builder::new()
+                .name("metamer-solve".into())
+                .spawn(move || serve_solves(solve_rx, replies, config, cache))?;
+        }
+        let bases = match config.basis {
+            BasisMode::Off => None,
+            BasisMode::Train { sidecar } => {
+                let (basis_tx, basis_rx) = mpsc::channel();
+                std::thread::Builder::new()
+                    .name("metamer-basis".into())
+                    .spawn(move || serve_bases(basis_rx, reply_tx, sidecar, cache))?;
+                Some(basis_tx)
+            }
+        };
+        Ok(Worker {
+            solves: Some(solve_tx),
+            bases,
+            replies: reply_rx,
+            cancel: None,
+            pending_solve: None,
+            pending_basis: None,
+            basis_asked: None,
+        })
     }
 
-    /// Solve `palette` (generation `generation`), cancelling whatever runs now.
-    pub fn submit(&mut self, generation: u64, palette: Palette, basis: Option<Arc<Basis>>) {
+    /// Solve `palette` (generation `generation`), cancelling whatever solve runs now, and have its basis
+    /// trained when its spectra or dimension changed.
+    pub fn submit(&mut self, generation: u64, palette: &Palette) {
         if let Some(old) = self.cancel.take() {
             old.store(true, Ordering::Relaxed);
         }
         let cancel = Arc::new(AtomicBool::new(false));
         self.cancel = Some(cancel.clone());
-        let sent =
-            self.requests.as_ref().is_some_and(|tx| tx.send(Request { generation, palette, basis, cancel }).is_ok());
-        self.pending = sent.then_some(generation);
+        let request = Request { generation, palette: palette.clone(), cancel };
+        let sent = self.solves.as_ref().is_some_and(|tx| tx.send(request).is_ok());
+        self.pending_solve = sent.then_some(generation);
+        if let Some(tx) = &self.bases {
+            let key =
+                TrainingSet::from_palette(palette).ok().map(|set| cache_key(&set, palette.settings.basis_dimension));
+            if key.is_some() && key != self.basis_asked {
+                let request = Request { generation, palette: palette.clone(), cancel: Arc::default() };
+                if tx.send(request).is_ok() {
+                    self.pending_basis = Some(generation);
+                    self.basis_asked = key;
+                }
+            }
+        }
     }
 
     /// The generation being solved, if any.
-    pub fn pending(&self) -> Option<u64> {
-        self.pending
+    pub fn solving(&self) -> Option<u64> {
+        self.pending_solve
+    }
+
+    /// True while a basis is being trained.
+    pub fn training(&self) -> bool {
+        self.pending_basis.is_some()
+    }
+
+    /// True while anything is under way.
+    pub fn busy(&self) -> bool {
+        self.pending_solve.is_some() || self.pending_basis.is_some()
     }
 
     fn note(&mut self, reply: &Reply) {
-        if self.pending == Some(reply.generation) {
-            self.pending = None;
+        match reply {
+            Reply::Solved(s) if self.pending_solve == Some(s.generation) => self.pending_solve = None,
+            Reply::Trained(t) if self.pending_basis == Some(t.generation) => self.pending_basis = None,
+            _ => {}
         }
     }
 
@@ -127,9 +267,9 @@ impl Drop for Worker {
         if let Some(c) = self.cancel.take() {
             c.store(true, Ordering::Relaxed);
         }
-        // Closing the request channel ends the thread once its (cancelled) solve returns; the UI does not
-        // wait for that, so quitting never hangs on a solver that checks its cancel flag late.
-        self.requests = None;
-        drop(self.thread.take());
+        // Closing the request channels ends the threads once their current work returns; the UI does not
+        // wait for that, so quitting never hangs on a long training or a solver that checks its flag late.
+        self.solves = None;
+        self.bases = None;
     }
 }

@@ -32,13 +32,36 @@ struct Header {
 /// Read a `.nhdr` or `.nrrd` file.
 pub fn read(path: &Path) -> Result<Volume, VolumeError> {
     let bytes = std::fs::read(path).map_err(|e| VolumeError::io(path, e))?;
-    let (header_text, data_start) = split_header(path, &bytes)?;
+    parse(path, &bytes, |p| {
+        // Only regular files: a header naming a device (`/dev/zero`) must not make the reader read forever.
+        if !std::fs::metadata(p).map_err(|e| VolumeError::io(p, e))?.is_file() {
+            return Err(VolumeError::invalid(p, "the detached data file is not a regular file"));
+        }
+        std::fs::read(p).map_err(|e| VolumeError::io(p, e))
+    })
+}
+
+/// Read an attached NRRD held in memory (`origin` names it in errors). A header that names a detached
+/// `data file` is refused: there is no folder to find it in.
+pub fn from_bytes(origin: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
+    parse(origin, bytes, |p| {
+        Err(VolumeError::invalid(p, "names a detached data file, which cannot be read from memory"))
+    })
+}
+
+/// Parse a NRRD file's bytes; `load` reads a detached data file (given its path beside `path`).
+fn parse(
+    path: &Path,
+    bytes: &[u8],
+    load: impl FnOnce(&Path) -> Result<Vec<u8>, VolumeError>,
+) -> Result<Volume, VolumeError> {
+    let (header_text, data_start) = split_header(path, bytes)?;
     let header = parse_header(path, header_text)?;
     let count = voxel_count(path, header.dims)?;
     let (data_path, file_bytes): (PathBuf, Vec<u8>) = match &header.data_file {
         Some(f) => {
             let p = path.parent().unwrap_or(Path::new(".")).join(f);
-            let b = std::fs::read(&p).map_err(|e| VolumeError::io(&p, e))?;
+            let b = load(&p)?;
             (p, b)
         }
         None => (path.to_path_buf(), bytes[data_start.min(bytes.len())..].to_vec()),

@@ -15,9 +15,14 @@ use std::path::Path;
 /// Read a `.vti` file.
 pub fn read(path: &Path) -> Result<Volume, VolumeError> {
     let bytes = std::fs::read(path).map_err(|e| VolumeError::io(path, e))?;
+    from_bytes(path, &bytes)
+}
+
+/// Read `.vti` content held in memory (`path` names it in errors).
+pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
     let bad = |reason: String| VolumeError::invalid(path, reason);
     // The appended section may hold raw binary; the XML before it is text.
-    let appended_at = find(&bytes, b"<AppendedData");
+    let appended_at = find(bytes, b"<AppendedData");
     let xml_end = appended_at.unwrap_or(bytes.len());
     let xml = std::str::from_utf8(&bytes[..xml_end]).map_err(|_| bad("the XML is not UTF-8 text".into()))?;
 

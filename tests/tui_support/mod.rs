@@ -8,8 +8,10 @@ use metamer::spectrum::{Normalize, Spectrum};
 use metamer::tui::State;
 use metamer::tui::colour::ColourMode;
 use metamer::tui::replay::{self, MemorySaver};
+use metamer::tui::worker::{BasisMode, WorkerConfig};
 use nalgebra::Vector3;
 use std::path::PathBuf;
+use std::time::Duration;
 
 fn light(name: &str, source: Source, design: bool) -> SpectrumEntry {
     let c = Colorimetry::default();
@@ -64,7 +66,8 @@ fn cell(light: usize, reflectance: usize, hex: &str, free: Option<usize>) -> Col
     }
 }
 
-/// A 3-light × 3-reflectance metamer palette: two designed reflectances, one free group.
+/// A 3-light × 3-reflectance metamer palette: two designed reflectances (no designed light, so the solve
+/// is linear and fast), one free group, one cell out of use.
 pub fn demo_palette() -> Palette {
     let settings = Settings {
         reflectance_bounds: metamer::palette::Bounds::new(0.0, 1.0),
@@ -79,7 +82,7 @@ pub fn demo_palette() -> Palette {
         lights: vec![
             light("daylight", Source::Illuminant("D65".into()), false),
             light("tungsten", Source::Illuminant("A".into()), false),
-            light("split", Source::Planck(9000.0), true),
+            light("split", Source::Planck(9000.0), false),
         ],
         reflectances: vec![
             reflectance("skin", Source::ColorChecker("dark_skin".into()), false),
@@ -137,7 +140,20 @@ pub fn replay_saving(
     height: u16,
     saver: &mut MemorySaver,
 ) -> (String, ratatui::buffer::Buffer) {
+    replay_with(state, script, width, height, saver, BasisMode::Off)
+}
+
+/// Like [`replay_saving`], training the basis as `basis` says.
+pub fn replay_with(
+    state: &mut State,
+    script: &str,
+    width: u16,
+    height: u16,
+    saver: &mut MemorySaver,
+    basis: BasisMode,
+) -> (String, ratatui::buffer::Buffer) {
     let steps = replay::parse_script(script).expect("valid script");
-    let (frames, buf) = replay::run(state, steps, width, height, false, saver).expect("replay runs");
+    let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis };
+    let (frames, buf) = replay::run(state, steps, width, height, false, saver, worker).expect("replay runs");
     (frames.last().cloned().unwrap_or_default(), buf)
 }

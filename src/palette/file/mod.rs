@@ -26,12 +26,23 @@ pub enum PaletteError {
     Binary { path: PathBuf, offset: usize },
     #[error("{}: TOML syntax error at line {line}, column {column}: {message}", path.display())]
     Syntax { path: PathBuf, line: usize, column: usize, message: String },
-    #[error("{}: {key}: {reason}", path.display())]
-    Invalid { path: PathBuf, key: String, reason: String },
+    #[error("{}{}: {key}: {reason}", path.display(), at_line(line))]
+    Invalid {
+        path: PathBuf,
+        /// The key path, e.g. `colours[3].light`.
+        key: String,
+        reason: String,
+        /// The line of the key (or of its table when the key is missing), when known.
+        line: Option<usize>,
+    },
     #[error("{}: cannot write the file: {source}", path.display())]
     Write { path: PathBuf, source: std::io::Error },
     #[error("this palette has no file yet: save it with save_as")]
     NoPath,
+}
+
+fn at_line(line: &Option<usize>) -> String {
+    line.map(|l| format!(":{l}")).unwrap_or_default()
 }
 
 impl PaletteError {
@@ -59,6 +70,12 @@ pub struct PaletteFile {
     csv_raw: HashMap<String, Spectrum>,
     /// The file used CRLF line endings (the document keeps LF; saving writes CRLF back).
     crlf: bool,
+    /// The file ended without a newline (saving keeps it that way).
+    no_final_newline: bool,
+    /// The file began with a UTF-8 byte order mark (the document drops it; saving writes it back).
+    bom: bool,
+    /// The text as read (or last written): an unchanged document saves as exactly these bytes.
+    original: String,
 }
 
 /// Line and column (1-based, columns in characters) of a byte offset.
@@ -68,6 +85,27 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
     let line = before.matches('\n').count() + 1;
     let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
     (line, column)
+}
+
+/// The span of a key path such as `colours[3].light` (or of the deepest table on the way that exists).
+fn span_of_key(doc: &toml_edit::Document<&str>, key: &str) -> Option<std::ops::Range<usize>> {
+    let mut item = doc.as_item();
+    let mut best = None;
+    for segment in key.split('.') {
+        let mut parts = segment.split('[');
+        let name = parts.next().unwrap_or("");
+        let Some(next) = item.get(name) else { break };
+        item = next;
+        best = item.span().or(best);
+        for index in parts {
+            let Some(next) = index.trim_end_matches(']').parse::<usize>().ok().and_then(|i| item.get(i)) else {
+                return best;
+            };
+            item = next;
+            best = item.span().or(best);
+        }
+    }
+    best
 }
 
 impl PaletteFile {
@@ -98,17 +136,27 @@ impl PaletteFile {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
             PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
         };
-        let document: DocumentMut = text.parse().map_err(|e: toml_edit::TomlError| syntax(e.message(), e.span()))?;
+        let spanned = toml_edit::Document::parse(text).map_err(|e| syntax(e.message(), e.span()))?;
         let table: toml::Table = toml::from_str(text).map_err(|e: toml::de::Error| syntax(e.message(), e.span()))?;
         let colorimetry = Colorimetry::default();
-        let outcome = read::Reader::new(path, colorimetry.luminance()).read(&table)?;
+        let outcome = read::Reader::new(path, colorimetry.luminance()).read(&table).map_err(|e| match e {
+            PaletteError::Invalid { path, key, reason, line: None } => {
+                let line = span_of_key(&spanned, &key).map(|s| line_column(text, s.start).0);
+                PaletteError::Invalid { path, key, reason, line }
+            }
+            other => other,
+        })?;
+        let document = spanned.into_mut();
         Ok(PaletteFile {
             path: Some(path.to_path_buf()),
             document,
             palette: outcome.palette,
             warnings: outcome.warnings,
             csv_raw: outcome.csv_raw,
-            crlf: text.contains("\r\n"),
+            crlf: text.matches("\r\n").count() * 2 > text.matches('\n').count(),
+            no_final_newline: !text.ends_with('\n'),
+            bom: text.starts_with('\u{feff}'),
+            original: text.to_string(),
         })
     }
 
@@ -130,6 +178,9 @@ impl PaletteFile {
             warnings: Vec::new(),
             csv_raw: HashMap::new(),
             crlf: false,
+            no_final_newline: false,
+            bom: false,
+            original: String::new(),
         }
     }
 
@@ -138,9 +189,19 @@ impl PaletteFile {
         self.text_of(&self.document)
     }
 
-    /// A document's text with this file's line endings.
+    /// A document's text with this file's byte order mark, line endings and final newline (the text as read
+    /// when the document is unchanged).
     fn text_of(&self, document: &DocumentMut) -> String {
-        let text = document.to_string();
+        let mut text = document.to_string();
+        if !self.original.is_empty() && text == self.document.to_string() {
+            return self.original.clone();
+        }
+        if self.bom && !text.starts_with('\u{feff}') {
+            text.insert(0, '\u{feff}');
+        }
+        if self.no_final_newline && text.ends_with('\n') {
+            text.pop();
+        }
         if self.crlf { text.replace("\r\n", "\n").replace('\n', "\r\n") } else { text }
     }
 
@@ -158,8 +219,9 @@ impl PaletteFile {
         let mut document = self.document.clone();
         write::update_document(&mut document, &self.palette, palette, &ctx).map_err(|e| PaletteError::Invalid {
             path: path.to_path_buf(),
-            key: String::new(),
+            key: "(document)".to_string(),
             reason: e.0,
+            line: None,
         })?;
         let reread = PaletteFile::parse(&self.text_of(&document), path)?;
         Ok((document, reread))
@@ -181,6 +243,7 @@ impl PaletteFile {
         self.palette = reread.palette;
         self.csv_raw = reread.csv_raw;
         self.warnings = reread.warnings;
+        self.original = reread.original;
         self.path = Some(path.to_path_buf());
         Ok(())
     }

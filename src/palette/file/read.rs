@@ -70,7 +70,7 @@ impl<'a> Reader<'a> {
     }
 
     fn invalid(&self, key: impl Into<String>, reason: impl Into<String>) -> PaletteError {
-        PaletteError::Invalid { path: self.path.to_path_buf(), key: key.into(), reason: reason.into() }
+        PaletteError::Invalid { path: self.path.to_path_buf(), key: key.into(), reason: reason.into(), line: None }
     }
 
     fn wrong_type(&self, key: &str, expected: &str, v: &Value) -> PaletteError {

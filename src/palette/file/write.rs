@@ -97,16 +97,19 @@ fn pair_by_name<T>(old: &[T], new: &[T], name: impl Fn(&T) -> &String) -> Vec<Op
 /// The document order of the updated list: kept tables in their old order, then new ones in model order.
 fn order(map: &[Option<usize>], old_len: usize) -> Vec<(Option<usize>, usize)> {
     let mut by_old: Vec<Option<usize>> = vec![None; old_len];
+    let mut placed = vec![false; map.len()];
     for (n, o) in map.iter().enumerate() {
         if let Some(o) = o
-            && let Some(slot) = by_old.get_mut(*o)
+            && let Some(slot @ None) = by_old.get_mut(*o)
         {
             *slot = Some(n);
+            placed[n] = true;
         }
     }
     let mut out: Vec<(Option<usize>, usize)> =
         by_old.iter().enumerate().filter_map(|(o, n)| n.map(|n| (Some(o), n))).collect();
-    out.extend(map.iter().enumerate().filter(|(_, o)| o.is_none()).map(|(n, _)| (None, n)));
+    // New items, and any that claimed an old table another item already continues, get a new table.
+    out.extend((0..map.len()).filter(|&n| !placed[n]).map(|n| (None, n)));
     out
 }
 

@@ -16,46 +16,87 @@ pub struct Matrix<'a>(pub &'a State);
 
 /// Width of a matrix column: `[`, four cell characters, `]`, the marker, a gap.
 pub const MIN_COLUMN: usize = 8;
-const MAX_COLUMN: usize = 14;
+/// Columns and the name column grow to show whole names up to these widths, space permitting.
+const MAX_COLUMN: usize = 25;
 const MIN_NAME: usize = 5;
-const MAX_NAME: usize = 16;
+const MAX_NAME: usize = 24;
 
-/// Column geometry of the matrix for a state and width.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The reflectance-name width that shows every name whole (within limits).
+fn ideal_name_width(state: &State) -> usize {
+    state.palette.reflectances.iter().map(|r| r.name.chars().count()).max().unwrap_or(0).clamp(MIN_NAME, MAX_NAME)
+}
+
+/// The width of light `j`'s column: its whole name and a gap (within limits).
+fn column_width(state: &State, j: usize) -> usize {
+    state.palette.lights.get(j).map_or(0, |l| l.name.chars().count() + 1).clamp(MIN_COLUMN, MAX_COLUMN)
+}
+
+/// Rows the matrix needs with two rows per reflectance (`compact`: one).
+pub fn rows_needed(state: &State, compact: bool) -> u16 {
+    let n = state.palette.reflectances.len() as u16;
+    2 + if compact { n } else { 2 * n }
+}
+
+/// Columns the whole matrix needs to show every light with its whole name.
+pub fn width_needed(state: &State) -> u16 {
+    let columns: usize = (0..state.palette.lights.len()).map(|j| column_width(state, j)).sum();
+    (ideal_name_width(state) + 6 + columns) as u16
+}
+
+/// Where the matrix's columns and rows fall, scrolled so the selection is visible.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Geometry {
     /// Width of the reflectance-name part of the left column.
     pub name_width: usize,
     /// Width of the whole left column (name, swatch, marker).
     pub left_width: usize,
-    pub column_width: usize,
-    /// First light and reflectance shown (the matrix scrolls to keep the selection visible).
-    pub first_light: usize,
+    /// The lights shown: (light index, x offset in the panel, column width).
+    pub columns: Vec<(usize, usize, usize)>,
+    /// First reflectance shown and how many rows fit.
     pub first_reflectance: usize,
-    pub visible_lights: usize,
     pub visible_reflectances: usize,
+    /// Screen rows per reflectance: 2 (square-ish cells), or 1 when that shows more names.
+    pub row_height: usize,
 }
 
-/// Where the matrix's columns and rows fall, scrolled so the selection is visible.
-pub fn geometry(state: &State, area: Rect) -> Geometry {
-    let p = &state.palette;
-    let name_width = p.reflectances.iter().map(|r| r.name.chars().count()).max().unwrap_or(0).clamp(MIN_NAME, MAX_NAME);
-    let left_width = name_width + 6;
-    let column_width =
-        p.lights.iter().map(|l| l.name.chars().count() + 1).max().unwrap_or(0).clamp(MIN_COLUMN, MAX_COLUMN);
-    let visible_lights = (usize::from(area.width).saturating_sub(left_width) / column_width).max(1);
-    let visible_reflectances = (usize::from(area.height).saturating_sub(2) / 2).max(1);
-    let first = |selected: usize, visible: usize| if selected >= visible { selected + 1 - visible } else { 0 };
-    let sel_light = state.selection.col.saturating_sub(1);
-    let sel_reflectance = state.selection.row.saturating_sub(1);
-    Geometry {
-        name_width,
-        left_width,
-        column_width,
-        first_light: first(sel_light, visible_lights),
-        first_reflectance: first(sel_reflectance, visible_reflectances),
-        visible_lights,
-        visible_reflectances,
+impl Geometry {
+    /// The x offset of light `j`'s column, when shown.
+    pub fn column_x(&self, j: usize) -> Option<usize> {
+        self.columns.iter().find(|(l, _, _)| *l == j).map(|(_, x, _)| *x)
     }
+}
+
+/// Lay the matrix out in `area`: every light column as wide as its name (names are cut only when even one
+/// column would not fit), scrolled sideways and down so the selection is visible.
+pub fn geometry(state: &State, area: Rect) -> Geometry {
+    let width = usize::from(area.width);
+    let name_width = ideal_name_width(state).min(width.saturating_sub(6 + MIN_COLUMN)).max(MIN_NAME);
+    let left_width = name_width + 6;
+    let room = width.saturating_sub(left_width);
+    let n = state.palette.lights.len();
+    let widths: Vec<usize> = (0..n).map(|j| column_width(state, j).min(room.max(MIN_COLUMN))).collect();
+    let selected = state.selection.col.saturating_sub(1).min(n.saturating_sub(1));
+    // First column: 0 when the selection fits from there, else the leftmost that keeps it in view.
+    let mut first = 0;
+    while first < selected && widths[first..=selected].iter().sum::<usize>() > room {
+        first += 1;
+    }
+    let mut columns = Vec::new();
+    let mut x = left_width;
+    for (j, w) in widths.iter().enumerate().skip(first) {
+        if x + w > width && !columns.is_empty() {
+            break;
+        }
+        columns.push((j, x, *w));
+        x += w;
+    }
+    let rows = usize::from(area.height).saturating_sub(2);
+    let row_height = if rows >= 2 * state.palette.reflectances.len() { 2 } else { 1 };
+    let visible_reflectances = (rows / row_height).max(1);
+    let sel_reflectance = state.selection.row.saturating_sub(1);
+    let first_reflectance =
+        if sel_reflectance >= visible_reflectances { sel_reflectance + 1 - visible_reflectances } else { 0 };
+    Geometry { name_width, left_width, columns, first_reflectance, visible_reflectances, row_height }
 }
 
 /// The style of a cell's three colours.
@@ -98,13 +139,12 @@ impl Widget for Matrix<'_> {
         let head = Style::new().add_modifier(Modifier::BOLD);
         put(buf, area, 0, 0, "matrix", Style::new().fg(Color::Gray));
         // Lights across the top.
-        let lights = g.first_light..(g.first_light + g.visible_lights).min(p.lights.len());
-        for (k, j) in lights.clone().enumerate() {
-            let x = (g.left_width + k * g.column_width) as u16;
+        for &(j, x, width) in &g.columns {
+            let x = x as u16;
             let entry = &p.lights[j];
             let name_style =
                 if matches!(target, Target::Light(l) if l == j) { head.fg(Color::LightGreen) } else { head };
-            put(buf, area, x + 1, 0, &fit(&entry.name, g.column_width - 1), name_style);
+            put(buf, area, x + 1, 0, &fit(&entry.name, width - 1), name_style);
             if let Some(rgb) = d.light_swatches.get(j) {
                 put(buf, area, x + 1, 1, "████", swatch(state.colour_mode, rgb));
             }
@@ -116,30 +156,33 @@ impl Widget for Matrix<'_> {
                 put(buf, area, x + 5, 1, "]", sel);
             }
         }
-        if lights.start > 0 {
-            put(buf, area, (g.left_width - 2) as u16, 0, "◂", Style::new().fg(Color::Yellow));
+        let shown_first = g.columns.first().map_or(0, |c| c.0);
+        let shown_end = g.columns.last().map_or(0, |c| c.0 + 1);
+        if shown_first > 0 {
+            put(buf, area, (g.left_width - 2) as u16, 0, &format!("◂{shown_first}"), Style::new().fg(Color::Yellow));
         }
-        if lights.end < p.lights.len() {
-            let x = (g.left_width + g.visible_lights * g.column_width) as u16;
-            let more = format!("▸{}", p.lights.len() - lights.end);
+        if shown_end < p.lights.len() {
+            let x = g.columns.last().map_or(g.left_width, |(_, x, w)| x + w) as u16;
+            let more = format!("▸{}", p.lights.len() - shown_end);
             put(buf, area, x.min(area.width.saturating_sub(3)), 0, &more, Style::new().fg(Color::Yellow));
         }
         // Reflectances down the left, and the cells.
         let rows = g.first_reflectance..(g.first_reflectance + g.visible_reflectances).min(p.reflectances.len());
         for (k, i) in rows.clone().enumerate() {
-            let y = 2 + 2 * k as u16;
+            let y = (2 + g.row_height * k) as u16;
+            let height = g.row_height as u16;
             let entry = &p.reflectances[i];
             let selected_row = matches!(target, Target::Reflectance(r) if r == i);
             let name_style = if selected_row { head.fg(Color::LightGreen) } else { head };
             put(buf, area, 0, y, &fit(&entry.name, g.name_width), name_style);
             let sx = (g.name_width + 2) as u16;
             if let Some(rgb) = d.reflectance_swatches.get(i) {
-                for dy in 0..2 {
+                for dy in 0..height {
                     put(buf, area, sx, y + dy, "██", swatch(state.colour_mode, rgb));
                 }
             }
             if selected_row {
-                for dy in 0..2 {
+                for dy in 0..height {
                     put(buf, area, sx - 1, y + dy, "[", sel);
                     put(buf, area, sx + 2, y + dy, "]", sel);
                 }
@@ -147,12 +190,12 @@ impl Widget for Matrix<'_> {
             if entry.design {
                 put(buf, area, sx + 3, y, "D", design_style());
             }
-            for (kj, j) in lights.clone().enumerate() {
-                let x = (g.left_width + kj * g.column_width) as u16;
+            for &(j, x, _) in &g.columns {
+                let x = x as u16;
                 let Some(cell) = d.cell(j, i) else { continue };
                 let (desired, model) = cell_styles(state, cell);
                 let left = if cell.desired.is_some() { "▌" } else { "·" };
-                for dy in 0..2 {
+                for dy in 0..height {
                     put(buf, area, x + 1, y + dy, left, desired);
                     put(buf, area, x + 2, y + dy, "▀▀▀", model);
                 }
@@ -171,7 +214,7 @@ impl Widget for Matrix<'_> {
                     put(buf, area, x + 6, y, &marker, style);
                 }
                 if matches!(target, Target::Cell { light, reflectance } if light == j && reflectance == i) {
-                    for dy in 0..2 {
+                    for dy in 0..height {
                         put(buf, area, x, y + dy, "[", sel);
                         put(buf, area, x + 5, y + dy, "]", sel);
                     }

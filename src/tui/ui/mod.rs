@@ -4,6 +4,7 @@
 
 pub mod matrix;
 pub mod popup;
+pub mod preview;
 pub mod settings;
 pub mod sliders;
 pub mod spectra;
@@ -17,11 +18,9 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::widgets::{Block, Borders, Widget};
 
 /// Rows the full sliders panel needs.
-pub const SLIDERS_ROWS: u16 = 7;
+pub const SLIDERS_ROWS: u16 = 8;
 /// Columns the full sliders panel needs; narrower screens get the one-line sliders.
 pub const SLIDERS_COLS: u16 = 38;
-/// Below this width the sliders collapse to one line under the matrix.
-pub const WIDE: u16 = 90;
 /// Smallest spectra panel worth drawing (rows, with its top rule).
 pub const SPECTRA_MIN: u16 = 5;
 
@@ -38,12 +37,17 @@ pub struct Areas {
 
 /// Lay the panels out inside the outer border.
 pub fn areas(state: &State, inner: Rect) -> Areas {
-    let matrix_rows = 2 + 2 * state.palette.reflectances.len() as u16;
-    let wide = inner.width + 2 >= WIDE;
     let settings_rows = 2u16;
     let available = inner.height.saturating_sub(settings_rows);
-    let compact_rows = if wide { 0 } else { 1 };
-    let want_top = if wide { matrix_rows.max(SLIDERS_ROWS) } else { matrix_rows + compact_rows };
+    // Two rows per reflectance when they fit above a useful spectra panel, else one (same three colours).
+    let matrix_rows = if matrix::rows_needed(state, false) + SPECTRA_MIN <= available {
+        matrix::rows_needed(state, false)
+    } else {
+        matrix::rows_needed(state, true)
+    };
+    let compact_rows = 1;
+    let fits_beside = inner.width >= matrix::width_needed(state) + SLIDERS_COLS;
+    let want_top = if fits_beside { matrix_rows.max(SLIDERS_ROWS) } else { matrix_rows + compact_rows };
     let mut top = want_top.min(available.saturating_sub(SPECTRA_MIN)).max(available.min(4));
     if top > available {
         top = available;
@@ -52,8 +56,9 @@ pub fn areas(state: &State, inner: Rect) -> Areas {
     let [top_area, settings, spectra_area] =
         Layout::vertical([Constraint::Length(top), Constraint::Length(settings_rows), Constraint::Length(spectra)])
             .areas(inner);
-    let compact = !wide || top < SLIDERS_ROWS;
-    let (matrix, sliders) = if wide && !compact {
+    // Full sliders only when the whole matrix fits beside them; else they take one line under it.
+    let compact = top < SLIDERS_ROWS || !fits_beside;
+    let (matrix, sliders) = if !compact {
         let [m, s] = Layout::horizontal([Constraint::Min(20), Constraint::Length(SLIDERS_COLS)]).areas(top_area);
         (m, s)
     } else {
@@ -65,12 +70,10 @@ pub fn areas(state: &State, inner: Rect) -> Areas {
 
 impl Widget for &State {
     fn render(self, area: Rect, buf: &mut Buffer) {
-        let outer = Block::bordered()
-            .title_top(status::title_left(self))
-            .title_top(status::title_right(self).right_aligned())
-            .title_bottom(status::bottom_line(self, area.width.saturating_sub(4)));
+        let outer = Block::bordered().title_bottom(status::bottom_line(self, area.width.saturating_sub(4)));
         let inner = outer.inner(area);
         outer.render(area, buf);
+        status::draw_title(self, area, buf);
         let a = areas(self, inner);
         matrix::Matrix(self).render(a.matrix, buf);
         if a.sliders_compact {
@@ -86,10 +89,21 @@ impl Widget for &State {
         block.render(a.settings, buf);
         settings::SettingsRow(self).render(inner, buf);
         if a.spectra.height >= 3 {
-            let block = Block::new().borders(Borders::TOP).title(" spectra ");
-            let inner = block.inner(a.spectra);
-            block.render(a.spectra, buf);
-            spectra::SpectraPlot(self).render(inner, buf);
+            match &self.preview {
+                Some(p) if self.show_preview => {
+                    let title = format!(" light dial: {} · [ ] move · v spectra ", p.caption(self.dial));
+                    let block = Block::new().borders(Borders::TOP).title(title);
+                    let inner = block.inner(a.spectra);
+                    block.render(a.spectra, buf);
+                    preview::PreviewPanel(self).render(inner, buf);
+                }
+                _ => {
+                    let block = Block::new().borders(Borders::TOP).title(" spectra ");
+                    let inner = block.inner(a.spectra);
+                    block.render(a.spectra, buf);
+                    spectra::SpectraPlot(self).render(inner, buf);
+                }
+            }
         }
         if self.popup.is_some() {
             popup::PopupView(self).render(area, buf);

@@ -92,6 +92,28 @@ impl Widget for PopupView<'_> {
                     }
                 }
             }
+            Popup::Diagnostics { scroll } => {
+                let r = centred(area, area.width.saturating_sub(4), area.height.saturating_sub(4));
+                let inner = frame(r, buf, "diagnostics of the latest solve (↑↓ scroll)");
+                let width = usize::from(inner.width.saturating_sub(4)).max(10);
+                let mut lines: Vec<String> = Vec::new();
+                for d in state.diagnostics() {
+                    let mut line = String::from("•");
+                    for w in d.message.split_whitespace() {
+                        if line.chars().count() + w.chars().count() + 1 > width && line.chars().count() > 2 {
+                            lines.push(std::mem::replace(&mut line, String::from(" ")));
+                        }
+                        line.push(' ');
+                        line.push_str(w);
+                    }
+                    lines.push(line);
+                }
+                let rows = usize::from(inner.height);
+                let scroll = usize::from(*scroll).min(lines.len().saturating_sub(rows));
+                for (y, line) in lines.iter().skip(scroll).take(rows).enumerate() {
+                    put(buf, inner, 1, y as u16, line, Style::new().fg(Color::Yellow));
+                }
+            }
             Popup::Prompt(p) => {
                 let r = centred(area, 64, 6);
                 let inner = frame(r, buf, &p.title);

@@ -102,6 +102,11 @@ impl Widget for Sliders<'_> {
                     de(view.and_then(|c| c.delta_e_subspace))
                 );
                 put(buf, area, x0, 5, &line, Style::new());
+                let cell_index = state.cell_index(light, reflectance);
+                if let Some(d) = state.diagnostics().iter().find(|d| d.cell.is_some() && d.cell == cell_index) {
+                    let text = format!("⚠ {}", d.message);
+                    put(buf, area, x0, 7, &fit(&text, w.saturating_sub(2)), Style::new().fg(Color::Yellow));
+                }
                 if let Some(v) = view {
                     let mode = state.colour_mode;
                     let mut x = put(buf, area, x0, 6, "target ", Style::new().fg(Color::Gray));
@@ -149,12 +154,14 @@ impl Widget for Sliders<'_> {
                 } else {
                     put(buf, area, x0, 3, "fixed (d or Enter: design it)", Style::new().fg(Color::Gray));
                 }
-                let keys = if kind == Kind::Light {
-                    "p Planck · n/N normalise · s scale · x remove"
+                let keys: &[&str] = if kind == Kind::Light {
+                    &["p Planck · n/N normalise", "s scale · x remove · d design"]
                 } else {
-                    "s scale · x remove"
+                    &["s scale · x remove · d design"]
                 };
-                put(buf, area, x0, 5, &fit(keys, w.saturating_sub(2)), Style::new().fg(Color::Gray));
+                for (k, line) in keys.iter().enumerate() {
+                    put(buf, area, x0, 5 + k as u16, &fit(line, w.saturating_sub(2)), Style::new().fg(Color::Gray));
+                }
             }
             Target::Nothing => {}
         }

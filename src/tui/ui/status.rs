@@ -9,17 +9,22 @@ use ratatui::text::{Line, Span};
 
 const SPINNER: [&str; 8] = ["⠋", "⠙", "⠹", "⠸", "⠼", "⠴", "⠦", "⠧"];
 
-/// `metamer ─ palettes/x.toml ●` (and `256 colours` without truecolor).
-pub fn title_left(state: &State) -> Line<'static> {
-    let mut spans = vec![
-        Span::styled(" metamer ", Style::new().add_modifier(Modifier::BOLD)),
-        Span::raw(format!("─ {} ", state.path.display())),
-    ];
+/// `metamer ─ palettes/x.toml ●` (and `256 colours` without truecolor); `compact` drops the program name.
+pub fn title_left(state: &State, compact: bool) -> Line<'static> {
+    let mut spans = Vec::new();
+    if !compact {
+        spans.push(Span::styled(" metamer ", Style::new().add_modifier(Modifier::BOLD)));
+        spans.push(Span::raw("─ "));
+    } else {
+        spans.push(Span::raw(" "));
+    }
+    spans.push(Span::raw(format!("{} ", state.path.display())));
     if state.is_dirty() {
         spans.push(Span::styled("● ", Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD)));
     }
     if state.colour_mode == ColourMode::Indexed256 {
-        spans.push(Span::styled("· 256 colours ", Style::new().fg(Color::DarkGray)));
+        let text = if compact { "256c " } else { "· 256 colours " };
+        spans.push(Span::styled(text, Style::new().fg(Color::Gray)));
     }
     Line::from(spans)
 }
@@ -28,14 +33,20 @@ fn time_text(seconds: f64) -> String {
     if seconds < 1.0 { format!("{:.1} ms", seconds * 1e3) } else { format!("{seconds:.2} s") }
 }
 
-/// The live objective, worst ΔE00 and solve time, or the solve's progress or failure.
-pub fn title_right(state: &State) -> Line<'static> {
+/// The live objective, worst ΔE00 and solve time, or the solve's progress or failure; `compact` abbreviates.
+pub fn title_right(state: &State, compact: bool) -> Line<'static> {
     let s = &state.solve;
+    let spin = SPINNER[(state.ticks as usize) % SPINNER.len()];
+    let elapsed = if state.hide_times { String::new() } else { format!(" {}", time_text(s.running_for.as_secs_f64())) };
     if s.running.is_some() {
-        let spin = SPINNER[(state.ticks as usize) % SPINNER.len()];
-        let t = if state.hide_times { String::new() } else { format!(" {}", time_text(s.running_for.as_secs_f64())) };
-        return Line::from(Span::styled(format!(" {spin} solving…{t} "), Style::new().fg(Color::Yellow)));
+        let what = if s.training && crate::basis::store::palette_uses_basis(&state.palette) {
+            "training basis, solving…"
+        } else {
+            "solving…"
+        };
+        return Line::from(Span::styled(format!(" {spin} {what}{elapsed} "), Style::new().fg(Color::Yellow)));
     }
+    let mut spans = Vec::new();
     if let Some(sol) = s.current() {
         let worst = state.derived.worst_delta_e.map_or("–".to_string(), |d| format!("{d:.2}"));
         let t = if state.hide_times {
@@ -43,19 +54,48 @@ pub fn title_right(state: &State) -> Line<'static> {
         } else {
             time_text(s.last_time.map_or(sol.seconds, |d| d.as_secs_f64()))
         };
-        let mut spans = vec![Span::raw(format!(" objective {} · worst ΔE00 {worst} · {t} ", num(sol.objective)))];
+        let text = if compact {
+            format!(" obj {} · ΔE00 {worst} · {t} ", num(sol.objective))
+        } else {
+            format!(" objective {} · worst ΔE00 {worst} · {t} ", num(sol.objective))
+        };
+        spans.push(Span::raw(text));
         if !sol.diagnostics.is_empty() {
             spans.push(Span::styled(
-                format!("⚠ {} ", sol.diagnostics.len()),
+                format!("⚠{} ", sol.diagnostics.len()),
                 Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD),
             ));
         }
-        return Line::from(spans);
+    } else if let Some(e) = &s.error {
+        let text = fit(&format!("solver: {e}"), if compact { 40 } else { 70 });
+        spans.push(Span::styled(format!(" {text} "), Style::new().fg(Color::LightRed)));
+    } else {
+        spans.push(Span::raw(" not solved yet "));
     }
-    if let Some(e) = &s.error {
-        return Line::from(Span::styled(format!(" solver: {e} "), Style::new().fg(Color::LightRed)));
+    if s.training {
+        spans.push(Span::styled(format!("{spin} basis "), Style::new().fg(Color::Yellow)));
     }
-    Line::from(" not solved yet ")
+    Line::from(spans)
+}
+
+/// Draw the title row (over the top border of `area`): left and right parts, abbreviated to fit.
+pub fn draw_title(state: &State, area: ratatui::layout::Rect, buf: &mut ratatui::buffer::Buffer) {
+    let room = usize::from(area.width.saturating_sub(4));
+    let fits = |l: &Line, r: &Line| l.width() + r.width() < room;
+    let mut choice = (title_left(state, true), title_right(state, true));
+    for (lc, rc) in [(false, false), (false, true)] {
+        let (l, r) = (title_left(state, lc), title_right(state, rc));
+        if fits(&l, &r) {
+            choice = (l, r);
+            break;
+        }
+    }
+    let (left, right) = choice;
+    let right_width = right.width().min(room) as u16;
+    let right_x = area.x + area.width.saturating_sub(2 + right_width);
+    buf.set_line(right_x, area.y, &right, right_width);
+    let left_room = right_x.saturating_sub(area.x + 2).saturating_sub(1);
+    buf.set_line(area.x + 1, area.y, &left, left_room);
 }
 
 /// The main keys; the last three always show, the others as far as the width allows.

@@ -1,0 +1,389 @@
+//! Cross-suite views of the benchmark results that `metamer bench` adds on top of the per-area suites
+//! ([`super::solve`], [`super::basis`], [`super::render`]): run time against error with the Pareto front
+//! marked and the timing spread drawn, ratios against in-process baselines (blocks vs one dense system,
+//! bounded vs unbounded, factor model vs full 31-sample vs RGB), and the condition numbers of the design
+//! systems the solver meets.
+//!
+//! Ratios are taken between measurements made in the same process a moment apart, so they hold on a noisy
+//! shared machine better than the absolute times do.
+
+use super::plot::{self, PlotError, Scale, Series, XyPlot};
+use super::render::RenderBenchReport;
+use super::{basis, format_seconds, markdown_table, pareto_front, solve};
+use crate::colorimetry::Colorimetry;
+use crate::design::random;
+use crate::design::system::{Design, Layout};
+use crate::palette::{Bounds, Palette};
+use crate::render::relight::Mode;
+use std::path::Path;
+
+/// Run time against mean ΔE*ab for every solver path, one point per case with its interquartile range,
+/// the Pareto front over all points marked.
+pub fn solve_tradeoff_plot(report: &solve::Report, path: &Path) -> Result<(), PlotError> {
+    let mut groups: Vec<&str> = Vec::new();
+    for r in &report.rows {
+        if r.mean_delta_e_ab.is_finite() && !groups.contains(&r.group.as_str()) {
+            groups.push(&r.group);
+        }
+    }
+    let series = groups
+        .iter()
+        .map(|g| {
+            let rows: Vec<&solve::Row> =
+                report.rows.iter().filter(|r| r.group == *g && r.mean_delta_e_ab.is_finite()).collect();
+            Series {
+                label: (*g).to_string(),
+                points: rows.iter().map(|r| (r.timing.median, r.mean_delta_e_ab.max(1e-6))).collect(),
+                spread: Some(rows.iter().map(|r| (r.timing.q1, r.timing.q3)).collect()),
+                line: true,
+            }
+        })
+        .collect();
+    plot::draw(
+        &XyPlot {
+            title: "metamer solve: run time against colour error (bars: IQR; black: Pareto front)".into(),
+            x_label: "run time per solve, median (s)".into(),
+            y_label: "mean CIELAB ΔE*ab".into(),
+            x_scale: Scale::Log,
+            y_scale: Scale::Log,
+            series,
+            pareto: true,
+        },
+        path,
+        1000,
+        700,
+    )
+}
+
+/// The solver's cases on the Pareto front of (median time, mean ΔE*ab).
+pub fn solve_pareto_cases(report: &solve::Report) -> Vec<String> {
+    let rows: Vec<&solve::Row> = report.rows.iter().filter(|r| r.mean_delta_e_ab.is_finite()).collect();
+    let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.timing.median, r.mean_delta_e_ab)).collect();
+    pareto_front(&pts).into_iter().map(|i| format!("{} / {}", rows[i].group, rows[i].case)).collect()
+}
+
+/// One ratio against an in-process baseline.
+#[derive(Clone, Debug)]
+pub struct Ratio {
+    pub what: String,
+    pub measured: String,
+    pub baseline: String,
+    /// baseline time ÷ measured time (> 1: faster than the baseline).
+    pub speedup: f64,
+    /// Relative objective gap `(f − f_baseline) / max(|f_baseline|, tiny)`, when objectives are comparable.
+    pub objective_gap: Option<f64>,
+}
+
+/// Ratios from the solver suite: blocks against one dense system (same palette), bounded against unbounded
+/// (same batch).
+pub fn solve_ratios(report: &solve::Report) -> Vec<Ratio> {
+    let find = |group: &str, case: &str| report.rows.iter().find(|r| r.group == group && r.case == case);
+    let mut out = Vec::new();
+    for r in report.rows.iter().filter(|r| r.group == "bounded, one dense system") {
+        if let Some(b) = find("bounded, blocks", &r.case) {
+            out.push(Ratio {
+                what: format!("blocks vs one dense system, {}", r.case),
+                measured: b.timing.display(),
+                baseline: r.timing.display(),
+                speedup: r.timing.median / b.timing.median.max(1e-12),
+                objective_gap: Some((b.objective - r.objective) / r.objective.abs().max(1e-300)),
+            });
+        }
+    }
+    for r in report.rows.iter().filter(|r| r.group == "unbounded, blocks") {
+        if let Some(b) = find("bounded [0,1], blocks", &r.case) {
+            out.push(Ratio {
+                what: format!("bounded [0,1] vs unbounded, {}", r.case),
+                measured: b.timing.display(),
+                baseline: r.timing.display(),
+                speedup: r.timing.median / b.timing.median.max(1e-12),
+                objective_gap: None,
+            });
+        }
+    }
+    out
+}
+
+/// Ratios from the renderer suite at the sweep size: relighting time of the factor and RGB models against
+/// the full 31-sample model (with their ΔE00 against the full frames).
+pub fn render_ratios(report: &RenderBenchReport) -> Vec<Ratio> {
+    let at = |mode: Mode| report.relight.iter().find(|r| r.mode == mode && r.size == report.sweep_size);
+    let Some(full) = at(Mode::Full) else { return Vec::new() };
+    let mut out = Vec::new();
+    for (mode, err) in [(Mode::Factor, report.accuracy.factor.mean), (Mode::Rgb, report.accuracy.rgb.mean)] {
+        if let Some(r) = at(mode) {
+            out.push(Ratio {
+                what: format!(
+                    "relight {0}×{0}: {1} model (K = {2}, mean ΔE00 {err:.3}) vs full 31-sample",
+                    r.size,
+                    mode.as_str(),
+                    r.channels
+                ),
+                measured: format_seconds(r.median_s),
+                baseline: format_seconds(full.median_s),
+                speedup: full.median_s / r.median_s.max(1e-12),
+                objective_gap: None,
+            });
+        }
+    }
+    out
+}
+
+/// Markdown table of ratios.
+pub fn ratios_markdown(ratios: &[Ratio]) -> String {
+    let rows: Vec<Vec<String>> = ratios
+        .iter()
+        .map(|r| {
+            vec![
+                r.what.clone(),
+                r.measured.clone(),
+                r.baseline.clone(),
+                format!("{:.2}×", r.speedup),
+                r.objective_gap.map_or("–".into(), |g| format!("{g:.1e}")),
+            ]
+        })
+        .collect();
+    markdown_table(&["comparison", "measured (median, IQR)", "baseline", "speed-up", "objective gap"], &rows)
+}
+
+/// Relighting cost against factor-model error for each basis dimension and the RGB model, Pareto front
+/// marked (what a renderer pays per pixel-frame for each ΔE00).
+pub fn basis_tradeoff_plot(results: &basis::Results, path: &Path) -> Result<(), PlotError> {
+    let mut series: Vec<Series> = results
+        .rows
+        .iter()
+        .map(|r| Series {
+            label: format!("m = {}", r.dimension),
+            points: vec![(r.relight_ns_per_pixel.max(1e-6), r.full.mean.max(1e-6))],
+            spread: None,
+            line: false,
+        })
+        .collect();
+    series.truncate(7);
+    let rest: Vec<(f64, f64)> =
+        results.rows.iter().skip(7).map(|r| (r.relight_ns_per_pixel.max(1e-6), r.full.mean.max(1e-6))).collect();
+    if !rest.is_empty() {
+        series.push(Series { label: "m ≥ 10".into(), points: rest, spread: None, line: false });
+    }
+    series.push(Series {
+        label: "RGB factor model".into(),
+        points: vec![(results.rgb_relight_ns_per_pixel.max(1e-6), results.rgb.mean.max(1e-6))],
+        spread: None,
+        line: false,
+    });
+    plot::draw(
+        &XyPlot {
+            title: "factor model: relighting cost against error (black: Pareto front)".into(),
+            x_label: "relight ns per pixel-frame".into(),
+            y_label: "mean ΔE00 vs full 31-sample (ColorChecker × 7 lights)".into(),
+            x_scale: Scale::Linear,
+            y_scale: Scale::Log,
+            series,
+            pareto: true,
+        },
+        path,
+        900,
+        600,
+    )
+}
+
+/// The basis dimensions on the Pareto front of (relight cost, mean ΔE00), "RGB" for the RGB model.
+pub fn basis_pareto_dimensions(results: &basis::Results) -> Vec<String> {
+    let mut pts: Vec<(f64, f64)> = results.rows.iter().map(|r| (r.relight_ns_per_pixel, r.full.mean)).collect();
+    pts.push((results.rgb_relight_ns_per_pixel, results.rgb.mean));
+    pareto_front(&pts)
+        .into_iter()
+        .map(|i| results.rows.get(i).map_or("RGB".to_string(), |r| format!("m = {}", r.dimension)))
+        .collect()
+}
+
+/// Relighting time per frame against mean ΔE00 of the render modes (full = 0 by definition, drawn at the
+/// plot floor), Pareto front marked.
+pub fn render_tradeoff_plot(report: &RenderBenchReport, path: &Path) -> Result<(), PlotError> {
+    let floor = 1e-3;
+    let err = |mode: Mode| match mode {
+        Mode::Factor => report.accuracy.factor.mean,
+        Mode::Rgb => report.accuracy.rgb.mean,
+        Mode::Full => 0.0,
+    };
+    let mut sizes: Vec<usize> = report.relight.iter().map(|r| r.size).collect();
+    sizes.dedup();
+    let series = sizes
+        .iter()
+        .flat_map(|size| {
+            report.relight.iter().filter(move |r| r.size == *size).map(|r| Series {
+                label: format!("{} (K = {}), {}²", r.mode.as_str(), r.channels, r.size),
+                points: vec![(r.median_s * 1e3, err(r.mode).max(floor))],
+                spread: None,
+                line: false,
+            })
+        })
+        .collect();
+    plot::draw(
+        &XyPlot {
+            title: format!("render modes: relight time against ΔE00 (full = reference, drawn at {floor})"),
+            x_label: "relight time per frame, one thread (ms)".into(),
+            y_label: "mean ΔE00 vs full 31-sample frames".into(),
+            x_scale: Scale::Log,
+            y_scale: Scale::Log,
+            series,
+            pareto: true,
+        },
+        path,
+        900,
+        600,
+    )
+}
+
+/// Condition numbers of the linear design systems of one palette.
+#[derive(Clone, Debug)]
+pub struct ConditionRow {
+    pub palette: String,
+    /// Linear blocks measured (bilinear blocks are measured with their lights held at the start values).
+    pub blocks: usize,
+    /// Largest `σ_max / σ_min` over the blocks (σ_min: the smallest singular value above
+    /// `σ_max · n · ε`; rank-deficient directions are what the minimum-norm SVD solve drops).
+    pub condition: f64,
+    /// Largest number of numerically zero singular values in a block.
+    pub rank_deficiency: usize,
+    /// Smallest and largest row weight (ω/√3) seen.
+    pub weight_range: (f64, f64),
+}
+
+/// `σ_max / σ_min` (above the relative cut-off `n · ε`) and the count of singular values below it.
+pub fn condition_number(a: &nalgebra::DMatrix<f64>) -> (f64, usize) {
+    if a.nrows() == 0 || a.ncols() == 0 {
+        return (1.0, 0);
+    }
+    let sv = a.clone().svd(false, false).singular_values;
+    let max = sv.iter().copied().fold(0.0, f64::max);
+    if max <= 0.0 || !max.is_finite() {
+        return (f64::INFINITY, a.ncols());
+    }
+    let cut = max * a.nrows().max(a.ncols()) as f64 * f64::EPSILON;
+    let kept: Vec<f64> = sv.iter().copied().filter(|s| *s > cut).collect();
+    let min = kept.iter().copied().fold(f64::INFINITY, f64::min);
+    // Under-determined blocks (fewer rows than unknowns) have ncols − rank null directions too.
+    (max / min, a.ncols() - kept.len())
+}
+
+/// Condition numbers of every block of a palette's design (bilinear blocks: the reflectance subproblem with
+/// the lights at their start values, which is what the alternating start solves).
+pub fn palette_conditions(name: &str, palette: &Palette) -> Option<ConditionRow> {
+    let col = Colorimetry::default();
+    let design = Design::new(palette, None, &col).ok()?;
+    let v = design.start_values();
+    let mut row = ConditionRow {
+        palette: name.into(),
+        blocks: 0,
+        condition: 1.0,
+        rank_deficiency: 0,
+        weight_range: (f64::INFINITY, 0.0),
+    };
+    for t in &design.terms {
+        row.weight_range = (row.weight_range.0.min(t.scale), row.weight_range.1.max(t.scale));
+    }
+    for block in design.blocks() {
+        let units: Vec<_> = if block.bilinear {
+            block.units.iter().copied().filter(|u| !matches!(u, crate::design::system::Unit::Light(_))).collect()
+        } else {
+            block.units.clone()
+        };
+        let layout = Layout::new(&units);
+        let sys = design.linear_system(&layout, &block.terms, &v);
+        let (c, d) = condition_number(&sys.a);
+        row.blocks += 1;
+        row.condition = row.condition.max(c);
+        row.rank_deficiency = row.rank_deficiency.max(d);
+    }
+    Some(row)
+}
+
+/// The palettes whose conditioning the report shows: the benchmark's batch design, random convex palettes,
+/// weights across 16 decades, near-identical lights, a spiky light, and the joint capacity palettes.
+pub fn condition_survey() -> Vec<ConditionRow> {
+    let col = Colorimetry::default();
+    let mut out = Vec::new();
+    out.extend(palette_conditions("batch: 1 design, 3 lights, [0,1]", &random::batch_palette(1, 0, &col)));
+    let worst_convex = (0..20)
+        .filter_map(|s| palette_conditions("", &random::convex_palette(s, &col)))
+        .max_by(|a, b| a.condition.total_cmp(&b.condition));
+    if let Some(mut r) = worst_convex {
+        r.palette = "random convex palettes (worst of 20)".into();
+        out.push(r);
+    }
+    let mut wide = random::batch_palette(1, 1, &col);
+    for (c, w) in wide.colours.iter_mut().zip([1e-8, 1.0, 1e8]) {
+        c.weight = w;
+    }
+    out.extend(palette_conditions("weights 1e-8, 1, 1e8", &wide));
+    let mut near = random::batch_palette(1, 2, &col);
+    let d65 = near.lights[0].spectrum;
+    for (k, l) in near.lights.iter_mut().enumerate() {
+        l.spectrum = d65.scaled(1.0 + 1e-9 * k as f64);
+    }
+    out.extend(palette_conditions("near-identical lights (D65 × (1 + 1e-9 k))", &near));
+    let mut spiky = random::batch_palette(1, 3, &col);
+    spiky.settings.reflectance_bounds = Bounds::UNBOUNDED;
+    spiky.settings.smoothness = 0.0;
+    let mut spike = [0.0; crate::spectrum::SAMPLES];
+    spike[15] = 1.0;
+    for l in spiky.lights.iter_mut() {
+        l.spectrum = crate::spectrum::Spectrum::from_array(spike);
+    }
+    out.extend(palette_conditions("one-sample spike lights, no smoothness", &spiky));
+    for n in [5, 10, 15] {
+        out.extend(palette_conditions(
+            &format!("joint {n}×{n} (reflectance step)"),
+            &random::capacity_palette(n, 0, &col),
+        ));
+    }
+    out
+}
+
+/// Markdown table of condition numbers.
+pub fn conditions_markdown(rows: &[ConditionRow]) -> String {
+    let body: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.palette.clone(),
+                r.blocks.to_string(),
+                format!("{:.2e}", r.condition),
+                r.rank_deficiency.to_string(),
+                format!("{:.1e} … {:.1e}", r.weight_range.0, r.weight_range.1),
+            ]
+        })
+        .collect();
+    markdown_table(&["palette", "blocks", "max cond(A)", "null directions", "row weights ω/√3"], &body)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn condition_number_of_known_matrices() {
+        let a = nalgebra::DMatrix::from_row_slice(2, 2, &[2.0, 0.0, 0.0, 0.5]);
+        let (c, d) = condition_number(&a);
+        assert!((c - 4.0).abs() < 1e-12 && d == 0);
+        let singular = nalgebra::DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
+        assert_eq!(condition_number(&singular).1, 1);
+        // 3 rows, 31 unknowns: 28 null directions.
+        let wide = nalgebra::DMatrix::from_fn(3, 31, |i, j| ((i * 31 + j) as f64).sin());
+        assert_eq!(condition_number(&wide).1, 28);
+    }
+
+    #[test]
+    fn survey_sees_wide_weights_as_worse_conditioned() {
+        let col = Colorimetry::default();
+        let plain = palette_conditions("plain", &random::batch_palette(1, 1, &col)).unwrap();
+        let mut wide = random::batch_palette(1, 1, &col);
+        for (c, w) in wide.colours.iter_mut().zip([1e-8, 1.0, 1e8]) {
+            c.weight = w;
+        }
+        let wide = palette_conditions("wide", &wide).unwrap();
+        assert!(wide.condition > 1e6 * plain.condition, "{} vs {}", wide.condition, plain.condition);
+        assert!(plain.condition.is_finite() && plain.condition >= 1.0);
+    }
+}

@@ -1,0 +1,493 @@
+//! Scene files (DESIGN_SPEC §4): a palette, a volume, materials (value range → reflectance, opacity),
+//! a camera and a light-dial path, plus optional render settings. Paths are relative to the scene file.
+//!
+//! ```toml
+//! palette = "engine_palette.toml"
+//! volume = "../../shared/volumes/engine.nhdr"   # .nhdr/.nrrd, .vti, a raw file with [raw], or "generated:engine_like"
+//! [[materials]]
+//! reflectance = "block"
+//! range = [80, 255]
+//! opacity = 0.6
+//! [camera]
+//! azimuth_deg = 30.0
+//! elevation_deg = 20.0
+//! zoom = 1.0                 # optional
+//! [dial]
+//! path = ["daylight", "split"]   # optional: default = the palette's lights that have `dial` positions,
+//!                                # in angular order around their centre, else all lights in file order
+//! [render]                   # optional
+//! step = 1.0                 # voxels between samples
+//! ambient = 0.35             # shading = ambient + (1 − ambient)|n·v|
+//! interpolation = "trilinear"    # or "nearest" for label volumes
+//! exposure = 1.0             # multiplies the automatic sweep exposure
+//! generated_size = 160       # size of a generated volume
+//! [raw]                      # only for raw volume files
+//! dims = [256, 256, 128]
+//! type = "u8"
+//! endian = "little"
+//! spacing = [1, 1, 1]
+//! ```
+
+use super::RenderError;
+use super::dial::{Dial, DialStop};
+use super::raycast::{Camera, Interpolation, MAX_MATERIALS, MaterialClass};
+use crate::palette::{Kind, Palette, SpectrumEntry};
+use crate::spectrum::{Normalize, Spectrum};
+use crate::volume::{Endian, ScalarType, Volume, generate, raw};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// A material of the spectral transfer function, resolved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// The palette reflectance's name.
+    pub reflectance: String,
+    pub spectrum: Spectrum,
+    pub class: MaterialClass,
+}
+
+/// Render settings of a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneSettings {
+    pub step: f64,
+    pub ambient: f64,
+    pub interpolation: Interpolation,
+    /// Multiplies the automatic sweep exposure.
+    pub exposure: f64,
+}
+
+impl Default for SceneSettings {
+    fn default() -> Self {
+        SceneSettings { step: 1.0, ambient: 0.35, interpolation: Interpolation::Trilinear, exposure: 1.0 }
+    }
+}
+
+/// A resolved scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The scene file, if any.
+    pub path: Option<PathBuf>,
+    /// The palette file, if any (its folder holds the trained basis sidecar).
+    pub palette_path: Option<PathBuf>,
+    pub palette: Palette,
+    pub volume: Volume,
+    pub materials: Vec<Material>,
+    pub camera: Camera,
+    pub dial: Dial,
+    pub settings: SceneSettings,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    palette: String,
+    volume: String,
+    materials: Vec<MaterialFile>,
+    camera: Option<CameraFile>,
+    dial: Option<DialFile>,
+    render: Option<RenderFile>,
+    raw: Option<RawFile>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialFile {
+    reflectance: String,
+    range: [f64; 2],
+    opacity: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraFile {
+    azimuth_deg: Option<f64>,
+    elevation_deg: Option<f64>,
+    zoom: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DialFile {
+    path: Option<Vec<String>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderFile {
+    step: Option<f64>,
+    ambient: Option<f64>,
+    interpolation: Option<String>,
+    exposure: Option<f64>,
+    generated_size: Option<usize>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFile {
+    dims: [usize; 3],
+    #[serde(rename = "type")]
+    ty: String,
+    endian: Option<String>,
+    spacing: Option<[f64; 3]>,
+}
+
+/// Loads the palette a scene names (the palette file reader lives in `crate::palette::file`).
+fn load_palette(path: &Path) -> Result<Palette, String> {
+    crate::palette::file::PaletteFile::load(path).map(|f| f.palette).map_err(|e| e.to_string())
+}
+
+impl Scene {
+    /// Read a scene file, its palette and its volume.
+    pub fn load(path: &Path) -> Result<Scene, RenderError> {
+        let bytes = std::fs::read(path).map_err(|e| scene_err(path, "file", format!("cannot read: {e}")))?;
+        let text =
+            std::str::from_utf8(&bytes).map_err(|_| scene_err(path, "file", "not a text file (invalid UTF-8)"))?;
+        Scene::parse(text, path)
+    }
+
+    /// Parse a scene's text; `path` names it in errors and anchors relative paths.
+    pub fn parse(text: &str, path: &Path) -> Result<Scene, RenderError> {
+        if text.trim().is_empty() {
+            return Err(scene_err(path, "file", "the file is empty (a scene needs palette, volume and materials)"));
+        }
+        let file: SceneFile = toml::from_str(text).map_err(|e: toml::de::Error| {
+            let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            scene_err(
+                path,
+                line.map_or("file".to_string(), |l| format!("line {l}")),
+                e.message().trim().replace('\n', " "),
+            )
+        })?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let palette_path = dir.join(&file.palette);
+        let palette = load_palette(&palette_path).map_err(|e| scene_err(path, "palette", e))?;
+        let render = file.render.as_ref();
+        let volume = if let Some(kind) = file.volume.strip_prefix("generated:") {
+            match kind {
+                "engine_like" => generate::engine_like(render.and_then(|r| r.generated_size).unwrap_or(160)),
+                other => {
+                    return Err(scene_err(path, "volume", format!("unknown generated volume `{other}` (engine_like)")));
+                }
+            }
+        } else {
+            let vpath = dir.join(&file.volume);
+            match &file.raw {
+                Some(r) => {
+                    let ty = ScalarType::parse(&r.ty)
+                        .ok_or_else(|| scene_err(path, "raw.type", format!("unknown type `{}`", r.ty)))?;
+                    let endian = match r.endian.as_deref() {
+                        None | Some("little") => Endian::Little,
+                        Some("big") => Endian::Big,
+                        Some(o) => {
+                            return Err(scene_err(path, "raw.endian", format!("`{o}` is neither little nor big")));
+                        }
+                    };
+                    raw::read(&vpath, r.dims, ty, endian, r.spacing.unwrap_or([1.0; 3]))?
+                }
+                None => Volume::open(&vpath)?,
+            }
+        };
+        let settings = settings_of(path, render)?;
+        let camera = camera_of(path, file.camera.as_ref())?;
+        let materials = materials_of(path, &palette, &file.materials)?;
+        let dial = dial_of(path, &palette, file.dial.as_ref().and_then(|d| d.path.as_deref()))?;
+        Ok(Scene {
+            path: Some(path.to_path_buf()),
+            palette_path: Some(palette_path),
+            palette,
+            volume,
+            materials,
+            camera,
+            dial,
+            settings,
+        })
+    }
+
+    /// The embedded default: the generated engine-like volume (no data files needed) with its
+    /// materials, camera and light dial over `palette`'s reflectances `smoke`, `block`, `inner` (when a
+    /// palette lacks one of these names, its reflectances are taken in order).
+    pub fn builtin(palette: Palette, size: usize) -> Result<Scene, RenderError> {
+        let origin = Path::new("builtin scene");
+        let pick = |name: &str, fallback: usize| {
+            palette
+                .reflectance_index(name)
+                .or_else(|| (fallback < palette.reflectances.len()).then_some(fallback))
+                .map(|i| palette.reflectances[i].name.clone())
+                .ok_or_else(|| scene_err(origin, "palette", "the built-in scene needs three reflectances"))
+        };
+        let spec = [
+            (pick("smoke", 0)?, generate::SMOKE_RANGE, 0.025),
+            (pick("block", 1)?, generate::BLOCK_RANGE, 0.12),
+            (pick("inner", 2)?, generate::INNER_RANGE, 0.6),
+        ];
+        let files: Vec<MaterialFile> = spec
+            .iter()
+            .map(|(name, r, o)| MaterialFile {
+                reflectance: name.clone(),
+                range: [f64::from(r[0]), f64::from(r[1])],
+                opacity: *o,
+            })
+            .collect();
+        let materials = materials_of(origin, &palette, &files)?;
+        let dial = dial_of(origin, &palette, None)?;
+        Ok(Scene {
+            path: None,
+            palette_path: None,
+            volume: generate::engine_like(size),
+            materials,
+            camera: Camera { azimuth_deg: 35.0, elevation_deg: 25.0, zoom: 1.3 },
+            dial,
+            settings: SceneSettings::default(),
+            palette,
+        })
+    }
+}
+
+fn scene_err(path: &Path, key: impl Into<String>, reason: impl Into<String>) -> RenderError {
+    RenderError::Scene { path: path.to_path_buf(), key: key.into(), reason: reason.into() }
+}
+
+fn settings_of(path: &Path, r: Option<&RenderFile>) -> Result<SceneSettings, RenderError> {
+    let mut s = SceneSettings::default();
+    let Some(r) = r else { return Ok(s) };
+    if let Some(step) = r.step {
+        if !(step.is_finite() && (0.05..=8.0).contains(&step)) {
+            return Err(scene_err(path, "render.step", format!("{step} is outside 0.05..=8 voxels")));
+        }
+        s.step = step;
+    }
+    if let Some(a) = r.ambient {
+        if !(a.is_finite() && (0.0..=1.0).contains(&a)) {
+            return Err(scene_err(path, "render.ambient", format!("{a} is outside 0..=1")));
+        }
+        s.ambient = a;
+    }
+    if let Some(e) = r.exposure {
+        if !(e.is_finite() && e > 0.0) {
+            return Err(scene_err(path, "render.exposure", format!("{e} is not a positive number")));
+        }
+        s.exposure = e;
+    }
+    if let Some(i) = &r.interpolation {
+        s.interpolation = match i.as_str() {
+            "trilinear" => Interpolation::Trilinear,
+            "nearest" => Interpolation::Nearest,
+            o => {
+                return Err(scene_err(path, "render.interpolation", format!("`{o}` is neither trilinear nor nearest")));
+            }
+        };
+    }
+    if let Some(g) = r.generated_size
+        && !(16..=512).contains(&g)
+    {
+        return Err(scene_err(path, "render.generated_size", format!("{g} is outside 16..=512")));
+    }
+    Ok(s)
+}
+
+fn camera_of(path: &Path, c: Option<&CameraFile>) -> Result<Camera, RenderError> {
+    let mut cam = Camera::default();
+    let Some(c) = c else { return Ok(cam) };
+    for (key, v) in
+        [("camera.azimuth_deg", c.azimuth_deg), ("camera.elevation_deg", c.elevation_deg), ("camera.zoom", c.zoom)]
+    {
+        if let Some(v) = v
+            && !v.is_finite()
+        {
+            return Err(scene_err(path, key, format!("{v} is not a finite number")));
+        }
+    }
+    if let Some(z) = c.zoom {
+        if z <= 0.0 {
+            return Err(scene_err(path, "camera.zoom", format!("{z} is not positive")));
+        }
+        cam.zoom = z;
+    }
+    if let Some(e) = c.elevation_deg {
+        if e.abs() > 90.0 {
+            return Err(scene_err(path, "camera.elevation_deg", format!("{e} is outside -90..=90")));
+        }
+        cam.elevation_deg = e;
+    }
+    if let Some(a) = c.azimuth_deg {
+        cam.azimuth_deg = a;
+    }
+    Ok(cam)
+}
+
+fn materials_of(path: &Path, palette: &Palette, files: &[MaterialFile]) -> Result<Vec<Material>, RenderError> {
+    if files.is_empty() {
+        return Err(scene_err(path, "materials", "a scene needs at least one [[materials]] entry"));
+    }
+    if files.len() > MAX_MATERIALS {
+        return Err(scene_err(path, "materials", format!("{} materials; at most {MAX_MATERIALS}", files.len())));
+    }
+    let names = || palette.reflectances.iter().map(|r| r.name.as_str()).collect::<Vec<_>>().join(", ");
+    files
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let key = |k: &str| format!("materials[{i}].{k}");
+            let idx = palette.reflectance_index(&m.reflectance).ok_or_else(|| {
+                scene_err(
+                    path,
+                    key("reflectance"),
+                    format!("`{}` is not a reflectance of the palette ({})", m.reflectance, names()),
+                )
+            })?;
+            let [lo, hi] = m.range;
+            if !(lo.is_finite() && hi.is_finite()) || lo > hi {
+                return Err(scene_err(path, key("range"), format!("[{lo}, {hi}] is not an ordered pair of numbers")));
+            }
+            if !(m.opacity.is_finite() && (0.0..=1.0).contains(&m.opacity)) {
+                return Err(scene_err(path, key("opacity"), format!("{} is outside 0..=1", m.opacity)));
+            }
+            Ok(Material {
+                reflectance: m.reflectance.clone(),
+                spectrum: palette.reflectances[idx].spectrum,
+                class: MaterialClass { range: [lo as f32, hi as f32], opacity: m.opacity as f32 },
+            })
+        })
+        .collect()
+}
+
+/// The dial: the named path, else the lights with `dial` positions in angular order, else all lights.
+fn dial_of(path: &Path, palette: &Palette, names: Option<&[String]>) -> Result<Dial, RenderError> {
+    let stop = |e: &SpectrumEntry| DialStop { name: e.name.clone(), spectrum: e.spectrum };
+    let stops: Vec<DialStop> = match names {
+        Some(names) => {
+            let all = || palette.lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join(", ");
+            names
+                .iter()
+                .enumerate()
+                .map(|(i, n)| {
+                    palette.light_index(n).map(|j| stop(&palette.lights[j])).ok_or_else(|| {
+                        scene_err(
+                            path,
+                            format!("dial.path[{i}]"),
+                            format!("`{n}` is not a light of the palette ({})", all()),
+                        )
+                    })
+                })
+                .collect::<Result<_, _>>()?
+        }
+        None => {
+            let placed: Vec<(&SpectrumEntry, [f64; 2])> =
+                palette.lights.iter().filter_map(|l| l.dial.map(|d| (l, d))).collect();
+            if placed.len() >= 2 {
+                let n = placed.len() as f64;
+                let cx = placed.iter().map(|(_, d)| d[0]).sum::<f64>() / n;
+                let cy = placed.iter().map(|(_, d)| d[1]).sum::<f64>() / n;
+                let mut placed = placed;
+                placed.sort_by(|a, b| (a.1[1] - cy).atan2(a.1[0] - cx).total_cmp(&(b.1[1] - cy).atan2(b.1[0] - cx)));
+                placed.into_iter().map(|(l, _)| stop(l)).collect()
+            } else {
+                palette.lights.iter().map(stop).collect()
+            }
+        }
+    };
+    Dial::new(stops).ok_or_else(|| scene_err(path, "dial.path", "the dial needs at least one light"))
+}
+
+/// A palette made in code from built-in spectra (no file): fixed lights (luminance-normalised
+/// illuminants) and fixed ColorChecker reflectances. Used by the accuracy check and tests.
+pub fn colorchecker_palette(name: &str, lights: &[&str], reflectances: &[(&str, &str)]) -> Option<Palette> {
+    let col = crate::colorimetry::Colorimetry::default();
+    let lum = col.luminance();
+    let lights = lights
+        .iter()
+        .map(|l| {
+            let s = Spectrum::illuminant(l)?.normalized(Normalize::Luminance, &lum).ok()?;
+            Some(entry(l, Kind::Light, crate::palette::Source::Illuminant(l.to_string()), s))
+        })
+        .collect::<Option<Vec<_>>>()?;
+    let reflectances = reflectances
+        .iter()
+        .map(|(n, cc)| {
+            Some(entry(
+                n,
+                Kind::Reflectance,
+                crate::palette::Source::ColorChecker(cc.to_string()),
+                Spectrum::colorchecker(cc)?,
+            ))
+        })
+        .collect::<Option<Vec<_>>>()?;
+    Some(Palette { name: name.into(), lights, reflectances, ..Palette::default() })
+}
+
+fn entry(name: &str, kind: Kind, source: crate::palette::Source, spectrum: Spectrum) -> SpectrumEntry {
+    SpectrumEntry {
+        name: name.into(),
+        kind,
+        source,
+        normalize: if kind == Kind::Light { Normalize::Luminance } else { Normalize::None },
+        scale: 1.0,
+        design: false,
+        bounds: None,
+        dial: None,
+        spectrum,
+    }
+}
+
+/// The designed engine palette (`volumes/engine_palette.toml`), embedded for the default scene.
+pub const BUILTIN_PALETTE_TOML: &str = include_str!("../../volumes/engine_palette.toml");
+
+/// The built-in palette of the embedded default scene: the designed engine palette (smoke, block, inner;
+/// lights hide, split, glow).
+pub fn builtin_palette() -> Result<Palette, RenderError> {
+    let origin = Path::new("volumes/engine_palette.toml (embedded)");
+    crate::palette::file::PaletteFile::parse(BUILTIN_PALETTE_TOML, origin)
+        .map(|f| f.palette)
+        .map_err(|e| scene_err(origin, "palette", e.to_string()))
+}
+
+/// The embedded default scene: the generated engine-like volume of `size` voxels across with the
+/// built-in palette (the same scene as `volumes/engine_generated.toml`).
+pub fn builtin_scene(size: usize) -> Result<Scene, RenderError> {
+    Scene::builtin(builtin_palette()?, size)
+}
+
+/// The accuracy-check scene of issue 5: four fixed ColorChecker materials (dark skin, foliage, orange,
+/// purplish blue) over value ranges of `volume`, dial D65 → A → F11. `ranges` and `opacities` give the
+/// transfer function (value ranges in the volume's units).
+pub fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities: [f32; 4]) -> Scene {
+    let names = [("m1", "dark_skin"), ("m2", "foliage"), ("m3", "orange"), ("m4", "purplish_blue")];
+    let palette = colorchecker_palette("check", &["D65", "A", "F11"], &names).unwrap_or_default();
+    let materials = palette
+        .reflectances
+        .iter()
+        .zip(ranges.iter().zip(opacities))
+        .map(|(r, (range, opacity))| Material {
+            reflectance: r.name.clone(),
+            spectrum: r.spectrum,
+            class: MaterialClass { range: *range, opacity },
+        })
+        .collect();
+    let stops = palette.lights.iter().map(|l| DialStop { name: l.name.clone(), spectrum: l.spectrum }).collect();
+    let dial = Dial::new(stops).unwrap_or(Dial { stops: Vec::new() });
+    Scene {
+        path: None,
+        palette_path: None,
+        palette,
+        volume,
+        materials,
+        camera: Camera::default(),
+        dial,
+        settings: SceneSettings::default(),
+    }
+}
+
+/// [`colorchecker_check_scene`] over the GE engine CT (`engine.nhdr`, 8-bit).
+pub fn engine_check_scene(volume: Volume) -> Scene {
+    colorchecker_check_scene(
+        volume,
+        [[30.0, 80.0], [81.0, 160.0], [161.0, 200.0], [201.0, 255.0]],
+        [0.02, 0.08, 0.3, 0.8],
+    )
+}
+
+/// [`colorchecker_check_scene`] over the generated engine-like volume.
+pub fn generated_check_scene(size: usize) -> Scene {
+    let (s, b, i) = (generate::SMOKE_RANGE, generate::BLOCK_RANGE, generate::INNER_RANGE);
+    colorchecker_check_scene(generate::engine_like(size), [s, b, [i[0], 230.0], [230.5, i[1]]], [0.05, 0.15, 0.6, 0.6])
+}

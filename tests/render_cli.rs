@@ -1,0 +1,216 @@
+//! `metamer render` end to end: the built-in default, frame ranges that combine with whole sweeps,
+//! every mode, scene files over a generated volume, and bad scenes (one readable error, no panic).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn metamer(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_metamer")).args(args).output().expect("the binary runs")
+}
+
+fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "failed: {}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn frame(dir: &Path, k: usize) -> PathBuf {
+    dir.join(format!("frame_{k:04}.png"))
+}
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn builtin_sweep_writes_frames_and_contact_sheet_and_split_ranges_combine() {
+    let dir = tempfile::tempdir().unwrap();
+    let all = dir.path().join("all");
+    let sheet = dir.path().join("sheet.png");
+    let (a, s) = (all.to_str().unwrap(), sheet.to_str().unwrap());
+    ok(&metamer(&[
+        "render",
+        "--frames",
+        "5",
+        "--size",
+        "40",
+        "--builtin-volume-size",
+        "32",
+        "-o",
+        a,
+        "--contact-sheet",
+        s,
+    ]));
+    for k in 0..5 {
+        let img = image::open(frame(&all, k)).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (40, 40));
+    }
+    assert!(!frame(&all, 5).exists());
+    assert!(image::open(&sheet).is_ok());
+    // The light changes along the dial: first and last frames differ, and the volume is visible.
+    let first = image::open(frame(&all, 0)).unwrap().to_rgb8();
+    let last = image::open(frame(&all, 4)).unwrap().to_rgb8();
+    assert_ne!(first, last);
+    assert!(last.pixels().any(|p| p.0 != [0, 0, 0]));
+    // Frames 2..4 rendered alone are byte-identical to the same frames of the whole sweep.
+    let part = dir.path().join("part");
+    let p = part.to_str().unwrap();
+    ok(&metamer(&[
+        "render",
+        "--frames",
+        "5",
+        "--size",
+        "40",
+        "--builtin-volume-size",
+        "32",
+        "-o",
+        p,
+        "--frame-range",
+        "2..4",
+    ]));
+    assert!(!frame(&part, 1).exists() && !frame(&part, 4).exists());
+    for k in 2..4 {
+        assert_eq!(std::fs::read(frame(&part, k)).unwrap(), std::fs::read(frame(&all, k)).unwrap(), "frame {k}");
+    }
+}
+
+/// A scene over the generated volume with the repository's engine palette copied beside it.
+fn write_scene(dir: &Path, body: &str) -> PathBuf {
+    std::fs::copy(repo().join("volumes/engine_palette.toml"), dir.join("engine_palette.toml")).unwrap();
+    let p = dir.join("scene.toml");
+    std::fs::write(&p, body).unwrap();
+    p
+}
+
+const GOOD: &str = r#"
+palette = "engine_palette.toml"
+volume = "generated:engine_like"
+[[materials]]
+reflectance = "block"
+range = [105, 175]
+opacity = 0.2
+[[materials]]
+reflectance = "inner"
+range = [200, 255]
+opacity = 0.6
+[camera]
+azimuth_deg = 10.0
+elevation_deg = 30.0
+[dial]
+path = ["hide", "split"]
+[render]
+generated_size = 24
+"#;
+
+#[test]
+fn scene_file_renders_in_every_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), GOOD);
+    for mode in ["factor", "full", "rgb"] {
+        let out = dir.path().join(mode);
+        let o = metamer(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--frames",
+            "2",
+            "--size",
+            "24",
+            "-o",
+            out.to_str().unwrap(),
+            "--mode",
+            mode,
+        ]);
+        ok(&o);
+        assert!(String::from_utf8_lossy(&o.stdout).contains("hide → split"));
+        assert!(frame(&out, 1).exists());
+    }
+    // Under "hide" block and inner parts are metamers: the full and factor frames agree closely.
+    let full = image::open(frame(&dir.path().join("full"), 0)).unwrap().to_rgb8();
+    let factor = image::open(frame(&dir.path().join("factor"), 0)).unwrap().to_rgb8();
+    let worst = full
+        .pixels()
+        .zip(factor.pixels())
+        .flat_map(|(a, b)| (0..3).map(move |c| (i32::from(a.0[c]) - i32::from(b.0[c])).abs()))
+        .max()
+        .unwrap();
+    assert!(worst <= 6, "factor and full frames differ by {worst} codes");
+}
+
+#[test]
+fn bad_scenes_are_one_readable_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases: Vec<(&str, String, &str)> = vec![
+        (
+            "unknown reflectance",
+            GOOD.replace("reflectance = \"inner\"", "reflectance = \"piston\""),
+            "materials[1].reflectance",
+        ),
+        ("bad opacity", GOOD.replace("opacity = 0.6", "opacity = 1.5"), "materials[1].opacity"),
+        ("inverted range", GOOD.replace("[200, 255]", "[255, 200]"), "materials[1].range"),
+        ("unknown light", GOOD.replace("\"split\"]", "\"dusk\"]"), "dial.path[1]"),
+        ("unknown key", GOOD.replace("[camera]", "[camera]\nfov = 3"), "fov"),
+        ("missing volume", GOOD.replace("generated:engine_like", "nowhere.nhdr"), "nowhere.nhdr"),
+        ("missing palette", GOOD.replace("engine_palette.toml", "gone.toml"), "gone.toml"),
+        (
+            "no materials",
+            "palette = \"engine_palette.toml\"\nvolume = \"generated:engine_like\"\nmaterials = []\n".into(),
+            "materials",
+        ),
+        ("empty", String::new(), "empty"),
+        ("syntax", "palette = [".into(), "line"),
+    ];
+    for (what, body, needle) in cases {
+        let scene = write_scene(d, &body);
+        let o = metamer(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--frames",
+            "2",
+            "--size",
+            "16",
+            "-o",
+            d.join("out").to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{what}: should fail");
+        assert!(err.contains("scene.toml") || err.contains(needle), "{what}: {err}");
+        assert!(err.contains(needle), "{what}: error does not name `{needle}`: {err}");
+        assert!(!err.contains("panicked"), "{what}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{what}: one line expected: {err}");
+    }
+    // Binary garbage as a scene, and a missing scene file.
+    let bin = d.join("bin.toml");
+    std::fs::write(&bin, [0xffu8, 0, 1, 2]).unwrap();
+    for p in [bin, d.join("absent.toml")] {
+        let o = metamer(&["render", p.to_str().unwrap(), "-o", d.join("out").to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains(p.file_name().unwrap().to_str().unwrap()) && !err.contains("panicked"),
+            "{err}"
+        );
+    }
+    // Bad command-line values.
+    for args in [vec!["--frames", "0"], vec!["--frames", "4", "--frame-range", "3..9"], vec!["--size", "2"]] {
+        let mut all = vec!["render", "-o", "unused"];
+        all.extend(args.iter());
+        let o = metamer(&all);
+        assert!(!o.status.success() && !String::from_utf8_lossy(&o.stderr).contains("panicked"));
+    }
+}
+
+#[test]
+fn builtin_scene_matches_the_generated_engine_scene_file() {
+    use metamer::render::scene::{Scene, builtin_scene};
+    let file = Scene::load(&repo().join("volumes/engine_generated.toml")).expect("scene file loads");
+    let builtin = builtin_scene(160).expect("built-in scene");
+    assert_eq!(file.materials, builtin.materials);
+    assert_eq!(file.camera, builtin.camera);
+    assert_eq!(file.dial, builtin.dial);
+    assert_eq!(file.settings, builtin.settings);
+    assert_eq!(file.volume.dims, builtin.volume.dims);
+    assert_eq!(file.palette.reflectances, builtin.palette.reflectances);
+}
