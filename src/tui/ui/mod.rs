@@ -126,6 +126,19 @@ pub fn num(v: f64) -> String {
     }
 }
 
+/// A number to four significant digits (scientific below 1e-3 and from 1e5).
+pub fn sig4(v: f64) -> String {
+    if !v.is_finite() || v == 0.0 {
+        return num(v);
+    }
+    let a = v.abs();
+    if !(1e-3..1e5).contains(&a) {
+        return format!("{v:.3e}");
+    }
+    let decimals = (3 - a.log10().floor() as i32).max(0) as usize;
+    format!("{v:.decimals$}")
+}
+
 /// Style of the selection brackets (the seed's green border).
 pub fn selected_style() -> Style {
     Style::new().fg(Color::LightGreen).add_modifier(Modifier::BOLD)
