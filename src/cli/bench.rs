@@ -31,6 +31,10 @@ pub struct Args {
     /// Timed repetitions per measurement (default: each suite's own).
     #[arg(long)]
     pub runs: Option<usize>,
+    /// Also replace the generated block of this README's "Performance and accuracy" section with the
+    /// headline table and the Pareto plots.
+    #[arg(long)]
+    pub readme: Option<PathBuf>,
     /// Renderer benchmark: volume to use instead of ../shared/volumes/engine.nhdr.
     #[arg(long)]
     pub volume: Option<PathBuf>,
@@ -47,6 +51,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ReportOptions { out_dir: args.output.clone(), quick: args.quick, runs: args.runs, volume: args.volume };
     let report =
         report::run(&suites, &options).with_context(|| format!("benchmark report into {}", args.output.display()))?;
+    if let Some(readme) = &args.readme {
+        report::splice_readme(readme, &report, &args.output)?;
+        println!("updated {}", readme.display());
+    }
     println!("{}", report.markdown);
     for f in &report.files {
         println!("wrote {}", f.display());

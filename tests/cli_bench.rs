@@ -1,0 +1,46 @@
+//! `metamer bench … --quick` writes a complete report: README.md with the headline table, each suite's
+//! tables, the Pareto fronts, the ratios against in-process baselines and the condition numbers, and the
+//! PNG plots it links to. (A smoke test of the benchmark code; speed figures live in the report, never in
+//! assertions.)
+
+use metamer::bench::report::{self, ReportOptions, Suite};
+
+#[test]
+fn quick_report_of_every_suite_is_complete() {
+    let dir = tempfile::tempdir().unwrap();
+    let options = ReportOptions { out_dir: dir.path().to_path_buf(), quick: true, runs: Some(1), volume: None };
+    let report = report::run(&Suite::ALL, &options).expect("report");
+    let md = std::fs::read_to_string(dir.path().join("README.md")).unwrap();
+    assert_eq!(md, report.markdown);
+    for needle in [
+        "## Headline figures",
+        "## Design engine",
+        "## Spectral factor model",
+        "## Renderer",
+        "Pareto front (time, mean ΔE*ab)",
+        "blocks vs one dense system",
+        "bounded [0,1] vs unbounded",
+        "### Condition numbers of the design systems met",
+        "weights 1e-8, 1, 1e8",
+        "vs full 31-sample",
+        "Pareto front (relight cost, mean ΔE00)",
+    ] {
+        assert!(md.contains(needle), "missing `{needle}` in\n{md}");
+    }
+    // Every image the report links exists and is a real PNG.
+    let links: Vec<&str> =
+        md.match_indices("](").map(|(i, _)| &md[i + 2..i + 2 + md[i + 2..].find(')').unwrap()]).collect();
+    assert!(links.len() >= 6, "{links:?}");
+    for l in links {
+        let img = image::open(dir.path().join(l)).unwrap_or_else(|e| panic!("{l}: {e}"));
+        assert!(img.width() >= 600, "{l}");
+    }
+    assert!(report.headlines.len() >= 5, "{:?}", report.headlines);
+}
+
+#[test]
+fn cli_rejects_an_unknown_suite() {
+    use clap::Parser;
+    let err = metamer::cli::Cli::try_parse_from(["metamer", "bench", "everything"]).unwrap_err();
+    assert!(err.to_string().contains("solve"), "{err}");
+}
