@@ -33,10 +33,13 @@ fn frame(c: &mut Criterion) {
     });
     let options = SolveOptions::default();
     for (label, bounded) in [("resolve_and_redraw_8x8", false), ("resolve_and_redraw_8x8_bounded", true)] {
-        if bounded {
-            state.palette.settings.reflectance_bounds = Bounds::new(0.0, 1.0);
-            state.palette.settings.light_bounds = Bounds::new(0.0, f64::INFINITY);
-        }
+        let (r, l) = if bounded {
+            (Bounds::new(0.0, 1.0), Bounds::new(0.0, f64::INFINITY))
+        } else {
+            (Bounds::UNBOUNDED, Bounds::UNBOUNDED)
+        };
+        state.palette.settings.reflectance_bounds = r;
+        state.palette.settings.light_bounds = l;
         c.bench_function(&format!("design/{label}"), |b| {
             b.iter(|| {
                 update(&mut state, Action::Move(Direction::Right));

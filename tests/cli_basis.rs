@@ -122,3 +122,17 @@ fn bad_input_is_one_readable_error() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+#[test]
+fn refining_b_never_makes_the_factor_model_worse_than_refining_t() {
+    // The engine palette's designed lights have no power in whole bands, so many colours are near black and
+    // Eq. 7 is far off in the PCA span: the full-Λ term must not be allowed to trade the factor model away.
+    let palette = Path::new(env!("CARGO_MANIFEST_DIR")).join("volumes/engine_palette.toml");
+    let out = metamer(&["basis", palette.to_str().unwrap(), "--json", "--no-cache"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let a = &json["accuracy"];
+    let mean = |k: &str| a[k]["mean"].as_f64().unwrap();
+    assert!(mean("factor_model") <= mean("transform_only") + 0.05, "{a}");
+    assert!(mean("factor_model") < 0.5 && mean("full_lambda") < 1.0, "{a}");
+}

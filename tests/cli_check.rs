@@ -54,7 +54,7 @@ fn the_metamers_example_is_shown_cell_by_cell() {
     let out = metamer(&["check", path.to_str().unwrap()]);
     let stdout = text(&out.stdout);
     // Targets, free groups and the marker of designed spectra appear.
-    assert!(stdout.contains("→ #b4584a"), "{stdout}");
+    assert!(stdout.contains("→ #b45c3d"), "{stdout}");
     assert!(stdout.contains("free grey"), "{stdout}");
     assert!(stdout.contains("petal *"), "{stdout}");
     assert!(stdout.contains("\"metamers\": 3 lights (0 designed), 4 reflectances (3 designed)"), "{stdout}");

@@ -201,3 +201,16 @@ fn bad_scenes_are_one_readable_error() {
         assert!(!o.status.success() && !String::from_utf8_lossy(&o.stderr).contains("panicked"));
     }
 }
+
+#[test]
+fn builtin_scene_matches_the_generated_engine_scene_file() {
+    use metamer::render::scene::{Scene, builtin_scene};
+    let file = Scene::load(&repo().join("volumes/engine_generated.toml")).expect("scene file loads");
+    let builtin = builtin_scene(160).expect("built-in scene");
+    assert_eq!(file.materials, builtin.materials);
+    assert_eq!(file.camera, builtin.camera);
+    assert_eq!(file.dial, builtin.dial);
+    assert_eq!(file.settings, builtin.settings);
+    assert_eq!(file.volume.dims, builtin.volume.dims);
+    assert_eq!(file.palette.reflectances, builtin.palette.reflectances);
+}

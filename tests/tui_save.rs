@@ -19,8 +19,12 @@ fn save_then_quit_keeps_comments_and_the_objective() {
     let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("palettes/metamers.toml");
     let dir = tempfile::tempdir().expect("temporary folder");
     let path = dir.path().join("metamers.toml");
-    std::fs::copy(&source, &path).expect("copy the example palette");
-    let original = std::fs::read_to_string(&path).expect("readable");
+    // The example palette with an unknown key, which saving must keep.
+    let text = std::fs::read_to_string(&source).expect("the example palette is readable");
+    let text = text.replacen("name = \"metamers\"", "name = \"metamers\"\nx_custom_note = \"kept by the designer\"", 1);
+    assert!(text.contains("x_custom_note"));
+    std::fs::write(&path, &text).expect("write the palette");
+    let original = text;
 
     let file = PaletteFile::load(&path).expect("the example palette loads");
     let mut state = State::new(path.clone(), file.palette.clone(), ColourMode::TrueColor);
@@ -40,6 +44,7 @@ fn save_then_quit_keeps_comments_and_the_objective() {
     for line in original.lines().filter(|l| l.trim_start().starts_with('#')) {
         assert!(saved.contains(line), "comment lost: {line}");
     }
+    assert!(saved.contains("x_custom_note = \"kept by the designer\""), "unknown key lost");
     let reloaded = PaletteFile::load(&path).expect("the saved palette loads");
     let again = design::solve(&reloaded.palette, None, &Colorimetry::default(), &SolveOptions::default())
         .expect("the saved palette solves");

@@ -17,10 +17,15 @@
 //!    that term B drifts to a span where the factor model is excellent but Eq. 7 is poor (mean ΔE00 ≈ 10
 //!    on ColorChecker × 7 lights, m = 7); with μ = 0.3 both are accurate (≈ 0.3 and ≈ 0.2), so the
 //!    DESIGN_SPEC §2 subspace criteria, which use Λ, agree with what post-illumination renders. (Stage 3
-//!    cannot change Eq. 7 colours: they depend only on the span of B.)
+//!    cannot change Eq. 7 colours: they depend only on the span of B.) The objective is only a local model
+//!    of ΔE00, so the refined B is accepted only if its real factor-model ΔE00 is no worse than the T-only
+//!    basis ([`FACTOR_SLACK`]); otherwise it is redone with μ/10, then with μ = 0, else B0 T is kept — on
+//!    palettes with many near-black colours (lights designed to have no power in whole bands) the full
+//!    μ lets the Λ term trade the factor model away.
 //!
 //! Every stage is deterministic: no randomness, fixed iteration limits.
 
+use super::accuracy::{self, ErrorStats, Model};
 use super::refine::{self, Objective, RefineOutcome};
 use super::sharpen;
 use super::{Basis, BasisError};
@@ -32,12 +37,16 @@ use nalgebra::Vector3;
 use nalgebra::{DMatrix, DVector};
 
 /// Bumped whenever a change to training changes its result (it is part of the cache key).
-pub const TRAINING_VERSION: u32 = 3;
+pub const TRAINING_VERSION: u32 = 4;
 
 /// Default weight μ of the full-Λ colour error while refining all of B. On ColorChecker × 7 lights, m = 7,
 /// μ = 0.3 brings the full-Λ model (Eq. 7, which DESIGN_SPEC §2's subspace criteria use) from mean ΔE00
 /// ≈ 10 to ≈ 0.2 while the factor model stays at ≈ 0.3 (see the module docs).
 pub const DEFAULT_LAMBDA_WEIGHT: f64 = 0.3;
+
+/// How much worse (mean, p95 ΔE00) the factor model may get when refining all of B with the full-Λ term,
+/// compared with the T-only basis, before that refinement is rejected.
+pub const FACTOR_SLACK: (f64, f64) = (0.05, 0.1);
 
 /// A singular value counts towards the rank of the colour signals when it exceeds this fraction of the
 /// largest one (the signals are f64 products of tabulated spectra; 1e-9 is far above rounding noise).
@@ -351,16 +360,62 @@ pub fn train(
     let transform_only = &b0 * &t;
     let mut b = transform_only.clone();
     if options.full_iterations > 0 {
-        match refine::refine_basis(&objective, &b, options.full_iterations) {
-            RefineOutcome::Improved { value, cost, iterations } => {
-                b = value;
-                stages.push(StageResult { stage: Stage::RefinedBasis, objective: cost, iterations });
+        // The objective is a local (quadratic) model of ΔE00; the Λ term can dominate it on palettes whose
+        // Eq. 7 colours are far off. The factor model is what renders, so a refined B is accepted only if
+        // its real factor-model ΔE00 is no worse than the T-only basis (within FACTOR_SLACK); otherwise the
+        // refinement is redone on the factor term alone, and if that does not help either, B stays B0 T.
+        let reference = factor_stats(set, &transform_only, colorimetry);
+        let weights: Vec<f64> = if options.lambda_weight > 0.0 {
+            vec![options.lambda_weight, options.lambda_weight * 0.1, 0.0]
+        } else {
+            vec![0.0]
+        };
+        for (attempt, &mu) in weights.iter().enumerate() {
+            let weaker;
+            let obj = if mu == options.lambda_weight {
+                &objective
+            } else {
+                weaker = factor_objective.clone().with_lambda_weight(mu);
+                &weaker
+            };
+            match refine::refine_basis(obj, &transform_only, options.full_iterations) {
+                RefineOutcome::Improved { value, cost, iterations } => {
+                    let refined = factor_stats(set, &value, colorimetry);
+                    let acceptable = match (reference, refined) {
+                        (Some(r), Some(n)) => n.mean <= r.mean + FACTOR_SLACK.0 && n.p95 <= r.p95 + FACTOR_SLACK.1,
+                        (None, Some(_)) => true,
+                        _ => false,
+                    };
+                    if acceptable {
+                        b = value;
+                        stages.push(StageResult { stage: Stage::RefinedBasis, objective: cost, iterations });
+                        break;
+                    }
+                    let next = match weights.get(attempt + 1) {
+                        Some(w) if *w > 0.0 => format!("retried with μ = {w}"),
+                        Some(_) => "retried on the factor-model error alone".to_string(),
+                        None => "kept B0 T".to_string(),
+                    };
+                    notes.push(format!(
+                        "refining all of B with full-Λ weight μ = {mu} made the factor model worse than refining \
+                         T alone; {next}"
+                    ));
+                }
+                RefineOutcome::Kept { reason } => {
+                    notes.push(format!("refining all of B (μ = {mu}) found nothing better ({reason}); kept B0 T"));
+                    break;
+                }
             }
-            RefineOutcome::Kept { reason } => notes.push(format!("refining B stopped early: {reason}")),
         }
     }
     let basis = Basis::from_matrix(b, colorimetry)?;
     Ok(Trained { basis, pca: b0, transform_only, signal_rank: rank, padded, stages, notes })
+}
+
+/// Real factor-model ΔE00 of a candidate B on the training set; `None` if B is not a valid basis.
+fn factor_stats(set: &TrainingSet, b: &DMatrix<f64>, colorimetry: &Colorimetry) -> Option<ErrorStats> {
+    let basis = Basis::from_matrix(b.clone(), colorimetry).ok()?;
+    Some(accuracy::stats(set, Model::Factor(&basis), colorimetry))
 }
 
 /// Train on all lights × reflectances of a palette (designed spectra at their current samples).

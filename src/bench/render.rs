@@ -75,6 +75,8 @@ pub struct RelightRow {
     pub channels: usize,
     pub size: usize,
     pub median_s: f64,
+    /// Process CPU time per frame (one thread working; Linux only), when known.
+    pub cpu_s: Option<f64>,
     /// Bytes read and written per frame ÷ measured bandwidth.
     pub bound_s: f64,
 }
@@ -189,13 +191,17 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
             let e = scene.dial.light_at(0.5);
             let m = v.model.frame_matrix(&e, 1.0);
             let mut out = vec![0u8; size * size * 3];
-            let (timing, _) = time_runs(runs * 20, || relight_srgb8(&v.image, &m, &lut, &mut out));
+            let reps = runs * 20;
+            let cpu0 = process_cpu_seconds();
+            let (timing, _) = time_runs(reps, || relight_srgb8(&v.image, &m, &lut, &mut out));
+            let cpu_s = cpu0.zip(process_cpu_seconds()).map(|(a, b)| (b - a) / (reps + 1) as f64);
             let bytes = (size * size * (4 * v.image.channels + 3)) as f64;
             relight.push(RelightRow {
                 mode: v.model.mode,
                 channels: v.image.channels,
                 size,
                 median_s: timing.median,
+                cpu_s,
                 bound_s: bytes / bandwidth,
             });
         }
@@ -316,6 +322,7 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
                 x.channels.to_string(),
                 format!("{0}×{0}", x.size),
                 format_seconds(x.median_s),
+                x.cpu_s.map_or("–".into(), format_seconds),
                 format_seconds(x.bound_s),
                 format!("{:.1}×", x.median_s / x.bound_s.max(1e-12)),
             ]
@@ -325,7 +332,10 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         "\n## Relight per frame (one thread: 3×K matrix per pixel + sRGB table)\n\nMeasured streaming bandwidth: {:.1} GB/s (read + write, one thread). Bound = (4·K + 3) bytes per pixel ÷ bandwidth.\n\n",
         r.bandwidth_bytes_per_s / 1e9
     );
-    s += &markdown_table(&["mode", "K", "size", "median time", "bandwidth bound", "time / bound"], &rows);
+    s += &markdown_table(
+        &["mode", "K", "size", "median wall time", "CPU time", "bandwidth bound", "wall time / bound"],
+        &rows,
+    );
     let extra = r.sweep_frames.saturating_sub(1) as f64;
     let budget = r.one_frame_s + 0.020 * extra;
     s += &format!(

@@ -5,6 +5,7 @@ use crate::basis::store::sidecar_path;
 use crate::palette::file::PaletteFile;
 use crate::tui::colour::ColourMode;
 use crate::tui::event_loop::{self, FileSaver, Io};
+use crate::tui::preview::Preview;
 use crate::tui::terminal::{TerminalEvents, TerminalGuard};
 use crate::tui::worker::{BasisMode, WorkerConfig};
 use crate::tui::{State, replay};
@@ -58,7 +59,8 @@ pub struct Args {
     /// Train the basis without reading or writing its sidecar cache (PALETTE.basis.json).
     #[arg(long, conflicts_with = "no_basis")]
     pub no_basis_cache: bool,
-    /// Light-dial preview of a scene (not available in this build: the renderer is not merged).
+    /// Show a half-block preview of this scene (DESIGN_SPEC §4), relit live with the designed spectra as
+    /// `[` and `]` move along its light dial (`v` switches between preview and spectra).
     #[arg(long, value_name = "SCENE.toml")]
     pub scene: Option<PathBuf>,
 }
@@ -82,9 +84,6 @@ fn parse_colours(text: &str) -> Result<ColourMode, String> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if args.scene.is_some() {
-        bail!("--scene: the light-dial preview is not available in this build (the renderer is not merged)");
-    }
     if !(args.time_limit.is_finite() && args.time_limit > 0.0) {
         bail!("--time-limit must be a positive number of seconds, not {}", args.time_limit);
     }
@@ -93,6 +92,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut state = State::new(args.input.clone(), file.palette.clone(), colours);
     if !file.warnings.is_empty() {
         state.say(file.warnings.join("; "));
+    }
+    if let Some(scene) = &args.scene {
+        let preview = Preview::load(scene, &state.colorimetry).context("--scene")?;
+        state.set_preview(preview);
     }
     let mut saver = FileSaver { file };
     let worker = WorkerConfig {

@@ -68,11 +68,11 @@ fn parse_range(s: &str, frames: usize) -> anyhow::Result<std::ops::Range<usize>>
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if args.frames == 0 {
-        bail!("--frames must be at least 1");
+    if !(1..=100_000).contains(&args.frames) {
+        bail!("--frames {} is outside 1..=100000", args.frames);
     }
-    if !(8..=8192).contains(&args.size) {
-        bail!("--size {} is outside 8..=8192", args.size);
+    if !(8..=4096).contains(&args.size) {
+        bail!("--size {} is outside 8..=4096", args.size);
     }
     let mode = Mode::parse(&args.mode).with_context(|| format!("--mode `{}` is unknown", args.mode))?;
     let range = match &args.frame_range {

@@ -99,8 +99,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     print_table(palette, &solution, &notes, args.quiet, args.output.as_deref(), seconds)?;
     if let Some(path) = &args.report {
         let report = report_json(palette, &solution, seconds);
-        let text = serde_json::to_string_pretty(&report)?;
-        std::fs::write(path, text + "\n").with_context(|| format!("{}: cannot write the report", path.display()))?;
+        let write = || -> anyhow::Result<()> {
+            let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+            serde_json::to_writer_pretty(&mut w, &report)?;
+            writeln!(w)?;
+            w.flush()?;
+            Ok(())
+        };
+        write().with_context(|| format!("{}: cannot write the report", path.display()))?;
     }
     Ok(())
 }

@@ -5,7 +5,9 @@
 //!
 //! 1. alternating exact bounded solves (block coordinate descent): reflectances and free colours with the
 //!    lights fixed, then lights and free colours with the reflectances fixed. Each half-step is an exact
-//!    convex minimisation ([`super::lsq`]), so the objective never increases;
+//!    convex minimisation ([`super::lsq::solve_from`], warm-started from the current values, independent
+//!    spectra in parallel), so the objective never increases; each round tries an extrapolated step that
+//!    is kept only if it lowers the objective;
 //! 2. L-BFGS-B ([`super::lbfgsb`]) on all unknowns of the block at once, whose line search only accepts
 //!    decrease;
 //! 3. a last round of alternating solves, which can only decrease the objective further and leaves every
@@ -16,10 +18,10 @@
 
 use super::lbfgsb::{LBfgsB, projected_gradient_norm};
 use super::lsq;
-use super::solve::FactorCache;
 use super::system::{Block, Design, Form, Layout, Unit, Values, smoothness_grad, smoothness_scale, smoothness_sq};
 use argmin::core::{CostFunction, Error, Gradient};
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -150,13 +152,23 @@ pub struct JointLimits {
     pub lbfgsb_iterations: u64,
     /// Alternating rounds after L-BFGS-B.
     pub last_rounds: usize,
-    /// Stop a stage when the relative decrease per round falls below this.
+    /// Stop a stage when the relative decrease per round stays below this (3 rounds in a row).
     pub rel_tol: f64,
+    /// … or the objective is below this.
+    pub abs_tol: f64,
 }
 
 impl JointLimits {
     pub fn new(deadline: Instant, cancel: Option<Arc<AtomicBool>>) -> JointLimits {
-        JointLimits { deadline, cancel, first_rounds: 30, lbfgsb_iterations: 3000, last_rounds: 200, rel_tol: 1e-12 }
+        JointLimits {
+            deadline,
+            cancel,
+            first_rounds: 1000,
+            lbfgsb_iterations: 100,
+            last_rounds: 200,
+            rel_tol: 1e-6,
+            abs_tol: 1e-14,
+        }
     }
 
     fn out_of_time(&self) -> Option<String> {
@@ -167,26 +179,68 @@ impl JointLimits {
     }
 }
 
-/// One alternating half-step: solve `units` exactly with everything else fixed. Returns false if a
-/// sub-solve failed to produce finite values (values are then left unchanged).
-fn exact_half_step(design: &Design, units: &[Unit], terms: &[usize], v: &mut Values, cache: &FactorCache) {
-    for comp in design.components(units, terms) {
-        let layout = Layout::new(&comp.units);
-        let sys = design.linear_system(&layout, &comp.terms, v);
-        let factor = cache.get(&sys.a);
-        let out = lsq::solve(&sys, &factor);
-        if out.x.iter().all(|x| x.is_finite()) {
-            layout.scatter(&out.x, v);
+/// One alternating half-step: solve `units` exactly with everything else fixed; independent components
+/// (e.g. reflectances that share no free colour) in parallel, sharing factorisations of equal matrices.
+/// A component whose solve is not finite keeps its values.
+fn exact_half_step(design: &Design, units: &[Unit], terms: &[usize], v: &mut Values) {
+    let cache = NormalCache::default();
+    let comps = design.components(units, terms);
+    let base: &Values = v;
+    let solved: Vec<(Layout, Option<DVector<f64>>)> = comps
+        .par_iter()
+        .map(|comp| {
+            let layout = Layout::new(&comp.units);
+            let sys = design.linear_system(&layout, &comp.terms, base);
+            let h = cache.get(&sys.a);
+            let out = lsq::solve_from(&sys, &h, &layout.gather(base));
+            let x = out.x.iter().all(|x| x.is_finite()).then_some(out.x);
+            (layout, x)
+        })
+        .collect();
+    for (layout, x) in solved {
+        if let Some(x) = x {
+            layout.scatter(&x, v);
         }
     }
 }
 
+/// A matrix A and its `AᵀA`.
+type NormalEntry = (DMatrix<f64>, Arc<DMatrix<f64>>);
+
+/// `AᵀA` shared between components with the same A within one half-step.
+#[derive(Default)]
+pub struct NormalCache {
+    map: std::sync::Mutex<Vec<NormalEntry>>,
+}
+
+impl NormalCache {
+    /// `AᵀA`, computed once per distinct A.
+    pub fn get(&self, a: &DMatrix<f64>) -> Arc<DMatrix<f64>> {
+        if let Ok(list) = self.map.lock()
+            && let Some((_, h)) = list.iter().find(|(m, _)| m == a)
+        {
+            return h.clone();
+        }
+        let h = Arc::new(a.tr_mul(a));
+        if let Ok(mut list) = self.map.lock()
+            && list.len() < 64
+        {
+            list.push((a.clone(), h.clone()));
+        }
+        h
+    }
+}
+
 /// Alternating rounds until the relative decrease stalls, `rounds` is reached or time runs out.
+///
+/// Each round is followed by an extrapolation attempt along the round's step (`x + β (x − x_prev)`,
+/// projected onto the bounds), accepted only when it lowers the objective; β grows after a success and
+/// shrinks after a failure. This is the usual acceleration of alternating least squares and keeps the
+/// objective monotone.
 fn alternate(
     design: &Design,
     block: &Block,
     v: &mut Values,
-    cache: &FactorCache,
     rounds: usize,
     limits: &JointLimits,
     out: &mut JointOutcome,
@@ -202,25 +256,46 @@ fn alternate(
             .collect()
     };
     let (refl_side, light_side) = (side(false), side(true));
+    let layout = Layout::new(&block.units);
+    let (lo, hi) = layout.bounds(design);
     let mut f = *out.history.last().unwrap_or(&design.block_objective(block, v));
+    let mut beta: f64 = 0.5;
+    let mut stalled = 0;
     for _ in 0..rounds {
         if let Some(why) = limits.out_of_time() {
             out.stopped = Some(why);
             return;
         }
+        let before = layout.gather(v);
         let mut trial = v.clone();
-        exact_half_step(design, &refl_side, &block.terms, &mut trial, cache);
-        exact_half_step(design, &light_side, &block.terms, &mut trial, cache);
-        let f_new = design.block_objective(block, &trial);
+        exact_half_step(design, &refl_side, &block.terms, &mut trial);
+        exact_half_step(design, &light_side, &block.terms, &mut trial);
+        let mut f_new = design.block_objective(block, &trial);
         if f_new.is_nan() || f_new > f {
             return;
+        }
+        let after = layout.gather(&trial);
+        let mut ext = &after + (&after - &before) * beta;
+        for i in 0..ext.len() {
+            ext[i] = ext[i].max(lo[i]).min(hi[i]);
+        }
+        let mut ext_values = trial.clone();
+        layout.scatter(&ext, &mut ext_values);
+        let f_ext = design.block_objective(block, &ext_values);
+        if f_ext < f_new {
+            trial = ext_values;
+            f_new = f_ext;
+            beta = (beta * 1.5).min(8.0);
+        } else {
+            beta = (beta * 0.5).max(0.05);
         }
         *v = trial;
         out.alternating_rounds += 1;
         out.history.push(f_new);
-        let done = f - f_new <= limits.rel_tol * f.max(f64::MIN_POSITIVE);
+        let small = f - f_new <= limits.rel_tol * f.max(f64::MIN_POSITIVE) || f_new <= limits.abs_tol;
         f = f_new;
-        if done {
+        stalled = if small { stalled + 1 } else { 0 };
+        if stalled >= 3 {
             return;
         }
     }
@@ -242,16 +317,10 @@ fn lift_zero_starts(design: &Design, block: &Block, v: &mut Values) {
 }
 
 /// Solve a bilinear block in place.
-pub fn solve_block(
-    design: &Design,
-    block: &Block,
-    v: &mut Values,
-    cache: &FactorCache,
-    limits: &JointLimits,
-) -> JointOutcome {
+pub fn solve_block(design: &Design, block: &Block, v: &mut Values, limits: &JointLimits) -> JointOutcome {
     lift_zero_starts(design, block, v);
     let mut out = JointOutcome { history: vec![design.block_objective(block, v)], ..Default::default() };
-    alternate(design, block, v, cache, limits.first_rounds, limits, &mut out);
+    alternate(design, block, v, limits.first_rounds, limits, &mut out);
     let layout = Layout::new(&block.units);
     let (lo, hi) = layout.bounds(design);
     if out.stopped.is_none() {
@@ -287,7 +356,7 @@ pub fn solve_block(
         }
     }
     if out.stopped.is_none() {
-        alternate(design, block, v, cache, limits.last_rounds, limits, &mut out);
+        alternate(design, block, v, limits.last_rounds, limits, &mut out);
     }
     let base = v.clone();
     let problem = NonlinearProblem { design, layout: &layout, terms: &block.terms, base: &base };

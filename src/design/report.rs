@@ -5,6 +5,7 @@
 //! `e = B⁺E`, `s = B⁺S` ([`Basis::rgb_factor`], seed Eq. 15) — not the Λ-form used by
 //! `fit_in_subspace`, which is what the design minimises but not what is displayed.
 
+use super::joint::NormalCache as FactorCache;
 use super::lsq;
 use super::system::{Design, LinearSystem, Values};
 use super::{CellResult, Diagnostic};
@@ -59,11 +60,14 @@ fn is_zero(s: &Spectrum) -> bool {
 }
 
 /// The closest colour a designed spectrum within its bounds can produce with `partner` fixed, ignoring
-/// every other criterion: a bounded least-squares solve of the 3 colour rows alone.
+/// every other criterion: a bounded least-squares solve of the 3 colour rows alone, warm-started from the
+/// designed spectrum's solution.
 fn closest_reachable(
+    cache: &FactorCache,
     design: &Design,
     form: super::system::Form,
     partner: &Spectrum,
+    start: &Spectrum,
     bounds: (Vec<f64>, Vec<f64>),
     target: &Vector3<f64>,
 ) -> Vector3<f64> {
@@ -83,7 +87,8 @@ fn closest_reachable(
     let mut b = DVector::zeros(3 + SAMPLES);
     b.rows_mut(0, 3).copy_from(target);
     let sys = LinearSystem { a, b, lower: DVector::from_vec(bounds.0), upper: DVector::from_vec(bounds.1) };
-    let out = lsq::solve_system(&sys);
+    let h = cache.get(&sys.a);
+    let out = lsq::solve_from(&sys, &h, &DVector::from_column_slice(start.as_slice()));
     op * nalgebra::SVector::<f64, SAMPLES>::from_column_slice(out.x.as_slice())
 }
 
@@ -160,14 +165,16 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
             c.is_active() && r.delta_e_full > MET_DELTA_E && !is_zero(&v.lights[c.light])
         })
         .collect();
+    let cache = FactorCache::default();
     let reasons: Vec<Diagnostic> =
-        unmet.par_iter().map(|r| unmet_reason(design, colorimetry, v, r, &by_reflectance)).collect();
+        unmet.par_iter().map(|r| unmet_reason(&cache, design, colorimetry, v, r, &by_reflectance)).collect();
     out.extend(reasons);
     out
 }
 
 /// Why one cell is not met.
 fn unmet_reason(
+    cache: &FactorCache,
     design: &Design,
     colorimetry: &Colorimetry,
     v: &Values,
@@ -215,7 +222,8 @@ fn unmet_reason(
             let (lo, hi) = (bounds.0[0], bounds.1[0]);
             let form =
                 design.terms.iter().find(|t| t.cell == r.cell).map(|t| t.form).unwrap_or(super::system::Form::Full);
-            let best = closest_reachable(design, form, partner, bounds, &r.target);
+            let start = if refl.design { s } else { e };
+            let best = closest_reachable(cache, design, form, partner, start, bounds, &r.target);
             let de = colorimetry.delta_e00_under(&r.target, &best, e);
             if de > MET_DELTA_E {
                 format!(

@@ -89,32 +89,32 @@ pub fn solve_block(
         stopped: None,
         values: Vec::new(),
     };
-    let mut local;
-    let vals: &Values = if block.bilinear {
-        local = v.clone();
-        let out = joint::solve_block(design, block, &mut local, cache, limits);
+    if block.bilinear {
+        let mut local = v.clone();
+        let out = joint::solve_block(design, block, &mut local, limits);
         report.history = out.history;
         report.kkt = out.kkt;
         report.stopped = out.stopped;
         report.bounds_active = true;
-        &local
-    } else {
-        let layout = Layout::new(&block.units);
-        let sys = design.linear_system(&layout, &block.terms, v);
-        local = v.clone();
-        if sys.a.nrows() > 0 {
-            let factor = cache.get(&sys.a);
-            let out = lsq::solve(&sys, &factor);
-            if out.x.iter().all(|x| x.is_finite()) {
-                layout.scatter(&out.x, &mut local);
-            }
-            report.kkt = out.kkt;
-            report.bounds_active = out.bounds_active;
+        report.objective = design.block_objective(block, &local);
+        report.values = block.units.iter().map(|u| (*u, local.get(*u).to_vec())).collect();
+        return report;
+    }
+    // Linear block: no copy of the values; the block objective is ‖Ax − b‖² of its system.
+    let layout = Layout::new(&block.units);
+    let sys = design.linear_system(&layout, &block.terms, v);
+    let mut x = layout.gather(v);
+    if sys.a.nrows() > 0 {
+        let factor = cache.get(&sys.a);
+        let out = lsq::solve(&sys, &factor);
+        if out.x.iter().all(|x| x.is_finite()) {
+            x = out.x;
         }
-        &local
-    };
-    report.objective = design.block_objective(block, vals);
-    report.values = block.units.iter().map(|u| (*u, vals.get(*u).to_vec())).collect();
+        report.kkt = out.kkt;
+        report.bounds_active = out.bounds_active;
+        report.objective = (&sys.a * &x - &sys.b).norm_squared();
+    }
+    report.values = layout.units.iter().map(|(u, o)| (*u, x.rows(*o, u.len()).iter().copied().collect())).collect();
     report
 }
 

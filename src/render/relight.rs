@@ -160,11 +160,42 @@ pub fn relight_linear(image: &ChannelImage, frame: &FrameMatrix) -> Vec<f32> {
 
 /// Apply a frame matrix to every pixel and sRGB-encode into `out` (3 bytes per pixel).
 pub fn relight_srgb8(image: &ChannelImage, frame: &FrameMatrix, lut: &SrgbLut, out: &mut [u8]) {
-    relight_with(image, frame, |i, rgb| {
-        out[3 * i] = lut.encode(rgb[0]);
-        out[3 * i + 1] = lut.encode(rgb[1]);
-        out[3 * i + 2] = lut.encode(rgb[2]);
-    });
+    assert_eq!(image.channels, frame.channels, "image and frame matrix disagree on the channel count");
+    match image.channels {
+        3 => encode_kernel::<3>(image, frame, lut, out),
+        5 => encode_kernel::<5>(image, frame, lut, out),
+        6 => encode_kernel::<6>(image, frame, lut, out),
+        7 => encode_kernel::<7>(image, frame, lut, out),
+        8 => encode_kernel::<8>(image, frame, lut, out),
+        SAMPLES => encode_kernel::<SAMPLES>(image, frame, lut, out),
+        _ => relight_with(image, frame, |i, rgb| {
+            out[3 * i] = lut.encode(rgb[0]);
+            out[3 * i + 1] = lut.encode(rgb[1]);
+            out[3 * i + 2] = lut.encode(rgb[2]);
+        }),
+    }
+}
+
+/// The relight + encode loop for K channels, free of per-pixel bounds checks.
+fn encode_kernel<const K: usize>(image: &ChannelImage, frame: &FrameMatrix, lut: &SrgbLut, out: &mut [u8]) {
+    let mut m = [[0f32; K]; 3];
+    for (r, row) in m.iter_mut().enumerate() {
+        row.copy_from_slice(&frame.m[r * K..(r + 1) * K]);
+    }
+    for (px, o) in image.data.chunks_exact(K).zip(out.chunks_exact_mut(3)) {
+        let px: &[f32; K] = px.try_into().unwrap_or(&[0.0; K]);
+        let mut rgb = [0f32; 3];
+        for (v, row) in rgb.iter_mut().zip(&m) {
+            let mut acc = 0f32;
+            for c in 0..K {
+                acc += row[c] * px[c];
+            }
+            *v = acc;
+        }
+        o[0] = lut.encode(rgb[0]);
+        o[1] = lut.encode(rgb[1]);
+        o[2] = lut.encode(rgb[2]);
+    }
 }
 
 fn relight_with(image: &ChannelImage, frame: &FrameMatrix, sink: impl FnMut(usize, [f32; 3])) {
@@ -262,6 +293,24 @@ mod tests {
         let want = col.rgb(&e, &s) * 0.7;
         for c in 0..3 {
             assert!((f64::from(got[c]) - want[c]).abs() < 1e-5, "{got:?} vs {want:?}");
+        }
+    }
+
+    #[test]
+    fn encoded_relight_equals_encoding_the_linear_relight() {
+        let lut = SrgbLut::new();
+        for k in [3usize, 4, 7, 31] {
+            let data: Vec<f32> = (0..k * 50).map(|i| ((i * 7919) % 1000) as f32 / 1000.0).collect();
+            let image = ChannelImage { width: 10, height: 5, channels: k, data };
+            let frame = FrameMatrix {
+                channels: k,
+                m: (0..3 * k).map(|i| ((i * 31) % 17) as f32 / (17.0 * k as f32)).collect(),
+            };
+            let linear = relight_linear(&image, &frame);
+            let mut out = vec![0u8; 150];
+            relight_srgb8(&image, &frame, &lut, &mut out);
+            let want: Vec<u8> = linear.iter().map(|v| lut.encode(*v)).collect();
+            assert_eq!(out, want, "K = {k}");
         }
     }
 

@@ -216,7 +216,7 @@ impl Scene {
                 .ok_or_else(|| scene_err(origin, "palette", "the built-in scene needs three reflectances"))
         };
         let spec = [
-            (pick("smoke", 0)?, generate::SMOKE_RANGE, 0.05),
+            (pick("smoke", 0)?, generate::SMOKE_RANGE, 0.025),
             (pick("block", 1)?, generate::BLOCK_RANGE, 0.12),
             (pick("inner", 2)?, generate::INNER_RANGE, 0.6),
         ];
@@ -235,7 +235,7 @@ impl Scene {
             palette_path: None,
             volume: generate::engine_like(size),
             materials,
-            camera: Camera { azimuth_deg: 35.0, elevation_deg: 25.0, zoom: 1.1 },
+            camera: Camera { azimuth_deg: 35.0, elevation_deg: 25.0, zoom: 1.3 },
             dial,
             settings: SceneSettings::default(),
             palette,

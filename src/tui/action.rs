@@ -48,6 +48,12 @@ pub enum Action {
     Help,
     /// List the solver's diagnostics.
     Diagnostics,
+    /// Move along the light dial of the scene preview.
+    Dial {
+        forward: bool,
+    },
+    /// Show the scene preview or the spectra in the bottom panel.
+    TogglePreview,
     Quit,
     // Inside popups.
     /// Type a character into the prompt.

@@ -108,7 +108,7 @@ impl SpectrumOp {
 /// What a text prompt's answer is for.
 #[derive(Clone, Debug, PartialEq)]
 pub enum PromptPurpose {
-    /// `#rrggbb` target of colour cell `cell` (index into `palette.colours`), or of a new cell.
+    /// `#rrggbb` target of the cell at (light, reflectance), created if absent.
     Hex { light: usize, reflectance: usize },
     /// Weight of a cell.
     Weight { light: usize, reflectance: usize },
@@ -275,6 +275,12 @@ pub struct State {
     pub quit: bool,
     /// Frames drawn so far (spinner phase).
     pub ticks: u64,
+    /// The scene preview (`--scene`), its dial position in [0, 1], whether it is shown, and its pixels
+    /// under the current spectra (recomputed with the derived colours).
+    pub preview: Option<crate::tui::preview::Preview>,
+    pub dial: f64,
+    pub show_preview: bool,
+    pub preview_frame: Vec<[u8; 3]>,
 }
 
 impl State {
@@ -301,6 +307,10 @@ impl State {
             derived: Derived::default(),
             quit: false,
             ticks: 0,
+            preview: None,
+            dial: 0.0,
+            show_preview: false,
+            preview_frame: Vec::new(),
         };
         state.clamp_selection();
         state.refresh();
@@ -320,6 +330,22 @@ impl State {
             &self.colorimetry,
             self.basis.as_deref(),
         );
+        self.relight();
+    }
+
+    /// Relight the scene preview with the current spectra at the current dial position.
+    pub fn relight(&mut self) {
+        self.preview_frame = match &self.preview {
+            Some(p) => p.frame(&self.palette, &self.derived, &self.colorimetry, self.dial),
+            None => Vec::new(),
+        };
+    }
+
+    /// Attach a scene preview and show it.
+    pub fn set_preview(&mut self, preview: crate::tui::preview::Preview) {
+        self.preview = Some(preview);
+        self.show_preview = true;
+        self.relight();
     }
 
     /// What the selection points at.

@@ -14,7 +14,6 @@ use ratatui::backend::Backend;
 use ratatui::buffer::Buffer;
 use ratatui::crossterm::event::KeyEvent;
 use std::io;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// One input to the designer.
@@ -147,19 +146,26 @@ fn run_effects(state: &mut State, effects: Effects, worker: &mut Worker, saver: 
         let palette = palette_to_save(state);
         match saver.save(&palette) {
             Ok(text) => {
-                let solution = state.solve.current().map(|s| Arc::new(s.clone()));
+                let solved = state.solve.current().is_some();
                 let changed = palette != state.palette;
                 state.saved = palette.clone();
                 state.palette = palette;
                 if changed {
-                    // The palette now starts from its solution: keep showing that solution for the new generation.
+                    // The palette now starts from its solution. Solve it again so the title shows exactly
+                    // what the saved file solves to (the same optimum for designs with one side designed;
+                    // a joint design may improve a little from its new start). The last solution stays on
+                    // screen meanwhile.
                     state.solve.generation += 1;
-                    if let Some(s) = solution {
-                        state.solve.solution = Some((state.solve.generation, s));
-                    }
                     state.refresh();
+                    if !effects.quit_after_save {
+                        submit(state, worker);
+                    }
                 }
-                state.say(text);
+                if solved {
+                    state.say(text);
+                } else {
+                    state.say(format!("{text} (not solved yet: designed spectra kept as they were)"));
+                }
                 if effects.quit_after_save {
                     state.quit = true;
                 }

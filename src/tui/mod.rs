@@ -14,6 +14,7 @@ pub mod derived;
 pub mod edits;
 pub mod event_loop;
 pub mod keymap;
+pub mod preview;
 pub mod replay;
 pub mod terminal;
 pub mod ui;

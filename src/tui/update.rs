@@ -212,6 +212,25 @@ fn update_main(state: &mut State, action: Action) -> Effects {
             state.popup = Some(Popup::Help { scroll: 0 });
             Effects::NONE
         }
+        Action::Dial { forward } => {
+            if state.preview.is_none() {
+                state.complain("no scene preview: start with --scene SCENE.toml");
+            } else {
+                let step = if forward { 0.05 } else { -0.05 };
+                state.dial = ((state.dial + step) * 20.0).round().clamp(0.0, 20.0) / 20.0;
+                state.show_preview = true;
+                state.relight();
+            }
+            Effects::NONE
+        }
+        Action::TogglePreview => {
+            if state.preview.is_none() {
+                state.complain("no scene preview: start with --scene SCENE.toml");
+            } else {
+                state.show_preview = !state.show_preview;
+            }
+            Effects::NONE
+        }
         Action::Diagnostics => {
             if state.diagnostics().is_empty() {
                 state.say("no diagnostics: every criterion is met");

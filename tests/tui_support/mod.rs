@@ -101,11 +101,14 @@ pub fn demo_palette() -> Palette {
     }
 }
 
-/// An n-light × n-reflectance palette of built-in spectra (for scrolling and size checks).
+/// An n-light × n-reflectance palette of built-in spectra, half the reflectances designed within [0, 1]
+/// (for scrolling and size checks, and the bench).
 pub fn square_palette(n: usize) -> Palette {
     let illuminants: Vec<&str> = Spectrum::illuminant_names().collect();
     let patches: Vec<&str> = Spectrum::colorchecker_names().collect();
-    let mut p = Palette { name: format!("{n}x{n}"), ..Palette::default() };
+    // Bounds keep the objective well away from zero, so screens show no rounding noise.
+    let settings = Settings { reflectance_bounds: metamer::palette::Bounds::new(0.0, 1.0), ..Settings::default() };
+    let mut p = Palette { name: format!("{n}x{n}"), settings, ..Palette::default() };
     for k in 0..n {
         let ill = illuminants[k % illuminants.len()];
         p.lights.push(light(&format!("{ill}_{k}"), Source::Illuminant(ill.into()), false));

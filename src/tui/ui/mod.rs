@@ -4,6 +4,7 @@
 
 pub mod matrix;
 pub mod popup;
+pub mod preview;
 pub mod settings;
 pub mod sliders;
 pub mod spectra;
@@ -88,10 +89,21 @@ impl Widget for &State {
         block.render(a.settings, buf);
         settings::SettingsRow(self).render(inner, buf);
         if a.spectra.height >= 3 {
-            let block = Block::new().borders(Borders::TOP).title(" spectra ");
-            let inner = block.inner(a.spectra);
-            block.render(a.spectra, buf);
-            spectra::SpectraPlot(self).render(inner, buf);
+            match &self.preview {
+                Some(p) if self.show_preview => {
+                    let title = format!(" light dial: {} · [ ] move · v spectra ", p.caption(self.dial));
+                    let block = Block::new().borders(Borders::TOP).title(title);
+                    let inner = block.inner(a.spectra);
+                    block.render(a.spectra, buf);
+                    preview::PreviewPanel(self).render(inner, buf);
+                }
+                _ => {
+                    let block = Block::new().borders(Borders::TOP).title(" spectra ");
+                    let inner = block.inner(a.spectra);
+                    block.render(a.spectra, buf);
+                    spectra::SpectraPlot(self).render(inner, buf);
+                }
+            }
         }
         if self.popup.is_some() {
             popup::PopupView(self).render(area, buf);
@@ -112,6 +124,19 @@ pub fn num(v: f64) -> String {
         let s = s.trim_end_matches('0').trim_end_matches('.');
         if s.is_empty() || s == "-0" { "0".into() } else { s.to_string() }
     }
+}
+
+/// A number to four significant digits (scientific below 1e-3 and from 1e5).
+pub fn sig4(v: f64) -> String {
+    if !v.is_finite() || v == 0.0 {
+        return num(v);
+    }
+    let a = v.abs();
+    if !(1e-3..1e5).contains(&a) {
+        return format!("{v:.3e}");
+    }
+    let decimals = (3 - a.log10().floor() as i32).max(0) as usize;
+    format!("{v:.decimals$}")
 }
 
 /// Style of the selection brackets (the seed's green border).

@@ -3,7 +3,7 @@
 
 use crate::tui::app::State;
 use crate::tui::colour::ColourMode;
-use crate::tui::ui::{fit, num};
+use crate::tui::ui::{fit, sig4};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
 
@@ -55,9 +55,9 @@ pub fn title_right(state: &State, compact: bool) -> Line<'static> {
             time_text(s.last_time.map_or(sol.seconds, |d| d.as_secs_f64()))
         };
         let text = if compact {
-            format!(" obj {} · ΔE00 {worst} · {t} ", num(sol.objective))
+            format!(" obj {} · ΔE00 {worst} · {t} ", sig4(sol.objective))
         } else {
-            format!(" objective {} · worst ΔE00 {worst} · {t} ", num(sol.objective))
+            format!(" objective {} · worst ΔE00 {worst} · {t} ", sig4(sol.objective))
         };
         spans.push(Span::raw(text));
         if !sol.diagnostics.is_empty() {

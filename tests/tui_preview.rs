@@ -1,0 +1,58 @@
+//! The light-dial preview: a scene raycast once and relit with the designer's current spectra.
+
+mod tui_support;
+
+use metamer::colorimetry::Colorimetry;
+use metamer::render::scene::Scene;
+use metamer::tui::colour::ColourMode;
+use metamer::tui::preview::{PREVIEW_HEIGHT, PREVIEW_WIDTH, Preview};
+use tui_support::{demo_palette, replay, state};
+
+fn demo_with_preview() -> metamer::tui::State {
+    let palette = demo_palette();
+    let scene = Scene::builtin(palette.clone(), 32).expect("the built-in scene takes the demo's reflectances");
+    let mut s = state(palette, ColourMode::TrueColor);
+    s.set_preview(Preview::from_scene(&scene, &Colorimetry::default()));
+    s
+}
+
+#[test]
+fn the_preview_relights_along_the_dial() {
+    let mut s = demo_with_preview();
+    let (text, buf) = replay(&mut s, "", 100, 30);
+    assert!(text.contains("light dial: daylight → tungsten 0%"), "{text}");
+    assert_eq!(s.preview_frame.len(), PREVIEW_WIDTH * PREVIEW_HEIGHT);
+    assert!(s.preview_frame.iter().any(|p| p != &[0, 0, 0]), "something is drawn");
+    let at_start = s.preview_frame.clone();
+    let half_blocks = buf.content.iter().filter(|c| c.symbol() == "▀").count();
+    assert!(half_blocks > 500, "the panel is filled with half blocks ({half_blocks})");
+    // Half way along a three-light dial is the middle light.
+    let (text, _) = replay(&mut s, "] *10", 100, 30);
+    assert!(text.contains("tungsten → split 0%") || text.contains("daylight → tungsten 100%"), "{text}");
+    assert_ne!(s.preview_frame, at_start, "a different light gives a different picture");
+    // Back to the start gives the same picture again; `v` shows the spectra instead.
+    let (text, _) = replay(&mut s, "[ *10\nv", 100, 30);
+    assert_eq!(s.preview_frame, at_start);
+    assert!(text.contains(" spectra "), "{text}");
+}
+
+#[test]
+fn the_preview_follows_edited_spectra() {
+    let mut s = demo_with_preview();
+    replay(&mut s, "", 100, 30);
+    let before = s.preview_frame.clone();
+    // Make daylight a 2000 K black body: the relit picture changes without a new raycast.
+    replay(&mut s, "Up\np\nCtrl-u\n\"2000\"\nEnter", 100, 30);
+    assert_ne!(s.preview_frame, before);
+    replay(&mut s, "z", 100, 30);
+    assert_eq!(s.preview_frame, before);
+}
+
+#[test]
+fn preview_screen_snapshot() {
+    let mut s = demo_with_preview();
+    let (text, _) = replay(&mut s, "]\n]", 100, 30);
+    insta::with_settings!({ snapshot_path => "../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_snapshot!("preview_100x30", text);
+    });
+}
