@@ -248,11 +248,22 @@ fn decode_payload(data_path: &Path, h: &Header, bytes: &[u8], count: usize) -> R
             stored.get(skip..).unwrap_or(&[]).to_vec()
         }
         Encoding::Gzip => {
-            let mut out = Vec::with_capacity(expected + h.byte_skip as usize);
+            // Inflate no more than the header needs (plus one byte to notice excess): a small file must not
+            // inflate without bound, and a huge `byte skip` must not overflow.
+            let skip = usize::try_from(h.byte_skip.max(0)).unwrap_or(usize::MAX);
+            let limit = expected.saturating_add(skip).saturating_add(1);
+            let mut out = Vec::with_capacity(limit.min(1 << 24));
             MultiGzDecoder::new(stored)
+                .take(u64::try_from(limit).unwrap_or(u64::MAX))
                 .read_to_end(&mut out)
                 .map_err(|e| VolumeError::invalid(data_path, format!("gzip data cannot be decompressed: {e}")))?;
-            out.get(h.byte_skip as usize..).unwrap_or(&[]).to_vec()
+            if out.len() == limit {
+                return Err(VolumeError::invalid(
+                    data_path,
+                    format!("gzip data inflates to more than the {} bytes the header needs", limit - 1),
+                ));
+            }
+            out.get(skip..).unwrap_or(&[]).to_vec()
         }
     };
     if payload.len() < expected {
@@ -274,7 +285,8 @@ fn truncated(path: &Path, expected: usize, found: usize) -> VolumeError {
 fn parse_text(path: &Path, bytes: &[u8], count: usize, byte_skip: i64) -> Result<Vec<f32>, VolumeError> {
     let bytes = bytes.get(byte_skip.max(0) as usize..).unwrap_or(&[]);
     let text = std::str::from_utf8(bytes).map_err(|_| VolumeError::invalid(path, "text data is not UTF-8"))?;
-    let mut out = Vec::with_capacity(count);
+    // Every value takes at least one byte: never reserve more than the text can hold.
+    let mut out = Vec::with_capacity(count.min(bytes.len()));
     for tok in text.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()) {
         let v: f32 =
             tok.parse().map_err(|_| VolumeError::invalid(path, format!("`{tok}` in the text data is no number")))?;

@@ -61,7 +61,7 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
         .ok_or_else(|| bad(format!("Extent `{extent_text}` is not six integers")))?;
     let mut dims = [0usize; 3];
     for a in 0..3 {
-        let n = ext[2 * a + 1] - ext[2 * a] + 1;
+        let n = ext[2 * a + 1].checked_sub(ext[2 * a]).and_then(|d| d.checked_add(1)).unwrap_or(i64::MAX);
         if n <= 0 {
             return Err(bad(format!("Extent `{extent_text}` is empty along axis {a}")));
         }
@@ -220,6 +220,9 @@ impl Ctx<'_> {
         let first = STANDARD
             .decode(chars.get(..first_chars).ok_or_else(|| self.truncated(hs, chars.len() * 3 / 4))?)
             .map_err(|e| self.bad(format!("invalid base64: {e}")))?;
+        if first.len() < hs {
+            return Err(self.truncated(hs, first.len()));
+        }
         let words = self.header_words(self.word(&first))?;
         let header_chars = (words * hs).div_ceil(3) * 4;
         let separate = || -> Result<Vec<u8>, VolumeError> {
@@ -227,7 +230,8 @@ impl Ctx<'_> {
                 .decode(chars.get(..header_chars).ok_or_else(|| self.truncated(words * hs, chars.len() * 3 / 4))?)
                 .map_err(|e| self.bad(format!("invalid base64 in the header: {e}")))?;
             let data = STANDARD.decode(&chars[header_chars..]).map_err(|e| self.bad(format!("invalid base64: {e}")))?;
-            self.unpack(&head[..words * hs], &data)
+            let head = head.get(..words * hs).ok_or_else(|| self.truncated(words * hs, head.len()))?;
+            self.unpack(head, &data)
         };
         match separate() {
             Ok(v) => Ok(v),
@@ -259,7 +263,8 @@ impl Ctx<'_> {
         }
         let (blocks, block_size, last_size) = (w[0] as usize, w[1] as usize, w[2] as usize);
         let last_size = if last_size == 0 { block_size } else { last_size };
-        let mut out = Vec::with_capacity(blocks.saturating_mul(block_size).min(1 << 32));
+        // The header's sizes are not trusted for the reservation (the blocks' real sizes are checked below).
+        let mut out = Vec::with_capacity(blocks.saturating_mul(block_size).min(data.len()).min(1 << 24));
         let mut at = 0usize;
         for (i, cs) in w[3..].iter().enumerate() {
             let cs = *cs as usize;
@@ -286,7 +291,8 @@ impl Ctx<'_> {
 }
 
 fn parse_ascii(ctx: &Ctx, body: &str, count: usize) -> Result<Vec<f32>, VolumeError> {
-    let mut out = Vec::with_capacity(count);
+    // Every value takes at least one byte: never reserve more than the text can hold.
+    let mut out = Vec::with_capacity(count.min(body.len()));
     for tok in body.split_whitespace() {
         out.push(tok.parse::<f32>().map_err(|_| ctx.bad(format!("`{tok}` is no number")))?);
     }
