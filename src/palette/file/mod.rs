@@ -137,7 +137,9 @@ impl PaletteFile {
             PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
         };
         let spanned = toml_edit::Document::parse(text).map_err(|e| syntax(e.message(), e.span()))?;
-        let table: toml::Table = toml::from_str(text).map_err(|e: toml::de::Error| syntax(e.message(), e.span()))?;
+        // The reader's plain table is taken from the spanned document rather than parsed a second time with
+        // `toml` (both crates share one TOML 1.1 parser, so a document one accepts the other accepts too).
+        let table = plain_table(spanned.as_table());
         let colorimetry = Colorimetry::default();
         let outcome = read::Reader::new(path, colorimetry.luminance()).read(&table).map_err(|e| match e {
             PaletteError::Invalid { path, key, reason, line: None } => {
@@ -280,4 +282,34 @@ fn write_atomically(path: &Path, text: &str) -> std::io::Result<()> {
         let _ = d.sync_all();
     }
     Ok(())
+}
+
+/// A plain `toml` table with the values of a `toml_edit` table (layout, comments and spans dropped).
+fn plain_table(table: &toml_edit::Table) -> toml::Table {
+    table.iter().filter_map(|(key, item)| plain_item(item).map(|v| (key.to_string(), v))).collect()
+}
+
+fn plain_item(item: &toml_edit::Item) -> Option<toml::Value> {
+    match item {
+        toml_edit::Item::None => None,
+        toml_edit::Item::Value(v) => Some(plain_value(v)),
+        toml_edit::Item::Table(t) => Some(toml::Value::Table(plain_table(t))),
+        toml_edit::Item::ArrayOfTables(a) => {
+            Some(toml::Value::Array(a.iter().map(|t| toml::Value::Table(plain_table(t))).collect()))
+        }
+    }
+}
+
+fn plain_value(value: &toml_edit::Value) -> toml::Value {
+    match value {
+        toml_edit::Value::String(s) => toml::Value::String(s.value().clone()),
+        toml_edit::Value::Integer(i) => toml::Value::Integer(*i.value()),
+        toml_edit::Value::Float(f) => toml::Value::Float(*f.value()),
+        toml_edit::Value::Boolean(b) => toml::Value::Boolean(*b.value()),
+        toml_edit::Value::Datetime(d) => toml::Value::Datetime(*d.value()),
+        toml_edit::Value::Array(a) => toml::Value::Array(a.iter().map(plain_value).collect()),
+        toml_edit::Value::InlineTable(t) => {
+            toml::Value::Table(t.iter().map(|(key, v)| (key.to_string(), plain_value(v))).collect())
+        }
+    }
 }
