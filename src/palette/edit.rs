@@ -62,8 +62,8 @@ impl Palette {
         if clash { Err(EditError::DuplicateName { kind, name: name.to_string() }) } else { Ok(()) }
     }
 
-    /// Add a light or reflectance from a built-in source (not `csv`: that needs the file's folder), with the
-    /// default normalisation and scale 1, not designed. Returns its index.
+    /// Add a light or reflectance from a built-in source (not `csv`: that needs the file's folder, see
+    /// [`Palette::add_spectrum_in`]), with the default normalisation and scale 1, not designed. Returns its index.
     pub fn add_spectrum(
         &mut self,
         kind: Kind,
@@ -71,8 +71,21 @@ impl Palette {
         source: Source,
         colorimetry: &Colorimetry,
     ) -> Result<usize, EditError> {
+        self.add_spectrum_in(kind, name, source, None, colorimetry)
+    }
+
+    /// [`Palette::add_spectrum`] for any source: a `csv` path is read relative to `base_dir` (the palette
+    /// file's folder).
+    pub fn add_spectrum_in(
+        &mut self,
+        kind: Kind,
+        name: &str,
+        source: Source,
+        base_dir: Option<&std::path::Path>,
+        colorimetry: &Colorimetry,
+    ) -> Result<usize, EditError> {
         self.check_new_name(kind, name, None)?;
-        let raw = source.raw_spectrum(None)?;
+        let raw = source.raw_spectrum(base_dir)?;
         let normalize = Normalize::default();
         let spectrum = finish(&raw, kind, normalize, 1.0, &colorimetry.luminance())?;
         let entries = self.entries_mut(kind);
@@ -387,6 +400,21 @@ fn re_resolve(
 mod tests {
     use super::*;
     use crate::palette::Settings;
+
+    #[test]
+    fn csv_spectra_are_read_relative_to_the_palette_folder() {
+        let c = Colorimetry::default();
+        let dir = tempfile::tempdir().unwrap();
+        let rows: String = (0..=30).map(|i| format!("{},{}\n", 400 + 10 * i, 0.25)).collect();
+        std::fs::write(dir.path().join("grey.csv"), rows).unwrap();
+        let mut p = Palette::default();
+        let source = Source::Csv("grey.csv".into());
+        assert!(p.add_spectrum(Kind::Reflectance, "grey", source.clone(), &c).is_err());
+        let i = p.add_spectrum_in(Kind::Reflectance, "grey", source, Some(dir.path()), &c).unwrap();
+        assert!(p.reflectances[i].spectrum.0.iter().all(|v| (v - 0.25).abs() < 1e-12));
+        let dup = p.add_spectrum_in(Kind::Reflectance, "grey", Source::Flat(1.0), Some(dir.path()), &c);
+        assert!(dup.is_err());
+    }
 
     fn palette() -> (Palette, Colorimetry) {
         let c = Colorimetry::default();

@@ -6,8 +6,7 @@
 //! `Palette::add_free_group`) and adding a CSV spectrum relative to the palette file's folder.
 
 use crate::colorimetry::Colorimetry;
-use crate::palette::source::finish;
-use crate::palette::{Kind, Palette, Source, SpectrumEntry};
+use crate::palette::{Kind, Palette, Source};
 use crate::spectrum::Normalize;
 use nalgebra::Vector3;
 use std::path::Path;
@@ -122,27 +121,7 @@ pub fn add(
     base_dir: &Path,
     colorimetry: &Colorimetry,
 ) -> EditResult {
-    if !matches!(source, Source::Csv(_)) {
-        return palette.add_spectrum(kind, name, source, colorimetry).map(|_| ()).map_err(text);
-    }
-    if palette.entries(kind).iter().any(|e| e.name == name) {
-        return Err(format!("a {} named `{name}` already exists", kind.as_str()));
-    }
-    let raw = source.raw_spectrum(Some(base_dir)).map_err(text)?;
-    let normalize = Normalize::default();
-    let spectrum = finish(&raw, kind, normalize, 1.0, &colorimetry.luminance()).map_err(text)?;
-    palette.entries_mut(kind).push(SpectrumEntry {
-        name: name.to_string(),
-        kind,
-        source,
-        normalize,
-        scale: 1.0,
-        design: false,
-        bounds: None,
-        dial: None,
-        spectrum,
-    });
-    Ok(())
+    palette.add_spectrum_in(kind, name, source, Some(base_dir), colorimetry).map(|_| ()).map_err(text)
 }
 
 /// Remove a light or reflectance with its cells.
