@@ -79,17 +79,34 @@ impl Colorimetry {
         self.rgb_to_xyz * rgb
     }
 
-    /// CIELAB of a linear sRGB colour against the white of `light` (the light on a flat reflectance of 1).
-    pub fn lab_under(&self, rgb: &Vector3<f64>, light: &Spectrum) -> [f64; 3] {
-        xyz_to_lab(&self.rgb_to_xyz(rgb), &self.xyz_of_signal(light))
+    /// The CIELAB reference white under `light`: the light on a flat reflectance of 1 (DESIGN_SPEC §1).
+    /// A light without luminance (Y ≤ [`DARK_LIGHT_Y`], e.g. an all-zero light) has no white of its own —
+    /// CIELAB against it would map every colour to L = 0 and call any error 0 — so it falls back to the
+    /// sRGB display white (linear RGB [1, 1, 1], Y = 1), the scale on which targets are written.
+    pub fn reference_white(&self, light: &Spectrum) -> Vector3<f64> {
+        let white = self.xyz_of_signal(light);
+        if white.iter().all(|v| v.is_finite()) && white[1] > DARK_LIGHT_Y {
+            white
+        } else {
+            self.rgb_to_xyz(&Vector3::new(1.0, 1.0, 1.0))
+        }
     }
 
-    /// CIEDE2000 between two linear sRGB colours seen under `light` (reference white = light on flat 1).
+    /// CIELAB of a linear sRGB colour against the white of `light` ([`Colorimetry::reference_white`]).
+    pub fn lab_under(&self, rgb: &Vector3<f64>, light: &Spectrum) -> [f64; 3] {
+        xyz_to_lab(&self.rgb_to_xyz(rgb), &self.reference_white(light))
+    }
+
+    /// CIEDE2000 between two linear sRGB colours seen under `light` (reference white:
+    /// [`Colorimetry::reference_white`]).
     pub fn delta_e00_under(&self, a: &Vector3<f64>, b: &Vector3<f64>, light: &Spectrum) -> f64 {
-        let white = self.xyz_of_signal(light);
+        let white = self.reference_white(light);
         delta_e00(xyz_to_lab(&self.rgb_to_xyz(a), &white), xyz_to_lab(&self.rgb_to_xyz(b), &white))
     }
 }
+
+/// Lights whose white has a luminance Y at or below this have no usable CIELAB white of their own.
+pub const DARK_LIGHT_Y: f64 = 1e-12;
 
 /// sRGB transfer function: linear → display (IEC 61966-2-1). Negative input maps to negative output
 /// (odd extension) so out-of-gamut values stay ordered.
@@ -175,5 +192,19 @@ mod tests {
         assert!(hex_to_linear("#6a7b5").is_none());
         assert!(hex_to_linear("6a7b5c").is_none());
         assert!(hex_to_linear("#6a7b5g").is_none());
+    }
+
+    #[test]
+    fn a_dark_light_falls_back_to_the_display_white() {
+        let c = Colorimetry::default();
+        let grey = Vector3::new(0.2159, 0.2159, 0.2159);
+        let black = Vector3::zeros();
+        // Under an all-zero light a grey target against black is a large error, not zero.
+        let de = c.delta_e00_under(&grey, &black, &Spectrum::flat(0.0));
+        assert!(de > 30.0, "ΔE00 {de}");
+        // A luminous light keeps its own white: E on flat 1 is L* = 100 under E itself.
+        let e = Spectrum::flat(1.0);
+        let lab = c.lab_under(&c.rgb(&e, &Spectrum::flat(1.0)), &e);
+        assert!((lab[0] - 100.0).abs() < 1e-9 && lab[1].abs() < 1e-9 && lab[2].abs() < 1e-9, "{lab:?}");
     }
 }
