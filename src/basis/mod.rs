@@ -54,6 +54,13 @@ pub struct Basis {
     /// `products[k]` is the m×m matrix `G_·,·,k` with `G_ijk = B⁺_i (B_j ∘ B_k)`, so
     /// `Λ(x) = Σ_k x_k products[k]` (seed Eq. 7).
     pub products: Vec<DMatrix<f64>>,
+    /// `P = B B⁺ = U Uᵀ` (31×31, U an orthonormal basis of span B): the orthogonal projector onto the
+    /// subspace. The full-Λ model depends on B only through it — `B Λ(B⁺p) B⁺ x = P (Pp ∘ Px)` — so it is
+    /// evaluated that way, independent of how B's columns are scaled (the coefficient route loses ~1e-7
+    /// relative when the columns' norms differ by 10³, as trained bases' can).
+    pub projector: DMatrix<f64>,
+    /// `Q_rgb,31 P`: 3×31.
+    pub q_rgb_projector: DMatrix<f64>,
 }
 
 impl Basis {
@@ -76,6 +83,7 @@ impl Basis {
         if rank < m {
             return Err(BasisError::RankDeficient { rank, m });
         }
+        let u = svd.u.as_ref().ok_or(BasisError::NotFinite)?.columns(0, m).into_owned();
         let b_pinv = svd.pseudo_inverse(tol).map_err(|_| BasisError::NotFinite)?;
         let q_rgb = DMatrix::from_column_slice(3, SAMPLES, colorimetry.q_rgb.as_slice());
         let q_rgb_m = &q_rgb * &b;
@@ -89,7 +97,9 @@ impl Basis {
                 &b_pinv * bjk
             })
             .collect();
-        Ok(Basis { b, b_pinv, q_rgb_m, products })
+        let projector = &u * u.transpose();
+        let q_rgb_projector = &q_rgb * &projector;
+        Ok(Basis { b, b_pinv, q_rgb_m, products, projector, q_rgb_projector })
     }
 
     /// The dimension m.
@@ -114,8 +124,15 @@ impl Basis {
 
     /// `Q_rgb,m Λ(Q_m,31 p) Q_m,31`: the 3×31 map from the designed spectrum to its subspace colour
     /// when its partner is `p` (DESIGN_SPEC §2, "colour in the subspace").
+    ///
+    /// Evaluated as `Q_rgb,31 P diag(P p) P` (the same map, see [`Basis::projector`]).
     pub fn subspace_operator(&self, p: &Spectrum) -> Q31 {
-        let op = &self.q_rgb_m * self.lambda(&self.coefficients(p)) * &self.b_pinv;
+        let pp = &self.projector * DVector::from_column_slice(p.as_slice());
+        let mut q = self.q_rgb_projector.clone();
+        for (mut col, v) in q.column_iter_mut().zip(pp.iter()) {
+            col *= *v;
+        }
+        let op = q * &self.projector;
         Q31::from_column_slice(op.as_slice())
     }
 
@@ -132,9 +149,12 @@ impl Basis {
     }
 
     /// Colour of light `e` on reflectance `s` in the subspace model with the full Λ (Eq. 7).
+    ///
+    /// Evaluated as `Q_rgb,31 P (Pe ∘ Ps)` (the same colour, see [`Basis::projector`]).
     pub fn rgb_lambda(&self, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
-        let c = self.lambda(&self.coefficients(e)) * self.coefficients(s);
-        let v = &self.q_rgb_m * c;
+        let pe = &self.projector * DVector::from_column_slice(e.as_slice());
+        let ps = &self.projector * DVector::from_column_slice(s.as_slice());
+        let v = &self.q_rgb_projector * pe.component_mul(&ps);
         Vector3::new(v[0], v[1], v[2])
     }
 
