@@ -364,6 +364,12 @@ struct Qr {
     norm0: Vec<f64>,
     s: Vec<f64>,
     y: Vec<f64>,
+    /// Bound variables (columns after the right-hand side), the transformed residual below the pivoted rows,
+    /// and the multipliers (with their rounding level) of the last solve, indexed by variable.
+    bound: Vec<usize>,
+    t: Vec<f64>,
+    mult: Vec<f64>,
+    mult_noise: Vec<f64>,
 }
 
 impl Qr {
@@ -422,8 +428,9 @@ impl Qr {
         let a = &sys.a;
         let (m, n, nf) = (a.nrows(), a.ncols(), free.len());
         self.prepare(a);
+        let nb = n - nf;
         self.w.clear();
-        self.w.resize(m * (nf + 1), 0.0);
+        self.w.resize(m * (nf + 1 + nb), 0.0);
         self.norm0.clear();
         for (k, &j) in free.iter().enumerate() {
             let col = a.column(j);
@@ -448,6 +455,16 @@ impl Qr {
             }
             self.rhs0.clear();
             self.rhs0.extend_from_slice(rhs);
+        }
+        // The bound columns after the right-hand side: the reflections carry them along for the multipliers.
+        self.bound.clear();
+        self.bound.extend((0..n).filter(|&j| !is_free[j]));
+        for (q, &j) in self.bound.iter().enumerate() {
+            let col = a.column(j);
+            let dst = &mut self.w[(nf + 1 + q) * m..(nf + 2 + q) * m];
+            for (d, &r) in dst.iter_mut().zip(&self.order) {
+                *d = col[r];
+            }
         }
         self.perm.clear();
         self.perm.extend(0..nf);
@@ -499,6 +516,27 @@ impl Qr {
             k += 1;
         }
         let rank = k;
+        // Multipliers of the bound variables at the subproblem's optimum: with Qᵀ(A x − b) = (0, −t) below the
+        // pivoted rows, g_j = a_jᵀ(A x − b) = −Σ_{i ≥ rank} (Qᵀa_j)_i t_i. Rows sorted by weight keep both
+        // factors at the light rows' own rounding level, which the residual's heavy rows would swamp.
+        self.t.clear();
+        self.t.extend_from_slice(&self.w[nf * m + rank..(nf + 1) * m]);
+        for d in rank..nf {
+            let xd = x[free[self.perm[d]]];
+            if xd != 0.0 {
+                for (t, wv) in self.t.iter_mut().zip(&self.w[d * m + rank..(d + 1) * m]) {
+                    *t -= wv * xd;
+                }
+            }
+        }
+        self.mult.resize(n, 0.0);
+        self.mult_noise.resize(n, 0.0);
+        for (q, &j) in self.bound.iter().enumerate() {
+            let col = &self.w[(nf + 1 + q) * m + rank..(nf + 2 + q) * m];
+            self.mult[j] = -dot(col, &self.t);
+            let size: f64 = col.iter().zip(&self.t).map(|(a, b)| (a * b).abs()).sum();
+            self.mult_noise[j] = 4.0 * (m as f64) * f64::EPSILON * size;
+        }
         // c₁ − R₁₂ x_dependent, then back substitution.
         let mut c1: Vec<f64> = self.w[nf * m..nf * m + rank].to_vec();
         for d in rank..nf {
@@ -564,6 +602,8 @@ struct Work {
     mag: DVector<f64>,
     stuck: Vec<bool>,
     newly_bound: Vec<usize>,
+    /// The last free solve was by QR at the current point, so its multipliers are current.
+    qr_current: bool,
     /// `‖H‖max` and `‖Aᵀb‖∞` (NaN until first needed).
     h_max: f64,
     atb_max: f64,
@@ -589,6 +629,7 @@ impl Work {
             mag: DVector::zeros(m),
             stuck: vec![false; n],
             newly_bound: Vec::with_capacity(n),
+            qr_current: false,
             h_max: f64::NAN,
             atb_max: f64::NAN,
         }
@@ -643,14 +684,20 @@ impl Work {
 
     /// The half-gradient `g = Aᵀ(Ax − b)` at `self.x` and, per component, the level below which its sign is
     /// rounding noise. Normal equations: `g = Hx − Aᵀb`, noise `2(n+1)²ε·max(‖Aᵀb‖∞, ‖H‖max‖x‖∞)` (the worst
-    /// case of the product's rounding). QR path: from the residual, noise `8ε·(|A|ᵀ(|A||x| + |b|))ᵢ` — about
-    /// the typical rounding of each component; smaller multipliers are not trusted.
+    /// case of the product's rounding). QR path: from the last QR solve when it is current (see [`Qr::solve`];
+    /// noise `4mε·Σ|(Qᵀa_j)_i t_i|`), else from the residual with noise `8ε·(|A|ᵀ(|A||x| + |b|))ᵢ`, about the
+    /// typical rounding of each component. Smaller multipliers are not trusted.
     fn gradient(&mut self, sys: &LinearSystem, h: &DMatrix<f64>, atb: &DVector<f64>) {
         if self.h_max.is_nan() {
             self.h_max = h.iter().fold(0.0, |m, v| m.max(v.abs()));
             self.atb_max = atb.iter().fold(0.0, |m, v| m.max(v.abs()));
         }
-        if self.use_qr {
+        if self.use_qr && self.qr_current {
+            for i in 0..self.n {
+                (self.g[i], self.noise[i]) =
+                    if self.is_free[i] { (0.0, 0.0) } else { (self.qr.mult[i], self.qr.mult_noise[i]) };
+            }
+        } else if self.use_qr {
             self.qr.prepare(&sys.a);
             let x = nalgebra::DVectorView::from_slice(&self.x, self.n);
             self.r.copy_from(&sys.b);
@@ -714,6 +761,7 @@ impl Work {
         while steps < max_steps {
             steps += 1;
             // Inner loop: solve on the free set, walking back to the box when the solution leaves it.
+            self.qr_current = false;
             for _ in 0..=2 * n {
                 if self.free.is_empty() || !self.solve_free(sys, atb) {
                     break;
@@ -755,6 +803,7 @@ impl Work {
                     for (k, &i) in self.free.iter().enumerate() {
                         self.x[i] = self.z[k];
                     }
+                    self.qr_current = self.use_qr;
                     break;
                 };
                 self.newly_bound.clear();
