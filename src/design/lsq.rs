@@ -124,20 +124,24 @@ impl Gradient for Objective<'_> {
     }
 }
 
-/// The scaled KKT residual of x (see [`LsqOutcome::kkt`]).
-fn kkt_of(sys: &LinearSystem, x: &DVector<f64>, grad_scale: f64) -> f64 {
-    let g = sys.a.tr_mul(&(&sys.a * x - &sys.b)) * 2.0;
+/// The scaled KKT residual of x (see [`LsqOutcome::kkt`]) from its residual `r = Ax − b`.
+fn kkt_of(sys: &LinearSystem, x: &DVector<f64>, r: &DVector<f64>, grad_scale: f64) -> f64 {
+    let g = sys.a.tr_mul(r) * 2.0;
     projected_gradient_norm(x, &g, &sys.lower, &sys.upper) / grad_scale
 }
 
 /// Solve the bounded system. `factor` must be `Factor::new(&sys.a)`.
 pub fn solve(sys: &LinearSystem, factor: &Factor) -> LsqOutcome {
+    with_work(sys, factor.needs_qr(), |work| solve_in(sys, factor, work))
+}
+
+fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work) -> LsqOutcome {
     let n = sys.a.ncols();
     let atb = sys.a.tr_mul(&sys.b);
     let grad_scale = 1.0 + 2.0 * atb.amax();
-    let residual = |x: &DVector<f64>| (&sys.a * x - &sys.b).norm_squared();
-    let use_qr = factor.needs_qr();
-    let mut work = Work::new(sys, use_qr);
+    let residual_of = |x: &DVector<f64>| &sys.a * x - &sys.b;
+    let residual = |x: &DVector<f64>| residual_of(x).norm_squared();
+    let use_qr = work.use_qr;
     let mut x_svd = &factor.pinv * &sys.b;
     if use_qr && n > 0 && x_svd.iter().all(|v| v.is_finite()) {
         // Ill-conditioned A: one step of refinement of the SVD solution by QR of A (rows sorted by weight),
@@ -158,8 +162,9 @@ pub fn solve(sys: &LinearSystem, factor: &Factor) -> LsqOutcome {
     }
     let feasible = (0..n).all(|i| x_svd[i] >= sys.lower[i] && x_svd[i] <= sys.upper[i]);
     if feasible || n == 0 {
-        let objective = residual(&x_svd);
-        let kkt = kkt_of(sys, &x_svd, grad_scale);
+        let r = residual_of(&x_svd);
+        let objective = r.norm_squared();
+        let kkt = kkt_of(sys, &x_svd, &r, grad_scale);
         return LsqOutcome {
             x: x_svd,
             objective,
@@ -187,9 +192,10 @@ pub fn solve(sys: &LinearSystem, factor: &Factor) -> LsqOutcome {
     let steps = work.finish(sys, &factor.h, &atb, &x1);
     let x2 = DVector::from_column_slice(&work.x);
     // Keep whichever is better (the finish can only improve on a convex problem; this guards rounding).
-    let (f1, f2) = (residual(&x1), residual(&x2));
-    let (x, objective) = if f2 <= f1 { (x2, f2) } else { (x1, f1) };
-    let kkt = kkt_of(sys, &x, grad_scale);
+    let (r1, r2) = (residual_of(&x1), residual_of(&x2));
+    let (f1, f2) = (r1.norm_squared(), r2.norm_squared());
+    let (x, r, objective) = if f2 <= f1 { (x2, r2, f2) } else { (x1, r1, f1) };
+    let kkt = kkt_of(sys, &x, &r, grad_scale);
     LsqOutcome { x, objective, kkt, bounds_active: true, lbfgsb_iterations: iters, active_set_steps: steps }
 }
 
@@ -374,7 +380,7 @@ struct Qr {
 
 impl Qr {
     fn prepare(&mut self, a: &DMatrix<f64>) {
-        if self.order.len() == a.nrows() && self.abs_a.shape() == a.shape() {
+        if !self.order.is_empty() && self.order.len() == a.nrows() && self.abs_a.shape() == a.shape() {
             return;
         }
         let m = a.nrows();
@@ -609,9 +615,26 @@ struct Work {
     atb_max: f64,
 }
 
+thread_local! {
+    /// One [`Work`] per thread, reused by every solve on it: the batch path solves thousands of small systems
+    /// and would otherwise allocate a dozen buffers for each.
+    static WORK: std::cell::RefCell<Work> = std::cell::RefCell::new(Work::new(0, 0, false));
+}
+
+/// Run `f` with this thread's [`Work`] prepared for `sys` (a fresh one if it is already in use).
+fn with_work<R>(sys: &LinearSystem, use_qr: bool, f: impl FnOnce(&mut Work) -> R) -> R {
+    let (m, n) = sys.a.shape();
+    WORK.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut w) => {
+            w.reset(m, n, use_qr);
+            f(&mut w)
+        }
+        Err(_) => f(&mut Work::new(m, n, use_qr)),
+    })
+}
+
 impl Work {
-    fn new(sys: &LinearSystem, use_qr: bool) -> Work {
-        let (m, n) = sys.a.shape();
+    fn new(m: usize, n: usize, use_qr: bool) -> Work {
         Work {
             n,
             x: vec![0.0; n],
@@ -633,6 +656,40 @@ impl Work {
             h_max: f64::NAN,
             atb_max: f64::NAN,
         }
+    }
+
+    /// Prepare for an m×n system, keeping the buffers' storage.
+    fn reset(&mut self, m: usize, n: usize, use_qr: bool) {
+        self.n = n;
+        self.x.resize(n, 0.0);
+        self.status.resize(n, Status::Free);
+        self.is_free.resize(n, true);
+        self.free.clear();
+        self.use_qr = use_qr;
+        self.chol.n = n;
+        self.chol.ok = !use_qr;
+        if !use_qr {
+            self.chol.l.resize(n * n, 0.0);
+        }
+        // A new matrix: the QR's row order and |A| are recomputed on first use.
+        self.qr.order.clear();
+        self.hb.resize(n, 0.0);
+        self.z.clear();
+        for v in [&mut self.g, &mut self.noise] {
+            if v.len() != n {
+                *v = DVector::zeros(n);
+            }
+        }
+        for v in [&mut self.r, &mut self.mag] {
+            if v.len() != m {
+                *v = DVector::zeros(m);
+            }
+        }
+        self.stuck.resize(n, false);
+        self.newly_bound.clear();
+        self.qr_current = false;
+        self.h_max = f64::NAN;
+        self.atb_max = f64::NAN;
     }
 
     /// QR solve of the free set with the other variables at `x`, into `self.z`.
@@ -689,7 +746,8 @@ impl Work {
     /// typical rounding of each component. Smaller multipliers are not trusted.
     fn gradient(&mut self, sys: &LinearSystem, h: &DMatrix<f64>, atb: &DVector<f64>) {
         if self.h_max.is_nan() {
-            self.h_max = h.iter().fold(0.0, |m, v| m.max(v.abs()));
+            // H is positive semidefinite: |H_ij| ≤ √(H_ii H_jj), so its largest entry is on the diagonal.
+            self.h_max = h.diagonal().iter().fold(0.0, |m, v| m.max(v.abs()));
             self.atb_max = atb.iter().fold(0.0, |m, v| m.max(v.abs()));
         }
         if self.use_qr && self.qr_current {
@@ -708,9 +766,15 @@ impl Work {
             self.mag.gemv(1.0, &self.qr.abs_a, &xabs, 1.0);
             self.noise.gemv_tr(8.0 * f64::EPSILON, &self.qr.abs_a, &self.mag, 0.0);
         } else {
-            // Only the bound variables' components are needed (H is symmetric: row i is column i).
+            // Only the bound variables' components are needed: g_i = (H x_B)_i + H_iF x_F − (Aᵀb)_i, with
+            // `hb = H x_B` kept up to date (H is symmetric: row i is column i).
             for i in 0..self.n {
-                self.g[i] = if self.is_free[i] { 0.0 } else { dot(column(h, i), &self.x) - atb[i] };
+                self.g[i] = if self.is_free[i] {
+                    0.0
+                } else {
+                    let col = column(h, i);
+                    self.free.iter().fold(self.hb[i] - atb[i], |v, &k| v + col[k] * self.x[k])
+                };
             }
             let n = self.n as f64;
             let level = 2.0
@@ -856,11 +920,13 @@ impl Work {
 /// while the Cholesky factors of its free blocks stay well conditioned, else on A by QR.
 pub fn solve_from(sys: &LinearSystem, h: &DMatrix<f64>, x0: &DVector<f64>) -> LsqOutcome {
     let atb = sys.a.tr_mul(&sys.b);
-    let mut work = Work::new(sys, false);
-    let steps = work.finish(sys, h, &atb, x0);
-    let x = DVector::from_vec(work.x);
-    let kkt = kkt_of(sys, &x, 1.0 + 2.0 * atb.amax());
-    let objective = (&sys.a * &x - &sys.b).norm_squared();
+    let (steps, x) = with_work(sys, false, |work| {
+        let steps = work.finish(sys, h, &atb, x0);
+        (steps, DVector::from_column_slice(&work.x))
+    });
+    let r = &sys.a * &x - &sys.b;
+    let kkt = kkt_of(sys, &x, &r, 1.0 + 2.0 * atb.amax());
+    let objective = r.norm_squared();
     LsqOutcome { x, objective, kkt, bounds_active: true, lbfgsb_iterations: 0, active_set_steps: steps }
 }
 
