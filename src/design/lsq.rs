@@ -100,6 +100,25 @@ struct Objective<'a> {
     atb: &'a DVector<f64>,
     bb: f64,
     from_residual: bool,
+    /// The last point and its `Hx` (argmin asks for the cost, then the gradient, at the same point).
+    last: std::cell::RefCell<Option<(DVector<f64>, DVector<f64>)>>,
+}
+
+impl Objective<'_> {
+    /// `Hx`, reusing the previous product when x is the same point.
+    fn hx(&self, x: &DVector<f64>) -> DVector<f64> {
+        if let Ok(last) = self.last.try_borrow()
+            && let Some((lx, hx)) = last.as_ref()
+            && lx == x
+        {
+            return hx.clone();
+        }
+        let hx = self.h * x;
+        if let Ok(mut last) = self.last.try_borrow_mut() {
+            *last = Some((x.clone(), hx.clone()));
+        }
+        hx
+    }
 }
 
 impl CostFunction for Objective<'_> {
@@ -109,7 +128,7 @@ impl CostFunction for Objective<'_> {
         if self.from_residual {
             return Ok((&self.sys.a * x - &self.sys.b).norm_squared());
         }
-        Ok((x.dot(&(self.h * x)) - 2.0 * self.atb.dot(x) + self.bb).max(0.0))
+        Ok((x.dot(&self.hx(x)) - 2.0 * self.atb.dot(x) + self.bb).max(0.0))
     }
 }
 
@@ -120,7 +139,10 @@ impl Gradient for Objective<'_> {
         if self.from_residual {
             return Ok(self.sys.a.tr_mul(&(&self.sys.a * x - &self.sys.b)) * 2.0);
         }
-        Ok((self.h * x - self.atb) * 2.0)
+        let mut g = self.hx(x);
+        g -= self.atb;
+        g *= 2.0;
+        Ok(g)
     }
 }
 
@@ -179,7 +201,7 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work) -> LsqOutcome 
         x0[i] = if x0[i].is_finite() { x0[i] } else { 0.0 }.max(sys.lower[i]).min(sys.upper[i]);
     }
     let bb = sys.b.norm_squared();
-    let problem = Objective { sys, h: &factor.h, atb: &atb, bb, from_residual: use_qr };
+    let problem = Objective { sys, h: &factor.h, atb: &atb, bb, from_residual: use_qr, last: Default::default() };
     // L-BFGS-B only has to find the active set roughly; the active-set finish makes it exact.
     let solver = LBfgsB::new(sys.lower.clone(), sys.upper.clone())
         .with_memory(5)
