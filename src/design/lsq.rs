@@ -1,18 +1,26 @@
 //! Bounded linear least squares `min ‖A x − b‖²`, `lower ≤ x ≤ upper`:
 //!
 //! 1. the minimum-norm unconstrained solution by SVD (singular values below
-//!    `max(rows, n) · ε · σ_max` are dropped, as LAPACK's `gelsd` default does); if it already satisfies
-//!    the bounds exactly, that is the answer;
+//!    `max(rows, n) · ε · σ_max` are dropped, as LAPACK's `gelsd` default does); when A is ill conditioned
+//!    (see [`NORMAL_EQUATIONS_MAX_COND`]) one step of refinement by QR of A with the rows sorted by weight
+//!    recovers what the SVD's normwise rounding and cut-off lose on graded rows. If it already satisfies the
+//!    bounds exactly, that is the answer;
 //! 2. otherwise L-BFGS-B ([`super::lbfgsb`]) from the SVD solution projected onto the box, which finds
 //!    the active set approximately;
 //! 3. then an exact active-set finish (bounded-variable least squares in the manner of Stark & Parker
 //!    1995): fix the active bounds, solve the free variables' least squares exactly, walk back to the
 //!    box when the solution leaves it (adding the bounds it hits), and release the bound whose Lagrange
-//!    multiplier has the wrong sign, until none has. On a convex problem this ends at the exact optimum;
-//!    it is capped at `4n + 20` releases so it cannot loop.
+//!    multiplier has the wrong sign by more than its rounding level, until none has. On a convex problem
+//!    this ends at the exact optimum; it is capped at `4n + 20` releases so it cannot loop. Well-conditioned
+//!    systems (`cond(A) ≤ 1e6`, the batch path) work on `H = AᵀA` with an incremental Cholesky factor;
+//!    ill-conditioned ones (weights over many decades, nearly identical lights, fewer rows than unknowns)
+//!    on A itself: Householder QR of the free columns with rows sorted by weight (Powell & Reid), one step of
+//!    iterative refinement, and multipliers from the transformed residual, so that the light rows keep
+//!    their own precision instead of drowning in the heavy rows' rounding.
 //!
-//! The factorisation (SVD pseudo-inverse and `AᵀA`) depends on A only; [`Factor`]s are shared between
-//! systems with the same A (e.g. many reflectances under the same lights).
+//! The reported objective and KKT residual are computed from the residual `Ax − b`.
+//! The factorisation (SVD pseudo-inverse, `AᵀA` and `cond(A)`) depends on A only; [`Factor`]s are shared
+//! between systems with the same A (e.g. many reflectances under the same lights).
 
 use super::lbfgsb::{self, LBfgsB, projected_gradient_norm};
 use super::system::LinearSystem;
@@ -28,7 +36,7 @@ pub const LBFGSB_ITERATIONS: u64 = 2;
 /// `cond(H_FF) ≤ cond(H) ≤ 1e12` for every free set (interlacing), so the free solves lose at most about
 /// `1e12·ε ≈ 2e-4` relative in the weakest direction — a change of the objective far below rounding — and the
 /// multipliers are exact to `ε·‖H‖‖x‖`, the same as from the residual. Above it (weights over many decades,
-/// nearly dependent rows, fewer rows than unknowns) the finish works on A itself (see [`Qr`]).
+/// nearly dependent rows, fewer rows than unknowns) the finish works on A itself by QR (see the module docs).
 pub const NORMAL_EQUATIONS_MAX_COND: f64 = 1e6;
 
 /// Reusable factorisation of A.
