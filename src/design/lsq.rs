@@ -1028,6 +1028,41 @@ mod tests {
     }
 
     #[test]
+    fn qr_path_matches_brute_force_on_wide_and_graded_systems() {
+        // Fewer rows than unknowns (cond = ∞) and rows weighted over 10 decades (cond ≫ 1e6): both take the
+        // QR path; the brute force (normwise SVD per active set) can only be worse, so the check is one-sided.
+        let mut seed = 11u64;
+        for case in 0..40 {
+            let graded = case % 2 == 1;
+            let n = 2 + (lcg(&mut seed) * 4.0) as usize;
+            let m = if graded {
+                n + 2 + (lcg(&mut seed) * 3.0) as usize
+            } else {
+                1 + (lcg(&mut seed) * (n - 1) as f64) as usize
+            };
+            // Graded: n − 1 rows of weight ~1e7, the rest 1e-3…1 (only they determine the last direction).
+            let w: Vec<f64> = (0..m)
+                .map(|r| match (graded, r + 1 < n) {
+                    (false, _) => 1.0,
+                    (true, true) => 1e7 * (1.0 + lcg(&mut seed)),
+                    (true, false) => 10f64.powf(-3.0 * lcg(&mut seed)),
+                })
+                .collect();
+            let a = DMatrix::from_fn(m, n, |r, _| w[r] * (lcg(&mut seed) * 2.0 - 1.0));
+            let b = DVector::from_fn(m, |r, _| w[r] * (lcg(&mut seed) * 4.0 - 2.0));
+            let lower = DVector::from_fn(n, |_, _| -lcg(&mut seed) * 0.5);
+            let upper = DVector::from_fn(n, |_, _| lcg(&mut seed) * 0.5);
+            let sys = LinearSystem { a, b, lower, upper };
+            assert!(Factor::new(&sys.a).needs_qr(), "case {case} should take the QR path");
+            let out = solve_system(&sys);
+            let best = brute_force(&sys);
+            assert!(out.objective <= best * (1.0 + 1e-9) + 1e-14, "case {case}: {} vs {best}", out.objective);
+            assert!((0..n).all(|i| out.x[i] >= sys.lower[i] && out.x[i] <= sys.upper[i]));
+            assert!(out.kkt < 1e-9, "case {case}: kkt {}", out.kkt);
+        }
+    }
+
+    #[test]
     fn feasible_unconstrained_solution_is_returned_directly() {
         let a = DMatrix::identity(3, 3);
         let b = DVector::from_vec(vec![0.1, 0.2, 0.3]);
