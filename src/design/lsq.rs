@@ -219,7 +219,20 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work) -> LsqOutcome 
         Some(r) => r,
         None => (x0, 0),
     };
-    let steps = work.finish(sys, &factor.h, &atb, &x1);
+    let steps = if use_qr {
+        // A QR solve per step costs O(m·n·|F|): let the normal equations find the active set first (they
+        // hand over to QR by themselves when their Cholesky factor degrades), then finish exactly by QR
+        // from there, which then needs only a step or two.
+        work.set_path(false);
+        work.rough = true;
+        let rough = work.finish(sys, &factor.h, &atb, &x1);
+        let x_rough = DVector::from_column_slice(&work.x);
+        work.rough = false;
+        work.set_path(true);
+        rough + work.finish(sys, &factor.h, &atb, &x_rough)
+    } else {
+        work.finish(sys, &factor.h, &atb, &x1)
+    };
     let x2 = DVector::from_column_slice(&work.x);
     // Keep whichever is better (the finish can only improve on a convex problem; this guards rounding).
     let (r1, r2) = (residual_of(&x1), residual_of(&x2));
@@ -640,6 +653,9 @@ struct Work {
     newly_bound: Vec<usize>,
     /// The last free solve was by QR at the current point, so its multipliers are current.
     qr_current: bool,
+    /// Only looking for an active set (an exact QR finish follows): keep the Cholesky path even when its
+    /// factor is poorly conditioned.
+    rough: bool,
     /// `‖H‖max` and `‖Aᵀb‖∞` (NaN until first needed).
     h_max: f64,
     atb_max: f64,
@@ -683,8 +699,18 @@ impl Work {
             stuck: vec![false; n],
             newly_bound: Vec::with_capacity(n),
             qr_current: false,
+            rough: false,
             h_max: f64::NAN,
             atb_max: f64::NAN,
+        }
+    }
+
+    /// Work on A by QR (`true`) or on `AᵀA` by Cholesky (`false`) in the next [`Work::finish`].
+    fn set_path(&mut self, qr: bool) {
+        self.use_qr = qr;
+        self.chol.ok = !qr;
+        if !qr {
+            self.chol.l.resize(self.n * self.n, 0.0);
         }
     }
 
@@ -718,6 +744,7 @@ impl Work {
         self.stuck.resize(n, false);
         self.newly_bound.clear();
         self.qr_current = false;
+        self.rough = false;
         self.h_max = f64::NAN;
         self.atb_max = f64::NAN;
     }
@@ -753,7 +780,7 @@ impl Work {
     /// Least squares over the free set into `self.z`: Cholesky of `H_FF` while it is healthy, else QR (for
     /// the rest of the finish). False when neither gives a finite result.
     fn solve_free(&mut self, sys: &LinearSystem, atb: &DVector<f64>) -> bool {
-        if !self.use_qr && self.chol.ok && self.chol.well_conditioned(self.free.len()) {
+        if !self.use_qr && self.chol.ok && (self.rough || self.chol.well_conditioned(self.free.len())) {
             self.z.clear();
             self.z.extend(self.free.iter().map(|&i| atb[i] - self.hb[i]));
             self.chol.solve_in_place(&mut self.z);
