@@ -16,7 +16,8 @@
 //!    ill-conditioned ones (weights over many decades, nearly identical lights, fewer rows than unknowns)
 //!    on A itself: Householder QR of the free columns with rows sorted by weight (Powell & Reid), one step of
 //!    iterative refinement, and multipliers from the transformed residual, so that the light rows keep
-//!    their own precision instead of drowning in the heavy rows' rounding.
+//!    their own precision instead of drowning in the heavy rows' rounding. There the normal equations first
+//!    find the active set roughly and the QR finish starts from it, which keeps the QR solves few.
 //!
 //! The reported objective and KKT residual are computed from the residual `Ax − b`.
 //! The factorisation (SVD pseudo-inverse, `AᵀA` and `cond(A)`) depends on A only; [`Factor`]s are shared
