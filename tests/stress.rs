@@ -29,10 +29,17 @@ use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use std::time::{Duration, Instant};
 
-/// The stress suite draws its cases from this fixed seed so `cargo test` is reproducible: random seeds find
-/// engine limitations that are reported on issue 3 (e.g. spiky F11 designs up to 1.4e-4 relative above the
-/// optimum, seed 17760125983182809265), not intermittent failures. Explore with other seeds by editing it.
+/// The stress suite draws its cases from this fixed seed so `cargo test` is reproducible; `PROPTEST_RNG_SEED`
+/// overrides it to explore (e.g. `PROPTEST_RNG_SEED=17760125983182809265`, which once found spiky F11 designs
+/// 1.4e-4 above the optimum).
 const STRESS_SEED: u64 = 20_261_122;
+
+fn stress_seed() -> RngSeed {
+    match std::env::var("PROPTEST_RNG_SEED").ok().and_then(|v| v.parse().ok()) {
+        Some(seed) => RngSeed::Fixed(seed),
+        None => RngSeed::Fixed(STRESS_SEED),
+    }
+}
 
 /// Bounds must hold to this (absolute).
 const BOUND_TOL: f64 = 1e-9;
@@ -41,22 +48,14 @@ const BOUND_TOL: f64 = 1e-9;
 const OBJECTIVE_TOL: f64 = 1e-9;
 /// Scaled KKT residual (see `common::kkt_residual`) on well-conditioned systems …
 const KKT_TOL: f64 = 1e-6;
-/// … and on ill-conditioned ones `KKT_PER_CONDITION · ε · cond(A)`, the first-order residual a backward-stable
-/// solve can leave (measured: 1.9e-5 at cond 1.5e12, 0.27 at cond 1.1e14).
-const KKT_PER_CONDITION: f64 = 100.0;
-/// Slack against the oracle's optimum: relative to it, plus `ORACLE_SCALE_TOL · f(0)` for systems whose
-/// row weights span many decades (double precision resolves the objective to about that fraction of the
-/// data's scale; with weights 1e-8…1e8, f(0) ≈ 1e16).
+/// … and on ill-conditioned ones `KKT_PER_CONDITION · ε · cond(A)`: the independent check evaluates the
+/// gradient `2Aᵀ(Ax − b)` in double precision, whose rounding alone reaches that order when a nearly singular
+/// unbounded design has huge samples (measured over 10 proptest seeds: at most 2.2·ε·cond(A), for the free
+/// group under weights 1e-8 and 1e8 at cond 1.1e14; 0.66·ε·cond for lights within 1.2e-9).
+const KKT_PER_CONDITION: f64 = 10.0;
+/// Slack against the oracle's optimum, relative to it (issue 3: within 1e-6 of the exact optimum). Measured
+/// over 10 proptest seeds: every case at most 1.1e-14 relative above the oracle.
 const ORACLE_TOL: f64 = 1e-6;
-const ORACLE_SCALE_TOL: f64 = 1e-10;
-/// Measured limitation of the engine (reported; strict versions are the ignored tests at the end): with
-/// weights over 16 decades it stops up to 5e-8·f(0) above the optimum …
-const WIDE_WEIGHTS_SCALE_TOL: f64 = 1e-6;
-/// … with lights that differ by 1e-4 up to 5.9e-6·f(0) (2.6e-5 relative; with or without smoothness) …
-const NEAR_DEPENDENT_SCALE_TOL: f64 = 1e-4;
-/// Measured limitation of the engine's active-set finish on nearly dependent rows: its scaled KKT residual
-/// reaches 1.5e-6 (independent check 1.4e-6) at δ ≈ 3e-5, just above [`KKT_TOL`]; allowed up to this.
-const NEAR_DEPENDENT_KKT_TOL: f64 = 1e-5;
 
 fn col() -> Colorimetry {
     Colorimetry::default()
@@ -83,17 +82,6 @@ struct Checked {
 
 /// Solve `p` and check it against the independent assembly and the oracle; panics with `case` on failure.
 fn check_convex(case: &str, p: &Palette) -> Checked {
-    check_convex_with(case, p, ORACLE_SCALE_TOL)
-}
-
-/// [`check_convex`] with the oracle slack `scale_tol · f(0)` given (wider for the inputs where the engine is
-/// measured to fall short of the exact optimum; see the constants).
-fn check_convex_with(case: &str, p: &Palette, scale_tol: f64) -> Checked {
-    check_convex_kkt(case, p, scale_tol, KKT_TOL)
-}
-
-/// [`check_convex_with`] with the floor of the KKT tolerance given (see [`NEAR_DEPENDENT_KKT_TOL`]).
-fn check_convex_kkt(case: &str, p: &Palette, scale_tol: f64, kkt_floor: f64) -> Checked {
     let c = col();
     let sol = design::solve(p, None, &c, &SolveOptions::default()).unwrap_or_else(|e| panic!("{case}: {e}"));
     assert!(all_finite(&sol), "{case}: non-finite result");
@@ -115,23 +103,19 @@ fn check_convex_kkt(case: &str, p: &Palette, scale_tol: f64, kkt_floor: f64) -> 
          ({status}), gap {gap:.1e}, KKT {kkt:.1e} (engine {:.1e})",
         sol.objective, sol.kkt_residual
     );
-    let f0 = st.b.norm_squared();
     let rounding = objective_rounding(&st, &x);
     assert!(
         (ours - sol.objective).abs() <= OBJECTIVE_TOL * (1.0 + ours) + rounding,
         "{case}: reported objective {} but the sum of squares is {ours}",
         sol.objective
     );
-    let kkt_tol = kkt_floor.max(KKT_PER_CONDITION * f64::EPSILON * condition);
+    let kkt_tol = KKT_TOL.max(KKT_PER_CONDITION * f64::EPSILON * condition);
     assert!(
         kkt <= kkt_tol,
         "{case}: independent KKT residual {kkt:.3e} > {kkt_tol:.1e} (engine {:.3e})",
         sol.kkt_residual
     );
-    assert!(
-        ours <= best * (1.0 + ORACLE_TOL) + scale_tol * f0 + 1e-12,
-        "{case}: ours {ours:.12e}, oracle {best:.12e} ({status}), f(0) {f0:.3e}"
-    );
+    assert!(ours <= best * (1.0 + ORACLE_TOL) + 1e-12, "{case}: ours {ours:.12e}, oracle {best:.12e} ({status})");
     Checked { condition, null_directions, kkt, gap }
 }
 
@@ -154,11 +138,7 @@ fn objective_rounding(st: &Stacked, x: &nalgebra::DVector<f64>) -> f64 {
 fn agree_with_oracle(case: &str, st: &Stacked, ours: f64) {
     let (xo, _, status) = oracle_point(st);
     let best = objective(st, &xo);
-    let f0 = st.b.norm_squared();
-    assert!(
-        ours <= best * (1.0 + ORACLE_TOL) + ORACLE_SCALE_TOL * f0 + 1e-12,
-        "{case}: ours {ours:.12e}, oracle {best:.12e} ({status})"
-    );
+    assert!(ours <= best * (1.0 + ORACLE_TOL) + 1e-12, "{case}: ours {ours:.12e}, oracle {best:.12e} ({status})");
 }
 
 fn light(name: &str, s: Spectrum) -> SpectrumEntry {
@@ -264,7 +244,7 @@ fn near_identical_palette(seed: u64, delta: f64, b: u8, s: u8) -> Palette {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, rng_seed: RngSeed::Fixed(STRESS_SEED), ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 24, rng_seed: stress_seed(), ..ProptestConfig::default() })]
 
     /// Cell weights spread over 16 decades, with any bounds and smoothness.
     #[test]
@@ -274,23 +254,15 @@ proptest! {
         let p = reflectance_palette("weights", lights, n, bounds_of(b), smoothness_of(s), &mut rng,
             |r| 10f64.powf(r.range(-8.0, 8.0)));
         let case = format!("weights 1e-8..1e8, seed {seed}, {n} refl., bounds {b}, smoothness {s}");
-        check_convex_with(&case, &p, WIDE_WEIGHTS_SCALE_TOL);
+        check_convex(&case, &p);
     }
 
-    /// Lights that differ by a relative 1e-8 … 1e-4 (nearly dependent rows). Lights identical to within less
-    /// than 1e-8 are a known failure of the engine (measured up to 55 % above the optimum at δ ≈ 1.6e-11,
-    /// against 1 % in earlier samples), kept as the strict ignored tests below until the engine handles them.
+    /// Lights that differ by a relative 1e-12 … 1e-4 (nearly dependent rows, cond(A) up to ~1e14).
     #[test]
-    fn near_identical_lights(seed in any::<u64>(), exponent in -8.0f64..-4.0, b in any::<u8>(), s in any::<u8>()) {
+    fn near_identical_lights(seed in any::<u64>(), exponent in -12.0f64..-4.0, b in any::<u8>(), s in any::<u8>()) {
         let delta = 10f64.powf(exponent);
         let p = near_identical_palette(seed, delta, b, s);
-        // Measured: the engine stops measurably above the optimum on near-dependent rows (see the constants).
-        check_convex_kkt(
-            &format!("near-identical lights δ = {delta:.1e}, seed {seed}"),
-            &p,
-            NEAR_DEPENDENT_SCALE_TOL,
-            NEAR_DEPENDENT_KKT_TOL,
-        );
+        check_convex(&format!("near-identical lights δ = {delta:.1e}, seed {seed}"), &p);
     }
 
     /// F11 at 1 nm with extra emission lines, sampled back onto the grid (through the CSV importer or at
@@ -444,7 +416,7 @@ fn check_joint_monotone(n: usize, seed: u64, wide_weights: bool) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 5, rng_seed: RngSeed::Fixed(STRESS_SEED), ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 5, rng_seed: stress_seed(), ..ProptestConfig::default() })]
 
     #[test]
     fn joint_design_improves_monotonically(n in 2usize..4, seed in any::<u64>(), wide in any::<bool>()) {
@@ -500,12 +472,12 @@ fn condition_numbers_met() {
     assert!(rows[0].1.condition > 1e6 * rows[3].1.condition);
 }
 
-/// Known engine limitation found by this suite (kept as a strict check for the engine's owner): with cell
-/// weights spread over 16 decades the engine's objective is 1.93× clarabel's optimum (8.39e4 vs 4.35e4;
-/// f(0) ≈ 1e16, so the gap is 4e-12 of the data's scale — the minimum-norm SVD's relative cut-off drops the
-/// directions only the light rows determine). Run with `cargo test --test stress -- --ignored`.
+/// Cell weights spread over 16 decades (cond(A) 1.4e10 over the three blocks, f(0) ≈ 2.9e14): the engine
+/// once stopped at 1.93× the optimum (8.39e4) — its multipliers `Hx − Aᵀb` were rounding noise at the heavy
+/// rows' scale. The optimum is 4.0640182e4 (scipy's BVLS 4.06401830e4 and TRF 4.06401825e4; the engine now
+/// 4.06401824e4). Clarabel on the normal form stopped at 4.345e4 (6.9 % above); the oracle also solves the
+/// residual form (see `common::oracle_point`), so the check is strict.
 #[test]
-#[ignore = "engine limitation: weights spanning 16 decades lose the light rows (see the report of issue 7)"]
 fn sixteen_decades_of_weights_reach_the_oracle_optimum_exactly() {
     let seed = 2695476213412867642;
     let mut rng = Rng::new(seed);
@@ -522,11 +494,10 @@ fn sixteen_decades_of_weights_reach_the_oracle_optimum_exactly() {
     assert!(ours <= best * (1.0 + ORACLE_TOL), "ours {ours:.6e}, oracle {best:.6e}");
 }
 
-/// Known engine limitation found by this suite: lights that differ by 1e-4, no smoothness, lower bounds
-/// only — the engine stops 3.8e-6 and 2.6e-5 above the optimum (relative), beyond the 1e-6 of issue 3;
-/// lights within 1.2e-11: 1 % above.
+/// Lights that differ by 1e-4 without smoothness, lower bounds only (the engine once stopped 8.2e-6 and
+/// 1.9e-5 above the optimum), and lights within 1.6e-11 (once 55 % and 144 % above): the exact optimum, as
+/// clarabel and scipy's BVLS agree to 1e-11.
 #[test]
-#[ignore = "engine limitation: near-dependent rows without smoothness (see the report of issue 7)"]
 fn near_identical_lights_reach_the_oracle_optimum_exactly() {
     let cases = [
         (9002700489424282725, 1e-4, 136, 0),

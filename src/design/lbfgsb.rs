@@ -182,6 +182,9 @@ impl LBfgsB {
         let mut dt_min = if f2 > 0.0 { -f1 / f2 } else { f64::INFINITY };
         let mut t_old = 0.0;
         breaks.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Row b of W and M·(row b of W), reused for every breakpoint (no allocation in the walk).
+        let mut wb = vec![0.0; two_k];
+        let mut mwb = vec![0.0; two_k];
         for &(tb, b) in &breaks {
             let dt = tb - t_old;
             if dt_min < dt {
@@ -191,20 +194,26 @@ impl LBfgsB {
             let zb = xcp[b] - x[b];
             let gb = g[b];
             if two_k > 0 {
-                c += &p * dt;
+                c.axpy(dt, &p, 1.0);
             }
-            let (wmc, wmp, wmw) = match wm {
-                Some((w, m)) => {
-                    let wb = w.row(b).transpose();
-                    let mwb = m * &wb;
-                    (mwb.dot(&c), mwb.dot(&p), mwb.dot(&wb))
+            let (mut wmc, mut wmp, mut wmw) = (0.0, 0.0, 0.0);
+            if let Some((w, m)) = wm {
+                for (j, v) in wb.iter_mut().enumerate() {
+                    *v = w[(b, j)];
                 }
-                None => (0.0, 0.0, 0.0),
-            };
+                for (r, v) in mwb.iter_mut().enumerate() {
+                    *v = (0..two_k).map(|j| m[(r, j)] * wb[j]).sum();
+                }
+                for j in 0..two_k {
+                    wmc += mwb[j] * c[j];
+                    wmp += mwb[j] * p[j];
+                    wmw += mwb[j] * wb[j];
+                }
+            }
             f1 += dt * f2 + gb * gb + theta * gb * zb - gb * wmc;
             f2 -= theta * gb * gb + 2.0 * gb * wmp + gb * gb * wmw;
-            if let Some((w, _)) = wm {
-                p += w.row(b).transpose() * gb;
+            for j in 0..two_k {
+                p[j] += wb[j] * gb;
             }
             d[b] = 0.0;
             f2 = f2.max(f64::EPSILON * f2_org);
@@ -223,7 +232,7 @@ impl LBfgsB {
             }
         }
         if two_k > 0 {
-            c += &p * dt_min;
+            c.axpy(dt_min, &p, 1.0);
         }
         (xcp, c)
     }

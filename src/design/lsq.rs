@@ -1,18 +1,27 @@
 //! Bounded linear least squares `min ‖A x − b‖²`, `lower ≤ x ≤ upper`:
 //!
 //! 1. the minimum-norm unconstrained solution by SVD (singular values below
-//!    `max(rows, n) · ε · σ_max` are dropped, as LAPACK's `gelsd` default does); if it already satisfies
-//!    the bounds exactly, that is the answer;
+//!    `max(rows, n) · ε · σ_max` are dropped, as LAPACK's `gelsd` default does); when A is ill conditioned
+//!    (see [`NORMAL_EQUATIONS_MAX_COND`]) one step of refinement by QR of A with the rows sorted by weight
+//!    recovers what the SVD's normwise rounding and cut-off lose on graded rows. If it already satisfies the
+//!    bounds exactly, that is the answer;
 //! 2. otherwise L-BFGS-B ([`super::lbfgsb`]) from the SVD solution projected onto the box, which finds
 //!    the active set approximately;
 //! 3. then an exact active-set finish (bounded-variable least squares in the manner of Stark & Parker
 //!    1995): fix the active bounds, solve the free variables' least squares exactly, walk back to the
 //!    box when the solution leaves it (adding the bounds it hits), and release the bound whose Lagrange
-//!    multiplier has the wrong sign, until none has. On a convex problem this ends at the exact optimum;
-//!    it is capped at `4n + 20` releases so it cannot loop.
+//!    multiplier has the wrong sign by more than its rounding level, until none has. On a convex problem
+//!    this ends at the exact optimum; it is capped at `4n + 20` releases so it cannot loop. Well-conditioned
+//!    systems (`cond(A) ≤ 1e6`, the batch path) work on `H = AᵀA` with an incremental Cholesky factor;
+//!    ill-conditioned ones (weights over many decades, nearly identical lights, fewer rows than unknowns)
+//!    on A itself: Householder QR of the free columns with rows sorted by weight (Powell & Reid), one step of
+//!    iterative refinement, and multipliers from the transformed residual, so that the light rows keep
+//!    their own precision instead of drowning in the heavy rows' rounding. There the normal equations first
+//!    find the active set roughly and the QR finish starts from it, which keeps the QR solves few.
 //!
-//! The factorisation (SVD pseudo-inverse and `AᵀA`) depends on A only; [`Factor`]s are shared between
-//! systems with the same A (e.g. many reflectances under the same lights).
+//! The reported objective and KKT residual are computed from the residual `Ax − b`.
+//! The factorisation (SVD pseudo-inverse, `AᵀA` and `cond(A)`) depends on A only; [`Factor`]s are shared
+//! between systems with the same A (e.g. many reflectances under the same lights).
 
 use super::lbfgsb::{self, LBfgsB, projected_gradient_norm};
 use super::system::LinearSystem;
@@ -23,6 +32,14 @@ use nalgebra::{DMatrix, DVector};
 /// active bounds within a few iterations; the exact finish then needs only a few releases.
 pub const LBFGSB_ITERATIONS: u64 = 2;
 
+/// Largest `cond(A)` (σ_max/σ_min from the SVD of [`Factor::new`]) for which the active-set finish works
+/// on the normal equations `H = AᵀA` (incremental Cholesky of `H_FF`, multipliers `Hx − Aᵀb`). Below it
+/// `cond(H_FF) ≤ cond(H) ≤ 1e12` for every free set (interlacing), so the free solves lose at most about
+/// `1e12·ε ≈ 2e-4` relative in the weakest direction — a change of the objective far below rounding — and the
+/// multipliers are exact to `ε·‖H‖‖x‖`, the same as from the residual. Above it (weights over many decades,
+/// nearly dependent rows, fewer rows than unknowns) the finish works on A itself by QR (see the module docs).
+pub const NORMAL_EQUATIONS_MAX_COND: f64 = 1e6;
+
 /// Reusable factorisation of A.
 #[derive(Clone, Debug)]
 pub struct Factor {
@@ -30,26 +47,42 @@ pub struct Factor {
     pub pinv: DMatrix<f64>,
     /// `AᵀA`.
     pub h: DMatrix<f64>,
+    /// `σ_max/σ_min` of A; infinite when A has fewer rows than columns or a zero singular value.
+    pub cond: f64,
 }
 
 impl Factor {
     pub fn new(a: &DMatrix<f64>) -> Factor {
-        Factor { pinv: pseudo_inverse(a), h: a.tr_mul(a) }
+        let (pinv, cond) = svd_pseudo_inverse(a);
+        Factor { pinv, h: a.tr_mul(a), cond }
+    }
+
+    /// Whether the bounded solve must work on A rather than on `AᵀA` (see [`NORMAL_EQUATIONS_MAX_COND`]).
+    pub fn needs_qr(&self) -> bool {
+        self.cond.is_nan() || self.cond > NORMAL_EQUATIONS_MAX_COND
     }
 }
 
 /// Minimum-norm pseudo-inverse by SVD; never fails (non-finite input gives a zero matrix).
 pub fn pseudo_inverse(a: &DMatrix<f64>) -> DMatrix<f64> {
+    svd_pseudo_inverse(a).0
+}
+
+/// The pseudo-inverse (singular values below `max(rows, n) · ε · σ_max` dropped, LAPACK `gelsd`'s default)
+/// and `σ_max/σ_min`.
+fn svd_pseudo_inverse(a: &DMatrix<f64>) -> (DMatrix<f64>, f64) {
     let (r, n) = a.shape();
     if r == 0 || n == 0 || a.iter().any(|v| !v.is_finite()) {
-        return DMatrix::zeros(n, r);
+        return (DMatrix::zeros(n, r), f64::INFINITY);
     }
     let svd = a.clone().svd(true, true);
     let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
+    let smin = svd.singular_values.iter().cloned().fold(f64::INFINITY, f64::min);
+    let cond = if r >= n && smin > 0.0 { smax / smin } else { f64::INFINITY };
     let tol = (r.max(n) as f64) * f64::EPSILON * smax;
     match svd.pseudo_inverse(tol.max(f64::MIN_POSITIVE)) {
-        Ok(p) if p.iter().all(|v| v.is_finite()) => p,
-        _ => DMatrix::zeros(n, r),
+        Ok(p) if p.iter().all(|v| v.is_finite()) => (p, cond),
+        _ => (DMatrix::zeros(n, r), f64::INFINITY),
     }
 }
 
@@ -59,7 +92,7 @@ pub struct LsqOutcome {
     pub x: DVector<f64>,
     /// `‖A x − b‖²`, computed from the residual.
     pub objective: f64,
-    /// `‖x − P(x − ∇f)‖∞ / (1 + ‖∇f(0)‖∞)`.
+    /// `‖x − P(x − ∇f)‖∞ / (1 + ‖∇f(0)‖∞)` with `∇f = 2Aᵀ(Ax − b)` computed from the residual.
     pub kkt: f64,
     /// False when the unconstrained solution already satisfied the bounds.
     pub bounds_active: bool,
@@ -68,44 +101,101 @@ pub struct LsqOutcome {
     pub active_set_steps: usize,
 }
 
-/// `‖Ax − b‖²` as an argmin problem, evaluated through `H = AᵀA` and `Aᵀb`.
-struct NormalForm<'a> {
+/// `‖Ax − b‖²` as an argmin problem: through `H = AᵀA` and `Aᵀb` when A is well conditioned, else from the
+/// residual (the normal form cancels catastrophically when the rows' weights span many decades).
+struct Objective<'a> {
+    sys: &'a LinearSystem,
     h: &'a DMatrix<f64>,
     atb: &'a DVector<f64>,
     bb: f64,
+    from_residual: bool,
+    /// The last point and its `Hx` (argmin asks for the cost, then the gradient, at the same point).
+    last: std::cell::RefCell<Option<(DVector<f64>, DVector<f64>)>>,
 }
 
-impl CostFunction for NormalForm<'_> {
+impl Objective<'_> {
+    /// `Hx`, reusing the previous product when x is the same point.
+    fn hx(&self, x: &DVector<f64>) -> DVector<f64> {
+        if let Ok(last) = self.last.try_borrow()
+            && let Some((lx, hx)) = last.as_ref()
+            && lx == x
+        {
+            return hx.clone();
+        }
+        let hx = self.h * x;
+        if let Ok(mut last) = self.last.try_borrow_mut() {
+            *last = Some((x.clone(), hx.clone()));
+        }
+        hx
+    }
+}
+
+impl CostFunction for Objective<'_> {
     type Param = DVector<f64>;
     type Output = f64;
     fn cost(&self, x: &DVector<f64>) -> Result<f64, Error> {
-        Ok((x.dot(&(self.h * x)) - 2.0 * self.atb.dot(x) + self.bb).max(0.0))
+        if self.from_residual {
+            return Ok((&self.sys.a * x - &self.sys.b).norm_squared());
+        }
+        Ok((x.dot(&self.hx(x)) - 2.0 * self.atb.dot(x) + self.bb).max(0.0))
     }
 }
 
-impl Gradient for NormalForm<'_> {
+impl Gradient for Objective<'_> {
     type Param = DVector<f64>;
     type Gradient = DVector<f64>;
     fn gradient(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
-        Ok((self.h * x - self.atb) * 2.0)
+        if self.from_residual {
+            return Ok(self.sys.a.tr_mul(&(&self.sys.a * x - &self.sys.b)) * 2.0);
+        }
+        let mut g = self.hx(x);
+        g -= self.atb;
+        g *= 2.0;
+        Ok(g)
     }
 }
 
-/// Solve the bounded system. `factor` must be `Factor::new(&sys.a)` when given.
+/// The scaled KKT residual of x (see [`LsqOutcome::kkt`]) from its residual `r = Ax − b`.
+fn kkt_of(sys: &LinearSystem, x: &DVector<f64>, r: &DVector<f64>, grad_scale: f64) -> f64 {
+    let g = sys.a.tr_mul(r) * 2.0;
+    projected_gradient_norm(x, &g, &sys.lower, &sys.upper) / grad_scale
+}
+
+/// Solve the bounded system. `factor` must be `Factor::new(&sys.a)`.
 pub fn solve(sys: &LinearSystem, factor: &Factor) -> LsqOutcome {
+    with_work(sys, factor.needs_qr(), |work| solve_in(sys, factor, work))
+}
+
+fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work) -> LsqOutcome {
     let n = sys.a.ncols();
     let atb = sys.a.tr_mul(&sys.b);
     let grad_scale = 1.0 + 2.0 * atb.amax();
-    let x_svd = &factor.pinv * &sys.b;
+    let residual_of = |x: &DVector<f64>| &sys.a * x - &sys.b;
+    let residual = |x: &DVector<f64>| residual_of(x).norm_squared();
+    let use_qr = work.use_qr;
+    let mut x_svd = &factor.pinv * &sys.b;
+    if use_qr && n > 0 && x_svd.iter().all(|v| v.is_finite()) {
+        // Ill-conditioned A: one step of refinement of the SVD solution by QR of A (rows sorted by weight),
+        // numerically dependent columns held at their SVD values. It recovers what the SVD's normwise
+        // rounding and relative cut-off lose on graded rows (weights over many decades).
+        let mut refined = x_svd.clone();
+        work.free.clear();
+        work.free.extend(0..n);
+        work.is_free.iter_mut().for_each(|f| *f = true);
+        if work.qr_solve(sys, refined.as_slice()) {
+            for (k, &i) in work.free.iter().enumerate() {
+                refined[i] = work.z[k];
+            }
+            if residual(&refined) <= residual(&x_svd) {
+                x_svd = refined;
+            }
+        }
+    }
     let feasible = (0..n).all(|i| x_svd[i] >= sys.lower[i] && x_svd[i] <= sys.upper[i]);
-    let residual = |x: &DVector<f64>| (&sys.a * x - &sys.b).norm_squared();
-    let kkt_of = |x: &DVector<f64>| {
-        let g = (&factor.h * x - &atb) * 2.0;
-        projected_gradient_norm(x, &g, &sys.lower, &sys.upper) / grad_scale
-    };
     if feasible || n == 0 {
-        let objective = residual(&x_svd);
-        let kkt = kkt_of(&x_svd);
+        let r = residual_of(&x_svd);
+        let objective = r.norm_squared();
+        let kkt = kkt_of(sys, &x_svd, &r, grad_scale);
         return LsqOutcome {
             x: x_svd,
             objective,
@@ -115,31 +205,45 @@ pub fn solve(sys: &LinearSystem, factor: &Factor) -> LsqOutcome {
             active_set_steps: 0,
         };
     }
-    let mut x0 = x_svd.clone();
+    let mut x0 = x_svd;
     for i in 0..n {
-        x0[i] = x0[i].max(sys.lower[i]).min(sys.upper[i]);
+        x0[i] = if x0[i].is_finite() { x0[i] } else { 0.0 }.max(sys.lower[i]).min(sys.upper[i]);
     }
     let bb = sys.b.norm_squared();
-    let problem = NormalForm { h: &factor.h, atb: &atb, bb };
+    let problem = Objective { sys, h: &factor.h, atb: &atb, bb, from_residual: use_qr, last: Default::default() };
     // L-BFGS-B only has to find the active set roughly; the active-set finish makes it exact.
     let solver = LBfgsB::new(sys.lower.clone(), sys.upper.clone())
         .with_memory(5)
         .with_pg_tol(1e-9 * grad_scale)
         .with_f_tol(1e-12, bb);
-    let max_iters: u64 = LBFGSB_ITERATIONS;
-    let (x1, iters) = match run_lbfgsb(problem, solver, x0.clone(), max_iters) {
+    let (x1, iters) = match run_lbfgsb(problem, solver, x0.clone(), LBFGSB_ITERATIONS) {
         Some(r) => r,
         None => (x0, 0),
     };
-    let (x2, steps) = active_set_finish(sys, factor, &atb, x1.clone());
+    let steps = if use_qr {
+        // A QR solve per step costs O(m·n·|F|): let the normal equations find the active set first (they
+        // hand over to QR by themselves when their Cholesky factor degrades), then finish exactly by QR
+        // from there, which then needs only a step or two.
+        work.set_path(false);
+        work.rough = true;
+        let rough = work.finish(sys, &factor.h, &atb, &x1);
+        let x_rough = DVector::from_column_slice(&work.x);
+        work.rough = false;
+        work.set_path(true);
+        rough + work.finish(sys, &factor.h, &atb, &x_rough)
+    } else {
+        work.finish(sys, &factor.h, &atb, &x1)
+    };
+    let x2 = DVector::from_column_slice(&work.x);
     // Keep whichever is better (the finish can only improve on a convex problem; this guards rounding).
-    let (f1, f2) = (residual(&x1), residual(&x2));
-    let (x, objective) = if f2 <= f1 { (x2, f2) } else { (x1, f1) };
-    let kkt = kkt_of(&x);
+    let (r1, r2) = (residual_of(&x1), residual_of(&x2));
+    let (f1, f2) = (r1.norm_squared(), r2.norm_squared());
+    let (x, r, objective) = if f2 <= f1 { (x2, r2, f2) } else { (x1, r1, f1) };
+    let kkt = kkt_of(sys, &x, &r, grad_scale);
     LsqOutcome { x, objective, kkt, bounds_active: true, lbfgsb_iterations: iters, active_set_steps: steps }
 }
 
-fn run_lbfgsb(problem: NormalForm, solver: LBfgsB, x0: DVector<f64>, max_iters: u64) -> Option<(DVector<f64>, u64)> {
+fn run_lbfgsb(problem: Objective, solver: LBfgsB, x0: DVector<f64>, max_iters: u64) -> Option<(DVector<f64>, u64)> {
     let res = argmin::core::Executor::new(problem, solver)
         .configure(|s| s.param(x0).max_iters(max_iters))
         .ctrlc(false)
@@ -151,6 +255,36 @@ fn run_lbfgsb(problem: NormalForm, solver: LBfgsB, x0: DVector<f64>, max_iters: 
     x.iter().all(|v| v.is_finite()).then_some((x, iters))
 }
 
+/// `aᵀb` with four partial sums (vectorises; the rounding is the same order as a plain sum).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0f64; 4];
+    let mut ca = a.chunks_exact(4);
+    let mut cb = b.chunks_exact(4);
+    for (x, y) in (&mut ca).zip(&mut cb) {
+        acc[0] += x[0] * y[0];
+        acc[1] += x[1] * y[1];
+        acc[2] += x[2] * y[2];
+        acc[3] += x[3] * y[3];
+    }
+    let tail: f64 = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// `y += α·x`.
+fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+    for (t, v) in y.iter_mut().zip(x) {
+        *t += alpha * v;
+    }
+}
+
+/// Column j of a column-major matrix as a slice.
+fn column(m: &DMatrix<f64>, j: usize) -> &[f64] {
+    let r = m.nrows();
+    &m.as_slice()[j * r..(j + 1) * r]
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Status {
     Free,
@@ -158,54 +292,50 @@ enum Status {
     Upper,
 }
 
-/// The free variables and the Cholesky factor `L Lᵀ = H_FF` of their block of `H = AᵀA`, kept in step with
-/// the free list: a released variable appends a row (one forward substitution), a bound one is deleted
-/// with Givens rotations — O(n²) per change instead of a new O(n³) factorisation. When a new pivot is not
-/// clearly positive or the factor is poorly conditioned (`cond(H_FF) ≳ 1e12`), the solve falls back to the
-/// minimum-norm SVD of the free columns.
-struct FreeSet {
+/// The Cholesky factor `L Lᵀ = H_FF` of the free variables' block of `H = AᵀA`, kept in step with the free
+/// list: a released variable appends a row (one forward substitution), a bound one is deleted with Givens
+/// rotations — O(n²) per change instead of a new O(n³) factorisation. `ok` turns false for good when a new
+/// pivot is not clearly positive; [`Cholesky::well_conditioned`] flags `cond(H_FF) ≳ 1e12`. Either sends
+/// the finish to QR.
+struct Cholesky {
     n: usize,
-    free: Vec<usize>,
     /// Row-major n×n storage of L (only the leading |free|×|free| part is used).
     l: Vec<f64>,
     ok: bool,
 }
 
-impl FreeSet {
-    fn new(n: usize) -> FreeSet {
-        FreeSet { n, free: Vec::with_capacity(n), l: vec![0.0; n * n], ok: true }
+impl Cholesky {
+    fn new(n: usize, ok: bool) -> Cholesky {
+        Cholesky { n, l: if ok { vec![0.0; n * n] } else { Vec::new() }, ok }
     }
 
-    fn add(&mut self, h: &DMatrix<f64>, j: usize) {
-        let (n, k) = (self.n, self.free.len());
-        if self.ok {
-            let mut yy = 0.0;
-            for i in 0..k {
-                let mut v = h[(self.free[i], j)];
-                for p in 0..i {
-                    v -= self.l[i * n + p] * self.l[k * n + p];
-                }
-                let y = v / self.l[i * n + i];
-                self.l[k * n + i] = y;
-                yy += y * y;
-            }
-            let d2 = h[(j, j)] - yy;
-            if d2.is_finite() && d2 > 1e-13 * h[(j, j)].abs() && d2 > 0.0 {
-                self.l[k * n + k] = d2.sqrt();
-            } else {
-                self.ok = false;
-            }
-        }
-        self.free.push(j);
-    }
-
-    fn remove(&mut self, j: usize) {
-        let Some(k) = self.free.iter().position(|&f| f == j) else { return };
-        let (n, nf) = (self.n, self.free.len());
-        self.free.remove(k);
+    /// Append variable j after the free variables `free` (which do not include j).
+    fn add(&mut self, h: &DMatrix<f64>, free: &[usize], j: usize) {
         if !self.ok {
             return;
         }
+        let (n, k) = (self.n, free.len());
+        let mut yy = 0.0;
+        for i in 0..k {
+            let v = h[(free[i], j)] - dot(&self.l[i * n..i * n + i], &self.l[k * n..k * n + i]);
+            let y = v / self.l[i * n + i];
+            self.l[k * n + i] = y;
+            yy += y * y;
+        }
+        let d2 = h[(j, j)] - yy;
+        if d2.is_finite() && d2 > 1e-13 * h[(j, j)].abs() && d2 > 0.0 {
+            self.l[k * n + k] = d2.sqrt();
+        } else {
+            self.ok = false;
+        }
+    }
+
+    /// Delete position k of a free list that had `nf` entries.
+    fn remove(&mut self, k: usize, nf: usize) {
+        if !self.ok {
+            return;
+        }
+        let n = self.n;
         for i in k..nf - 1 {
             for p in 0..=i + 1 {
                 self.l[i * n + p] = self.l[(i + 1) * n + p];
@@ -231,10 +361,10 @@ impl FreeSet {
         }
     }
 
-    fn well_conditioned(&self) -> bool {
+    fn well_conditioned(&self, nf: usize) -> bool {
         let n = self.n;
         let (mut dmin, mut dmax) = (f64::INFINITY, 0.0f64);
-        for i in 0..self.free.len() {
+        for i in 0..nf {
             let d = self.l[i * n + i].abs();
             dmin = dmin.min(d);
             dmax = dmax.max(d);
@@ -242,250 +372,619 @@ impl FreeSet {
         dmin > 1e-6 * dmax
     }
 
-    /// Least squares over the free variables with the others held at x; `hb = H x_B` (the bound
-    /// variables' part of `Hx`). Writes z in the order of `self.free`.
-    fn solve(
-        &self,
-        sys: &LinearSystem,
-        factor: &Factor,
-        atb: &DVector<f64>,
-        x: &DVector<f64>,
-        hb: &[f64],
-        z: &mut Vec<f64>,
-    ) {
-        let (n, nf) = (self.n, self.free.len());
-        z.clear();
-        if self.ok && self.well_conditioned() {
-            let l = &self.l;
-            for (k, &i) in self.free.iter().enumerate() {
-                let row = &l[k * n..k * n + k];
-                let v = atb[i] - hb[i] - row.iter().zip(z.iter()).map(|(a, b)| a * b).sum::<f64>();
-                z.push(v / l[k * n + k]);
-            }
-            for k in (0..nf).rev() {
-                let mut v = z[k];
-                for p in k + 1..nf {
-                    v -= l[p * n + k] * z[p];
-                }
-                z[k] = v / l[k * n + k];
-            }
-            if z.iter().all(|v| v.is_finite()) {
-                return;
-            }
-            z.clear();
-        }
-        z.extend(solve_free(sys, factor, atb, x, &self.free).iter());
-    }
-}
-
-/// The exact active-set finish from a feasible `x` (see the module docs). Returns x and the number of
-/// releases (outer steps) taken.
-pub fn active_set_finish(
-    sys: &LinearSystem,
-    factor: &Factor,
-    atb: &DVector<f64>,
-    mut x: DVector<f64>,
-) -> (DVector<f64>, usize) {
-    let n = x.len();
-    let (lo, hi) = (&sys.lower, &sys.upper);
-    let h = &factor.h;
-    let mut status = vec![Status::Free; n];
-    let mut set = FreeSet::new(n);
-    for i in 0..n {
-        if x[i] <= lo[i] {
-            x[i] = lo[i];
-            status[i] = Status::Lower;
-        } else if x[i] >= hi[i] {
-            x[i] = hi[i];
-            status[i] = Status::Upper;
-        } else {
-            set.add(h, i);
-        }
-    }
-    let scale = atb.amax().max(h.amax() * x.amax()).max(f64::MIN_POSITIVE);
-    let tol = 1e-11 * scale;
-    let mut stuck = vec![false; n];
-    let mut released: Option<(usize, Status)> = None;
-    // hb = H x_B, kept up to date as variables are bound and released.
-    let mut hb = vec![0.0; n];
-    let add_column = |hb: &mut [f64], j: usize, v: f64| {
-        if v != 0.0 {
-            for (t, hv) in hb.iter_mut().zip(h.column(j).iter()) {
-                *t += hv * v;
-            }
-        }
-    };
-    for j in 0..n {
-        if status[j] != Status::Free {
-            add_column(&mut hb, j, x[j]);
-        }
-    }
-    let mut z: Vec<f64> = Vec::with_capacity(n);
-    let max_steps = 4 * n + 20;
-    let mut steps = 0;
-    while steps < max_steps {
-        steps += 1;
-        // Inner loop: solve on the free set, walking back to the box when the solution leaves it.
-        for _ in 0..=2 * n {
-            if set.free.is_empty() {
-                break;
-            }
-            set.solve(sys, factor, atb, &x, &hb, &mut z);
-            // A variable released a moment ago that wants straight back out on the same side: its
-            // multiplier was rounding noise. Bind it again and never release it again.
-            if let Some((j, from)) = released.take() {
-                let k = set.free.iter().position(|&f| f == j).unwrap_or(0);
-                let back = match from {
-                    Status::Lower => z[k] <= lo[j],
-                    Status::Upper => z[k] >= hi[j],
-                    Status::Free => false,
-                };
-                if back {
-                    status[j] = from;
-                    stuck[j] = true;
-                    set.remove(j);
-                    add_column(&mut hb, j, x[j]);
-                    continue;
-                }
-            }
-            let mut alpha: f64 = 1.0;
-            let mut hit: Option<usize> = None;
-            for (k, &i) in set.free.iter().enumerate() {
-                let (zi, xi) = (z[k], x[i]);
-                let a = if zi < lo[i] {
-                    (lo[i] - xi) / (zi - xi)
-                } else if zi > hi[i] {
-                    (hi[i] - xi) / (zi - xi)
-                } else {
-                    continue;
-                };
-                let a = if a.is_finite() { a.clamp(0.0, 1.0) } else { 0.0 };
-                if hit.is_none() || a < alpha {
-                    alpha = a;
-                    hit = Some(i);
-                }
-            }
-            let Some(hit) = hit else {
-                for (k, &i) in set.free.iter().enumerate() {
-                    x[i] = z[k];
-                }
-                break;
-            };
-            let mut newly_bound = Vec::new();
-            for (k, &i) in set.free.iter().enumerate() {
-                let v = (x[i] + alpha * (z[k] - x[i])).max(lo[i]).min(hi[i]);
-                x[i] = v;
-                let at_lo = z[k] < lo[i] && (i == hit || v - lo[i] <= 1e-14 * (1.0 + lo[i].abs()));
-                let at_hi = z[k] > hi[i] && (i == hit || hi[i] - v <= 1e-14 * (1.0 + hi[i].abs()));
-                if at_lo {
-                    x[i] = lo[i];
-                    status[i] = Status::Lower;
-                    newly_bound.push(i);
-                } else if at_hi {
-                    x[i] = hi[i];
-                    status[i] = Status::Upper;
-                    newly_bound.push(i);
-                }
-            }
-            for i in newly_bound {
-                set.remove(i);
-                add_column(&mut hb, i, x[i]);
-            }
-        }
-        // Multipliers: the half-gradient Hx − Aᵀb at bound variables must point out of the box.
-        let g = h * &x - atb;
-        let mut worst: Option<(usize, f64)> = None;
-        for i in 0..n {
-            if stuck[i] || lo[i] == hi[i] {
-                continue;
-            }
-            let v = match status[i] {
-                Status::Lower => -g[i],
-                Status::Upper => g[i],
-                Status::Free => continue,
-            };
-            if v > tol && worst.is_none_or(|(_, w)| v > w) {
-                worst = Some((i, v));
-            }
-        }
-        let Some((j, _)) = worst else { break };
-        released = Some((j, status[j]));
-        status[j] = Status::Free;
-        add_column(&mut hb, j, -x[j]);
-        set.add(h, j);
-    }
-    (x, steps)
-}
-
-/// Least squares over the free variables with the bound ones held: `H_FF z = (Aᵀb − H_FB x_B)_F` by
-/// Cholesky when well conditioned, else minimum-norm SVD of `A_F`.
-fn solve_free(
-    sys: &LinearSystem,
-    factor: &Factor,
-    atb: &DVector<f64>,
-    x: &DVector<f64>,
-    free: &[usize],
-) -> DVector<f64> {
-    let n = x.len();
-    let nf = free.len();
-    let h = &factor.h;
-    let is_free = {
-        let mut f = vec![false; n];
-        for &i in free {
-            f[i] = true;
-        }
-        f
-    };
-    let mut rhs = DVector::from_fn(nf, |k, _| atb[free[k]]);
-    for j in 0..n {
-        if !is_free[j] && x[j] != 0.0 {
-            for (k, &i) in free.iter().enumerate() {
-                rhs[k] -= h[(i, j)] * x[j];
-            }
-        }
-    }
-    let hff = DMatrix::from_fn(nf, nf, |r, c| h[(free[r], free[c])]);
-    if let Some(ch) = hff.clone().cholesky() {
-        let l = ch.l_dirty();
-        let (mut dmin, mut dmax) = (f64::INFINITY, 0.0f64);
+    /// Solve `H_FF z = rhs` in place (rhs in the order of the free list).
+    fn solve_in_place(&self, z: &mut [f64]) {
+        let (n, nf) = (self.n, z.len());
+        let l = &self.l;
         for k in 0..nf {
-            dmin = dmin.min(l[(k, k)].abs());
-            dmax = dmax.max(l[(k, k)].abs());
+            let row = &l[k * n..k * n + k];
+            let v = z[k] - row.iter().zip(z.iter()).map(|(a, b)| a * b).sum::<f64>();
+            z[k] = v / l[k * n + k];
         }
-        // cond(H_FF) ≈ (dmax/dmin)²: use the normal equations only below ~1e12.
-        if dmin > 1e-6 * dmax {
-            let z = ch.solve(&rhs);
-            if z.iter().all(|v| v.is_finite()) {
-                return z;
+        for k in (0..nf).rev() {
+            let mut v = z[k];
+            for p in k + 1..nf {
+                v -= l[p * n + k] * z[p];
+            }
+            z[k] = v / l[k * n + k];
+        }
+    }
+}
+
+/// Householder QR of the free columns of A for ill-conditioned systems (Powell & Reid 1969; Cox & Higham
+/// 1998): rows sorted by decreasing size, so that heavy rows are eliminated first and the rounding that
+/// reaches the light rows stays relative to them; column pivoting by remaining norm. A column whose
+/// remaining norm falls to `4·max(m, n_F)·ε` of its own norm is numerically dependent on the pivoted ones
+/// and keeps its current value (the subproblem's objective is the same: the free least squares is solved
+/// over the independent columns). One step of iterative refinement on the residual follows.
+#[derive(Default)]
+struct Qr {
+    /// Row order (Powell–Reid sorting by the largest entry of each row).
+    order: Vec<usize>,
+    /// `|A|`, for the rounding level of the multipliers.
+    abs_a: DMatrix<f64>,
+    /// Column-major m × (n_F + 1) work matrix: the free columns then the right-hand side.
+    w: Vec<f64>,
+    /// Right-hand side before the reflections (for the refinement).
+    rhs0: Vec<f64>,
+    /// Householder β per column, R's diagonal, column permutation (positions in the free list).
+    beta: Vec<f64>,
+    rdiag: Vec<f64>,
+    perm: Vec<usize>,
+    norm0: Vec<f64>,
+    s: Vec<f64>,
+    y: Vec<f64>,
+    /// Bound variables (columns after the right-hand side), the transformed residual below the pivoted rows,
+    /// and the multipliers (with their rounding level) of the last solve, indexed by variable.
+    bound: Vec<usize>,
+    t: Vec<f64>,
+    mult: Vec<f64>,
+    mult_noise: Vec<f64>,
+}
+
+impl Qr {
+    fn prepare(&mut self, a: &DMatrix<f64>) {
+        if !self.order.is_empty() && self.order.len() == a.nrows() && self.abs_a.shape() == a.shape() {
+            return;
+        }
+        let m = a.nrows();
+        let row_size: Vec<f64> = (0..m).map(|i| a.row(i).amax()).collect();
+        self.order = (0..m).collect();
+        self.order.sort_by(|&i, &j| row_size[j].total_cmp(&row_size[i]));
+        self.abs_a = a.abs();
+    }
+
+    fn swap_columns(&mut self, m: usize, c: usize, d: usize) {
+        if c == d {
+            return;
+        }
+        for i in 0..m {
+            self.w.swap(c * m + i, d * m + i);
+        }
+        self.perm.swap(c, d);
+        self.norm0.swap(c, d);
+    }
+
+    /// Apply reflectors `0..rank` to the vector `v` (length m, sorted rows).
+    fn reflect(w: &[f64], beta: &[f64], m: usize, rank: usize, v: &mut [f64]) {
+        for k in 0..rank {
+            let col = &w[k * m..(k + 1) * m];
+            let dot: f64 = (k..m).map(|i| col[i] * v[i]).sum();
+            let t = beta[k] * dot;
+            if t != 0.0 {
+                for i in k..m {
+                    v[i] -= t * col[i];
+                }
             }
         }
     }
-    let a = &sys.a;
-    let af = DMatrix::from_fn(a.nrows(), nf, |r, c| a[(r, free[c])]);
-    let mut rb = sys.b.clone();
-    for j in 0..n {
-        if !is_free[j] && x[j] != 0.0 {
-            rb -= a.column(j) * x[j];
+
+    /// Back substitution with R's leading `rank`×`rank` block: `y = R⁻¹ c` (c = first rank entries).
+    fn back_substitute(&mut self, m: usize, rank: usize, c: &[f64]) {
+        self.y.clear();
+        self.y.resize(rank, 0.0);
+        for k in (0..rank).rev() {
+            let mut v = c[k];
+            for j in k + 1..rank {
+                v -= self.w[j * m + k] * self.y[j];
+            }
+            self.y[k] = v / self.rdiag[k];
         }
     }
-    pseudo_inverse(&af) * rb
+
+    /// Least squares over `free` with the other variables held at x; writes z in the order of `free`.
+    /// Returns false when the result is not finite.
+    fn solve(&mut self, sys: &LinearSystem, x: &[f64], free: &[usize], is_free: &[bool], z: &mut Vec<f64>) -> bool {
+        let a = &sys.a;
+        let (m, n, nf) = (a.nrows(), a.ncols(), free.len());
+        self.prepare(a);
+        let nb = n - nf;
+        self.w.clear();
+        self.w.resize(m * (nf + 1 + nb), 0.0);
+        self.norm0.clear();
+        for (k, &j) in free.iter().enumerate() {
+            let col = a.column(j);
+            let dst = &mut self.w[k * m..(k + 1) * m];
+            for (d, &r) in dst.iter_mut().zip(&self.order) {
+                *d = col[r];
+            }
+            self.norm0.push(dst.iter().map(|v| v * v).sum::<f64>().sqrt());
+        }
+        {
+            let rhs = &mut self.w[nf * m..];
+            for (d, &r) in rhs.iter_mut().zip(&self.order) {
+                *d = sys.b[r];
+            }
+            for j in 0..n {
+                if !is_free[j] && x[j] != 0.0 {
+                    let col = a.column(j);
+                    for (d, &r) in rhs.iter_mut().zip(&self.order) {
+                        *d -= col[r] * x[j];
+                    }
+                }
+            }
+            self.rhs0.clear();
+            self.rhs0.extend_from_slice(rhs);
+        }
+        // The bound columns after the right-hand side: the reflections carry them along for the multipliers.
+        self.bound.clear();
+        self.bound.extend((0..n).filter(|&j| !is_free[j]));
+        for (q, &j) in self.bound.iter().enumerate() {
+            let col = a.column(j);
+            let dst = &mut self.w[(nf + 1 + q) * m..(nf + 2 + q) * m];
+            for (d, &r) in dst.iter_mut().zip(&self.order) {
+                *d = col[r];
+            }
+        }
+        self.perm.clear();
+        self.perm.extend(0..nf);
+        self.beta.clear();
+        self.rdiag.clear();
+        let dep = 4.0 * (m.max(nf) as f64) * f64::EPSILON;
+        let mut active = nf;
+        let mut k = 0;
+        while k < active && k < m {
+            // Pivot: the largest remaining column; columns at rounding level of their own norm go last.
+            let (mut p, mut pn) = (usize::MAX, -1.0);
+            let mut c = k;
+            while c < active {
+                let rem = self.w[c * m + k..(c + 1) * m].iter().map(|v| v * v).sum::<f64>().sqrt();
+                if rem.is_nan() || rem <= dep * self.norm0[c] || rem == 0.0 {
+                    active -= 1;
+                    self.swap_columns(m, c, active);
+                    continue;
+                }
+                if rem > pn {
+                    (p, pn) = (c, rem);
+                }
+                c += 1;
+            }
+            if p == usize::MAX {
+                break;
+            }
+            self.swap_columns(m, k, p);
+            let head = self.w[k * m + k];
+            let alpha = if head >= 0.0 { -pn } else { pn };
+            let v0 = head - alpha;
+            self.w[k * m + k] = v0;
+            // vᵀv = ‖x‖² − head² + v0² = 2‖x‖² − 2·head·alpha... computed directly for accuracy.
+            let vtv: f64 = v0 * v0 + self.w[k * m + k + 1..(k + 1) * m].iter().map(|v| v * v).sum::<f64>();
+            let beta = if vtv > 0.0 { 2.0 / vtv } else { 0.0 };
+            self.beta.push(beta);
+            self.rdiag.push(alpha);
+            let (left, right) = self.w.split_at_mut((k + 1) * m);
+            let vcol = &left[k * m..];
+            for col in right.chunks_mut(m) {
+                let dot: f64 = (k..m).map(|i| vcol[i] * col[i]).sum();
+                let t = beta * dot;
+                if t != 0.0 {
+                    for i in k..m {
+                        col[i] -= t * vcol[i];
+                    }
+                }
+            }
+            k += 1;
+        }
+        let rank = k;
+        // Multipliers of the bound variables at the subproblem's optimum: with Qᵀ(A x − b) = (0, −t) below the
+        // pivoted rows, g_j = a_jᵀ(A x − b) = −Σ_{i ≥ rank} (Qᵀa_j)_i t_i. Rows sorted by weight keep both
+        // factors at the light rows' own rounding level, which the residual's heavy rows would swamp.
+        self.t.clear();
+        self.t.extend_from_slice(&self.w[nf * m + rank..(nf + 1) * m]);
+        for d in rank..nf {
+            let xd = x[free[self.perm[d]]];
+            if xd != 0.0 {
+                for (t, wv) in self.t.iter_mut().zip(&self.w[d * m + rank..(d + 1) * m]) {
+                    *t -= wv * xd;
+                }
+            }
+        }
+        self.mult.resize(n, 0.0);
+        self.mult_noise.resize(n, 0.0);
+        for (q, &j) in self.bound.iter().enumerate() {
+            let col = &self.w[(nf + 1 + q) * m + rank..(nf + 2 + q) * m];
+            self.mult[j] = -dot(col, &self.t);
+            let size: f64 = col.iter().zip(&self.t).map(|(a, b)| (a * b).abs()).sum();
+            self.mult_noise[j] = 4.0 * (m as f64) * f64::EPSILON * size;
+        }
+        // c₁ − R₁₂ x_dependent, then back substitution.
+        let mut c1: Vec<f64> = self.w[nf * m..nf * m + rank].to_vec();
+        for d in rank..nf {
+            let xd = x[free[self.perm[d]]];
+            if xd != 0.0 {
+                for (kk, ck) in c1.iter_mut().enumerate() {
+                    *ck -= self.w[d * m + kk] * xd;
+                }
+            }
+        }
+        self.back_substitute(m, rank, &c1);
+        z.clear();
+        z.resize(nf, 0.0);
+        for d in 0..nf {
+            let pos = self.perm[d];
+            z[pos] = if d < rank { self.y[d] } else { x[free[pos]] };
+        }
+        // One step of iterative refinement: s = rhs − A_F z, correction from the same factorisation.
+        self.s.clear();
+        self.s.extend_from_slice(&self.rhs0);
+        for (k, &j) in free.iter().enumerate() {
+            let col = a.column(j);
+            let zk = z[k];
+            if zk != 0.0 {
+                for (s, &r) in self.s.iter_mut().zip(&self.order) {
+                    *s -= col[r] * zk;
+                }
+            }
+        }
+        let mut s = std::mem::take(&mut self.s);
+        Self::reflect(&self.w, &self.beta, m, rank, &mut s);
+        c1.clear();
+        c1.extend_from_slice(&s[..rank]);
+        self.s = s;
+        self.back_substitute(m, rank, &c1);
+        for d in 0..rank {
+            z[self.perm[d]] += self.y[d];
+        }
+        z.iter().all(|v| v.is_finite())
+    }
+}
+
+/// Buffers and state of the exact active-set finish (reused across its steps: no allocation per step).
+struct Work {
+    n: usize,
+    /// Current point, status and free list.
+    x: Vec<f64>,
+    status: Vec<Status>,
+    is_free: Vec<bool>,
+    free: Vec<usize>,
+    /// Working on A (QR, residual multipliers) rather than on `AᵀA`.
+    use_qr: bool,
+    chol: Cholesky,
+    qr: Qr,
+    /// `H x_B` (the bound variables' part of Hx), kept up to date on the normal-equations path.
+    hb: Vec<f64>,
+    z: Vec<f64>,
+    /// Half-gradient `Aᵀ(Ax − b)` (on the normal-equations path only at bound variables) and its rounding
+    /// level; residual and `|A||x| + |b|`.
+    g: DVector<f64>,
+    noise: DVector<f64>,
+    r: DVector<f64>,
+    mag: DVector<f64>,
+    stuck: Vec<bool>,
+    newly_bound: Vec<usize>,
+    /// The last free solve was by QR at the current point, so its multipliers are current.
+    qr_current: bool,
+    /// Only looking for an active set (an exact QR finish follows): keep the Cholesky path even when its
+    /// factor is poorly conditioned.
+    rough: bool,
+    /// `‖H‖max` and `‖Aᵀb‖∞` (NaN until first needed).
+    h_max: f64,
+    atb_max: f64,
+}
+
+thread_local! {
+    /// One [`Work`] per thread, reused by every solve on it: the batch path solves thousands of small systems
+    /// and would otherwise allocate a dozen buffers for each.
+    static WORK: std::cell::RefCell<Work> = std::cell::RefCell::new(Work::new(0, 0, false));
+}
+
+/// Run `f` with this thread's [`Work`] prepared for `sys` (a fresh one if it is already in use).
+fn with_work<R>(sys: &LinearSystem, use_qr: bool, f: impl FnOnce(&mut Work) -> R) -> R {
+    let (m, n) = sys.a.shape();
+    WORK.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut w) => {
+            w.reset(m, n, use_qr);
+            f(&mut w)
+        }
+        Err(_) => f(&mut Work::new(m, n, use_qr)),
+    })
+}
+
+impl Work {
+    fn new(m: usize, n: usize, use_qr: bool) -> Work {
+        Work {
+            n,
+            x: vec![0.0; n],
+            status: vec![Status::Free; n],
+            is_free: vec![true; n],
+            free: Vec::with_capacity(n),
+            use_qr,
+            chol: Cholesky::new(n, !use_qr),
+            qr: Qr::default(),
+            hb: vec![0.0; n],
+            z: Vec::with_capacity(n),
+            g: DVector::zeros(n),
+            noise: DVector::zeros(n),
+            r: DVector::zeros(m),
+            mag: DVector::zeros(m),
+            stuck: vec![false; n],
+            newly_bound: Vec::with_capacity(n),
+            qr_current: false,
+            rough: false,
+            h_max: f64::NAN,
+            atb_max: f64::NAN,
+        }
+    }
+
+    /// Work on A by QR (`true`) or on `AᵀA` by Cholesky (`false`) in the next [`Work::finish`].
+    fn set_path(&mut self, qr: bool) {
+        self.use_qr = qr;
+        self.chol.ok = !qr;
+        if !qr {
+            self.chol.l.resize(self.n * self.n, 0.0);
+        }
+    }
+
+    /// Prepare for an m×n system, keeping the buffers' storage.
+    fn reset(&mut self, m: usize, n: usize, use_qr: bool) {
+        self.n = n;
+        self.x.resize(n, 0.0);
+        self.status.resize(n, Status::Free);
+        self.is_free.resize(n, true);
+        self.free.clear();
+        self.use_qr = use_qr;
+        self.chol.n = n;
+        self.chol.ok = !use_qr;
+        if !use_qr {
+            self.chol.l.resize(n * n, 0.0);
+        }
+        // A new matrix: the QR's row order and |A| are recomputed on first use.
+        self.qr.order.clear();
+        self.hb.resize(n, 0.0);
+        self.z.clear();
+        for v in [&mut self.g, &mut self.noise] {
+            if v.len() != n {
+                *v = DVector::zeros(n);
+            }
+        }
+        for v in [&mut self.r, &mut self.mag] {
+            if v.len() != m {
+                *v = DVector::zeros(m);
+            }
+        }
+        self.stuck.resize(n, false);
+        self.newly_bound.clear();
+        self.qr_current = false;
+        self.rough = false;
+        self.h_max = f64::NAN;
+        self.atb_max = f64::NAN;
+    }
+
+    /// QR solve of the free set with the other variables at `x`, into `self.z`.
+    fn qr_solve(&mut self, sys: &LinearSystem, x: &[f64]) -> bool {
+        self.qr.solve(sys, x, &self.free, &self.is_free, &mut self.z)
+    }
+
+    fn bind(&mut self, h: &DMatrix<f64>, i: usize, to: Status) {
+        self.status[i] = to;
+        self.is_free[i] = false;
+        if let Some(k) = self.free.iter().position(|&f| f == i) {
+            let nf = self.free.len();
+            self.free.remove(k);
+            self.chol.remove(k, nf);
+        }
+        if !self.use_qr && self.x[i] != 0.0 {
+            axpy(self.x[i], column(h, i), &mut self.hb);
+        }
+    }
+
+    fn release(&mut self, h: &DMatrix<f64>, j: usize) {
+        self.status[j] = Status::Free;
+        self.is_free[j] = true;
+        if !self.use_qr && self.x[j] != 0.0 {
+            axpy(-self.x[j], column(h, j), &mut self.hb);
+        }
+        self.chol.add(h, &self.free, j);
+        self.free.push(j);
+    }
+
+    /// Least squares over the free set into `self.z`: Cholesky of `H_FF` while it is healthy, else QR (for
+    /// the rest of the finish). False when neither gives a finite result.
+    fn solve_free(&mut self, sys: &LinearSystem, atb: &DVector<f64>) -> bool {
+        if !self.use_qr && self.chol.ok && (self.rough || self.chol.well_conditioned(self.free.len())) {
+            self.z.clear();
+            self.z.extend(self.free.iter().map(|&i| atb[i] - self.hb[i]));
+            self.chol.solve_in_place(&mut self.z);
+            if self.z.iter().all(|v| v.is_finite()) {
+                return true;
+            }
+        }
+        self.use_qr = true;
+        self.chol.ok = false;
+        let x = std::mem::take(&mut self.x);
+        let ok = self.qr.solve(sys, &x, &self.free, &self.is_free, &mut self.z);
+        self.x = x;
+        ok
+    }
+
+    /// The half-gradient `g = Aᵀ(Ax − b)` at `self.x` and, per component, the level below which its sign is
+    /// rounding noise. Normal equations: `g = Hx − Aᵀb`, noise `2(n+1)²ε·max(‖Aᵀb‖∞, ‖H‖max‖x‖∞)` (the worst
+    /// case of the product's rounding). QR path: from the last QR solve when it is current (see [`Qr::solve`];
+    /// noise `4mε·Σ|(Qᵀa_j)_i t_i|`), else from the residual with noise `8ε·(|A|ᵀ(|A||x| + |b|))ᵢ`, about the
+    /// typical rounding of each component. Smaller multipliers are not trusted.
+    fn gradient(&mut self, sys: &LinearSystem, h: &DMatrix<f64>, atb: &DVector<f64>) {
+        if self.h_max.is_nan() {
+            // H is positive semidefinite: |H_ij| ≤ √(H_ii H_jj), so its largest entry is on the diagonal.
+            self.h_max = h.diagonal().iter().fold(0.0, |m, v| m.max(v.abs()));
+            self.atb_max = atb.iter().fold(0.0, |m, v| m.max(v.abs()));
+        }
+        if self.use_qr && self.qr_current {
+            for i in 0..self.n {
+                (self.g[i], self.noise[i]) =
+                    if self.is_free[i] { (0.0, 0.0) } else { (self.qr.mult[i], self.qr.mult_noise[i]) };
+            }
+        } else if self.use_qr {
+            self.qr.prepare(&sys.a);
+            let x = nalgebra::DVectorView::from_slice(&self.x, self.n);
+            self.r.copy_from(&sys.b);
+            self.r.gemv(1.0, &sys.a, &x, -1.0);
+            self.g.gemv_tr(1.0, &sys.a, &self.r, 0.0);
+            let xabs = x.abs();
+            self.mag.copy_from(&sys.b.abs());
+            self.mag.gemv(1.0, &self.qr.abs_a, &xabs, 1.0);
+            self.noise.gemv_tr(8.0 * f64::EPSILON, &self.qr.abs_a, &self.mag, 0.0);
+        } else {
+            // Only the bound variables' components are needed: g_i = (H x_B)_i + H_iF x_F − (Aᵀb)_i, with
+            // `hb = H x_B` kept up to date (H is symmetric: row i is column i).
+            for i in 0..self.n {
+                self.g[i] = if self.is_free[i] {
+                    0.0
+                } else {
+                    let col = column(h, i);
+                    self.free.iter().fold(self.hb[i] - atb[i], |v, &k| v + col[k] * self.x[k])
+                };
+            }
+            let n = self.n as f64;
+            let level = 2.0
+                * (n + 1.0)
+                * (n + 1.0)
+                * f64::EPSILON
+                * self.atb_max.max(self.h_max * self.x.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+            self.noise.fill(level);
+        }
+    }
+
+    /// The exact active-set finish from `x0` projected onto the box (see the module docs). Leaves the result
+    /// in `self.x`; returns the number of releases (outer steps).
+    fn finish(&mut self, sys: &LinearSystem, h: &DMatrix<f64>, atb: &DVector<f64>, x0: &DVector<f64>) -> usize {
+        let n = self.n;
+        let (lo, hi) = (sys.lower.as_slice(), sys.upper.as_slice());
+        self.free.clear();
+        self.hb.iter_mut().for_each(|v| *v = 0.0);
+        self.stuck.iter_mut().for_each(|v| *v = false);
+        for i in 0..n {
+            let v = if x0[i].is_finite() { x0[i] } else { 0.0 };
+            if v <= lo[i] {
+                self.x[i] = lo[i];
+                self.status[i] = Status::Lower;
+                self.is_free[i] = false;
+            } else if v >= hi[i] {
+                self.x[i] = hi[i];
+                self.status[i] = Status::Upper;
+                self.is_free[i] = false;
+            } else {
+                self.x[i] = v;
+                self.status[i] = Status::Free;
+                self.is_free[i] = true;
+                self.chol.add(h, &self.free, i);
+                self.free.push(i);
+            }
+        }
+        if !self.use_qr {
+            for j in 0..n {
+                if !self.is_free[j] && self.x[j] != 0.0 {
+                    axpy(self.x[j], column(h, j), &mut self.hb);
+                }
+            }
+        }
+        let mut released: Option<(usize, Status)> = None;
+        let max_steps = 4 * n + 20;
+        let mut steps = 0;
+        while steps < max_steps {
+            steps += 1;
+            // Inner loop: solve on the free set, walking back to the box when the solution leaves it.
+            self.qr_current = false;
+            for _ in 0..=2 * n {
+                if self.free.is_empty() || !self.solve_free(sys, atb) {
+                    break;
+                }
+                // A variable released a moment ago that wants straight back out on the same side: its
+                // multiplier was rounding noise. Bind it again and skip it until another release succeeds.
+                if let Some((j, from)) = released.take() {
+                    let k = self.free.iter().position(|&f| f == j).unwrap_or(0);
+                    let back = match from {
+                        Status::Lower => self.z[k] <= lo[j],
+                        Status::Upper => self.z[k] >= hi[j],
+                        Status::Free => false,
+                    };
+                    if back {
+                        self.stuck[j] = true;
+                        self.bind(h, j, from);
+                        continue;
+                    }
+                    self.stuck.iter_mut().for_each(|s| *s = false);
+                }
+                let mut alpha: f64 = 1.0;
+                let mut hit: Option<usize> = None;
+                for (k, &i) in self.free.iter().enumerate() {
+                    let (zi, xi) = (self.z[k], self.x[i]);
+                    let a = if zi < lo[i] {
+                        (lo[i] - xi) / (zi - xi)
+                    } else if zi > hi[i] {
+                        (hi[i] - xi) / (zi - xi)
+                    } else {
+                        continue;
+                    };
+                    let a = if a.is_finite() { a.clamp(0.0, 1.0) } else { 0.0 };
+                    if hit.is_none() || a < alpha {
+                        alpha = a;
+                        hit = Some(i);
+                    }
+                }
+                let Some(hit) = hit else {
+                    for (k, &i) in self.free.iter().enumerate() {
+                        self.x[i] = self.z[k];
+                    }
+                    self.qr_current = self.use_qr;
+                    break;
+                };
+                self.newly_bound.clear();
+                for (k, &i) in self.free.iter().enumerate() {
+                    let zk = self.z[k];
+                    let v = (self.x[i] + alpha * (zk - self.x[i])).max(lo[i]).min(hi[i]);
+                    self.x[i] = v;
+                    if zk < lo[i] && (i == hit || v - lo[i] <= 1e-14 * (1.0 + lo[i].abs())) {
+                        self.x[i] = lo[i];
+                        self.newly_bound.push(i);
+                    } else if zk > hi[i] && (i == hit || hi[i] - v <= 1e-14 * (1.0 + hi[i].abs())) {
+                        self.x[i] = hi[i];
+                        self.newly_bound.push(i);
+                    }
+                }
+                for t in 0..self.newly_bound.len() {
+                    let i = self.newly_bound[t];
+                    let to = if self.x[i] == lo[i] { Status::Lower } else { Status::Upper };
+                    self.bind(h, i, to);
+                }
+            }
+            // Multipliers: the half-gradient at bound variables must point out of the box.
+            self.gradient(sys, h, atb);
+            let mut worst: Option<(usize, f64)> = None;
+            let (g, noise) = (self.g.as_slice(), self.noise.as_slice());
+            for i in 0..n {
+                if self.stuck[i] || lo[i] == hi[i] {
+                    continue;
+                }
+                let v = match self.status[i] {
+                    Status::Lower => -g[i],
+                    Status::Upper => g[i],
+                    Status::Free => continue,
+                };
+                if v > noise[i] && worst.is_none_or(|(_, w)| v > w) {
+                    worst = Some((i, v));
+                }
+            }
+            let Some((j, _)) = worst else { break };
+            released = Some((j, self.status[j]));
+            self.release(h, j);
+        }
+        steps
+    }
 }
 
 /// Warm-started bounded solve for repeated problems (alternating joint design): the exact active-set
 /// finish from `x0` projected onto the box, without SVD or L-BFGS-B. On a convex problem it ends at an
-/// exact minimiser (the minimum-norm one is not guaranteed when A is rank deficient). Only `AᵀA` is needed.
+/// exact minimiser (the minimum-norm one is not guaranteed when A is rank deficient). It works on `h = AᵀA`
+/// while the Cholesky factors of its free blocks stay well conditioned, else on A by QR.
 pub fn solve_from(sys: &LinearSystem, h: &DMatrix<f64>, x0: &DVector<f64>) -> LsqOutcome {
-    let n = sys.a.ncols();
     let atb = sys.a.tr_mul(&sys.b);
-    let factor = Factor { pinv: DMatrix::zeros(0, 0), h: h.clone() };
-    let mut x = x0.clone();
-    for i in 0..n {
-        x[i] = if x[i].is_finite() { x[i] } else { 0.0 }.max(sys.lower[i]).min(sys.upper[i]);
-    }
-    let (x, steps) = active_set_finish(sys, &factor, &atb, x);
-    let g = (h * &x - &atb) * 2.0;
-    let kkt = projected_gradient_norm(&x, &g, &sys.lower, &sys.upper) / (1.0 + 2.0 * atb.amax());
-    let objective = (&sys.a * &x - &sys.b).norm_squared();
+    let (steps, x) = with_work(sys, false, |work| {
+        let steps = work.finish(sys, h, &atb, x0);
+        (steps, DVector::from_column_slice(&work.x))
+    });
+    let r = &sys.a * &x - &sys.b;
+    let kkt = kkt_of(sys, &x, &r, 1.0 + 2.0 * atb.amax());
+    let objective = r.norm_squared();
     LsqOutcome { x, objective, kkt, bounds_active: true, lbfgsb_iterations: 0, active_set_steps: steps }
 }
 
@@ -522,10 +1021,11 @@ mod tests {
                 }
                 c /= 3;
             }
-            let f = Factor::new(&sys.a);
-            let atb = sys.a.tr_mul(&sys.b);
             if !free.is_empty() {
-                let z = solve_free(sys, &f, &atb, &x, &free);
+                // The free columns' least squares by nalgebra's SVD, independently of the engine.
+                let af = DMatrix::from_fn(sys.a.nrows(), free.len(), |r, c| sys.a[(r, free[c])]);
+                let rb = &sys.b - &sys.a * &x;
+                let z = af.svd(true, true).solve(&rb, 1e-14).expect("svd solve");
                 for (k, &i) in free.iter().enumerate() {
                     x[i] = z[k];
                 }
@@ -552,6 +1052,41 @@ mod tests {
             assert!(out.objective <= best * (1.0 + 1e-9) + 1e-14, "{} vs {best}", out.objective);
             assert!((0..n).all(|i| out.x[i] >= sys.lower[i] && out.x[i] <= sys.upper[i]));
             assert!(out.kkt < 1e-9, "kkt {}", out.kkt);
+        }
+    }
+
+    #[test]
+    fn qr_path_matches_brute_force_on_wide_and_graded_systems() {
+        // Fewer rows than unknowns (cond = ∞) and rows weighted over 10 decades (cond ≫ 1e6): both take the
+        // QR path; the brute force (normwise SVD per active set) can only be worse, so the check is one-sided.
+        let mut seed = 11u64;
+        for case in 0..40 {
+            let graded = case % 2 == 1;
+            let n = 2 + (lcg(&mut seed) * 4.0) as usize;
+            let m = if graded {
+                n + 2 + (lcg(&mut seed) * 3.0) as usize
+            } else {
+                1 + (lcg(&mut seed) * (n - 1) as f64) as usize
+            };
+            // Graded: n − 1 rows of weight ~1e7, the rest 1e-3…1 (only they determine the last direction).
+            let w: Vec<f64> = (0..m)
+                .map(|r| match (graded, r + 1 < n) {
+                    (false, _) => 1.0,
+                    (true, true) => 1e7 * (1.0 + lcg(&mut seed)),
+                    (true, false) => 10f64.powf(-3.0 * lcg(&mut seed)),
+                })
+                .collect();
+            let a = DMatrix::from_fn(m, n, |r, _| w[r] * (lcg(&mut seed) * 2.0 - 1.0));
+            let b = DVector::from_fn(m, |r, _| w[r] * (lcg(&mut seed) * 4.0 - 2.0));
+            let lower = DVector::from_fn(n, |_, _| -lcg(&mut seed) * 0.5);
+            let upper = DVector::from_fn(n, |_, _| lcg(&mut seed) * 0.5);
+            let sys = LinearSystem { a, b, lower, upper };
+            assert!(Factor::new(&sys.a).needs_qr(), "case {case} should take the QR path");
+            let out = solve_system(&sys);
+            let best = brute_force(&sys);
+            assert!(out.objective <= best * (1.0 + 1e-9) + 1e-14, "case {case}: {} vs {best}", out.objective);
+            assert!((0..n).all(|i| out.x[i] >= sys.lower[i] && out.x[i] <= sys.upper[i]));
+            assert!(out.kkt < 1e-9, "case {case}: kkt {}", out.kkt);
         }
     }
 

@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
+use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT};
 use metamer::colorimetry::Colorimetry;
 use metamer::design::Solution;
 use metamer::palette::Palette;
@@ -118,7 +118,68 @@ pub fn oracle(s: &Stacked) -> DVector<f64> {
 /// The oracle's point (clamped into the box, so always feasible), whether clarabel reports it solved, and
 /// its status. A feasible point's objective bounds the optimum from above whatever the status, so a
 /// one-sided comparison against it stays sound when clarabel stalls on an ill-conditioned problem.
+///
+/// Clarabel solves two equivalent forms and the better point is kept: the normal form
+/// `½xᵀ(2AᵀA)x − 2bᵀAx` and the residual form `min ‖r‖²` s.t. `Ax − r = b`. The normal form squares the
+/// condition number: with weights over 16 decades it stops 6.9 % above the optimum (4.345e4 against
+/// 4.064e4, confirmed by scipy's BVLS and TRF), while the residual form, which clarabel equilibrates row by
+/// row, reaches it.
 pub fn oracle_point(s: &Stacked) -> (DVector<f64>, bool, String) {
+    let (x1, ok1, st1) = oracle_normal_form(s);
+    let (x2, ok2, st2) = oracle_residual_form(s);
+    let (f1, f2) = (objective(s, &x1), objective(s, &x2));
+    let status = format!("normal form {st1}, residual form {st2}");
+    if (ok2 && f2 <= f1) || !ok1 { (x2, ok2, status) } else { (x1, ok1, status) }
+}
+
+/// Box rows for clarabel (`sign·x_i ≤ rhs`) on the variables `0..n` (of `total`), as a CSC block.
+fn box_rows(s: &Stacked, total: usize) -> (CscMatrix<f64>, Vec<f64>) {
+    let n = s.a.ncols();
+    let mut cons: Vec<(usize, f64, f64)> = Vec::new(); // (var, sign, rhs): sign·x ≤ rhs
+    for i in 0..n {
+        if s.upper[i].is_finite() {
+            cons.push((i, 1.0, s.upper[i]));
+        }
+        if s.lower[i].is_finite() {
+            cons.push((i, -1.0, -s.lower[i]));
+        }
+    }
+    let m = cons.len();
+    let mut colptr = vec![0];
+    let mut rowval = Vec::new();
+    let mut nzval = Vec::new();
+    for j in 0..total {
+        for (r, (v, sign, _)) in cons.iter().enumerate() {
+            if *v == j {
+                rowval.push(r);
+                nzval.push(*sign);
+            }
+        }
+        colptr.push(rowval.len());
+    }
+    (CscMatrix::new(m, total, colptr, rowval, nzval), cons.iter().map(|c| c.2).collect())
+}
+
+fn settings() -> clarabel::solver::DefaultSettings<f64> {
+    DefaultSettingsBuilder::default()
+        .verbose(false)
+        .tol_gap_abs(1e-12)
+        .tol_gap_rel(1e-12)
+        .tol_feas(1e-12)
+        .max_iter(500)
+        .build()
+        .unwrap()
+}
+
+fn finish(s: &Stacked, solver: &DefaultSolver<f64>) -> (DVector<f64>, bool, String) {
+    let solved = matches!(solver.solution.status, SolverStatus::Solved | SolverStatus::AlmostSolved);
+    // Clarabel's interior point stays a hair inside or outside the box: clamp to compare objectives.
+    let x = DVector::from_fn(s.a.ncols(), |i, _| solver.solution.x[i].max(s.lower[i]).min(s.upper[i]));
+    (x, solved, format!("{:?}", solver.solution.status))
+}
+
+/// Clarabel on `½xᵀ(2AᵀA)x − 2bᵀAx` with the box as linear inequalities.
+fn oracle_normal_form(s: &Stacked) -> (DVector<f64>, bool, String) {
     let n = s.a.ncols();
     let h = s.a.tr_mul(&s.a) * 2.0;
     let mut colptr = vec![0];
@@ -135,45 +196,56 @@ pub fn oracle_point(s: &Stacked) -> (DVector<f64>, bool, String) {
     }
     let p = CscMatrix::new(n, n, colptr, rowval, nzval);
     let q: Vec<f64> = (s.a.tr_mul(&s.b) * -2.0).iter().copied().collect();
-    let mut cons: Vec<(usize, f64, f64)> = Vec::new(); // (var, sign, rhs): sign·x ≤ rhs
-    for i in 0..n {
-        if s.upper[i].is_finite() {
-            cons.push((i, 1.0, s.upper[i]));
-        }
-        if s.lower[i].is_finite() {
-            cons.push((i, -1.0, -s.lower[i]));
-        }
-    }
-    let m = cons.len();
+    let (acon, bcon) = box_rows(s, n);
+    let cones = [NonnegativeConeT(bcon.len())];
+    let mut solver = DefaultSolver::new(&p, &q, &acon, &bcon, &cones, settings()).unwrap();
+    solver.solve();
+    finish(s, &solver)
+}
+
+/// Clarabel on the residual form: unknowns (x, r), `min rᵀr` subject to `A x − r = b` and the box on x.
+fn oracle_residual_form(s: &Stacked) -> (DVector<f64>, bool, String) {
+    let (m, n) = s.a.shape();
+    let total = n + m;
+    // P = 2 I on r (upper triangle, CSC).
+    let p = CscMatrix::new(
+        total,
+        total,
+        (0..=total).map(|j| j.saturating_sub(n)).collect(),
+        (n..total).collect(),
+        vec![2.0; m],
+    );
+    let q = vec![0.0; total];
+    // Equality rows [A, −I] (x, r) = b, then the box rows.
+    let (boxes, bbox) = box_rows(s, total);
     let mut colptr = vec![0];
     let mut rowval = Vec::new();
     let mut nzval = Vec::new();
-    for j in 0..n {
-        for (r, (v, sign, _)) in cons.iter().enumerate() {
-            if *v == j {
-                rowval.push(r);
-                nzval.push(*sign);
+    for j in 0..total {
+        if j < n {
+            for i in 0..m {
+                if s.a[(i, j)] != 0.0 {
+                    rowval.push(i);
+                    nzval.push(s.a[(i, j)]);
+                }
             }
+        } else {
+            rowval.push(j - n);
+            nzval.push(-1.0);
+        }
+        for k in boxes.colptr[j]..boxes.colptr[j + 1] {
+            rowval.push(m + boxes.rowval[k]);
+            nzval.push(boxes.nzval[k]);
         }
         colptr.push(rowval.len());
     }
-    let acon = CscMatrix::new(m, n, colptr, rowval, nzval);
-    let bcon: Vec<f64> = cons.iter().map(|c| c.2).collect();
-    let cones = [NonnegativeConeT(m)];
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .tol_gap_abs(1e-12)
-        .tol_gap_rel(1e-12)
-        .tol_feas(1e-12)
-        .max_iter(500)
-        .build()
-        .unwrap();
-    let mut solver = DefaultSolver::new(&p, &q, &acon, &bcon, &cones, settings).unwrap();
+    let acon = CscMatrix::new(m + bbox.len(), total, colptr, rowval, nzval);
+    let mut bcon: Vec<f64> = s.b.iter().copied().collect();
+    bcon.extend(bbox.iter());
+    let cones = [ZeroConeT(m), NonnegativeConeT(bbox.len())];
+    let mut solver = DefaultSolver::new(&p, &q, &acon, &bcon, &cones, settings()).unwrap();
     solver.solve();
-    let solved = matches!(solver.solution.status, SolverStatus::Solved | SolverStatus::AlmostSolved);
-    // Clarabel's interior point stays a hair inside or outside the box: clamp to compare objectives.
-    let x = DVector::from_fn(n, |i, _| solver.solution.x[i].max(s.lower[i]).min(s.upper[i]));
-    (x, solved, format!("{:?}", solver.solution.status))
+    finish(s, &solver)
 }
 
 /// The solution's designed spectra and free colours as one stacked vector in `s`'s layout.
