@@ -67,7 +67,7 @@ fn main() -> anyhow::Result<()> {
         i += 1;
     }
     let col = Colorimetry::default();
-    let solve_options = SolveOptions { time_limit: Duration::from_secs_f64(time_limit), cancel: None };
+    let solve_options = SolveOptions { time_limit: Duration::try_from_secs_f64(time_limit)?, cancel: None };
     println!("variant: {options:?}, seeds {first_seed}..{}, time limit {time_limit} s", first_seed + seeds);
     println!("|  n | ΔE*ab sRGB white mean | worst | ΔE*ab light white mean | worst | time median | worst | stopped |");
     println!("|---|---|---|---|---|---|---|---|");

@@ -15,6 +15,14 @@
 //!
 //! Every stage checks the deadline and the cancel flag; a step that would raise the objective (rounding)
 //! is rejected, so the recorded history is monotone.
+//!
+//! The problem is nonconvex (with nonnegative spectra it has many local minima: on the 15×15 capacity
+//! palettes, local solves from different starts end with objectives between about 0.4 and 0.8), so
+//! [`solve_block`] runs this local solve from [`JointLimits::starts`] starts at once — the given one and
+//! deterministic perturbations of it, each on its own thread — and keeps the lowest objective.
+//! Per-wavelength rank-one block steps, basin hopping and structured starts (flat, random, growing the
+//! palette one light and reflectance at a time) were tried on those palettes and did no better on average
+//! than independent starts.
 
 use super::lbfgsb::{LBfgsB, projected_gradient_norm};
 use super::lsq;
@@ -142,7 +150,7 @@ pub struct JointOutcome {
 }
 
 /// Default number of starts of a joint solve ([`JointLimits::starts`]).
-pub const DEFAULT_STARTS: usize = 4;
+pub const DEFAULT_STARTS: usize = 8;
 
 /// Limits of the joint solve.
 #[derive(Clone, Debug)]
@@ -169,7 +177,7 @@ impl JointLimits {
         JointLimits {
             deadline,
             cancel,
-            first_rounds: 1000,
+            first_rounds: 400,
             lbfgsb_iterations: 100,
             last_rounds: 200,
             rel_tol: 1e-5,
