@@ -83,31 +83,67 @@ pub fn cell(light: usize, reflectance: usize, target: Vector3<f64>, weight: f64)
     ColourCell { light, reflectance, target, notation: TargetNotation::Linear, weight, free: None, enabled: true }
 }
 
-/// Starting lights for designed palettes: built-in illuminants and Planck radiators, cycled.
-fn start_light(k: usize, colorimetry: &Colorimetry) -> Spectrum {
+/// Built-in illuminants and Planck radiators, cycled, as tabulated.
+fn library_light(k: usize) -> Spectrum {
     const NAMES: [&str; 6] = ["D65", "A", "F11", "D50", "F2", "LED_B3"];
-    let s = if k < NAMES.len() {
+    if k < NAMES.len() {
         Spectrum::illuminant(NAMES[k]).unwrap_or(Spectrum::flat(1.0))
     } else {
         Spectrum::planck(2000.0 + 700.0 * (k - NAMES.len()) as f64).unwrap_or(Spectrum::flat(1.0))
-    };
+    }
+}
+
+/// Starting lights for designed palettes: [`library_light`] at luminance 1.
+fn start_light(k: usize, colorimetry: &Colorimetry) -> Spectrum {
+    let s = library_light(k);
     let y = colorimetry.luminance().dot(&s.0);
     if y > 0.0 { s.scaled(1.0 / y) } else { s }
+}
+
+/// How the spectra of a capacity palette start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CapacityStart {
+    /// Lights from built-in illuminants and Planck radiators, reflectances from ColorChecker patches.
+    #[default]
+    Library,
+    /// Every light and every reflectance flat.
+    Flat,
+    /// Smooth random spectra ([`smooth_spectrum`]), drawn after the targets.
+    Random,
+}
+
+/// How the starting lights of a capacity palette are scaled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CapacityLightScale {
+    /// Luminance 1 (a light on a flat reflectance of 1 has Y = 1, the white of linear sRGB).
+    #[default]
+    Luminance,
+    /// Unit L2 norm of the 31 samples.
+    L2,
+    /// As tabulated (illuminants peak near 100); flat and random starts use peak 1.
+    Raw,
+}
+
+/// Variations of the capacity protocol a checker might use; [`Default`] is [`capacity_palette`].
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct CapacityOptions {
+    pub start: CapacityStart,
+    pub light_scale: CapacityLightScale,
+    /// Reflectances bounded to `[0, 1]` instead of `[0, ∞)`.
+    pub reflectances_below_one: bool,
 }
 
 /// The TOG 2009 Fig. 3 capacity protocol: n designed lights (starting from illuminants / Planck
 /// radiators), n designed reflectances (starting from ColorChecker patches), every cell a uniform random
 /// linear-RGB target, all samples ≥ 0, smoothness 0.001.
 pub fn capacity_palette(n: usize, seed: u64, colorimetry: &Colorimetry) -> Palette {
+    capacity_palette_with(n, seed, colorimetry, &CapacityOptions::default())
+}
+
+/// [`capacity_palette`] with another start, light scale or reflectance bound. The targets depend on
+/// `n` and `seed` only, so variants of one seed share their targets.
+pub fn capacity_palette_with(n: usize, seed: u64, colorimetry: &Colorimetry, options: &CapacityOptions) -> Palette {
     let mut rng = Rng::new(seed);
-    let patches: Vec<&str> = Spectrum::colorchecker_names().collect();
-    let lights = (0..n).map(|k| entry(&format!("light{k}"), Kind::Light, start_light(k, colorimetry), true)).collect();
-    let reflectances = (0..n)
-        .map(|k| {
-            let s = Spectrum::colorchecker(patches[k % patches.len()]).unwrap_or(Spectrum::flat(0.5));
-            entry(&format!("refl{k}"), Kind::Reflectance, s, true)
-        })
-        .collect();
     let mut colours = Vec::new();
     for l in 0..n {
         for r in 0..n {
@@ -115,11 +151,55 @@ pub fn capacity_palette(n: usize, seed: u64, colorimetry: &Colorimetry) -> Palet
             colours.push(cell(l, r, t, 1.0));
         }
     }
+    let patches: Vec<&str> = Spectrum::colorchecker_names().collect();
+    let light_start = |k: usize, rng: &mut Rng| match options.start {
+        CapacityStart::Library => library_light(k),
+        CapacityStart::Flat => Spectrum::flat(1.0),
+        CapacityStart::Random => smooth_spectrum(rng),
+    };
+    let mut raw_lights: Vec<Spectrum> = (0..n).map(|k| light_start(k, &mut rng)).collect();
+    for s in raw_lights.iter_mut() {
+        // A random start can come out all zero after clipping; lift it so its scale is defined.
+        if s.0.max() <= 0.0 {
+            *s = Spectrum::flat(1.0);
+        }
+    }
+    let lights = raw_lights
+        .into_iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let s = match options.light_scale {
+                CapacityLightScale::Luminance => {
+                    let y = colorimetry.luminance().dot(&s.0);
+                    if y > 0.0 { s.scaled(1.0 / y) } else { s }
+                }
+                CapacityLightScale::L2 => {
+                    let l = s.l2_norm();
+                    if l > 0.0 { s.scaled(1.0 / l) } else { s }
+                }
+                CapacityLightScale::Raw => s,
+            };
+            entry(&format!("light{k}"), Kind::Light, s, true)
+        })
+        .collect();
+    let reflectances = (0..n)
+        .map(|k| {
+            let s = match options.start {
+                CapacityStart::Library => {
+                    Spectrum::colorchecker(patches[k % patches.len()]).unwrap_or(Spectrum::flat(0.5))
+                }
+                CapacityStart::Flat => Spectrum::flat(0.5),
+                CapacityStart::Random => smooth_spectrum(&mut rng),
+            };
+            entry(&format!("refl{k}"), Kind::Reflectance, s, true)
+        })
+        .collect();
+    let upper = if options.reflectances_below_one { 1.0 } else { f64::INFINITY };
     Palette {
         name: format!("capacity {n}x{n} seed {seed}"),
         settings: Settings {
             smoothness: 0.001,
-            reflectance_bounds: Bounds::new(0.0, f64::INFINITY),
+            reflectance_bounds: Bounds::new(0.0, upper),
             light_bounds: Bounds::new(0.0, f64::INFINITY),
             ..Settings::default()
         },
@@ -236,5 +316,36 @@ pub fn convex_palette(seed: u64, colorimetry: &Colorimetry) -> Palette {
         reflectances,
         colours,
         free,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn capacity_variants_share_targets_and_differ_in_starts() {
+        let col = Colorimetry::default();
+        let base = capacity_palette(6, 3, &col);
+        assert_eq!(base, capacity_palette_with(6, 3, &col, &CapacityOptions::default()));
+        for options in [
+            CapacityOptions { start: CapacityStart::Flat, ..Default::default() },
+            CapacityOptions { start: CapacityStart::Random, light_scale: CapacityLightScale::L2, ..Default::default() },
+            CapacityOptions {
+                light_scale: CapacityLightScale::Raw,
+                reflectances_below_one: true,
+                ..Default::default()
+            },
+        ] {
+            let p = capacity_palette_with(6, 3, &col, &options);
+            assert_eq!(p.colours, base.colours, "{options:?}");
+            assert_ne!(p.lights, base.lights, "{options:?}");
+            assert_eq!(p.settings.reflectance_bounds.upper == 1.0, options.reflectances_below_one);
+            assert!(p.lights.iter().chain(&p.reflectances).all(|e| e.design && e.spectrum.0.min() >= 0.0));
+        }
+        // Luminance-normalised lights have Y = 1.
+        for l in &base.lights {
+            assert!((col.luminance().dot(&l.spectrum.0) - 1.0).abs() < 1e-12);
+        }
     }
 }
