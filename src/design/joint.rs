@@ -18,7 +18,8 @@
 //!
 //! The problem is nonconvex (with nonnegative spectra it has many local minima: on the 15×15 capacity
 //! palettes, local solves from different starts end with objectives between about 0.4 and 0.8), so
-//! [`solve_block`] runs stage 1 from [`JointLimits::starts`] starts at once — the given one and
+//! [`solve_block`] runs stage 1 of blocks with enough bilinear cells ([`JointLimits::multi_start_min_cells`]) from
+//! [`JointLimits::starts`] starts at once — the given one and
 //! deterministic perturbations of it, each on its own thread — and finishes the one with the lowest
 //! objective.
 //! Per-wavelength rank-one block steps, basin hopping and structured starts (flat, random, growing the
@@ -154,6 +155,10 @@ pub struct JointOutcome {
 /// Default number of starts of a joint solve ([`JointLimits::starts`]).
 pub const DEFAULT_STARTS: usize = 8;
 
+/// Default of [`JointLimits::multi_start_min_cells`]: up to about 8×8 a single start already fits the
+/// capacity palettes to ΔE*ab ≈ 0, and the terminal designer re-solves such palettes on every edit.
+pub const MULTI_START_MIN_CELLS: usize = 64;
+
 /// Limits of the joint solve.
 #[derive(Clone, Debug)]
 pub struct JointLimits {
@@ -172,6 +177,8 @@ pub struct JointLimits {
     /// Starts of the first alternating stage (the given one and `starts − 1` deterministic perturbations
     /// of it), run in parallel; the lowest objective after it goes on. 1 = the given start only.
     pub starts: usize,
+    /// Blocks with fewer bilinear cells than this run the given start only.
+    pub multi_start_min_cells: usize,
 }
 
 impl JointLimits {
@@ -185,6 +192,7 @@ impl JointLimits {
             rel_tol: 1e-5,
             abs_tol: 1e-14,
             starts: DEFAULT_STARTS,
+            multi_start_min_cells: MULTI_START_MIN_CELLS,
         }
     }
 
@@ -372,7 +380,8 @@ pub fn solve_block(design: &Design, block: &Block, v: &mut Values, limits: &Join
         alternate(design, block, w, limits.first_rounds, limits, &mut out, parallel);
         out
     };
-    if limits.starts <= 1 {
+    let bilinear_cells = block.terms.iter().filter(|&&t| design.is_bilinear(&design.terms[t])).count();
+    if limits.starts <= 1 || bilinear_cells < limits.multi_start_min_cells {
         let mut out = first_stage(v, true);
         finish(design, block, v, limits, &mut out);
         return out;
@@ -482,7 +491,11 @@ mod tests {
     use std::time::Duration;
 
     fn limits(starts: usize) -> JointLimits {
-        JointLimits { starts, ..JointLimits::new(Instant::now() + Duration::from_secs(60), None) }
+        JointLimits {
+            starts,
+            multi_start_min_cells: 0,
+            ..JointLimits::new(Instant::now() + Duration::from_secs(60), None)
+        }
     }
 
     /// Solve the single bilinear block of a capacity palette; returns (final objective, history, values).
@@ -555,7 +568,11 @@ mod tests {
         let block = &design.blocks()[0];
         let mut v = design.start_values();
         let flag = Arc::new(AtomicBool::new(true));
-        let lim = JointLimits { starts: 4, ..JointLimits::new(Instant::now() + Duration::from_secs(60), Some(flag)) };
+        let lim = JointLimits {
+            starts: 4,
+            multi_start_min_cells: 0,
+            ..JointLimits::new(Instant::now() + Duration::from_secs(60), Some(flag))
+        };
         let t = Instant::now();
         let out = solve_block(&design, block, &mut v, &lim);
         assert!(t.elapsed() < Duration::from_secs(2), "took {:?}", t.elapsed());
