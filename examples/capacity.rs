@@ -5,7 +5,7 @@
 //!
 //! For every n it solves `seeds` random n×n palettes one after the other and prints the mean and worst over
 //! seeds of the per-palette mean CIELAB ΔE*ab, measured two ways: against the fixed white of linear sRGB
-//! (D65, Y = 1: linear sRGB → XYZ → CIELAB, what an outside checker would do) and against the white of
+//! (D65, Y = 1: linear sRGB → XYZ → CIELAB, independent of the solved lights' scale) and against the white of
 //! each cell's solved light (the reference white of DESIGN_SPEC §1), plus the median and worst solve time.
 
 use metamer::bench::solve::capacity_errors;

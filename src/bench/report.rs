@@ -222,10 +222,14 @@ fn solve_section(options: &ReportOptions, report: &mut BenchReport) -> Result<St
         }
     }
     for n in [10, 15] {
-        if let Some(r) = results.rows.iter().find(|r| r.group.starts_with("joint") && r.case == format!("{n}×{n}")) {
+        for r in results.rows.iter().filter(|r| r.group.starts_with("joint") && r.case == format!("{n}×{n}")) {
             let aim = if n == 10 { "< 0.5" } else { "< 8.5" };
+            let white = [solve::CAPACITY_LIGHT_WHITE, solve::CAPACITY_DISPLAY_WHITE]
+                .into_iter()
+                .find(|w| r.group.contains(w))
+                .unwrap_or("?");
             report.headlines.push(Headline {
-                what: format!("joint {n}×{n} capacity palette"),
+                what: format!("joint {n}×{n} capacity palette, ΔE*ab vs {white}"),
                 figure: format!(
                     "mean ΔE*ab {:.3} (worst palette {:.3}, {} seeds) in {} (median, IQR)",
                     r.mean_delta_e_ab,
