@@ -5,16 +5,17 @@
 //! `e = B⁺E`, `s = B⁺S` ([`Basis::rgb_factor`], seed Eq. 15) — not the Λ-form used by
 //! `fit_in_subspace`, which is what the design minimises but not what is displayed.
 
-use super::joint::NormalCache as FactorCache;
 use super::lsq;
-use super::system::{Design, LinearSystem, Values};
+use super::system::{Design, Form, LinearSystem, Values};
 use super::{CellResult, Diagnostic};
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
-use crate::palette::Palette;
+use crate::colorimetry::Q31;
+use crate::palette::{Bounds, Palette};
 use crate::spectrum::{SAMPLES, Spectrum};
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
+use std::collections::HashMap;
 
 /// A cell counts as met when its full colour is within this CIEDE2000 of its target.
 pub const MET_DELTA_E: f64 = 1.0;
@@ -59,38 +60,132 @@ fn is_zero(s: &Spectrum) -> bool {
     s.0.amax() <= 1e-12
 }
 
-/// The closest colour a designed spectrum within its bounds can produce with `partner` fixed, ignoring
-/// every other criterion: a bounded least-squares solve of the 3 colour rows alone, warm-started from the
-/// designed spectrum's solution.
-fn closest_reachable(
-    cache: &FactorCache,
-    design: &Design,
-    form: super::system::Form,
-    partner: &Spectrum,
-    start: &Spectrum,
-    bounds: (Vec<f64>, Vec<f64>),
-    target: &Vector3<f64>,
-) -> Vector3<f64> {
-    let op = design.operator(form, partner);
-    // The colour rows plus a tiny ridge (1e-4·I) so the normal equations stay definite and the active-set
-    // solve takes its fast path; the ridge moves the reachable colour by far less than a ΔE00 of 0.01.
-    const RIDGE: f64 = 1e-4;
-    let a = DMatrix::from_fn(3 + SAMPLES, SAMPLES, |r, c| {
-        if r < 3 {
-            op[(r, c)]
-        } else if r - 3 == c {
-            RIDGE
-        } else {
-            0.0
-        }
-    });
-    let mut b = DVector::zeros(3 + SAMPLES);
-    b.rows_mut(0, 3).copy_from(target);
-    let sys = LinearSystem { a, b, lower: DVector::from_vec(bounds.0), upper: DVector::from_vec(bounds.1) };
-    let h = cache.get(&sys.a);
-    let out = lsq::solve_from(&sys, &h, &DVector::from_column_slice(start.as_slice()));
-    op * nalgebra::SVector::<f64, SAMPLES>::from_column_slice(out.x.as_slice())
+/// What the closest-reachable check needs for the cells of one designed side under one fixed partner
+/// (built once and shared by every such cell).
+struct Reach {
+    /// The 3×31 map from the designed spectrum to the cell's colour.
+    op: Q31,
+    /// `(op opᵀ)⁻¹` when op has full row rank.
+    gram_inv: Option<Matrix3<f64>>,
+    /// `AᵀA` of the ridge system `[op; RIDGE·I]`.
+    h: DMatrix<f64>,
 }
+
+/// The colour rows plus a tiny ridge (1e-4·I) so the normal equations stay definite and the active-set
+/// solve takes its fast path; the ridge moves the reachable colour by far less than a ΔE00 of 0.01.
+const RIDGE: f64 = 1e-4;
+
+impl Reach {
+    fn new(design: &Design, form: Form, partner: &Spectrum) -> Reach {
+        let op = design.operator(form, partner);
+        let gram_inv = (op * op.transpose()).try_inverse().filter(|g| g.iter().all(|v| v.is_finite()));
+        let mut h = DMatrix::from_fn(SAMPLES, SAMPLES, |r, c| op.column(r).dot(&op.column(c)));
+        for i in 0..SAMPLES {
+            h[(i, i)] += RIDGE * RIDGE;
+        }
+        Reach { op, gram_inv, h }
+    }
+
+    /// The closest colour the designed spectrum can produce within `bounds` with the partner fixed, ignoring
+    /// every other criterion. First a walk from the solution `start` towards the target that stays in the
+    /// bounds (below); when it does not arrive, a bounded least-squares solve of the colour rows alone (with
+    /// the ridge), warm-started from `start`.
+    fn closest(&self, start: &Spectrum, bounds: Bounds, target: &Vector3<f64>) -> Vector3<f64> {
+        let op = &self.op;
+        if let Some(x) = self.exact_hit(start, bounds, target) {
+            return op * x.0;
+        }
+        // The solution may sit at many bounds; the middle of the box has room in every direction.
+        let middle = Spectrum::flat(0.5 * (bounds.lower + bounds.upper));
+        if middle.is_finite()
+            && let Some(x) = self.exact_hit(&middle, bounds, target)
+        {
+            return op * x.0;
+        }
+        let a = DMatrix::from_fn(3 + SAMPLES, SAMPLES, |r, c| {
+            if r < 3 {
+                op[(r, c)]
+            } else if r - 3 == c {
+                RIDGE
+            } else {
+                0.0
+            }
+        });
+        let mut b = DVector::zeros(3 + SAMPLES);
+        b.rows_mut(0, 3).copy_from(target);
+        let sys = LinearSystem {
+            a,
+            b,
+            lower: DVector::from_element(SAMPLES, bounds.lower),
+            upper: DVector::from_element(SAMPLES, bounds.upper),
+        };
+        let out = lsq::solve_from(&sys, &self.h, &DVector::from_column_slice(start.as_slice()));
+        op * nalgebra::SVector::<f64, SAMPLES>::from_column_slice(out.x.as_slice())
+    }
+}
+
+impl Reach {
+    /// A spectrum within `bounds` whose colour is exactly `target` (up to rounding), found by walking from
+    /// `start` along the smallest change that removes the colour error, `d = op_Fᵀ (op_F op_Fᵀ)⁻¹ r` over
+    /// the samples F still free to move, as far as the bounds allow; a sample that reaches a bound stays
+    /// there. Each step either arrives or binds a sample, so there are at most 31 + 1 steps. `None` when the
+    /// walk gets stuck (the target may still be reachable: the caller then solves the bounded problem).
+    fn exact_hit(&self, start: &Spectrum, bounds: Bounds, target: &Vector3<f64>) -> Option<Spectrum> {
+        self.gram_inv?;
+        let op = &self.op;
+        let (lo, hi) = (bounds.lower, bounds.upper);
+        let mut x = start.0.map(|v| v.clamp(lo, hi));
+        let mut free = [true; SAMPLES];
+        for _ in 0..=SAMPLES {
+            let r = target - op * x;
+            let mut gram = Matrix3::zeros();
+            for (i, _) in free.iter().enumerate().filter(|(_, f)| **f) {
+                gram += op.column(i) * op.column(i).transpose();
+            }
+            let y = gram.try_inverse()? * r;
+            let d = op.transpose() * y;
+            // The longest step (at most the whole one) that keeps every free sample in the bounds.
+            let mut room = [f64::INFINITY; SAMPLES];
+            for i in (0..SAMPLES).filter(|&i| free[i]) {
+                if d[i] < 0.0 {
+                    room[i] = ((lo - x[i]) / d[i]).max(0.0);
+                } else if d[i] > 0.0 {
+                    room[i] = ((hi - x[i]) / d[i]).max(0.0);
+                }
+            }
+            let alpha = room.iter().fold(1.0f64, |a, r| a.min(*r));
+            if !(alpha.is_finite() && d.iter().all(|v| v.is_finite())) {
+                return None;
+            }
+            for i in 0..SAMPLES {
+                if !free[i] {
+                    continue;
+                }
+                if room[i] <= alpha {
+                    // This sample reaches its bound: it stays there.
+                    x[i] = if d[i] < 0.0 { lo } else { hi };
+                    free[i] = false;
+                } else {
+                    x[i] = (x[i] + alpha * d[i]).clamp(lo, hi);
+                }
+            }
+            if alpha >= 1.0 {
+                // Arrived, unless a nearly singular `op_F op_Fᵀ` spoiled the step: check the colour.
+                let miss = (target - op * x).amax();
+                return (miss <= EXACT_HIT_TOLERANCE * (1.0 + target.amax())).then_some(Spectrum(x));
+            }
+        }
+        None
+    }
+}
+
+/// A walk counts as arrived when its colour is within this (relative to the target's size) of the target:
+/// far below a ΔE00 of 0.01.
+const EXACT_HIT_TOLERANCE: f64 = 1e-9;
+
+/// Which fixed partner a half-designed cell's colour is linear in: (the reflectance is designed, the
+/// partner's index, the form).
+type ReachKey = (bool, usize, Form);
 
 /// Diagnostics about the palette and the solution.
 pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells: &[CellResult]) -> Vec<Diagnostic> {
@@ -165,16 +260,47 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
             c.is_active() && r.delta_e_full > MET_DELTA_E && !is_zero(&v.lights[c.light])
         })
         .collect();
-    let cache = FactorCache::default();
+    // The form of each cell's colour rows, and the reachability data of each fixed partner, built once.
+    let mut form_of = vec![Form::Full; p.colours.len()];
+    for t in &design.terms {
+        form_of[t.cell] = t.form;
+    }
+    let mut keys: HashMap<ReachKey, usize> = HashMap::new();
+    let mut wanted: Vec<ReachKey> = Vec::new();
+    for r in &unmet {
+        if let Some(k) = reach_key(p, &form_of, r.cell) {
+            keys.entry(k).or_insert_with(|| {
+                wanted.push(k);
+                wanted.len() - 1
+            });
+        }
+    }
+    let reach: Vec<Reach> = wanted
+        .par_iter()
+        .map(|&(refl, partner, form)| {
+            Reach::new(design, form, if refl { &v.lights[partner] } else { &v.reflectances[partner] })
+        })
+        .collect();
+    let reach_of = |cell: usize| reach_key(p, &form_of, cell).and_then(|k| keys.get(&k)).map(|&i| &reach[i]);
     let reasons: Vec<Diagnostic> =
-        unmet.par_iter().map(|r| unmet_reason(&cache, design, colorimetry, v, r, &by_reflectance)).collect();
+        unmet.par_iter().map(|r| unmet_reason(reach_of(r.cell), design, colorimetry, v, r, &by_reflectance)).collect();
     out.extend(reasons);
     out
 }
 
+/// The reachability key of a cell with exactly one designed side.
+fn reach_key(p: &Palette, form_of: &[Form], cell: usize) -> Option<ReachKey> {
+    let c = &p.colours[cell];
+    match (p.lights[c.light].design, p.reflectances[c.reflectance].design) {
+        (false, true) => Some((true, c.light, form_of[cell])),
+        (true, false) => Some((false, c.reflectance, form_of[cell])),
+        _ => None,
+    }
+}
+
 /// Why one cell is not met.
 fn unmet_reason(
-    cache: &FactorCache,
+    reach: Option<&Reach>,
     design: &Design,
     colorimetry: &Colorimetry,
     v: &Values,
@@ -207,23 +333,16 @@ fn unmet_reason(
             format!("light \"{}\" is zero, so every reflectance is black under it", light.name)
         } else if !refl.design && is_zero(s) {
             format!("reflectance \"{}\" is zero, so it is black under every light", refl.name)
-        } else if light.design != refl.design {
-            let (partner, unit, what, under) = if refl.design {
-                (
-                    e,
-                    super::system::Unit::Reflectance(c.reflectance),
-                    "reflectance",
-                    format!("under light \"{}\"", light.name),
-                )
+        } else if let (true, Some(reach)) = (light.design != refl.design, reach) {
+            let (what, under) = if refl.design {
+                ("reflectance", format!("under light \"{}\"", light.name))
             } else {
-                (s, super::system::Unit::Light(c.light), "light", format!("on reflectance \"{}\"", refl.name))
+                ("light", format!("on reflectance \"{}\"", refl.name))
             };
-            let bounds = design.bounds_of(unit);
-            let (lo, hi) = (bounds.0[0], bounds.1[0]);
-            let form =
-                design.terms.iter().find(|t| t.cell == r.cell).map(|t| t.form).unwrap_or(super::system::Form::Full);
+            let bounds = p.bounds_of(if refl.design { refl } else { light });
+            let (lo, hi) = (bounds.lower, bounds.upper);
             let start = if refl.design { s } else { e };
-            let best = closest_reachable(cache, design, form, partner, start, bounds, &r.target);
+            let best = reach.closest(start, bounds, &r.target);
             let de = colorimetry.delta_e00_under(&r.target, &best, e);
             if de > MET_DELTA_E {
                 format!(

@@ -1,5 +1,6 @@
-//! Reading: a parsed TOML table (serde + toml) walked into the resolved [`Palette`] model with every
-//! validation of DESIGN_SPEC §3. Every error names the key path (`colours[3].light`) and the reason.
+//! Reading: a parsed TOML table (`toml`'s borrowed [`DeTable`], spans kept) walked into the resolved [`Palette`]
+//! model with every validation of DESIGN_SPEC §3. Every error names the key path (`colours[3].light`) and the
+//! reason.
 
 use super::PaletteError;
 use crate::colorimetry::hex_to_linear;
@@ -9,7 +10,11 @@ use crate::spectrum::{Grid, Normalize, SAMPLES, Samples, Spectrum};
 use nalgebra::Vector3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use toml::{Table, Value};
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+type Table<'i> = DeTable<'i>;
+type Value<'i> = DeValue<'i>;
 
 const TOP_KEYS: &[&str] = &["name", "wavelengths", "settings", "lights", "reflectances", "colours", "free"];
 const SETTINGS_KEYS: &[&str] =
@@ -51,6 +56,49 @@ pub(super) struct Reader<'a> {
 
 type Res<T> = Result<T, PaletteError>;
 
+/// Lookups by key in a parsed table.
+trait TableExt<'i> {
+    fn value(&self, key: &str) -> Option<&Value<'i>>;
+}
+
+impl<'i> TableExt<'i> for Table<'i> {
+    fn value(&self, key: &str) -> Option<&Value<'i>> {
+        self.get(key).map(Spanned::get_ref)
+    }
+}
+
+/// An integer's value (`None` for other types and for integers beyond i64, which
+/// [`check_numbers`] refuses before reading).
+pub(super) fn integer_of(v: &Value) -> Option<i64> {
+    v.as_integer().and_then(|i| i64::from_str_radix(i.as_str(), i.radix()).ok())
+}
+
+/// A number's value, integers converted (`None` for other types).
+fn number_of(v: &Value) -> Option<f64> {
+    match v {
+        Value::Float(f) => f.as_str().parse::<f64>().ok(),
+        Value::Integer(_) => integer_of(v).map(|i| i as f64),
+        _ => None,
+    }
+}
+
+/// The first number in `v` that TOML cannot represent (an integer beyond i64, a float that overflows to
+/// infinity without being written `inf`), with its span and the reason: the parser keeps their text and
+/// leaves that check to the reader.
+pub(super) fn check_numbers(v: &Spanned<Value>) -> Option<(std::ops::Range<usize>, &'static str)> {
+    match v.get_ref() {
+        Value::Integer(_) if integer_of(v.get_ref()).is_none() => Some((v.span(), "integer out of range")),
+        Value::Float(f) => match f.as_str().parse::<f64>() {
+            Ok(x) if x.is_finite() || f.as_str().contains("inf") || x.is_nan() => None,
+            Ok(_) => Some((v.span(), "float out of range")),
+            Err(_) => Some((v.span(), "invalid float")),
+        },
+        Value::Array(a) => a.iter().find_map(check_numbers),
+        Value::Table(t) => t.values().find_map(check_numbers),
+        _ => None,
+    }
+}
+
 fn type_name(v: &Value) -> &'static str {
     match v {
         Value::String(_) => "a string",
@@ -79,8 +127,9 @@ impl<'a> Reader<'a> {
 
     fn warn_unknown(&mut self, table: &Table, known: &[&str], prefix: &str) {
         for k in table.keys() {
-            if !known.contains(&k.as_str()) {
-                let at = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+            let k: &str = k.get_ref();
+            if !known.contains(&k) {
+                let at = if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
                 self.warnings.push(format!("{}: {at}: unknown key, kept as it is", self.path.display()));
             }
         }
@@ -96,10 +145,9 @@ impl<'a> Reader<'a> {
 
     /// A number (integer or float), never NaN; infinities only when `allow_inf`.
     fn number(&self, v: &Value, key: &str, allow_inf: bool) -> Res<f64> {
-        let x = match v {
-            Value::Float(f) => *f,
-            Value::Integer(i) => *i as f64,
-            _ => return Err(self.wrong_type(key, "a number", v)),
+        let x = match number_of(v) {
+            Some(x) => x,
+            None => return Err(self.wrong_type(key, "a number", v)),
         };
         if x.is_nan() {
             Err(self.invalid(key, "NaN is not allowed"))
@@ -117,7 +165,14 @@ impl<'a> Reader<'a> {
         {
             return Err(self.invalid(key, format!("expected {n} numbers, found {}", arr.len())));
         }
-        arr.iter().enumerate().map(|(i, x)| self.number(x, &format!("{key}[{i}]"), allow_inf)).collect()
+        arr.iter()
+            .enumerate()
+            .map(|(i, x)| match number_of(x.get_ref()) {
+                // The common case without building the element's key.
+                Some(v) if v.is_finite() || (allow_inf && v.is_infinite()) => Ok(v),
+                _ => self.number(x.get_ref(), &format!("{key}[{i}]"), allow_inf),
+            })
+            .collect()
     }
 
     fn bounds(&self, v: &Value, key: &str) -> Res<Bounds> {
@@ -128,16 +183,18 @@ impl<'a> Reader<'a> {
         Ok(Bounds::new(b[0], b[1]))
     }
 
-    fn sub_table<'v>(&self, v: &'v Value, key: &str) -> Res<&'v Table> {
+    fn sub_table<'v, 'i>(&self, v: &'v Value<'i>, key: &str) -> Res<&'v Table<'i>> {
         v.as_table().ok_or_else(|| self.wrong_type(key, "a table", v))
     }
 
-    fn array_of_tables<'v>(&self, root: &'v Table, key: &str) -> Res<Vec<&'v Table>> {
-        match root.get(key) {
+    fn array_of_tables<'v, 'i>(&self, root: &'v Table<'i>, key: &str) -> Res<Vec<&'v Table<'i>>> {
+        match root.value(key) {
             None => Ok(Vec::new()),
-            Some(Value::Array(items)) => {
-                items.iter().enumerate().map(|(i, item)| self.sub_table(item, &format!("{key}[{i}]"))).collect()
-            }
+            Some(Value::Array(items)) => items
+                .iter()
+                .enumerate()
+                .map(|(i, item)| self.sub_table(item.get_ref(), &format!("{key}[{i}]")))
+                .collect(),
             Some(v) => Err(self.wrong_type(key, &format!("an array of tables ([[{key}]])"), v)),
         }
     }
@@ -148,14 +205,14 @@ impl<'a> Reader<'a> {
             return Err(PaletteError::Empty { path: self.path.to_path_buf() });
         }
         self.warn_unknown(root, TOP_KEYS, "");
-        let name = match root.get("name") {
+        let name = match root.value("name") {
             Some(v) => self.string(v, "name")?.to_string(),
             None => self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
         };
-        if let Some(v) = root.get("wavelengths") {
+        if let Some(v) = root.value("wavelengths") {
             self.wavelengths(v)?;
         }
-        let settings = match root.get("settings") {
+        let settings = match root.value("settings") {
             Some(v) => self.settings(self.sub_table(v, "settings")?)?,
             None => Settings::default(),
         };
@@ -174,11 +231,11 @@ impl<'a> Reader<'a> {
         let t = self.sub_table(v, "wavelengths")?;
         self.warn_unknown(t, &["start", "step", "count"], "wavelengths");
         let std = Grid::STANDARD;
-        let get = |k: &str| t.get(k).ok_or_else(|| self.invalid(format!("wavelengths.{k}"), "missing"));
+        let get = |k: &str| t.value(k).ok_or_else(|| self.invalid(format!("wavelengths.{k}"), "missing"));
         let start = self.number(get("start")?, "wavelengths.start", false)?;
         let step = self.number(get("step")?, "wavelengths.step", false)?;
         let count_v = get("count")?;
-        let count = count_v.as_integer().ok_or_else(|| self.wrong_type("wavelengths.count", "an integer", count_v))?;
+        let count = integer_of(count_v).ok_or_else(|| self.wrong_type("wavelengths.count", "an integer", count_v))?;
         if start != std.start_nm || step != std.step_nm || count != std.count as i64 {
             return Err(self.invalid(
                 "wavelengths",
@@ -194,16 +251,16 @@ impl<'a> Reader<'a> {
     fn settings(&mut self, t: &Table) -> Res<Settings> {
         self.warn_unknown(t, SETTINGS_KEYS, "settings");
         let mut s = Settings::default();
-        if let Some(v) = t.get("basis_dimension") {
+        if let Some(v) = t.value("basis_dimension") {
             let key = "settings.basis_dimension";
-            let m = v.as_integer().ok_or_else(|| self.wrong_type(key, "an integer", v))?;
+            let m = integer_of(v).ok_or_else(|| self.wrong_type(key, "an integer", v))?;
             if !(1..=SAMPLES as i64).contains(&m) {
                 return Err(self.invalid(key, format!("must be between 1 and {SAMPLES}, got {m}")));
             }
             s.basis_dimension = m as usize;
         }
         for (k, slot) in [("smoothness", &mut s.smoothness), ("subspace_error", &mut s.subspace_error)] {
-            if let Some(v) = t.get(k) {
+            if let Some(v) = t.value(k) {
                 let key = format!("settings.{k}");
                 let x = self.number(v, &key, false)?;
                 if x < 0.0 {
@@ -212,13 +269,13 @@ impl<'a> Reader<'a> {
                 *slot = x;
             }
         }
-        if let Some(v) = t.get("fit_in_subspace") {
+        if let Some(v) = t.value("fit_in_subspace") {
             s.fit_in_subspace = self.boolean(v, "settings.fit_in_subspace")?;
         }
-        if let Some(v) = t.get("reflectance_bounds") {
+        if let Some(v) = t.value("reflectance_bounds") {
             s.reflectance_bounds = self.bounds(v, "settings.reflectance_bounds")?;
         }
-        if let Some(v) = t.get("light_bounds") {
+        if let Some(v) = t.value("light_bounds") {
             s.light_bounds = self.bounds(v, "settings.light_bounds")?;
         }
         Ok(s)
@@ -244,7 +301,7 @@ impl<'a> Reader<'a> {
 
     fn spectrum(&mut self, t: &Table, at: &str, kind: Kind) -> Res<SpectrumEntry> {
         self.warn_unknown(t, SPECTRUM_KEYS, at);
-        let name = match t.get("name") {
+        let name = match t.value("name") {
             Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
             None => return Err(self.invalid(format!("{at}.name"), "missing: every spectrum needs a name")),
         };
@@ -268,7 +325,7 @@ impl<'a> Reader<'a> {
             }
         };
         let key = format!("{at}.{source_key}");
-        let v = &t[source_key];
+        let v = t.value(source_key).ok_or_else(|| self.invalid(&key, "missing"))?;
         let source = match source_key {
             "illuminant" => Source::Illuminant(self.string(v, &key)?.to_string()),
             "colorchecker" => Source::ColorChecker(self.string(v, &key)?.to_string()),
@@ -277,7 +334,7 @@ impl<'a> Reader<'a> {
             "samples" => Source::Samples(self.numbers(v, &key, None, false)?),
             _ => Source::Csv(self.string(v, &key)?.to_string()),
         };
-        let normalize = match (t.get("normalize"), kind) {
+        let normalize = match (t.value("normalize"), kind) {
             (None, _) => Normalize::default(),
             (Some(v), Kind::Light) => {
                 let s = self.string(v, &format!("{at}.normalize"))?;
@@ -292,16 +349,16 @@ impl<'a> Reader<'a> {
                 return Err(self.invalid(format!("{at}.normalize"), "reflectances are never normalised: remove it"));
             }
         };
-        let scale = match t.get("scale") {
+        let scale = match t.value("scale") {
             Some(v) => self.number(v, &format!("{at}.scale"), false)?,
             None => 1.0,
         };
-        let design = match t.get("design") {
+        let design = match t.value("design") {
             Some(v) => self.boolean(v, &format!("{at}.design"))?,
             None => false,
         };
-        let bounds = t.get("bounds").map(|v| self.bounds(v, &format!("{at}.bounds"))).transpose()?;
-        let dial = match t.get("dial") {
+        let bounds = t.value("bounds").map(|v| self.bounds(v, &format!("{at}.bounds"))).transpose()?;
+        let dial = match t.value("dial") {
             Some(v) => {
                 let d = self.numbers(v, &format!("{at}.dial"), Some(2), false)?;
                 Some([d[0], d[1]])
@@ -328,7 +385,7 @@ impl<'a> Reader<'a> {
         for (i, t) in tables.into_iter().enumerate() {
             let at = format!("free[{i}]");
             self.warn_unknown(t, FREE_KEYS, &at);
-            let name = match t.get("name") {
+            let name = match t.value("name") {
                 Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
                 None => return Err(self.invalid(format!("{at}.name"), "missing: every free group needs a name")),
             };
@@ -342,7 +399,7 @@ impl<'a> Reader<'a> {
                 ));
             }
             let side = |k: &str, default: f64| -> Res<Vector3<f64>> {
-                match t.get(k) {
+                match t.value(k) {
                     Some(v) => {
                         let x = self.numbers(v, &format!("{at}.{k}"), Some(3), true)?;
                         Ok(Vector3::new(x[0], x[1], x[2]))
@@ -378,7 +435,7 @@ impl<'a> Reader<'a> {
             self.warn_unknown(t, COLOUR_KEYS, &at);
             let lookup = |k: &str, entries: &[SpectrumEntry], what: &str| -> Res<usize> {
                 let key = format!("{at}.{k}");
-                let v = t.get(k).ok_or_else(|| self.invalid(&key, format!("missing: a colour names its {what}")))?;
+                let v = t.value(k).ok_or_else(|| self.invalid(&key, format!("missing: a colour names its {what}")))?;
                 let name = self.string(v, &key)?;
                 entries.iter().position(|e| e.name == name).ok_or_else(|| {
                     let known = names(entries);
@@ -396,7 +453,7 @@ impl<'a> Reader<'a> {
                     ),
                 ));
             }
-            let free_group = match t.get("free") {
+            let free_group = match t.value("free") {
                 Some(v) => {
                     let key = format!("{at}.free");
                     let name = self.string(v, &key)?;
@@ -411,7 +468,7 @@ impl<'a> Reader<'a> {
                 }
                 None => None,
             };
-            let (target, notation) = match t.get("target") {
+            let (target, notation) = match t.value("target") {
                 Some(v) => self.target(v, &format!("{at}.target"))?,
                 None if free_group.is_some() => (Vector3::zeros(), TargetNotation::Hex),
                 None => {
@@ -421,7 +478,7 @@ impl<'a> Reader<'a> {
                     ));
                 }
             };
-            let weight = match t.get("weight") {
+            let weight = match t.value("weight") {
                 Some(v) => {
                     let key = format!("{at}.weight");
                     let w = self.number(v, &key, false)?;
@@ -432,7 +489,7 @@ impl<'a> Reader<'a> {
                 }
                 None => 1.0,
             };
-            let enabled = match t.get("use") {
+            let enabled = match t.value("use") {
                 Some(v) => self.boolean(v, &format!("{at}.use"))?,
                 None => true,
             };
@@ -443,7 +500,7 @@ impl<'a> Reader<'a> {
 
     fn target(&self, v: &Value, key: &str) -> Res<(Vector3<f64>, TargetNotation)> {
         match v {
-            Value::String(s) => hex_to_linear(s).map(|c| (c, TargetNotation::Hex)).ok_or_else(|| {
+            Value::String(s) => hex_to_linear(s.as_ref()).map(|c| (c, TargetNotation::Hex)).ok_or_else(|| {
                 self.invalid(
                     key,
                     format!("bad hex colour `{s}`: write \"#rrggbb\" (display sRGB) or [r, g, b] (linear)"),
