@@ -52,8 +52,61 @@ pub fn cell_results(
         .collect()
 }
 
+/// `x` with a fixed number of decimals, printed exactly as `format!("{:.*}", decimals, x)` prints it (width
+/// and alignment apply as for strings), without the standard formatter's slow exact path in the common case:
+/// tables of thousands of cells print tens of thousands of such numbers.
+#[derive(Clone, Copy, Debug)]
+pub struct Fixed(pub f64, pub usize);
+
+/// A small stack buffer to print into.
+struct Buf {
+    bytes: [u8; 64],
+    len: usize,
+}
+
+impl std::fmt::Write for Buf {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        let end = self.len + s.len();
+        self.bytes.get_mut(self.len..end).ok_or(std::fmt::Error)?.copy_from_slice(s.as_bytes());
+        self.len = end;
+        Ok(())
+    }
+}
+
+impl std::fmt::Display for Fixed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use std::fmt::Write as _;
+        let Fixed(x, decimals) = *self;
+        const TEN: [u64; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
+        if let Some(&p) = TEN.get(decimals)
+            && x.is_finite()
+        {
+            // y = |x|·10^d is exact up to half an ulp, below 2⁻¹³ for y < 2⁴⁰: the nearest integer is the
+            // correctly rounded one unless y is within that of a half (then the exact path decides).
+            let y = x.abs() * p as f64;
+            let frac = y - y.floor();
+            if y < (1u64 << 40) as f64 && (frac - 0.5).abs() > 1e-3 {
+                let n = y.round() as u64;
+                let mut b = Buf { bytes: [0; 64], len: 0 };
+                let sign = if x.is_sign_negative() { "-" } else { "" };
+                let written = if decimals == 0 {
+                    write!(b, "{sign}{n}")
+                } else {
+                    write!(b, "{sign}{}.{:0width$}", n / p, n % p, width = decimals)
+                };
+                if written.is_ok()
+                    && let Ok(s) = std::str::from_utf8(&b.bytes[..b.len])
+                {
+                    return f.pad(s);
+                }
+            }
+        }
+        f.pad(&format!("{x:.decimals$}"))
+    }
+}
+
 fn fmt_rgb(c: &Vector3<f64>) -> String {
-    format!("[{:.4}, {:.4}, {:.4}]", c[0], c[1], c[2])
+    format!("[{}, {}, {}]", Fixed(c[0], 4), Fixed(c[1], 4), Fixed(c[2], 4))
 }
 
 fn is_zero(s: &Spectrum) -> bool {
@@ -136,12 +189,10 @@ impl Reach {
         let (lo, hi) = (bounds.lower, bounds.upper);
         let mut x = start.0.map(|v| v.clamp(lo, hi));
         let mut free = [true; SAMPLES];
+        // op_F op_Fᵀ, kept up to date as samples are bound.
+        let mut gram = op * op.transpose();
         for _ in 0..=SAMPLES {
             let r = target - op * x;
-            let mut gram = Matrix3::zeros();
-            for (i, _) in free.iter().enumerate().filter(|(_, f)| **f) {
-                gram += op.column(i) * op.column(i).transpose();
-            }
             let y = gram.try_inverse()? * r;
             let d = op.transpose() * y;
             // The longest step (at most the whole one) that keeps every free sample in the bounds.
@@ -165,6 +216,7 @@ impl Reach {
                     // This sample reaches its bound: it stays there.
                     x[i] = if d[i] < 0.0 { lo } else { hi };
                     free[i] = false;
+                    gram -= op.column(i) * op.column(i).transpose();
                 } else {
                     x[i] = (x[i] + alpha * d[i]).clamp(lo, hi);
                 }
@@ -316,10 +368,10 @@ fn unmet_reason(
         let e = &v.lights[c.light];
         let s = &v.reflectances[c.reflectance];
         let head = format!(
-            "cell {} × {} not met (ΔE00 {:.2}: target {}, achieved {})",
+            "cell {} × {} not met (ΔE00 {}: target {}, achieved {})",
             light.name,
             refl.name,
-            r.delta_e_full,
+            Fixed(r.delta_e_full, 2),
             fmt_rgb(&r.target),
             fmt_rgb(&r.rgb_full)
         );
@@ -346,13 +398,14 @@ fn unmet_reason(
             let de = colorimetry.delta_e00_under(&r.target, &best, e);
             if de > MET_DELTA_E {
                 format!(
-                    "the target is outside what a {what} within [{lo}, {hi}] can reach {under}: the closest reachable colour is {} (ΔE00 {:.2})",
+                    "the target is outside what a {what} within [{lo}, {hi}] can reach {under}: the closest reachable colour is {} (ΔE00 {})",
                     fmt_rgb(&best),
-                    de
+                    Fixed(de, 2)
                 )
             } else {
                 let mut msg = format!(
-                    "a {what} alone could reach it (ΔE00 {de:.2}), so it conflicts with the other criteria on this {what} (other cells, smoothness, free colours)"
+                    "a {what} alone could reach it (ΔE00 {}), so it conflicts with the other criteria on this {what} (other cells, smoothness, free colours)",
+                    Fixed(de, 2)
                 );
                 if refl.design {
                     // Near-identical lights asked for different colours on this reflectance?
@@ -375,5 +428,34 @@ fn unmet_reason(
             "light and reflectance are designed jointly; this cell conflicts with the other cells sharing them (or the smoothness)".to_string()
         };
         say(Some(r.cell), format!("{head}: {why}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_prints_as_the_standard_formatter() {
+        let mut seed = 11u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed
+        };
+        let mut values =
+            vec![0.0, -0.0, 0.5, -0.5, 0.125, 2.675, 1e-9, -1e-9, 0.00005, 0.99995, 1e12, 123.456, f64::NAN];
+        values.extend([f64::INFINITY, f64::NEG_INFINITY, 0.015, 0.025, -0.005, 1.0 / 3.0, 5e-5, 4.99995]);
+        for _ in 0..20000 {
+            let bits = next();
+            let scale = 10f64.powi((next() % 14) as i32 - 6);
+            values.push(((bits >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * scale);
+            values.push(f64::from_bits(next()));
+        }
+        for x in values {
+            for d in 0..8 {
+                assert_eq!(Fixed(x, d).to_string(), format!("{x:.d$}"), "{x:e} with {d} decimals");
+            }
+            assert_eq!(format!("{:>9}", Fixed(x, 2)), format!("{x:>9.2}"));
+        }
     }
 }

@@ -420,30 +420,35 @@ impl<'a> Reader<'a> {
         Ok(out)
     }
 
-    fn colours(
+    fn colours<'v>(
         &mut self,
         root: &Table,
-        lights: &[SpectrumEntry],
-        reflectances: &[SpectrumEntry],
+        lights: &'v [SpectrumEntry],
+        reflectances: &'v [SpectrumEntry],
         free: &[FreeGroup],
     ) -> Res<Vec<ColourCell>> {
         let tables = self.array_of_tables(root, "colours")?;
         let mut out = Vec::with_capacity(tables.len());
-        let mut cells: HashMap<(usize, usize), usize> = HashMap::new();
+        let mut cells: HashMap<(usize, usize), usize> = HashMap::with_capacity(tables.len());
+        // Names are unique within each list (checked when reading them).
+        let index = |entries: &'v [SpectrumEntry]| -> HashMap<&'v str, usize> {
+            entries.iter().enumerate().map(|(i, e)| (e.name.as_str(), i)).collect()
+        };
+        let (light_index, reflectance_index) = (index(lights), index(reflectances));
         for (i, t) in tables.into_iter().enumerate() {
             let at = format!("colours[{i}]");
             self.warn_unknown(t, COLOUR_KEYS, &at);
-            let lookup = |k: &str, entries: &[SpectrumEntry], what: &str| -> Res<usize> {
-                let key = format!("{at}.{k}");
-                let v = t.value(k).ok_or_else(|| self.invalid(&key, format!("missing: a colour names its {what}")))?;
-                let name = self.string(v, &key)?;
-                entries.iter().position(|e| e.name == name).ok_or_else(|| {
+            let lookup = |k: &str, entries: &[SpectrumEntry], index: &HashMap<&str, usize>, what: &str| -> Res<usize> {
+                let key = || format!("{at}.{k}");
+                let v = t.value(k).ok_or_else(|| self.invalid(key(), format!("missing: a colour names its {what}")))?;
+                let name = v.as_str().ok_or_else(|| self.wrong_type(&key(), "a string", v))?;
+                index.get(name).copied().ok_or_else(|| {
                     let known = names(entries);
-                    self.invalid(&key, format!("unknown {what} `{name}` (known: {known})"))
+                    self.invalid(key(), format!("unknown {what} `{name}` (known: {known})"))
                 })
             };
-            let light = lookup("light", lights, "light")?;
-            let reflectance = lookup("reflectance", reflectances, "reflectance")?;
+            let light = lookup("light", lights, &light_index, "light")?;
+            let reflectance = lookup("reflectance", reflectances, &reflectance_index, "reflectance")?;
             if let Some(first) = cells.insert((light, reflectance), i) {
                 return Err(self.invalid(
                     &at,
