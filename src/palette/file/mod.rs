@@ -8,6 +8,7 @@
 //! Reading uses `toml`'s borrowing parser (spans kept, no document built); the `toml_edit` document is only
 //! parsed when a save needs it.
 
+mod parallel;
 mod read;
 mod splice;
 mod write;
@@ -152,6 +153,14 @@ impl PaletteFile {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
             PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
         };
+        // Long files are parsed in pieces on several threads; anything unusual, and every error (whose
+        // message needs the spans of the whole text), goes through the whole-text parse.
+        if let Some(parsed) = parallel::parse(text)
+            && parsed.root.values().all(|v| read::check_numbers(v).is_none())
+            && let Ok(outcome) = read::Reader::new(path, Colorimetry::default().luminance()).read(&parsed.root)
+        {
+            return Ok(PaletteFile::from_outcome(text, path, outcome, parsed.spans));
+        }
         let spanned = DeTable::parse(text).map_err(|e| syntax(e.message(), e.span()))?;
         let root = spanned.get_ref();
         // The parser keeps numbers as text; one TOML cannot represent is a syntax error, as in `toml_edit`.
@@ -166,18 +175,31 @@ impl PaletteFile {
             }
             other => other,
         })?;
-        Ok(PaletteFile {
+        Ok(PaletteFile::from_outcome(text, path, outcome, splice::Spans::of(root)))
+    }
+
+    fn from_outcome(text: &str, path: &Path, outcome: read::ReadOutcome, spans: Option<splice::Spans>) -> Self {
+        // Line endings: CRLF when most newlines have a carriage return before them.
+        let bytes = text.as_bytes();
+        let (mut newlines, mut crlf) = (0usize, 0usize);
+        for (i, &c) in bytes.iter().enumerate() {
+            if c == b'\n' {
+                newlines += 1;
+                crlf += usize::from(i > 0 && bytes[i - 1] == b'\r');
+            }
+        }
+        PaletteFile {
             path: Some(path.to_path_buf()),
             document: OnceLock::new(),
-            spans: splice::Spans::of(root),
+            spans,
             palette: outcome.palette,
             warnings: outcome.warnings,
             csv_raw: outcome.csv_raw,
-            crlf: text.matches("\r\n").count() * 2 > text.matches('\n').count(),
+            crlf: crlf * 2 > newlines,
             no_final_newline: !text.ends_with('\n'),
             bom: text.starts_with('\u{feff}'),
             original: text.to_string(),
-        })
+        }
     }
 
     /// A new file for a palette made in memory (no path yet: save it with [`PaletteFile::save_as`]).

@@ -14,7 +14,6 @@ use crate::palette::{Kind, Palette, Source, SpectrumEntry};
 use crate::spectrum::Normalize;
 use rayon::prelude::*;
 use std::ops::Range;
-use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 /// Where one spectrum's keys sit in the text.
@@ -41,7 +40,22 @@ impl Spans {
     /// The spans of a parsed document the reader accepted (`None` when its lists are not shaped as
     /// expected, which then saves through the document writer).
     pub(super) fn of(root: &DeTable) -> Option<Spans> {
-        Some(Spans { lights: list_spans(root, "lights")?, reflectances: list_spans(root, "reflectances")? })
+        Spans::of_piece(root, 0)
+    }
+
+    /// The spans of a piece of a document that starts at byte `offset` of the text (its spans count from
+    /// the piece's start).
+    pub(super) fn of_piece(root: &DeTable, offset: usize) -> Option<Spans> {
+        Some(Spans {
+            lights: list_spans(root, "lights", offset)?,
+            reflectances: list_spans(root, "reflectances", offset)?,
+        })
+    }
+
+    /// These spans followed by those of the next piece.
+    pub(super) fn extend(&mut self, next: Spans) {
+        self.lights.extend(next.lights);
+        self.reflectances.extend(next.reflectances);
     }
 
     /// The spans after `edits` (sorted, non-overlapping; each replaces exactly one tracked span or none).
@@ -76,22 +90,23 @@ impl Spans {
     }
 }
 
-fn list_spans(root: &DeTable, list: &str) -> Option<Vec<EntrySpans>> {
+fn list_spans(root: &DeTable, list: &str, offset: usize) -> Option<Vec<EntrySpans>> {
     let Some(v) = root.get(list) else { return Some(Vec::new()) };
     let items = v.get_ref().as_array()?;
-    items.iter().map(|item| entry_spans(item.get_ref().as_table()?)).collect()
+    items.iter().map(|item| entry_spans(item.get_ref().as_table()?, offset)).collect()
 }
 
-fn entry_spans(t: &DeTable) -> Option<EntrySpans> {
+fn entry_spans(t: &DeTable, offset: usize) -> Option<EntrySpans> {
+    let at = |r: Range<usize>| r.start + offset..r.end + offset;
     let mut present = Source::KEYS.iter().filter_map(|k| t.get_key_value(*k).map(|kv| (*k, kv)));
     let (name, (key, value)) = present.next()?;
     if present.next().is_some() {
         return None;
     }
-    let value_span = |k: &str| t.get(k).map(Spanned::span);
+    let value_span = |k: &str| t.get(k).map(|v| at(v.span()));
     Some(EntrySpans {
-        source_key: key.span(),
-        source_value: value.span(),
+        source_key: at(key.span()),
+        source_value: at(value.span()),
         samples: name == "samples",
         normalize: value_span("normalize"),
         scale: value_span("scale"),
