@@ -36,7 +36,7 @@ pub fn cell_results(
 ) -> Vec<CellResult> {
     palette
         .colours
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(k, c)| {
             let e = &v.lights[c.light];
@@ -191,8 +191,10 @@ impl Reach {
         let mut free = [true; SAMPLES];
         // op_F op_Fᵀ, kept up to date as samples are bound.
         let mut gram = op * op.transpose();
+        // The colour error; each step removes the fraction α of it (the samples it binds land exactly on
+        // their bounds), so it is updated rather than recomputed; the end checks the colour itself.
+        let mut r = target - op * x;
         for _ in 0..=SAMPLES {
-            let r = target - op * x;
             let y = gram.try_inverse()? * r;
             let d = op.transpose() * y;
             // The longest step (at most the whole one) that keeps every free sample in the bounds.
@@ -221,6 +223,7 @@ impl Reach {
                     x[i] = (x[i] + alpha * d[i]).clamp(lo, hi);
                 }
             }
+            r *= 1.0 - alpha;
             if alpha >= 1.0 {
                 // Arrived, unless a nearly singular `op_F op_Fᵀ` spoiled the step: check the colour.
                 let miss = (target - op * x).amax();
