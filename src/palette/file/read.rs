@@ -8,6 +8,7 @@ use crate::palette::source::{SourceError, finish};
 use crate::palette::{Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation};
 use crate::spectrum::{Grid, Normalize, SAMPLES, Samples, Spectrum};
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
@@ -43,6 +44,21 @@ pub(super) struct ReadOutcome {
     pub warnings: Vec<String>,
     /// Raw (unnormalised) samples of every CSV source read, by the path as written.
     pub csv_raw: HashMap<String, Spectrum>,
+}
+
+/// A spectrum as read, and its CSV file's raw samples when it has one.
+type ReadSpectrum = (SpectrumEntry, Option<(String, Spectrum)>);
+
+/// A colour cell as read: the warnings about its keys, its light and reflectance, and the rest.
+type ReadCell = (Vec<String>, Res<(usize, usize)>, Res<CellRest>);
+
+/// A colour cell's keys besides its light and reflectance.
+struct CellRest {
+    free: Option<usize>,
+    target: Vector3<f64>,
+    notation: TargetNotation,
+    weight: f64,
+    enabled: bool,
 }
 
 /// Walks a parsed table, collecting warnings and naming keys in errors.
@@ -126,13 +142,21 @@ impl<'a> Reader<'a> {
     }
 
     fn warn_unknown(&mut self, table: &Table, known: &[&str], prefix: &str) {
+        let w = self.unknown_keys(table, known, prefix);
+        self.warnings.extend(w);
+    }
+
+    /// The warnings about the keys of `table` not in `known`.
+    fn unknown_keys(&self, table: &Table, known: &[&str], prefix: &str) -> Vec<String> {
+        let mut out = Vec::new();
         for k in table.keys() {
             let k: &str = k.get_ref();
             if !known.contains(&k) {
                 let at = if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
-                self.warnings.push(format!("{}: {at}: unknown key, kept as it is", self.path.display()));
+                out.push(format!("{}: {at}: unknown key, kept as it is", self.path.display()));
             }
         }
+        out
     }
 
     fn string<'v>(&self, v: &'v Value, key: &str) -> Res<&'v str> {
@@ -284,10 +308,24 @@ impl<'a> Reader<'a> {
     fn spectra(&mut self, root: &Table, list: &str, kind: Kind) -> Res<Vec<SpectrumEntry>> {
         let tables = self.array_of_tables(root, list)?;
         let mut out: Vec<SpectrumEntry> = Vec::with_capacity(tables.len());
-        let mut seen: HashMap<String, usize> = HashMap::new();
-        for (i, t) in tables.into_iter().enumerate() {
+        let mut seen: HashMap<String, usize> = HashMap::with_capacity(tables.len());
+        // Entries are read in parallel, then taken in order (the first error in file order is reported).
+        let this = &*self;
+        let read: Vec<(Vec<String>, Res<ReadSpectrum>)> = tables
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let at = format!("{list}[{i}]");
+                (this.unknown_keys(t, SPECTRUM_KEYS, &at), this.spectrum(t, &at, kind))
+            })
+            .collect();
+        for (i, (warnings, entry)) in read.into_iter().enumerate() {
             let at = format!("{list}[{i}]");
-            let entry = self.spectrum(t, &at, kind)?;
+            self.warnings.extend(warnings);
+            let (entry, csv) = entry?;
+            if let Some((file, raw)) = csv {
+                self.csv_raw.insert(file, raw);
+            }
             if let Some(first) = seen.insert(entry.name.clone(), i) {
                 return Err(self.invalid(
                     format!("{at}.name"),
@@ -299,8 +337,8 @@ impl<'a> Reader<'a> {
         Ok(out)
     }
 
-    fn spectrum(&mut self, t: &Table, at: &str, kind: Kind) -> Res<SpectrumEntry> {
-        self.warn_unknown(t, SPECTRUM_KEYS, at);
+    /// One spectrum, and its CSV file's raw samples when it has one.
+    fn spectrum(&self, t: &Table, at: &str, kind: Kind) -> Res<ReadSpectrum> {
         let name = match t.value("name") {
             Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
             None => return Err(self.invalid(format!("{at}.name"), "missing: every spectrum needs a name")),
@@ -366,13 +404,14 @@ impl<'a> Reader<'a> {
             None => None,
         };
         let raw = source.raw_spectrum(self.base_dir.as_deref()).map_err(|e| self.source_error(&key, e))?;
-        if let Source::Csv(file) = &source {
-            self.csv_raw.insert(file.clone(), raw);
-        }
+        let csv = match &source {
+            Source::Csv(file) => Some((file.clone(), raw)),
+            _ => None,
+        };
         let spectrum = finish(&raw, kind, normalize, scale, &self.luminance).map_err(|e| {
             self.invalid(if kind == Kind::Light { format!("{at}.normalize") } else { key.clone() }, e.to_string())
         })?;
-        Ok(SpectrumEntry { name, kind, source, normalize, scale, design, bounds, dial, spectrum })
+        Ok((SpectrumEntry { name, kind, source, normalize, scale, design, bounds, dial, spectrum }, csv))
     }
 
     fn source_error(&self, key: &str, e: SourceError) -> PaletteError {
@@ -435,72 +474,90 @@ impl<'a> Reader<'a> {
             entries.iter().enumerate().map(|(i, e)| (e.name.as_str(), i)).collect()
         };
         let (light_index, reflectance_index) = (index(lights), index(reflectances));
-        for (i, t) in tables.into_iter().enumerate() {
-            let at = format!("colours[{i}]");
-            self.warn_unknown(t, COLOUR_KEYS, &at);
-            let lookup = |k: &str, entries: &[SpectrumEntry], index: &HashMap<&str, usize>, what: &str| -> Res<usize> {
-                let key = || format!("{at}.{k}");
-                let v = t.value(k).ok_or_else(|| self.invalid(key(), format!("missing: a colour names its {what}")))?;
-                let name = v.as_str().ok_or_else(|| self.wrong_type(&key(), "a string", v))?;
-                index.get(name).copied().ok_or_else(|| {
-                    let known = names(entries);
-                    self.invalid(key(), format!("unknown {what} `{name}` (known: {known})"))
-                })
-            };
-            let light = lookup("light", lights, &light_index, "light")?;
-            let reflectance = lookup("reflectance", reflectances, &reflectance_index, "reflectance")?;
+        // Cells are read in parallel, then taken in order: the first error in file order is reported, a
+        // cell's light and reflectance (and its being a duplicate) before its other keys.
+        let this = &*self;
+        let read: Vec<ReadCell> = tables
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let at = format!("colours[{i}]");
+                let lookup = |k: &str, entries: &[SpectrumEntry], index: &HashMap<&str, usize>, what: &str| {
+                    let key = || format!("{at}.{k}");
+                    let v =
+                        t.value(k).ok_or_else(|| this.invalid(key(), format!("missing: a colour names its {what}")))?;
+                    let name = v.as_str().ok_or_else(|| this.wrong_type(&key(), "a string", v))?;
+                    index.get(name).copied().ok_or_else(|| {
+                        let known = names(entries);
+                        this.invalid(key(), format!("unknown {what} `{name}` (known: {known})"))
+                    })
+                };
+                let cell = lookup("light", lights, &light_index, "light")
+                    .and_then(|l| Ok((l, lookup("reflectance", reflectances, &reflectance_index, "reflectance")?)));
+                (this.unknown_keys(t, COLOUR_KEYS, &at), cell, this.cell_rest(t, &at, free))
+            })
+            .collect();
+        for (i, (warnings, cell, rest)) in read.into_iter().enumerate() {
+            self.warnings.extend(warnings);
+            let (light, reflectance) = cell?;
             if let Some(first) = cells.insert((light, reflectance), i) {
                 return Err(self.invalid(
-                    &at,
+                    format!("colours[{i}]"),
                     format!(
                         "duplicate cell: light `{}` on reflectance `{}` is already given by colours[{first}]",
                         lights[light].name, reflectances[reflectance].name
                     ),
                 ));
             }
-            let free_group = match t.value("free") {
-                Some(v) => {
-                    let key = format!("{at}.free");
-                    let name = self.string(v, &key)?;
-                    Some(free.iter().position(|g| g.name == name).ok_or_else(|| {
-                        let known = if free.is_empty() {
-                            "none declared: add a [[free]] table".to_string()
-                        } else {
-                            free.iter().map(|g| g.name.as_str()).collect::<Vec<_>>().join(", ")
-                        };
-                        self.invalid(&key, format!("unknown free group `{name}` (known: {known})"))
-                    })?)
-                }
-                None => None,
-            };
-            let (target, notation) = match t.value("target") {
-                Some(v) => self.target(v, &format!("{at}.target"))?,
-                None if free_group.is_some() => (Vector3::zeros(), TargetNotation::Hex),
-                None => {
-                    return Err(self.invalid(
-                        format!("{at}.target"),
-                        "missing: a colour needs a target (\"#rrggbb\" or [r, g, b]) or a free group",
-                    ));
-                }
-            };
-            let weight = match t.value("weight") {
-                Some(v) => {
-                    let key = format!("{at}.weight");
-                    let w = self.number(v, &key, false)?;
-                    if w < 0.0 {
-                        return Err(self.invalid(key, format!("weights must not be negative, got {w}")));
-                    }
-                    w
-                }
-                None => 1.0,
-            };
-            let enabled = match t.value("use") {
-                Some(v) => self.boolean(v, &format!("{at}.use"))?,
-                None => true,
-            };
-            out.push(ColourCell { light, reflectance, target, notation, weight, free: free_group, enabled });
+            let CellRest { free, target, notation, weight, enabled } = rest?;
+            out.push(ColourCell { light, reflectance, target, notation, weight, free, enabled });
         }
         Ok(out)
+    }
+
+    /// A cell's keys besides its light and reflectance.
+    fn cell_rest(&self, t: &Table, at: &str, free: &[FreeGroup]) -> Res<CellRest> {
+        let free_group = match t.value("free") {
+            Some(v) => {
+                let key = format!("{at}.free");
+                let name = self.string(v, &key)?;
+                Some(free.iter().position(|g| g.name == name).ok_or_else(|| {
+                    let known = if free.is_empty() {
+                        "none declared: add a [[free]] table".to_string()
+                    } else {
+                        free.iter().map(|g| g.name.as_str()).collect::<Vec<_>>().join(", ")
+                    };
+                    self.invalid(&key, format!("unknown free group `{name}` (known: {known})"))
+                })?)
+            }
+            None => None,
+        };
+        let (target, notation) = match t.value("target") {
+            Some(v) => self.target(v, &format!("{at}.target"))?,
+            None if free_group.is_some() => (Vector3::zeros(), TargetNotation::Hex),
+            None => {
+                return Err(self.invalid(
+                    format!("{at}.target"),
+                    "missing: a colour needs a target (\"#rrggbb\" or [r, g, b]) or a free group",
+                ));
+            }
+        };
+        let weight = match t.value("weight") {
+            Some(v) => {
+                let key = format!("{at}.weight");
+                let w = self.number(v, &key, false)?;
+                if w < 0.0 {
+                    return Err(self.invalid(key, format!("weights must not be negative, got {w}")));
+                }
+                w
+            }
+            None => 1.0,
+        };
+        let enabled = match t.value("use") {
+            Some(v) => self.boolean(v, &format!("{at}.use"))?,
+            None => true,
+        };
+        Ok(CellRest { free: free_group, target, notation, weight, enabled })
     }
 
     fn target(&self, v: &Value, key: &str) -> Res<(Vector3<f64>, TargetNotation)> {
