@@ -103,10 +103,10 @@ fn number_of(v: &Value) -> Option<f64> {
 /// leaves that check to the reader.
 pub(super) fn check_numbers(v: &Spanned<Value>) -> Option<(std::ops::Range<usize>, &'static str)> {
     match v.get_ref() {
-        Value::Integer(_) if integer_of(v.get_ref()).is_none() => Some((v.span(), "integer out of range")),
+        Value::Integer(_) if integer_of(v.get_ref()).is_none() => Some((v.span(), "integer number overflowed")),
         Value::Float(f) => match f.as_str().parse::<f64>() {
             Ok(x) if x.is_finite() || f.as_str().contains("inf") || x.is_nan() => None,
-            Ok(_) => Some((v.span(), "float out of range")),
+            Ok(_) => Some((v.span(), "floating-point number overflowed")),
             Err(_) => Some((v.span(), "invalid float")),
         },
         Value::Array(a) => a.iter().find_map(check_numbers),
