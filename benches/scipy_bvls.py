@@ -102,7 +102,7 @@ def main():
                           "objective": ours, "relative_difference": rel}))
     else:
         print(f"scipy BVLS: {n} designs in {scipy_s:.3f} s = {scipy_s / n * 1e6:.1f} µs per design, objective {total:.9e}")
-        print(f"metamer solve -o -- report (one process, best of {a.repeats}): {best:.3f} s = {best / n * 1e6:.1f} µs per "
+        print(f"metamer solve -o --report (one process, best of {a.repeats}): {best:.3f} s = {best / n * 1e6:.1f} µs per "
               f"design (solve alone {rep['solve_seconds'] * 1e3:.1f} ms; with --quiet --no-subspace {best_quiet:.3f} s), "
               f"objective {ours:.9e}")
         print(f"speed-up: {scipy_s / best:.1f}x (process) / {scipy_s / rep['solve_seconds']:.1f}x (solve)")
