@@ -156,7 +156,6 @@ impl PaletteFile {
         // Long files are parsed in pieces on several threads; anything unusual, and every error (whose
         // message needs the spans of the whole text), goes through the whole-text parse.
         if let Some(parsed) = parallel::parse(text)
-            && parsed.root.values().all(|v| read::check_numbers(v).is_none())
             && let Ok(outcome) = read::Reader::new(path, Colorimetry::default().luminance()).read(&parsed.root)
         {
             return Ok(PaletteFile::from_outcome(text, path, outcome, parsed.spans));

@@ -10,6 +10,7 @@
 //! refuse that). Spans in the joined tree count from each piece's start; the splice spans are computed per
 //! piece with its offset, and error messages (which need spans) come from the whole-text parse.
 
+use super::read;
 use super::splice::Spans;
 use rayon::prelude::*;
 use toml::Spanned;
@@ -18,7 +19,7 @@ use toml::de::{DeTable, DeValue};
 /// Texts shorter than this are parsed whole.
 const MIN_PIECE: usize = 64 * 1024;
 
-/// A document parsed in pieces.
+/// A document parsed in pieces (its numbers checked with [`read::check_numbers`]).
 pub(super) struct Parsed<'i> {
     pub root: DeTable<'i>,
     pub spans: Option<Spans>,
@@ -60,6 +61,10 @@ pub(super) fn parse(text: &str) -> Option<Parsed<'_>> {
         .map(|&(a, b)| {
             let piece = text.get(a..b)?;
             let root = DeTable::parse(piece).ok()?;
+            // A number TOML cannot hold is an error, reported by the whole-text parse.
+            if root.get_ref().values().any(|v| read::check_numbers(v).is_some()) {
+                return None;
+            }
             let spans = Spans::of_piece(root.get_ref(), a);
             Some((root, spans))
         })
@@ -161,6 +166,9 @@ mod tests {
         let fixed = text.replacen("[settings]", "colours = [{ light = \"a\", reflectance = \"r0\" }]\n[settings]", 1);
         assert!(parse(&fixed).is_none());
         assert!(DeTable::parse(&fixed).is_err());
+        // A number TOML cannot hold, late in the file: the whole-text path reports it.
+        let overflow = format!("{}{}", &text[..mid], text[mid..].replacen("0.1, 0.2", "1e400, 0.2", 1));
+        assert!(parse(&overflow).is_none());
         // A multi-line string over the would-be cuts of the first half.
         let opened = text[..mid].replacen("name = \"long\"", "name = \"long\"\nnote = \"\"\"", 1);
         let string = format!("{opened}\"\"\"\n");
