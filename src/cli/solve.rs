@@ -90,7 +90,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Err(e) => notes.push(format!("no subspace colours: {e}")),
         }
     }
-    // The solved palette is saved while the table is formatted; nothing is printed when the save fails.
     // `seconds` is the time to read and solve. The solved palette is saved (mostly waiting for the disk)
     // while the table and the report are formatted; nothing is printed or reported when the save fails.
     let seconds = started.elapsed().as_secs_f64();
