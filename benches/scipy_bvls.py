@@ -6,8 +6,10 @@ single-reflectance designs one by one, assembled independently from the palette 
     target/release/examples/batch_palette batch 1200 /tmp/batch.toml
     python3 benches/scipy_bvls.py /tmp/batch.toml [--metamer target/release/metamer]
 
-Prints scipy's time per design, metamer's wall time for the whole file in one process (best of 3) and the
-ratio, and checks that both reach the same objective (sum over designs) within 1e-6 relative.
+Prints scipy's time per design, metamer's wall time for the whole file in one process (best of 3: the
+default invocation `metamer solve IN -o OUT --report R.json`, its table going to /dev/null, and the same with
+`--quiet --no-subspace`) and the ratio, and checks that both reach the same objective (sum over designs) within
+1e-6 relative. `--json` prints the figures as one JSON object instead (`metamer bench solve` reads it).
 Needs numpy and scipy (`pip install scipy`); not part of `cargo test`.
 """
 import argparse, json, math, os, subprocess, sys, tempfile, time, tomllib
@@ -62,11 +64,21 @@ def designs(path):
     return out, (lo, hi)
 
 
+def time_process(cmd, repeats):
+    best = math.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("palette")
     ap.add_argument("--metamer", default=os.path.join(HERE, "..", "target", "release", "metamer"))
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     a = ap.parse_args()
     systems, (lo, hi) = designs(a.palette)
     t = time.perf_counter()
@@ -76,21 +88,25 @@ def main():
         total += float(np.sum((A @ res.x - b) ** 2))
     scipy_s = time.perf_counter() - t
     n = len(systems)
-    print(f"scipy BVLS: {n} designs in {scipy_s:.3f} s = {scipy_s / n * 1e6:.1f} µs per design, objective {total:.9e}")
-    best = math.inf
     with tempfile.TemporaryDirectory() as d:
-        for _ in range(a.repeats):
-            t = time.perf_counter()
-            subprocess.run([a.metamer, "solve", a.palette, "-o", os.path.join(d, "out.toml"), "--report",
-                            os.path.join(d, "r.json"), "--quiet", "--no-subspace"], check=True, stdout=subprocess.DEVNULL)
-            best = min(best, time.perf_counter() - t)
-        rep = json.load(open(os.path.join(d, "r.json")))
+        out, rep_path = os.path.join(d, "out.toml"), os.path.join(d, "r.json")
+        base = [a.metamer, "solve", a.palette, "-o", out, "--report", rep_path]
+        best_quiet = time_process(base + ["--quiet", "--no-subspace"], a.repeats)
+        best = time_process(base, a.repeats)
+        rep = json.load(open(rep_path))
     ours = rep["objective"]
-    print(f"metamer solve (one process, best of {a.repeats}): {best:.3f} s = {best / n * 1e6:.1f} µs per design "
-          f"(solve alone {rep['solve_seconds'] * 1e3:.1f} ms), objective {ours:.9e}")
-    print(f"speed-up: {scipy_s / best:.1f}x (process) / {scipy_s / rep['solve_seconds']:.1f}x (solve)")
     rel = (ours - total) / max(total, 1e-300)
-    print(f"objective relative difference (metamer - scipy) / scipy: {rel:.2e}")
+    if a.json:
+        print(json.dumps({"designs": n, "scipy_seconds": scipy_s, "scipy_objective": total, "process_seconds": best,
+                          "process_quiet_seconds": best_quiet, "solve_seconds": rep["solve_seconds"],
+                          "objective": ours, "relative_difference": rel}))
+    else:
+        print(f"scipy BVLS: {n} designs in {scipy_s:.3f} s = {scipy_s / n * 1e6:.1f} µs per design, objective {total:.9e}")
+        print(f"metamer solve -o --report (one process, best of {a.repeats}): {best:.3f} s = {best / n * 1e6:.1f} µs per "
+              f"design (solve alone {rep['solve_seconds'] * 1e3:.1f} ms; with --quiet --no-subspace {best_quiet:.3f} s), "
+              f"objective {ours:.9e}")
+        print(f"speed-up: {scipy_s / best:.1f}x (process) / {scipy_s / rep['solve_seconds']:.1f}x (solve)")
+        print(f"objective relative difference (metamer - scipy) / scipy: {rel:.2e}")
     if rel > 1e-6:
         sys.exit("metamer's objective is worse than scipy's")
 

@@ -1,6 +1,8 @@
 //! Solver benchmarks: run time against error for single bounded designs, batches of independent
 //! designs, n×n joint palettes (TOG 2009 Fig. 3 capacity protocol), bounded vs unbounded, and blocks vs
-//! one dense system. Printed as a Markdown table and drawn as a PNG plot (time vs error).
+//! one dense system. Printed as a Markdown table and drawn as a PNG plot (time vs error). Full runs also
+//! time the whole `metamer solve` process on a 1200-design batch file against scipy's BVLS solving the
+//! same designs one by one (benches/scipy_bvls.py), when python3 with scipy is there.
 //!
 //! The error of a palette is the mean over its cells of the CIELAB ΔE*ab (and CIEDE2000) between the
 //! target and the achieved full colour, against the white of the cell's light (DESIGN_SPEC §1); the
@@ -28,6 +30,8 @@ pub struct Config {
     pub joint_seeds: u64,
     /// Time cap per joint solve.
     pub time_limit: Duration,
+    /// Designs in the batch file the whole process is timed on against scipy (`None`: not measured).
+    pub versus_scipy: Option<usize>,
 }
 
 impl Default for Config {
@@ -38,6 +42,7 @@ impl Default for Config {
             joint_sizes: (3..=15).collect(),
             joint_seeds: 8,
             time_limit: Duration::from_secs(10),
+            versus_scipy: Some(1200),
         }
     }
 }
@@ -51,6 +56,7 @@ impl Config {
             joint_sizes: vec![3, 4],
             joint_seeds: 1,
             time_limit: Duration::from_secs(5),
+            versus_scipy: None,
         }
     }
 }
@@ -73,15 +79,74 @@ pub struct Row {
     pub objective: f64,
 }
 
+/// The whole `metamer solve` process against scipy's BVLS, or why it was not measured.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VersusScipy {
+    Measured {
+        designs: usize,
+        /// scipy's BVLS over all designs, one by one.
+        scipy_seconds: f64,
+        /// `metamer solve IN -o OUT --report R.json` as one process (best of 3; the table to /dev/null).
+        process_seconds: f64,
+        /// The same with `--quiet --no-subspace`.
+        process_quiet_seconds: f64,
+        /// The solve alone (inside the process).
+        solve_seconds: f64,
+        /// (metamer − scipy) / scipy of the summed objective.
+        relative_difference: f64,
+    },
+    Skipped(String),
+}
+
+impl VersusScipy {
+    /// One Markdown paragraph.
+    pub fn markdown(&self) -> String {
+        match self {
+            VersusScipy::Measured {
+                designs,
+                scipy_seconds,
+                process_seconds,
+                process_quiet_seconds,
+                solve_seconds,
+                relative_difference,
+            } => format!(
+                "Whole process against scipy ({designs} bounded single-reflectance designs, 3 lights each, one \
+                 file): `metamer solve IN -o OUT --report R.json` {} ({} with `--quiet --no-subspace`; solve alone \
+                 {}), scipy BVLS one by one {} ({} per design): **{:.1}× faster** as a process. Objective \
+                 (metamer − scipy) / scipy = {:.1e}. Rerun: `python3 benches/scipy_bvls.py FILE`.\n",
+                format_seconds(*process_seconds),
+                format_seconds(*process_quiet_seconds),
+                format_seconds(*solve_seconds),
+                format_seconds(*scipy_seconds),
+                format_seconds(scipy_seconds / *designs as f64),
+                scipy_seconds / process_seconds,
+                relative_difference
+            ),
+            VersusScipy::Skipped(why) => format!("Whole process against scipy: skipped ({why}).\n"),
+        }
+    }
+}
+
 /// All results.
 #[derive(Clone, Debug, Default)]
 pub struct Report {
     pub rows: Vec<Row>,
+    /// The whole-process comparison (`None` when the configuration does not ask for it).
+    pub versus_scipy: Option<VersusScipy>,
 }
 
 impl Report {
-    /// The Markdown table.
+    /// The Markdown table, then the whole-process comparison when there is one.
     pub fn markdown(&self) -> String {
+        let table = self.table();
+        match &self.versus_scipy {
+            Some(v) => format!("{table}\n{}", v.markdown()),
+            None => table,
+        }
+    }
+
+    /// The Markdown table.
+    pub fn table(&self) -> String {
         let rows: Vec<Vec<String>> = self
             .rows
             .iter()
@@ -320,12 +385,83 @@ pub fn joint(cfg: &Config) -> Vec<Row> {
     rows
 }
 
+/// The `metamer` binary to time: this process when it is `metamer`, else one beside it or one level up
+/// (`target/release/deps/…` for cargo's bench harness).
+fn metamer_binary() -> Option<std::path::PathBuf> {
+    let exe = std::env::current_exe().ok()?;
+    let name = format!("metamer{}", std::env::consts::EXE_SUFFIX);
+    if exe.file_name().is_some_and(|n| n == name.as_str()) {
+        return Some(exe);
+    }
+    let dir = exe.parent()?;
+    [dir.join(&name), dir.parent()?.join(&name)].into_iter().find(|p| p.is_file())
+}
+
+/// Time the whole `metamer solve` process on a file of `designs` bounded single-reflectance designs against
+/// scipy's BVLS solving them one by one (benches/scipy_bvls.py, which also checks the objectives agree).
+pub fn versus_scipy(designs: usize) -> VersusScipy {
+    let skip = |why: String| VersusScipy::Skipped(why);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches").join("scipy_bvls.py");
+    if !script.is_file() {
+        return skip(format!("{} not found", script.display()));
+    }
+    let Some(metamer) = metamer_binary() else { return skip("the metamer binary was not found".into()) };
+    let Ok(dir) = tempfile::tempdir() else { return skip("no temporary folder".into()) };
+    let path = dir.path().join("batch.toml");
+    let palette = random::batch_palette(designs, 1, &Colorimetry::default());
+    let mut file = crate::palette::file::PaletteFile::from_palette(&palette);
+    if let Err(e) = file.save_as(&palette, &path) {
+        return skip(format!("cannot write the batch file: {e}"));
+    }
+    let out = std::process::Command::new("python3")
+        .arg(&script)
+        .arg(&path)
+        .arg("--metamer")
+        .arg(&metamer)
+        .arg("--json")
+        .output();
+    let out = match out {
+        Ok(o) => o,
+        Err(e) => return skip(format!("python3 cannot be run: {e}")),
+    };
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() {
+        let last = stderr.lines().last().unwrap_or("no message");
+        return skip(format!("benches/scipy_bvls.py failed (python3 with numpy and scipy needed): {last}"));
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let Ok(v) = serde_json::from_str::<serde_json::Value>(text.trim()) else {
+        return skip("benches/scipy_bvls.py printed no JSON".into());
+    };
+    let num = |k: &str| v.get(k).and_then(serde_json::Value::as_f64);
+    match (
+        num("scipy_seconds"),
+        num("process_seconds"),
+        num("process_quiet_seconds"),
+        num("solve_seconds"),
+        num("relative_difference"),
+    ) {
+        (Some(scipy_seconds), Some(process_seconds), Some(process_quiet_seconds), Some(solve_seconds), Some(rel)) => {
+            VersusScipy::Measured {
+                designs,
+                scipy_seconds,
+                process_seconds,
+                process_quiet_seconds,
+                solve_seconds,
+                relative_difference: rel,
+            }
+        }
+        _ => skip("benches/scipy_bvls.py printed incomplete figures".into()),
+    }
+}
+
 /// Run everything, print the table to stdout, and draw the plot to `plot_path` when given.
 pub fn run(cfg: &Config, plot_path: Option<&Path>) -> Report {
     let mut report = Report::default();
     report.rows.extend(batches(cfg));
     report.rows.extend(blocks_vs_dense(cfg));
     report.rows.extend(joint(cfg));
+    report.versus_scipy = cfg.versus_scipy.map(versus_scipy);
     println!("{}", report.markdown());
     if let Some(path) = plot_path
         && let Err(e) = report.plot(path)

@@ -6,12 +6,13 @@
 use crate::basis::Basis;
 use crate::basis::store::{self, palette_uses_basis};
 use crate::colorimetry::{Colorimetry, linear_to_hex};
+use crate::design::report::Fixed;
 use crate::design::{self, Solution, SolveOptions};
+use crate::palette::SpectrumEntry;
 use crate::palette::file::PaletteFile;
-use crate::palette::{Palette, SpectrumEntry};
 use anyhow::Context;
 use nalgebra::Vector3;
-use serde_json::{Value, json};
+use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -58,7 +59,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let started = Instant::now();
-    let file = PaletteFile::load(&args.input)?;
+    let mut file = PaletteFile::load(&args.input)?;
     let palette = &file.palette;
     let colorimetry = Colorimetry::default();
     let sidecar = store::sidecar_path(&args.input);
@@ -89,26 +90,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Err(e) => notes.push(format!("no subspace colours: {e}")),
         }
     }
-    if let Some(out) = &args.output {
-        let mut target = file.clone();
-        target
-            .save_as(&solution.palette, out)
-            .with_context(|| format!("{}: cannot write the solved palette", out.display()))?;
-    }
+    // `seconds` is the time to read and solve. The solved palette is saved (mostly waiting for the disk)
+    // while the table and the report are formatted; nothing is printed or reported when the save fails.
     let seconds = started.elapsed().as_secs_f64();
-    print_table(palette, &solution, &notes, args.quiet, args.output.as_deref(), seconds)?;
-    if let Some(path) = &args.report {
-        let report = report_json(palette, &solution, seconds);
-        let write = || -> anyhow::Result<()> {
-            let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
-            serde_json::to_writer_pretty(&mut w, &report)?;
-            writeln!(w)?;
-            w.flush()?;
-            Ok(())
-        };
-        write().with_context(|| format!("{}: cannot write the report", path.display()))?;
-    }
-    Ok(())
+    let ((saved, table), report) = rayon::join(
+        || {
+            rayon::join(
+                || match &args.output {
+                    Some(out) => file
+                        .save_as(&solution.palette, out)
+                        .with_context(|| format!("{}: cannot write the solved palette", out.display())),
+                    None => Ok(()),
+                },
+                || table_text(&solution, &notes, args.quiet),
+            )
+        },
+        || args.report.as_ref().map(|_| report_text(&solution, seconds)),
+    );
+    saved?;
+    let (printed, reported) = rayon::join(
+        || print_table(&table, &solution, args.output.as_deref(), seconds),
+        || match (&args.report, report) {
+            (Some(path), Some(text)) => write_report(path, &text?),
+            _ => Ok(()),
+        },
+    );
+    printed?;
+    reported
 }
 
 /// The solution's values as the report module wants them.
@@ -120,62 +128,91 @@ fn values_of(s: &Solution) -> design::system::Values {
     }
 }
 
-fn rgb(c: &Vector3<f64>) -> String {
-    format!("{:.4} {:.4} {:.4}", c[0], c[1], c[2])
+/// `r g b` with four decimals.
+fn write_rgb(w: &mut String, c: &Vector3<f64>) {
+    // Writing to a String cannot fail.
+    let _ = write!(w, "{} {} {}", Fixed(c[0], 4), Fixed(c[1], 4), Fixed(c[2], 4));
 }
 
-fn print_table(
-    palette: &Palette,
-    s: &Solution,
-    notes: &[String],
-    quiet: bool,
-    output: Option<&Path>,
-    seconds: f64,
-) -> anyhow::Result<()> {
-    let stdout = std::io::stdout();
-    let mut w = std::io::BufWriter::new(stdout.lock());
+/// Pad `w` with spaces from `from` to `width` characters.
+fn pad(w: &mut String, from: usize, width: usize) {
+    let used = w[from..].chars().count();
+    w.extend(std::iter::repeat_n(' ', width.saturating_sub(used)));
+}
+
+/// The per-cell table (unless `quiet`) and the remark lines: everything printed but the summary.
+fn table_text(s: &Solution, notes: &[String], quiet: bool) -> String {
+    let palette = &s.palette;
+    let mut w = String::with_capacity(if quiet { 0 } else { 130 * (s.cells.len() + 1) } + 200 * s.diagnostics.len());
     if !quiet {
-        writeln!(
+        let _ = writeln!(
             w,
             "{:<14} {:<14} {:<8} {:<22} {:<22} {:>7} {:<22} {:>7}",
             "light", "reflectance", "target", "target (linear)", "full", "ΔE00", "subspace", "ΔE00"
-        )?;
+        );
         for c in &s.cells {
             let cell = &palette.colours[c.cell];
-            let (sub, de_sub) = match (c.rgb_subspace, c.delta_e_subspace) {
-                (Some(r), Some(d)) => (rgb(&r), format!("{d:7.2}")),
-                _ => ("-".into(), "      -".into()),
-            };
-            writeln!(
-                w,
-                "{:<14} {:<14} {:<8} {:<22} {:<22} {:>7.2} {:<22} {}{}",
-                palette.lights[cell.light].name,
-                palette.reflectances[cell.reflectance].name,
-                linear_to_hex(&c.target),
-                rgb(&c.target),
-                rgb(&c.rgb_full),
-                c.delta_e_full,
-                sub,
-                de_sub,
-                if cell.is_active() { "" } else { "  (not used)" }
-            )?;
+            let at = w.len();
+            w.push_str(&palette.lights[cell.light].name);
+            pad(&mut w, at, 14);
+            w.push(' ');
+            let at = w.len();
+            w.push_str(&palette.reflectances[cell.reflectance].name);
+            pad(&mut w, at, 14);
+            w.push(' ');
+            let at = w.len();
+            w.push_str(&linear_to_hex(&c.target));
+            pad(&mut w, at, 8);
+            w.push(' ');
+            for v in [&c.target, &c.rgb_full] {
+                let at = w.len();
+                write_rgb(&mut w, v);
+                pad(&mut w, at, 22);
+                w.push(' ');
+            }
+            let _ = write!(w, "{:>7} ", Fixed(c.delta_e_full, 2));
+            match (c.rgb_subspace, c.delta_e_subspace) {
+                (Some(r), Some(d)) => {
+                    let at = w.len();
+                    write_rgb(&mut w, &r);
+                    pad(&mut w, at, 22);
+                    let _ = write!(w, " {:>7}", Fixed(d, 2));
+                }
+                _ => {
+                    w.push('-');
+                    w.extend(std::iter::repeat_n(' ', 21));
+                    w.push_str("       -");
+                }
+            }
+            if !cell.is_active() {
+                w.push_str("  (not used)");
+            }
+            w.push('\n');
         }
     }
-    let unmet: Vec<&design::Diagnostic> = s.diagnostics.iter().filter(|d| d.cell.is_some()).collect();
     for d in &s.diagnostics {
         let tag = if d.cell.is_some() && d.message.contains("not met") { "UNMET" } else { "note" };
-        writeln!(w, "{tag}: {}", d.message)?;
+        let _ = writeln!(w, "{tag}: {}", d.message);
     }
     for n in notes {
-        writeln!(w, "note: {n}")?;
+        let _ = writeln!(w, "note: {n}");
     }
+    w
+}
+
+/// Print the table and the summary line.
+fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -> anyhow::Result<()> {
+    let unmet = s.diagnostics.iter().filter(|d| d.cell.is_some()).count();
+    let stdout = std::io::stdout();
+    let mut w = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
+    w.write_all(table.as_bytes())?;
     writeln!(
         w,
-        "objective {:.6e}, KKT residual {:.1e}, {} cells ({} with remarks), {:.3} s{}",
+        "objective {:.6e}, KKT residual {:.1e}, {} cells ({} with remarks), read and solved in {:.3} s{}",
         s.objective,
         s.kkt_residual,
         s.cells.len(),
-        unmet.len(),
+        unmet,
         seconds,
         match output {
             Some(p) => format!(", solved palette written to {}", p.display()),
@@ -186,63 +223,127 @@ fn print_table(
     Ok(())
 }
 
-fn spectrum_json(e: &SpectrumEntry) -> Value {
-    json!({
-        "name": e.name,
-        "kind": e.kind.as_str(),
-        "design": e.design,
-        "samples": e.spectrum.to_vec(),
-    })
+/// The JSON report, pretty-printed.
+fn report_text(s: &Solution, seconds: f64) -> anyhow::Result<Vec<u8>> {
+    let mut text = Vec::with_capacity(256 * (s.cells.len() + s.palette.lights.len() + s.palette.reflectances.len()));
+    serde_json::to_writer_pretty(&mut text, &Report::new(s, seconds))?;
+    text.push(b'\n');
+    Ok(text)
 }
 
-fn vec3(c: &Vector3<f64>) -> Value {
-    json!([c[0], c[1], c[2]])
+/// Write the report to `path`.
+fn write_report(path: &Path, text: &[u8]) -> anyhow::Result<()> {
+    std::fs::write(path, text).with_context(|| format!("{}: cannot write the report", path.display()))
+}
+
+/// One spectrum of the report.
+#[derive(serde::Serialize)]
+struct SpectrumJson<'a> {
+    name: &'a str,
+    kind: &'static str,
+    design: bool,
+    samples: &'a [f64],
+}
+
+impl<'a> SpectrumJson<'a> {
+    fn new(e: &'a SpectrumEntry) -> Self {
+        SpectrumJson { name: &e.name, kind: e.kind.as_str(), design: e.design, samples: e.spectrum.as_slice() }
+    }
+}
+
+#[derive(serde::Serialize)]
+struct FreeJson<'a> {
+    name: &'a str,
+    rgb: [f64; 3],
+}
+
+#[derive(serde::Serialize)]
+struct CellJson<'a> {
+    light: &'a str,
+    reflectance: &'a str,
+    target: [f64; 3],
+    rgb_full: [f64; 3],
+    rgb_subspace: Option<[f64; 3]>,
+    delta_e_full: f64,
+    delta_e_subspace: Option<f64>,
+    free: Option<&'a str>,
+    weight: f64,
+    enabled: bool,
+}
+
+#[derive(serde::Serialize)]
+struct CellName<'a> {
+    light: &'a str,
+    reflectance: &'a str,
+}
+
+#[derive(serde::Serialize)]
+struct DiagnosticJson<'a> {
+    cell: Option<CellName<'a>>,
+    message: &'a str,
 }
 
 /// The JSON report (DESIGN_SPEC §5) plus `kkt_residual`, `diagnostics` and per-cell `weight`/`enabled`.
-pub fn report_json(palette: &Palette, s: &Solution, seconds: f64) -> Value {
-    let spectra: Vec<Value> = s.palette.lights.iter().chain(&s.palette.reflectances).map(spectrum_json).collect();
-    let free: Vec<Value> =
-        palette.free.iter().zip(&s.free).map(|(g, c)| json!({"name": g.name, "rgb": vec3(c)})).collect();
-    let cells: Vec<Value> = s
-        .cells
-        .iter()
-        .map(|c| {
-            let cell = &palette.colours[c.cell];
-            json!({
-                "light": palette.lights[cell.light].name,
-                "reflectance": palette.reflectances[cell.reflectance].name,
-                "target": vec3(&c.target),
-                "rgb_full": vec3(&c.rgb_full),
-                "rgb_subspace": c.rgb_subspace.as_ref().map(vec3),
-                "delta_e_full": c.delta_e_full,
-                "delta_e_subspace": c.delta_e_subspace,
-                "free": cell.free.map(|g| palette.free[g].name.clone()),
-                "weight": cell.weight,
-                "enabled": cell.enabled,
-            })
-        })
-        .collect();
-    let diagnostics: Vec<Value> = s
-        .diagnostics
-        .iter()
-        .map(|d| {
-            let cell = d.cell.map(|k| {
-                let c = &palette.colours[k];
-                json!({"light": palette.lights[c.light].name, "reflectance": palette.reflectances[c.reflectance].name})
-            });
-            json!({"cell": cell, "message": d.message})
-        })
-        .collect();
-    json!({
-        "palette": palette.name,
-        "objective": s.objective,
-        "seconds": seconds,
-        "solve_seconds": s.seconds,
-        "kkt_residual": s.kkt_residual,
-        "spectra": spectra,
-        "free": free,
-        "cells": cells,
-        "diagnostics": diagnostics,
-    })
+#[derive(serde::Serialize)]
+pub struct Report<'a> {
+    palette: &'a str,
+    objective: f64,
+    /// Wall time to read and solve the palette (writing the outputs not included).
+    seconds: f64,
+    /// Wall time of the solve itself.
+    solve_seconds: f64,
+    kkt_residual: f64,
+    spectra: Vec<SpectrumJson<'a>>,
+    free: Vec<FreeJson<'a>>,
+    cells: Vec<CellJson<'a>>,
+    diagnostics: Vec<DiagnosticJson<'a>>,
+}
+
+fn arr(c: &Vector3<f64>) -> [f64; 3] {
+    [c[0], c[1], c[2]]
+}
+
+impl<'a> Report<'a> {
+    /// The report of a solution (names, cells and spectra as the solved palette has them).
+    pub fn new(s: &'a Solution, seconds: f64) -> Self {
+        let p = &s.palette;
+        let names = |k: usize| {
+            let c = &p.colours[k];
+            CellName { light: &p.lights[c.light].name, reflectance: &p.reflectances[c.reflectance].name }
+        };
+        Report {
+            palette: &p.name,
+            objective: s.objective,
+            seconds,
+            solve_seconds: s.seconds,
+            kkt_residual: s.kkt_residual,
+            spectra: p.lights.iter().chain(&p.reflectances).map(SpectrumJson::new).collect(),
+            free: p.free.iter().zip(&s.free).map(|(g, c)| FreeJson { name: &g.name, rgb: arr(c) }).collect(),
+            cells: s
+                .cells
+                .iter()
+                .map(|c| {
+                    let cell = &p.colours[c.cell];
+                    let CellName { light, reflectance } = names(c.cell);
+                    CellJson {
+                        light,
+                        reflectance,
+                        target: arr(&c.target),
+                        rgb_full: arr(&c.rgb_full),
+                        rgb_subspace: c.rgb_subspace.as_ref().map(arr),
+                        delta_e_full: c.delta_e_full,
+                        delta_e_subspace: c.delta_e_subspace,
+                        free: cell.free.map(|g| p.free[g].name.as_str()),
+                        weight: cell.weight,
+                        enabled: cell.enabled,
+                    }
+                })
+                .collect(),
+            diagnostics: s
+                .diagnostics
+                .iter()
+                .map(|d| DiagnosticJson { cell: d.cell.map(names), message: &d.message })
+                .collect(),
+        }
+    }
 }

@@ -5,16 +5,17 @@
 //! `e = B⁺E`, `s = B⁺S` ([`Basis::rgb_factor`], seed Eq. 15) — not the Λ-form used by
 //! `fit_in_subspace`, which is what the design minimises but not what is displayed.
 
-use super::joint::NormalCache as FactorCache;
 use super::lsq;
-use super::system::{Design, LinearSystem, Values};
+use super::system::{Design, Form, LinearSystem, Values};
 use super::{CellResult, Diagnostic};
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
-use crate::palette::Palette;
+use crate::colorimetry::Q31;
+use crate::palette::{Bounds, Palette};
 use crate::spectrum::{SAMPLES, Spectrum};
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
+use std::collections::HashMap;
 
 /// A cell counts as met when its full colour is within this CIEDE2000 of its target.
 pub const MET_DELTA_E: f64 = 1.0;
@@ -35,7 +36,7 @@ pub fn cell_results(
 ) -> Vec<CellResult> {
     palette
         .colours
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(k, c)| {
             let e = &v.lights[c.light];
@@ -51,46 +52,195 @@ pub fn cell_results(
         .collect()
 }
 
+/// `x` with a fixed number of decimals, printed exactly as `format!("{:.*}", decimals, x)` prints it (width
+/// and alignment apply as for strings), without the standard formatter's slow exact path in the common case:
+/// tables of thousands of cells print tens of thousands of such numbers.
+#[derive(Clone, Copy, Debug)]
+pub struct Fixed(pub f64, pub usize);
+
+/// A small stack buffer to print into.
+struct Buf {
+    bytes: [u8; 64],
+    len: usize,
+}
+
+impl std::fmt::Write for Buf {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        let end = self.len + s.len();
+        self.bytes.get_mut(self.len..end).ok_or(std::fmt::Error)?.copy_from_slice(s.as_bytes());
+        self.len = end;
+        Ok(())
+    }
+}
+
+impl std::fmt::Display for Fixed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use std::fmt::Write as _;
+        let Fixed(x, decimals) = *self;
+        const TEN: [u64; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
+        if let Some(&p) = TEN.get(decimals)
+            && x.is_finite()
+        {
+            // y = |x|·10^d is exact up to half an ulp, below 2⁻¹³ for y < 2⁴⁰: the nearest integer is the
+            // correctly rounded one unless y is within that of a half (then the exact path decides).
+            let y = x.abs() * p as f64;
+            let frac = y - y.floor();
+            if y < (1u64 << 40) as f64 && (frac - 0.5).abs() > 1e-3 {
+                let n = y.round() as u64;
+                let mut b = Buf { bytes: [0; 64], len: 0 };
+                let sign = if x.is_sign_negative() { "-" } else { "" };
+                let written = if decimals == 0 {
+                    write!(b, "{sign}{n}")
+                } else {
+                    write!(b, "{sign}{}.{:0width$}", n / p, n % p, width = decimals)
+                };
+                if written.is_ok()
+                    && let Ok(s) = std::str::from_utf8(&b.bytes[..b.len])
+                {
+                    return f.pad(s);
+                }
+            }
+        }
+        f.pad(&format!("{x:.decimals$}"))
+    }
+}
+
 fn fmt_rgb(c: &Vector3<f64>) -> String {
-    format!("[{:.4}, {:.4}, {:.4}]", c[0], c[1], c[2])
+    format!("[{}, {}, {}]", Fixed(c[0], 4), Fixed(c[1], 4), Fixed(c[2], 4))
 }
 
 fn is_zero(s: &Spectrum) -> bool {
     s.0.amax() <= 1e-12
 }
 
-/// The closest colour a designed spectrum within its bounds can produce with `partner` fixed, ignoring
-/// every other criterion: a bounded least-squares solve of the 3 colour rows alone, warm-started from the
-/// designed spectrum's solution.
-fn closest_reachable(
-    cache: &FactorCache,
-    design: &Design,
-    form: super::system::Form,
-    partner: &Spectrum,
-    start: &Spectrum,
-    bounds: (Vec<f64>, Vec<f64>),
-    target: &Vector3<f64>,
-) -> Vector3<f64> {
-    let op = design.operator(form, partner);
-    // The colour rows plus a tiny ridge (1e-4·I) so the normal equations stay definite and the active-set
-    // solve takes its fast path; the ridge moves the reachable colour by far less than a ΔE00 of 0.01.
-    const RIDGE: f64 = 1e-4;
-    let a = DMatrix::from_fn(3 + SAMPLES, SAMPLES, |r, c| {
-        if r < 3 {
-            op[(r, c)]
-        } else if r - 3 == c {
-            RIDGE
-        } else {
-            0.0
-        }
-    });
-    let mut b = DVector::zeros(3 + SAMPLES);
-    b.rows_mut(0, 3).copy_from(target);
-    let sys = LinearSystem { a, b, lower: DVector::from_vec(bounds.0), upper: DVector::from_vec(bounds.1) };
-    let h = cache.get(&sys.a);
-    let out = lsq::solve_from(&sys, &h, &DVector::from_column_slice(start.as_slice()));
-    op * nalgebra::SVector::<f64, SAMPLES>::from_column_slice(out.x.as_slice())
+/// What the closest-reachable check needs for the cells of one designed side under one fixed partner
+/// (built once and shared by every such cell).
+struct Reach {
+    /// The 3×31 map from the designed spectrum to the cell's colour.
+    op: Q31,
+    /// `(op opᵀ)⁻¹` when op has full row rank.
+    gram_inv: Option<Matrix3<f64>>,
+    /// `AᵀA` of the ridge system `[op; RIDGE·I]`.
+    h: DMatrix<f64>,
 }
+
+/// The colour rows plus a tiny ridge (1e-4·I) so the normal equations stay definite and the active-set
+/// solve takes its fast path; the ridge moves the reachable colour by far less than a ΔE00 of 0.01.
+const RIDGE: f64 = 1e-4;
+
+impl Reach {
+    fn new(design: &Design, form: Form, partner: &Spectrum) -> Reach {
+        let op = design.operator(form, partner);
+        let gram_inv = (op * op.transpose()).try_inverse().filter(|g| g.iter().all(|v| v.is_finite()));
+        let mut h = DMatrix::from_fn(SAMPLES, SAMPLES, |r, c| op.column(r).dot(&op.column(c)));
+        for i in 0..SAMPLES {
+            h[(i, i)] += RIDGE * RIDGE;
+        }
+        Reach { op, gram_inv, h }
+    }
+
+    /// The closest colour the designed spectrum can produce within `bounds` with the partner fixed, ignoring
+    /// every other criterion. First a walk from the solution `start` towards the target that stays in the
+    /// bounds (below); when it does not arrive, a bounded least-squares solve of the colour rows alone (with
+    /// the ridge), warm-started from `start`.
+    fn closest(&self, start: &Spectrum, bounds: Bounds, target: &Vector3<f64>) -> Vector3<f64> {
+        let op = &self.op;
+        if let Some(x) = self.exact_hit(start, bounds, target) {
+            return op * x.0;
+        }
+        // The solution may sit at many bounds; the middle of the box has room in every direction.
+        let middle = Spectrum::flat(0.5 * (bounds.lower + bounds.upper));
+        if middle.is_finite()
+            && let Some(x) = self.exact_hit(&middle, bounds, target)
+        {
+            return op * x.0;
+        }
+        let a = DMatrix::from_fn(3 + SAMPLES, SAMPLES, |r, c| {
+            if r < 3 {
+                op[(r, c)]
+            } else if r - 3 == c {
+                RIDGE
+            } else {
+                0.0
+            }
+        });
+        let mut b = DVector::zeros(3 + SAMPLES);
+        b.rows_mut(0, 3).copy_from(target);
+        let sys = LinearSystem {
+            a,
+            b,
+            lower: DVector::from_element(SAMPLES, bounds.lower),
+            upper: DVector::from_element(SAMPLES, bounds.upper),
+        };
+        let out = lsq::solve_from(&sys, &self.h, &DVector::from_column_slice(start.as_slice()));
+        op * nalgebra::SVector::<f64, SAMPLES>::from_column_slice(out.x.as_slice())
+    }
+}
+
+impl Reach {
+    /// A spectrum within `bounds` whose colour is exactly `target` (up to rounding), found by walking from
+    /// `start` along the smallest change that removes the colour error, `d = op_Fᵀ (op_F op_Fᵀ)⁻¹ r` over
+    /// the samples F still free to move, as far as the bounds allow; a sample that reaches a bound stays
+    /// there. Each step either arrives or binds a sample, so there are at most 31 + 1 steps. `None` when the
+    /// walk gets stuck (the target may still be reachable: the caller then solves the bounded problem).
+    fn exact_hit(&self, start: &Spectrum, bounds: Bounds, target: &Vector3<f64>) -> Option<Spectrum> {
+        self.gram_inv?;
+        let op = &self.op;
+        let (lo, hi) = (bounds.lower, bounds.upper);
+        let mut x = start.0.map(|v| v.clamp(lo, hi));
+        let mut free = [true; SAMPLES];
+        // op_F op_Fᵀ, kept up to date as samples are bound.
+        let mut gram = op * op.transpose();
+        // The colour error; each step removes the fraction α of it (the samples it binds land exactly on
+        // their bounds), so it is updated rather than recomputed; the end checks the colour itself.
+        let mut r = target - op * x;
+        for _ in 0..=SAMPLES {
+            let y = gram.try_inverse()? * r;
+            let d = op.transpose() * y;
+            // The longest step (at most the whole one) that keeps every free sample in the bounds.
+            let mut room = [f64::INFINITY; SAMPLES];
+            for i in (0..SAMPLES).filter(|&i| free[i]) {
+                if d[i] < 0.0 {
+                    room[i] = ((lo - x[i]) / d[i]).max(0.0);
+                } else if d[i] > 0.0 {
+                    room[i] = ((hi - x[i]) / d[i]).max(0.0);
+                }
+            }
+            let alpha = room.iter().fold(1.0f64, |a, r| a.min(*r));
+            if !(alpha.is_finite() && d.iter().all(|v| v.is_finite())) {
+                return None;
+            }
+            for i in 0..SAMPLES {
+                if !free[i] {
+                    continue;
+                }
+                if room[i] <= alpha {
+                    // This sample reaches its bound: it stays there.
+                    x[i] = if d[i] < 0.0 { lo } else { hi };
+                    free[i] = false;
+                    gram -= op.column(i) * op.column(i).transpose();
+                } else {
+                    x[i] = (x[i] + alpha * d[i]).clamp(lo, hi);
+                }
+            }
+            r *= 1.0 - alpha;
+            if alpha >= 1.0 {
+                // Arrived, unless a nearly singular `op_F op_Fᵀ` spoiled the step: check the colour.
+                let miss = (target - op * x).amax();
+                return (miss <= EXACT_HIT_TOLERANCE * (1.0 + target.amax())).then_some(Spectrum(x));
+            }
+        }
+        None
+    }
+}
+
+/// A walk counts as arrived when its colour is within this (relative to the target's size) of the target:
+/// far below a ΔE00 of 0.01.
+const EXACT_HIT_TOLERANCE: f64 = 1e-9;
+
+/// Which fixed partner a half-designed cell's colour is linear in: (the reflectance is designed, the
+/// partner's index, the form).
+type ReachKey = (bool, usize, Form);
 
 /// Diagnostics about the palette and the solution.
 pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells: &[CellResult]) -> Vec<Diagnostic> {
@@ -165,16 +315,47 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
             c.is_active() && r.delta_e_full > MET_DELTA_E && !is_zero(&v.lights[c.light])
         })
         .collect();
-    let cache = FactorCache::default();
+    // The form of each cell's colour rows, and the reachability data of each fixed partner, built once.
+    let mut form_of = vec![Form::Full; p.colours.len()];
+    for t in &design.terms {
+        form_of[t.cell] = t.form;
+    }
+    let mut keys: HashMap<ReachKey, usize> = HashMap::new();
+    let mut wanted: Vec<ReachKey> = Vec::new();
+    for r in &unmet {
+        if let Some(k) = reach_key(p, &form_of, r.cell) {
+            keys.entry(k).or_insert_with(|| {
+                wanted.push(k);
+                wanted.len() - 1
+            });
+        }
+    }
+    let reach: Vec<Reach> = wanted
+        .par_iter()
+        .map(|&(refl, partner, form)| {
+            Reach::new(design, form, if refl { &v.lights[partner] } else { &v.reflectances[partner] })
+        })
+        .collect();
+    let reach_of = |cell: usize| reach_key(p, &form_of, cell).and_then(|k| keys.get(&k)).map(|&i| &reach[i]);
     let reasons: Vec<Diagnostic> =
-        unmet.par_iter().map(|r| unmet_reason(&cache, design, colorimetry, v, r, &by_reflectance)).collect();
+        unmet.par_iter().map(|r| unmet_reason(reach_of(r.cell), design, colorimetry, v, r, &by_reflectance)).collect();
     out.extend(reasons);
     out
 }
 
+/// The reachability key of a cell with exactly one designed side.
+fn reach_key(p: &Palette, form_of: &[Form], cell: usize) -> Option<ReachKey> {
+    let c = &p.colours[cell];
+    match (p.lights[c.light].design, p.reflectances[c.reflectance].design) {
+        (false, true) => Some((true, c.light, form_of[cell])),
+        (true, false) => Some((false, c.reflectance, form_of[cell])),
+        _ => None,
+    }
+}
+
 /// Why one cell is not met.
 fn unmet_reason(
-    cache: &FactorCache,
+    reach: Option<&Reach>,
     design: &Design,
     colorimetry: &Colorimetry,
     v: &Values,
@@ -190,10 +371,10 @@ fn unmet_reason(
         let e = &v.lights[c.light];
         let s = &v.reflectances[c.reflectance];
         let head = format!(
-            "cell {} × {} not met (ΔE00 {:.2}: target {}, achieved {})",
+            "cell {} × {} not met (ΔE00 {}: target {}, achieved {})",
             light.name,
             refl.name,
-            r.delta_e_full,
+            Fixed(r.delta_e_full, 2),
             fmt_rgb(&r.target),
             fmt_rgb(&r.rgb_full)
         );
@@ -207,33 +388,27 @@ fn unmet_reason(
             format!("light \"{}\" is zero, so every reflectance is black under it", light.name)
         } else if !refl.design && is_zero(s) {
             format!("reflectance \"{}\" is zero, so it is black under every light", refl.name)
-        } else if light.design != refl.design {
-            let (partner, unit, what, under) = if refl.design {
-                (
-                    e,
-                    super::system::Unit::Reflectance(c.reflectance),
-                    "reflectance",
-                    format!("under light \"{}\"", light.name),
-                )
+        } else if let (true, Some(reach)) = (light.design != refl.design, reach) {
+            let (what, under) = if refl.design {
+                ("reflectance", format!("under light \"{}\"", light.name))
             } else {
-                (s, super::system::Unit::Light(c.light), "light", format!("on reflectance \"{}\"", refl.name))
+                ("light", format!("on reflectance \"{}\"", refl.name))
             };
-            let bounds = design.bounds_of(unit);
-            let (lo, hi) = (bounds.0[0], bounds.1[0]);
-            let form =
-                design.terms.iter().find(|t| t.cell == r.cell).map(|t| t.form).unwrap_or(super::system::Form::Full);
+            let bounds = p.bounds_of(if refl.design { refl } else { light });
+            let (lo, hi) = (bounds.lower, bounds.upper);
             let start = if refl.design { s } else { e };
-            let best = closest_reachable(cache, design, form, partner, start, bounds, &r.target);
+            let best = reach.closest(start, bounds, &r.target);
             let de = colorimetry.delta_e00_under(&r.target, &best, e);
             if de > MET_DELTA_E {
                 format!(
-                    "the target is outside what a {what} within [{lo}, {hi}] can reach {under}: the closest reachable colour is {} (ΔE00 {:.2})",
+                    "the target is outside what a {what} within [{lo}, {hi}] can reach {under}: the closest reachable colour is {} (ΔE00 {})",
                     fmt_rgb(&best),
-                    de
+                    Fixed(de, 2)
                 )
             } else {
                 let mut msg = format!(
-                    "a {what} alone could reach it (ΔE00 {de:.2}), so it conflicts with the other criteria on this {what} (other cells, smoothness, free colours)"
+                    "a {what} alone could reach it (ΔE00 {}), so it conflicts with the other criteria on this {what} (other cells, smoothness, free colours)",
+                    Fixed(de, 2)
                 );
                 if refl.design {
                     // Near-identical lights asked for different colours on this reflectance?
@@ -256,5 +431,83 @@ fn unmet_reason(
             "light and reflectance are designed jointly; this cell conflicts with the other cells sharing them (or the smoothness)".to_string()
         };
         say(Some(r.cell), format!("{head}: {why}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
+    }
+
+    /// Reachable targets are hit (colour within the walk's tolerance); for the others the closest colour is
+    /// no farther than the bounded least-squares solve of the colour rows finds.
+    #[test]
+    fn closest_reachable_colours() {
+        let col = Colorimetry::default();
+        let palette = crate::design::random::batch_palette(1, 3, &col);
+        let design = Design::new(&palette, None, &col).unwrap();
+        let bounds = Bounds::new(0.0, 1.0);
+        let mut seed = 5u64;
+        let (mut hits, mut misses) = (0, 0);
+        for light in &palette.lights {
+            let reach = Reach::new(&design, Form::Full, &light.spectrum);
+            for k in 0..60 {
+                let truth = Spectrum(crate::spectrum::Samples::from_fn(|_, _| lcg(&mut seed)));
+                let start = Spectrum(crate::spectrum::Samples::from_fn(|_, _| lcg(&mut seed).round()));
+                // Every third target is pushed out of reach (scaled past what [0, 1] allows, or negative).
+                let mut target = reach.op * truth.0;
+                if k % 3 == 1 {
+                    target *= 2.5;
+                } else if k % 3 == 2 {
+                    target[1] = -0.1;
+                }
+                let got = reach.closest(&start, bounds, &target);
+                if k % 3 == 0 {
+                    assert!((got - target).amax() <= EXACT_HIT_TOLERANCE * (1.0 + target.amax()), "{got} vs {target}");
+                    hits += 1;
+                } else {
+                    let sys = LinearSystem {
+                        a: DMatrix::from_fn(3, SAMPLES, |r, c| reach.op[(r, c)]),
+                        b: DVector::from_column_slice(target.as_slice()),
+                        lower: DVector::zeros(SAMPLES),
+                        upper: DVector::from_element(SAMPLES, 1.0),
+                    };
+                    let best = lsq::solve_system(&sys);
+                    let reference = reach.op * nalgebra::SVector::<f64, SAMPLES>::from_column_slice(best.x.as_slice());
+                    // The ridge (1e-4) may cost a little distance; far less than a ΔE00 of 0.01.
+                    assert!((got - target).norm() <= (reference - target).norm() + 1e-6, "{got} vs {reference}");
+                    misses += 1;
+                }
+            }
+        }
+        assert!(hits > 50 && misses > 100);
+    }
+
+    #[test]
+    fn fixed_prints_as_the_standard_formatter() {
+        let mut seed = 11u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed
+        };
+        let mut values =
+            vec![0.0, -0.0, 0.5, -0.5, 0.125, 2.675, 1e-9, -1e-9, 0.00005, 0.99995, 1e12, 123.456, f64::NAN];
+        values.extend([f64::INFINITY, f64::NEG_INFINITY, 0.015, 0.025, -0.005, 1.0 / 3.0, 5e-5, 4.99995]);
+        for _ in 0..20000 {
+            let bits = next();
+            let scale = 10f64.powi((next() % 14) as i32 - 6);
+            values.push(((bits >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * scale);
+            values.push(f64::from_bits(next()));
+        }
+        for x in values {
+            for d in 0..8 {
+                assert_eq!(Fixed(x, d).to_string(), format!("{x:.d$}"), "{x:e} with {d} decimals");
+            }
+            assert_eq!(format!("{:>9}", Fixed(x, 2)), format!("{x:>9.2}"));
+        }
     }
 }

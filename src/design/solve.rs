@@ -8,46 +8,35 @@ use super::system::{Block, Design, Layout, Unit, Values};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 use std::collections::HashMap;
-use std::hash::{Hash, Hasher};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
-/// A matrix and its factorisation.
-type Cached = (DMatrix<f64>, Arc<Factor>);
-
-/// Factorisations keyed by the exact bits of A (equal matrices share one SVD).
+/// Factorisations shared between blocks whose matrices are equal, keyed by [`Design::matrix_key`] (what A
+/// is assembled from) rather than by A itself: looking a block up costs a few dozen integers, not a hash of
+/// its whole matrix. A cache serves systems assembled from one [`Values`] only (the key names the fixed
+/// spectra by index).
 #[derive(Default)]
 pub struct FactorCache {
-    map: Mutex<HashMap<u64, Vec<Cached>>>,
+    map: Mutex<HashMap<Vec<u64>, Slot>>,
 }
 
+/// One factorisation, filled by the first block that needs it.
+type Slot = Arc<OnceLock<Arc<Factor>>>;
+
 impl FactorCache {
-    /// The factorisation of `a`, computed once per distinct matrix.
-    pub fn get(&self, a: &DMatrix<f64>) -> Arc<Factor> {
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        a.shape().hash(&mut h);
-        for v in a.iter() {
-            v.to_bits().hash(&mut h);
-        }
-        let key = h.finish();
-        if let Ok(map) = self.map.lock()
-            && let Some(list) = map.get(&key)
-            && let Some((_, f)) = list.iter().find(|(m, _)| m == a)
-        {
-            return f.clone();
-        }
-        let f = Arc::new(Factor::new(a));
-        if let Ok(mut map) = self.map.lock() {
-            let list = map.entry(key).or_default();
-            if list.len() < 4 {
-                list.push((a.clone(), f.clone()));
-            }
-        }
-        f
+    /// The factorisation of `a`, whose key is `key`: computed once per key, also when several threads ask
+    /// for it at once (the others wait for the first).
+    pub fn get(&self, key: Vec<u64>, a: &DMatrix<f64>) -> Arc<Factor> {
+        let slot = match self.map.lock() {
+            Ok(mut map) => map.entry(key).or_default().clone(),
+            // A panic elsewhere poisoned the lock: factor without sharing.
+            Err(_) => return Arc::new(Factor::new(a)),
+        };
+        slot.get_or_init(|| Arc::new(Factor::new(a))).clone()
     }
 
     /// Number of distinct factorisations computed.
     pub fn len(&self) -> usize {
-        self.map.lock().map(|m| m.values().map(|l| l.len()).sum()).unwrap_or(0)
+        self.map.lock().map(|m| m.values().filter(|s| s.get().is_some()).count()).unwrap_or(0)
     }
 
     pub fn is_empty(&self) -> bool {
@@ -105,14 +94,17 @@ pub fn solve_block(
     let sys = design.linear_system(&layout, &block.terms, v);
     let mut x = layout.gather(v);
     if sys.a.nrows() > 0 {
-        let factor = cache.get(&sys.a);
+        let factor = cache.get(design.matrix_key(&layout, &block.terms), &sys.a);
         let out = lsq::solve(&sys, &factor);
-        if out.x.iter().all(|x| x.is_finite()) {
-            x = out.x;
-        }
         report.kkt = out.kkt;
         report.bounds_active = out.bounds_active;
-        report.objective = (&sys.a * &x - &sys.b).norm_squared();
+        if out.x.iter().all(|x| x.is_finite()) {
+            // `objective` is ‖A x − b‖² of the returned x.
+            report.objective = out.objective;
+            x = out.x;
+        } else {
+            report.objective = (&sys.a * &x - &sys.b).norm_squared();
+        }
     }
     report.values = layout.units.iter().map(|(u, o)| (*u, x.rows(*o, u.len()).iter().copied().collect())).collect();
     report

@@ -70,7 +70,7 @@ impl Unit {
 }
 
 /// Which bilinear form a row block uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Form {
     /// `Q_rgb,31 (E ∘ S)`.
     Full,
@@ -381,6 +381,39 @@ impl<'a> Design<'a> {
         f
     }
 
+    /// What the matrix A of [`Design::linear_system`] depends on, as a short list of numbers: the layout's
+    /// shape, the smoothness weight and, per term, where its rows go, which fixed spectrum multiplies the
+    /// unknowns, the form, the scales and the free colour's columns. Two systems assembled from the same
+    /// [`Values`] with equal keys have bit-identical A (A is a deterministic function of exactly these), so
+    /// a factorisation can be shared by key without hashing or comparing A itself.
+    pub fn matrix_key(&self, layout: &Layout, terms: &[usize]) -> Vec<u64> {
+        const NONE: u64 = u64::MAX;
+        let opt = |o: Option<usize>| o.map_or(NONE, |o| o as u64);
+        let mut key = Vec::with_capacity(2 + layout.units.len() + 7 * terms.len());
+        key.push(layout.len() as u64);
+        key.push((self.smoothness * smoothness_scale()).to_bits());
+        key.extend(layout.units.iter().map(|(u, _)| matches!(u, Unit::Free(_)) as u64));
+        for &ti in terms {
+            let t = &self.terms[ti];
+            let lo = layout.offset(Unit::Light(t.light));
+            let ro = layout.offset(Unit::Reflectance(t.reflectance));
+            // The spectrum held fixed multiplies the unknowns: the reflectance when the light is unknown.
+            let partner = match (lo, ro) {
+                (Some(_), None) => t.reflectance as u64,
+                (None, Some(_)) => t.light as u64,
+                _ => NONE,
+            };
+            let form = match t.form {
+                Form::Full => 0,
+                Form::Subspace => 1,
+                Form::Error => 2,
+            };
+            let free = t.free.and_then(|g| layout.offset(Unit::Free(g)));
+            key.extend([opt(lo), opt(ro), partner, form, t.scale.to_bits(), t.error_scale.to_bits(), opt(free)]);
+        }
+        key
+    }
+
     /// Assemble the linear least-squares system `min ‖A x − b‖²` over `layout`'s units with every other
     /// spectrum and free colour held at `v`. No term may have both of its sides in the layout.
     /// Only `terms` (indices into `self.terms`) are assembled; with `smoothness`, the layout's spectra get
@@ -408,11 +441,9 @@ impl<'a> Design<'a> {
             let lo = layout.offset(Unit::Light(t.light));
             let ro = layout.offset(Unit::Reflectance(t.reflectance));
             debug_assert!(!(lo.is_some() && ro.is_some()));
-            let mut blocks = vec![(t.form, t.scale, r0)];
-            if t.error_scale > 0.0 {
-                blocks.push((Form::Error, t.error_scale, r0 + 3));
-            }
-            for (form, scale, row) in blocks {
+            let parts = [(t.form, t.scale, r0), (Form::Error, t.error_scale, r0 + 3)];
+            let count = if t.error_scale > 0.0 { 2 } else { 1 };
+            for &(form, scale, row) in &parts[..count] {
                 let constant = match (lo, ro) {
                     (Some(off), None) => {
                         let op = self.operator(form, s) * scale;
@@ -573,10 +604,21 @@ impl Layout {
     pub fn bounds(&self, design: &Design) -> (DVector<f64>, DVector<f64>) {
         let mut lo = DVector::zeros(self.len);
         let mut hi = DVector::zeros(self.len);
+        let p = design.palette;
         for (u, o) in &self.units {
-            let (l, h) = design.bounds_of(*u);
-            lo.rows_mut(*o, u.len()).copy_from_slice(&l);
-            hi.rows_mut(*o, u.len()).copy_from_slice(&h);
+            let n = u.len();
+            match *u {
+                Unit::Light(i) | Unit::Reflectance(i) => {
+                    let entry = if matches!(u, Unit::Light(_)) { &p.lights[i] } else { &p.reflectances[i] };
+                    let b = p.bounds_of(entry);
+                    lo.rows_mut(*o, n).fill(b.lower);
+                    hi.rows_mut(*o, n).fill(b.upper);
+                }
+                Unit::Free(g) => {
+                    lo.rows_mut(*o, n).copy_from(&p.free[g].lower);
+                    hi.rows_mut(*o, n).copy_from(&p.free[g].upper);
+                }
+            }
         }
         (lo, hi)
     }

@@ -1,10 +1,16 @@
 //! Palette files (DESIGN_SPEC §3): reading TOML into the resolved [`Palette`] model with validation that
 //! names the file, the key and the reason, and saving the model back while keeping the user's comments,
-//! key order and unknown keys (the file is kept as a `toml_edit` document and only changed values are
-//! rewritten). Saving is atomic: a temporary file in the same folder, flushed to disk, then renamed over
-//! the target, so a failed save never leaves a half-written or missing palette.
+//! key order and unknown keys (only changed values are rewritten: new spectrum values are spliced into the
+//! text as read when that is all that changed, anything else goes through a `toml_edit` document). Saving is
+//! atomic: a temporary file in the same folder, flushed to disk, then renamed over the target, so a failed
+//! save never leaves a half-written or missing palette.
+//!
+//! Reading uses `toml`'s borrowing parser (spans kept, no document built); the `toml_edit` document is only
+//! parsed when a save needs it.
 
+mod parallel;
 mod read;
+mod splice;
 mod write;
 
 use crate::colorimetry::Colorimetry;
@@ -13,6 +19,8 @@ use crate::spectrum::Spectrum;
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use toml::de::DeTable;
 use toml_edit::DocumentMut;
 
 /// Why a palette file cannot be read, validated or written.
@@ -55,13 +63,16 @@ impl PaletteError {
     }
 }
 
-/// A palette file: the editable TOML document and the resolved model read from it.
+/// A palette file: its text, the resolved model read from it, and (built when a save needs it) the editable
+/// TOML document.
 #[derive(Clone, Debug)]
 pub struct PaletteFile {
     /// Where the file lives (`None` for a palette made in memory and not saved yet).
     pub path: Option<PathBuf>,
-    /// The document as the user wrote it; saving edits it in place.
-    pub document: DocumentMut,
+    /// The document as the user wrote it (parsed from `original` on first use); saving edits a copy.
+    document: OnceLock<DocumentMut>,
+    /// Where each spectrum's source, `normalize` and `scale` sit in `original` (for splicing saves).
+    spans: Option<splice::Spans>,
     /// The resolved model, as the document currently says.
     pub palette: Palette,
     /// Non-fatal remarks from reading (unknown keys, kept as they are).
@@ -88,21 +99,27 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
 }
 
 /// The span of a key path such as `colours[3].light` (or of the deepest table on the way that exists).
-fn span_of_key(doc: &toml_edit::Document<&str>, key: &str) -> Option<std::ops::Range<usize>> {
-    let mut item = doc.as_item();
+fn span_of_key(root: &DeTable, key: &str) -> Option<std::ops::Range<usize>> {
+    let mut item: Option<&toml::Spanned<toml::de::DeValue>> = None;
     let mut best = None;
     for segment in key.split('.') {
         let mut parts = segment.split('[');
         let name = parts.next().unwrap_or("");
-        let Some(next) = item.get(name) else { break };
-        item = next;
-        best = item.span().or(best);
+        let next = match item {
+            None => root.get(name),
+            Some(v) => v.get_ref().get(name),
+        };
+        let Some(next) = next else { break };
+        best = Some(next.span());
+        item = Some(next);
         for index in parts {
-            let Some(next) = index.trim_end_matches(']').parse::<usize>().ok().and_then(|i| item.get(i)) else {
+            let Some(next) =
+                index.trim_end_matches(']').parse::<usize>().ok().and_then(|i| item.and_then(|v| v.get_ref().get(i)))
+            else {
                 return best;
             };
-            item = next;
-            best = item.span().or(best);
+            best = Some(next.span());
+            item = Some(next);
         }
     }
     best
@@ -136,30 +153,52 @@ impl PaletteFile {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
             PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
         };
-        let spanned = toml_edit::Document::parse(text).map_err(|e| syntax(e.message(), e.span()))?;
-        // The reader's plain table is taken from the spanned document rather than parsed a second time with
-        // `toml` (both crates share one TOML 1.1 parser, so a document one accepts the other accepts too).
-        let table = plain_table(spanned.as_table());
+        // Long files are parsed in pieces on several threads; anything unusual, and every error (whose
+        // message needs the spans of the whole text), goes through the whole-text parse.
+        if let Some(parsed) = parallel::parse(text)
+            && let Ok(outcome) = read::Reader::new(path, Colorimetry::default().luminance()).read(&parsed.root)
+        {
+            return Ok(PaletteFile::from_outcome(text, path, outcome, parsed.spans));
+        }
+        let spanned = DeTable::parse(text).map_err(|e| syntax(e.message(), e.span()))?;
+        let root = spanned.get_ref();
+        // The parser keeps numbers as text; one TOML cannot represent is a syntax error, as in `toml_edit`.
+        if let Some((span, message)) = root.values().find_map(read::check_numbers) {
+            return Err(syntax(message, Some(span)));
+        }
         let colorimetry = Colorimetry::default();
-        let outcome = read::Reader::new(path, colorimetry.luminance()).read(&table).map_err(|e| match e {
+        let outcome = read::Reader::new(path, colorimetry.luminance()).read(root).map_err(|e| match e {
             PaletteError::Invalid { path, key, reason, line: None } => {
-                let line = span_of_key(&spanned, &key).map(|s| line_column(text, s.start).0);
+                let line = span_of_key(root, &key).map(|s| line_column(text, s.start).0);
                 PaletteError::Invalid { path, key, reason, line }
             }
             other => other,
         })?;
-        let document = spanned.into_mut();
-        Ok(PaletteFile {
+        Ok(PaletteFile::from_outcome(text, path, outcome, splice::Spans::of(root)))
+    }
+
+    fn from_outcome(text: &str, path: &Path, outcome: read::ReadOutcome, spans: Option<splice::Spans>) -> Self {
+        // Line endings: CRLF when most newlines have a carriage return before them.
+        let bytes = text.as_bytes();
+        let (mut newlines, mut crlf) = (0usize, 0usize);
+        for (i, &c) in bytes.iter().enumerate() {
+            if c == b'\n' {
+                newlines += 1;
+                crlf += usize::from(i > 0 && bytes[i - 1] == b'\r');
+            }
+        }
+        PaletteFile {
             path: Some(path.to_path_buf()),
-            document,
+            document: OnceLock::new(),
+            spans,
             palette: outcome.palette,
             warnings: outcome.warnings,
             csv_raw: outcome.csv_raw,
-            crlf: text.matches("\r\n").count() * 2 > text.matches('\n').count(),
+            crlf: crlf * 2 > newlines,
             no_final_newline: !text.ends_with('\n'),
             bom: text.starts_with('\u{feff}'),
             original: text.to_string(),
-        })
+        }
     }
 
     /// A new file for a palette made in memory (no path yet: save it with [`PaletteFile::save_as`]).
@@ -175,7 +214,8 @@ impl PaletteFile {
         let _ = write::update_document(&mut document, &Palette::default(), palette, &ctx);
         PaletteFile {
             path: None,
-            document,
+            document: OnceLock::from(document),
+            spans: None,
             palette: palette.clone(),
             warnings: Vec::new(),
             csv_raw: HashMap::new(),
@@ -188,14 +228,30 @@ impl PaletteFile {
 
     /// The file's text as it stands.
     pub fn text(&self) -> String {
-        self.text_of(&self.document)
+        if !self.original.is_empty() {
+            return self.original.clone();
+        }
+        self.document().map(|d| self.text_of(d)).unwrap_or_default()
+    }
+
+    /// The editable document, parsed from the text on first use.
+    fn document(&self) -> Result<&DocumentMut, PaletteError> {
+        if let Some(d) = self.document.get() {
+            return Ok(d);
+        }
+        let path = self.path.clone().unwrap_or_default();
+        let document = self.original.parse::<DocumentMut>().map_err(|e| {
+            let (line, column) = line_column(&self.original, e.span().map_or(0, |s| s.start));
+            PaletteError::Syntax { path, line, column, message: e.message().trim().replace('\n', " ") }
+        })?;
+        Ok(self.document.get_or_init(|| document))
     }
 
     /// A document's text with this file's byte order mark, line endings and final newline (the text as read
     /// when the document is unchanged).
     fn text_of(&self, document: &DocumentMut) -> String {
         let mut text = document.to_string();
-        if !self.original.is_empty() && text == self.document.to_string() {
+        if !self.original.is_empty() && self.document().is_ok_and(|d| text == d.to_string()) {
             return self.original.clone();
         }
         if self.bom && !text.starts_with('\u{feff}') {
@@ -218,7 +274,7 @@ impl PaletteFile {
             csv_raw: &self.csv_raw,
             luminance: Colorimetry::default().luminance(),
         };
-        let mut document = self.document.clone();
+        let mut document = self.document()?.clone();
         write::update_document(&mut document, &self.palette, palette, &ctx).map_err(|e| PaletteError::Invalid {
             path: path.to_path_buf(),
             key: "(document)".to_string(),
@@ -236,18 +292,57 @@ impl PaletteFile {
     }
 
     /// Save `palette` to `path` (atomically) and make that this file's path. The text is checked by reading
-    /// it back before anything is written; on any error the file on disk is left as it was.
+    /// it back before anything is written (a splicing save checks each value it writes); on any error the
+    /// file on disk is left as it was.
     pub fn save_as(&mut self, palette: &Palette, path: &Path) -> Result<(), PaletteError> {
+        if let Some(spliced) = self.splice(palette, path) {
+            write_atomically(path, &spliced.text)
+                .map_err(|source| PaletteError::Write { path: path.to_path_buf(), source })?;
+            self.palette = spliced.palette;
+            self.spans = Some(spliced.spans);
+            self.original = spliced.text;
+            self.document = OnceLock::new();
+            self.path = Some(path.to_path_buf());
+            return Ok(());
+        }
         let (document, reread) = self.render(palette, path)?;
         write_atomically(path, &self.text_of(&document))
             .map_err(|source| PaletteError::Write { path: path.to_path_buf(), source })?;
-        self.document = document;
+        self.document = OnceLock::from(document);
         self.palette = reread.palette;
         self.csv_raw = reread.csv_raw;
         self.warnings = reread.warnings;
+        self.spans = reread.spans;
         self.original = reread.original;
         self.path = Some(path.to_path_buf());
         Ok(())
+    }
+
+    /// The splicing save of `palette` to `path`, when the change allows it (see [`splice`]).
+    fn splice(&self, palette: &Palette, path: &Path) -> Option<splice::Spliced> {
+        let spans = self.spans.as_ref()?;
+        if self.original.is_empty() {
+            return None;
+        }
+        let new_base = folder_of(path);
+        let old_base = self.path.as_deref().map(folder_of);
+        let ctx = write::SaveContext {
+            old_base: old_base.as_deref(),
+            new_base: &new_base,
+            csv_raw: &self.csv_raw,
+            luminance: Colorimetry::default().luminance(),
+        };
+        let spliced = splice::splice(&self.original, spans, &self.palette, palette, &ctx, self.crlf)?;
+        // Debug builds (the tests) also read the whole text back.
+        #[cfg(debug_assertions)]
+        {
+            let reread = PaletteFile::parse(&spliced.text, path);
+            debug_assert!(
+                reread.as_ref().is_ok_and(|r| r.palette == spliced.palette && r.spans.as_ref() == Some(&spliced.spans)),
+                "a splicing save does not read back as intended"
+            );
+        }
+        Some(spliced)
     }
 }
 
@@ -282,34 +377,4 @@ fn write_atomically(path: &Path, text: &str) -> std::io::Result<()> {
         let _ = d.sync_all();
     }
     Ok(())
-}
-
-/// A plain `toml` table with the values of a `toml_edit` table (layout, comments and spans dropped).
-fn plain_table(table: &toml_edit::Table) -> toml::Table {
-    table.iter().filter_map(|(key, item)| plain_item(item).map(|v| (key.to_string(), v))).collect()
-}
-
-fn plain_item(item: &toml_edit::Item) -> Option<toml::Value> {
-    match item {
-        toml_edit::Item::None => None,
-        toml_edit::Item::Value(v) => Some(plain_value(v)),
-        toml_edit::Item::Table(t) => Some(toml::Value::Table(plain_table(t))),
-        toml_edit::Item::ArrayOfTables(a) => {
-            Some(toml::Value::Array(a.iter().map(|t| toml::Value::Table(plain_table(t))).collect()))
-        }
-    }
-}
-
-fn plain_value(value: &toml_edit::Value) -> toml::Value {
-    match value {
-        toml_edit::Value::String(s) => toml::Value::String(s.value().clone()),
-        toml_edit::Value::Integer(i) => toml::Value::Integer(*i.value()),
-        toml_edit::Value::Float(f) => toml::Value::Float(*f.value()),
-        toml_edit::Value::Boolean(b) => toml::Value::Boolean(*b.value()),
-        toml_edit::Value::Datetime(d) => toml::Value::Datetime(*d.value()),
-        toml_edit::Value::Array(a) => toml::Value::Array(a.iter().map(plain_value).collect()),
-        toml_edit::Value::InlineTable(t) => {
-            toml::Value::Table(t.iter().map(|(key, v)| (key.to_string(), plain_value(v))).collect())
-        }
-    }
 }

@@ -1,5 +1,6 @@
-//! Reading: a parsed TOML table (serde + toml) walked into the resolved [`Palette`] model with every
-//! validation of DESIGN_SPEC §3. Every error names the key path (`colours[3].light`) and the reason.
+//! Reading: a parsed TOML table (`toml`'s borrowed [`DeTable`], spans kept) walked into the resolved [`Palette`]
+//! model with every validation of DESIGN_SPEC §3. Every error names the key path (`colours[3].light`) and the
+//! reason.
 
 use super::PaletteError;
 use crate::colorimetry::hex_to_linear;
@@ -7,9 +8,14 @@ use crate::palette::source::{SourceError, finish};
 use crate::palette::{Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation};
 use crate::spectrum::{Grid, Normalize, SAMPLES, Samples, Spectrum};
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use toml::{Table, Value};
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+type Table<'i> = DeTable<'i>;
+type Value<'i> = DeValue<'i>;
 
 const TOP_KEYS: &[&str] = &["name", "wavelengths", "settings", "lights", "reflectances", "colours", "free"];
 const SETTINGS_KEYS: &[&str] =
@@ -40,6 +46,21 @@ pub(super) struct ReadOutcome {
     pub csv_raw: HashMap<String, Spectrum>,
 }
 
+/// A spectrum as read, and its CSV file's raw samples when it has one.
+type ReadSpectrum = (SpectrumEntry, Option<(String, Spectrum)>);
+
+/// A colour cell as read: the warnings about its keys, its light and reflectance, and the rest.
+type ReadCell = (Vec<String>, Res<(usize, usize)>, Res<CellRest>);
+
+/// A colour cell's keys besides its light and reflectance.
+struct CellRest {
+    free: Option<usize>,
+    target: Vector3<f64>,
+    notation: TargetNotation,
+    weight: f64,
+    enabled: bool,
+}
+
 /// Walks a parsed table, collecting warnings and naming keys in errors.
 pub(super) struct Reader<'a> {
     path: &'a Path,
@@ -50,6 +71,49 @@ pub(super) struct Reader<'a> {
 }
 
 type Res<T> = Result<T, PaletteError>;
+
+/// Lookups by key in a parsed table.
+trait TableExt<'i> {
+    fn value(&self, key: &str) -> Option<&Value<'i>>;
+}
+
+impl<'i> TableExt<'i> for Table<'i> {
+    fn value(&self, key: &str) -> Option<&Value<'i>> {
+        self.get(key).map(Spanned::get_ref)
+    }
+}
+
+/// An integer's value (`None` for other types and for integers beyond i64, which
+/// [`check_numbers`] refuses before reading).
+pub(super) fn integer_of(v: &Value) -> Option<i64> {
+    v.as_integer().and_then(|i| i64::from_str_radix(i.as_str(), i.radix()).ok())
+}
+
+/// A number's value, integers converted (`None` for other types).
+fn number_of(v: &Value) -> Option<f64> {
+    match v {
+        Value::Float(f) => f.as_str().parse::<f64>().ok(),
+        Value::Integer(_) => integer_of(v).map(|i| i as f64),
+        _ => None,
+    }
+}
+
+/// The first number in `v` that TOML cannot represent (an integer beyond i64, a float that overflows to
+/// infinity without being written `inf`), with its span and the reason: the parser keeps their text and
+/// leaves that check to the reader.
+pub(super) fn check_numbers(v: &Spanned<Value>) -> Option<(std::ops::Range<usize>, &'static str)> {
+    match v.get_ref() {
+        Value::Integer(_) if integer_of(v.get_ref()).is_none() => Some((v.span(), "integer number overflowed")),
+        Value::Float(f) => match f.as_str().parse::<f64>() {
+            Ok(x) if x.is_finite() || f.as_str().contains("inf") || x.is_nan() => None,
+            Ok(_) => Some((v.span(), "floating-point number overflowed")),
+            Err(_) => Some((v.span(), "invalid float")),
+        },
+        Value::Array(a) => a.iter().find_map(check_numbers),
+        Value::Table(t) => t.values().find_map(check_numbers),
+        _ => None,
+    }
+}
 
 fn type_name(v: &Value) -> &'static str {
     match v {
@@ -78,12 +142,21 @@ impl<'a> Reader<'a> {
     }
 
     fn warn_unknown(&mut self, table: &Table, known: &[&str], prefix: &str) {
+        let w = self.unknown_keys(table, known, prefix);
+        self.warnings.extend(w);
+    }
+
+    /// The warnings about the keys of `table` not in `known`.
+    fn unknown_keys(&self, table: &Table, known: &[&str], prefix: &str) -> Vec<String> {
+        let mut out = Vec::new();
         for k in table.keys() {
-            if !known.contains(&k.as_str()) {
-                let at = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
-                self.warnings.push(format!("{}: {at}: unknown key, kept as it is", self.path.display()));
+            let k: &str = k.get_ref();
+            if !known.contains(&k) {
+                let at = if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
+                out.push(format!("{}: {at}: unknown key, kept as it is", self.path.display()));
             }
         }
+        out
     }
 
     fn string<'v>(&self, v: &'v Value, key: &str) -> Res<&'v str> {
@@ -96,10 +169,9 @@ impl<'a> Reader<'a> {
 
     /// A number (integer or float), never NaN; infinities only when `allow_inf`.
     fn number(&self, v: &Value, key: &str, allow_inf: bool) -> Res<f64> {
-        let x = match v {
-            Value::Float(f) => *f,
-            Value::Integer(i) => *i as f64,
-            _ => return Err(self.wrong_type(key, "a number", v)),
+        let x = match number_of(v) {
+            Some(x) => x,
+            None => return Err(self.wrong_type(key, "a number", v)),
         };
         if x.is_nan() {
             Err(self.invalid(key, "NaN is not allowed"))
@@ -117,7 +189,14 @@ impl<'a> Reader<'a> {
         {
             return Err(self.invalid(key, format!("expected {n} numbers, found {}", arr.len())));
         }
-        arr.iter().enumerate().map(|(i, x)| self.number(x, &format!("{key}[{i}]"), allow_inf)).collect()
+        arr.iter()
+            .enumerate()
+            .map(|(i, x)| match number_of(x.get_ref()) {
+                // The common case without building the element's key.
+                Some(v) if v.is_finite() || (allow_inf && v.is_infinite()) => Ok(v),
+                _ => self.number(x.get_ref(), &format!("{key}[{i}]"), allow_inf),
+            })
+            .collect()
     }
 
     fn bounds(&self, v: &Value, key: &str) -> Res<Bounds> {
@@ -128,16 +207,18 @@ impl<'a> Reader<'a> {
         Ok(Bounds::new(b[0], b[1]))
     }
 
-    fn sub_table<'v>(&self, v: &'v Value, key: &str) -> Res<&'v Table> {
+    fn sub_table<'v, 'i>(&self, v: &'v Value<'i>, key: &str) -> Res<&'v Table<'i>> {
         v.as_table().ok_or_else(|| self.wrong_type(key, "a table", v))
     }
 
-    fn array_of_tables<'v>(&self, root: &'v Table, key: &str) -> Res<Vec<&'v Table>> {
-        match root.get(key) {
+    fn array_of_tables<'v, 'i>(&self, root: &'v Table<'i>, key: &str) -> Res<Vec<&'v Table<'i>>> {
+        match root.value(key) {
             None => Ok(Vec::new()),
-            Some(Value::Array(items)) => {
-                items.iter().enumerate().map(|(i, item)| self.sub_table(item, &format!("{key}[{i}]"))).collect()
-            }
+            Some(Value::Array(items)) => items
+                .iter()
+                .enumerate()
+                .map(|(i, item)| self.sub_table(item.get_ref(), &format!("{key}[{i}]")))
+                .collect(),
             Some(v) => Err(self.wrong_type(key, &format!("an array of tables ([[{key}]])"), v)),
         }
     }
@@ -148,14 +229,14 @@ impl<'a> Reader<'a> {
             return Err(PaletteError::Empty { path: self.path.to_path_buf() });
         }
         self.warn_unknown(root, TOP_KEYS, "");
-        let name = match root.get("name") {
+        let name = match root.value("name") {
             Some(v) => self.string(v, "name")?.to_string(),
             None => self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
         };
-        if let Some(v) = root.get("wavelengths") {
+        if let Some(v) = root.value("wavelengths") {
             self.wavelengths(v)?;
         }
-        let settings = match root.get("settings") {
+        let settings = match root.value("settings") {
             Some(v) => self.settings(self.sub_table(v, "settings")?)?,
             None => Settings::default(),
         };
@@ -174,11 +255,11 @@ impl<'a> Reader<'a> {
         let t = self.sub_table(v, "wavelengths")?;
         self.warn_unknown(t, &["start", "step", "count"], "wavelengths");
         let std = Grid::STANDARD;
-        let get = |k: &str| t.get(k).ok_or_else(|| self.invalid(format!("wavelengths.{k}"), "missing"));
+        let get = |k: &str| t.value(k).ok_or_else(|| self.invalid(format!("wavelengths.{k}"), "missing"));
         let start = self.number(get("start")?, "wavelengths.start", false)?;
         let step = self.number(get("step")?, "wavelengths.step", false)?;
         let count_v = get("count")?;
-        let count = count_v.as_integer().ok_or_else(|| self.wrong_type("wavelengths.count", "an integer", count_v))?;
+        let count = integer_of(count_v).ok_or_else(|| self.wrong_type("wavelengths.count", "an integer", count_v))?;
         if start != std.start_nm || step != std.step_nm || count != std.count as i64 {
             return Err(self.invalid(
                 "wavelengths",
@@ -194,16 +275,16 @@ impl<'a> Reader<'a> {
     fn settings(&mut self, t: &Table) -> Res<Settings> {
         self.warn_unknown(t, SETTINGS_KEYS, "settings");
         let mut s = Settings::default();
-        if let Some(v) = t.get("basis_dimension") {
+        if let Some(v) = t.value("basis_dimension") {
             let key = "settings.basis_dimension";
-            let m = v.as_integer().ok_or_else(|| self.wrong_type(key, "an integer", v))?;
+            let m = integer_of(v).ok_or_else(|| self.wrong_type(key, "an integer", v))?;
             if !(1..=SAMPLES as i64).contains(&m) {
                 return Err(self.invalid(key, format!("must be between 1 and {SAMPLES}, got {m}")));
             }
             s.basis_dimension = m as usize;
         }
         for (k, slot) in [("smoothness", &mut s.smoothness), ("subspace_error", &mut s.subspace_error)] {
-            if let Some(v) = t.get(k) {
+            if let Some(v) = t.value(k) {
                 let key = format!("settings.{k}");
                 let x = self.number(v, &key, false)?;
                 if x < 0.0 {
@@ -212,13 +293,13 @@ impl<'a> Reader<'a> {
                 *slot = x;
             }
         }
-        if let Some(v) = t.get("fit_in_subspace") {
+        if let Some(v) = t.value("fit_in_subspace") {
             s.fit_in_subspace = self.boolean(v, "settings.fit_in_subspace")?;
         }
-        if let Some(v) = t.get("reflectance_bounds") {
+        if let Some(v) = t.value("reflectance_bounds") {
             s.reflectance_bounds = self.bounds(v, "settings.reflectance_bounds")?;
         }
-        if let Some(v) = t.get("light_bounds") {
+        if let Some(v) = t.value("light_bounds") {
             s.light_bounds = self.bounds(v, "settings.light_bounds")?;
         }
         Ok(s)
@@ -227,10 +308,24 @@ impl<'a> Reader<'a> {
     fn spectra(&mut self, root: &Table, list: &str, kind: Kind) -> Res<Vec<SpectrumEntry>> {
         let tables = self.array_of_tables(root, list)?;
         let mut out: Vec<SpectrumEntry> = Vec::with_capacity(tables.len());
-        let mut seen: HashMap<String, usize> = HashMap::new();
-        for (i, t) in tables.into_iter().enumerate() {
+        let mut seen: HashMap<String, usize> = HashMap::with_capacity(tables.len());
+        // Entries are read in parallel, then taken in order (the first error in file order is reported).
+        let this = &*self;
+        let read: Vec<(Vec<String>, Res<ReadSpectrum>)> = tables
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let at = format!("{list}[{i}]");
+                (this.unknown_keys(t, SPECTRUM_KEYS, &at), this.spectrum(t, &at, kind))
+            })
+            .collect();
+        for (i, (warnings, entry)) in read.into_iter().enumerate() {
             let at = format!("{list}[{i}]");
-            let entry = self.spectrum(t, &at, kind)?;
+            self.warnings.extend(warnings);
+            let (entry, csv) = entry?;
+            if let Some((file, raw)) = csv {
+                self.csv_raw.insert(file, raw);
+            }
             if let Some(first) = seen.insert(entry.name.clone(), i) {
                 return Err(self.invalid(
                     format!("{at}.name"),
@@ -242,9 +337,9 @@ impl<'a> Reader<'a> {
         Ok(out)
     }
 
-    fn spectrum(&mut self, t: &Table, at: &str, kind: Kind) -> Res<SpectrumEntry> {
-        self.warn_unknown(t, SPECTRUM_KEYS, at);
-        let name = match t.get("name") {
+    /// One spectrum, and its CSV file's raw samples when it has one.
+    fn spectrum(&self, t: &Table, at: &str, kind: Kind) -> Res<ReadSpectrum> {
+        let name = match t.value("name") {
             Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
             None => return Err(self.invalid(format!("{at}.name"), "missing: every spectrum needs a name")),
         };
@@ -268,7 +363,7 @@ impl<'a> Reader<'a> {
             }
         };
         let key = format!("{at}.{source_key}");
-        let v = &t[source_key];
+        let v = t.value(source_key).ok_or_else(|| self.invalid(&key, "missing"))?;
         let source = match source_key {
             "illuminant" => Source::Illuminant(self.string(v, &key)?.to_string()),
             "colorchecker" => Source::ColorChecker(self.string(v, &key)?.to_string()),
@@ -277,7 +372,7 @@ impl<'a> Reader<'a> {
             "samples" => Source::Samples(self.numbers(v, &key, None, false)?),
             _ => Source::Csv(self.string(v, &key)?.to_string()),
         };
-        let normalize = match (t.get("normalize"), kind) {
+        let normalize = match (t.value("normalize"), kind) {
             (None, _) => Normalize::default(),
             (Some(v), Kind::Light) => {
                 let s = self.string(v, &format!("{at}.normalize"))?;
@@ -292,16 +387,16 @@ impl<'a> Reader<'a> {
                 return Err(self.invalid(format!("{at}.normalize"), "reflectances are never normalised: remove it"));
             }
         };
-        let scale = match t.get("scale") {
+        let scale = match t.value("scale") {
             Some(v) => self.number(v, &format!("{at}.scale"), false)?,
             None => 1.0,
         };
-        let design = match t.get("design") {
+        let design = match t.value("design") {
             Some(v) => self.boolean(v, &format!("{at}.design"))?,
             None => false,
         };
-        let bounds = t.get("bounds").map(|v| self.bounds(v, &format!("{at}.bounds"))).transpose()?;
-        let dial = match t.get("dial") {
+        let bounds = t.value("bounds").map(|v| self.bounds(v, &format!("{at}.bounds"))).transpose()?;
+        let dial = match t.value("dial") {
             Some(v) => {
                 let d = self.numbers(v, &format!("{at}.dial"), Some(2), false)?;
                 Some([d[0], d[1]])
@@ -309,13 +404,14 @@ impl<'a> Reader<'a> {
             None => None,
         };
         let raw = source.raw_spectrum(self.base_dir.as_deref()).map_err(|e| self.source_error(&key, e))?;
-        if let Source::Csv(file) = &source {
-            self.csv_raw.insert(file.clone(), raw);
-        }
+        let csv = match &source {
+            Source::Csv(file) => Some((file.clone(), raw)),
+            _ => None,
+        };
         let spectrum = finish(&raw, kind, normalize, scale, &self.luminance).map_err(|e| {
             self.invalid(if kind == Kind::Light { format!("{at}.normalize") } else { key.clone() }, e.to_string())
         })?;
-        Ok(SpectrumEntry { name, kind, source, normalize, scale, design, bounds, dial, spectrum })
+        Ok((SpectrumEntry { name, kind, source, normalize, scale, design, bounds, dial, spectrum }, csv))
     }
 
     fn source_error(&self, key: &str, e: SourceError) -> PaletteError {
@@ -328,7 +424,7 @@ impl<'a> Reader<'a> {
         for (i, t) in tables.into_iter().enumerate() {
             let at = format!("free[{i}]");
             self.warn_unknown(t, FREE_KEYS, &at);
-            let name = match t.get("name") {
+            let name = match t.value("name") {
                 Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
                 None => return Err(self.invalid(format!("{at}.name"), "missing: every free group needs a name")),
             };
@@ -342,7 +438,7 @@ impl<'a> Reader<'a> {
                 ));
             }
             let side = |k: &str, default: f64| -> Res<Vector3<f64>> {
-                match t.get(k) {
+                match t.value(k) {
                     Some(v) => {
                         let x = self.numbers(v, &format!("{at}.{k}"), Some(3), true)?;
                         Ok(Vector3::new(x[0], x[1], x[2]))
@@ -363,87 +459,110 @@ impl<'a> Reader<'a> {
         Ok(out)
     }
 
-    fn colours(
+    fn colours<'v>(
         &mut self,
         root: &Table,
-        lights: &[SpectrumEntry],
-        reflectances: &[SpectrumEntry],
+        lights: &'v [SpectrumEntry],
+        reflectances: &'v [SpectrumEntry],
         free: &[FreeGroup],
     ) -> Res<Vec<ColourCell>> {
         let tables = self.array_of_tables(root, "colours")?;
         let mut out = Vec::with_capacity(tables.len());
-        let mut cells: HashMap<(usize, usize), usize> = HashMap::new();
-        for (i, t) in tables.into_iter().enumerate() {
-            let at = format!("colours[{i}]");
-            self.warn_unknown(t, COLOUR_KEYS, &at);
-            let lookup = |k: &str, entries: &[SpectrumEntry], what: &str| -> Res<usize> {
-                let key = format!("{at}.{k}");
-                let v = t.get(k).ok_or_else(|| self.invalid(&key, format!("missing: a colour names its {what}")))?;
-                let name = self.string(v, &key)?;
-                entries.iter().position(|e| e.name == name).ok_or_else(|| {
-                    let known = names(entries);
-                    self.invalid(&key, format!("unknown {what} `{name}` (known: {known})"))
-                })
-            };
-            let light = lookup("light", lights, "light")?;
-            let reflectance = lookup("reflectance", reflectances, "reflectance")?;
+        let mut cells: HashMap<(usize, usize), usize> = HashMap::with_capacity(tables.len());
+        // Names are unique within each list (checked when reading them).
+        let index = |entries: &'v [SpectrumEntry]| -> HashMap<&'v str, usize> {
+            entries.iter().enumerate().map(|(i, e)| (e.name.as_str(), i)).collect()
+        };
+        let (light_index, reflectance_index) = (index(lights), index(reflectances));
+        // Cells are read in parallel, then taken in order: the first error in file order is reported, a
+        // cell's light and reflectance (and its being a duplicate) before its other keys.
+        let this = &*self;
+        let read: Vec<ReadCell> = tables
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let at = format!("colours[{i}]");
+                let lookup = |k: &str, entries: &[SpectrumEntry], index: &HashMap<&str, usize>, what: &str| {
+                    let key = || format!("{at}.{k}");
+                    let v =
+                        t.value(k).ok_or_else(|| this.invalid(key(), format!("missing: a colour names its {what}")))?;
+                    let name = v.as_str().ok_or_else(|| this.wrong_type(&key(), "a string", v))?;
+                    index.get(name).copied().ok_or_else(|| {
+                        let known = names(entries);
+                        this.invalid(key(), format!("unknown {what} `{name}` (known: {known})"))
+                    })
+                };
+                let cell = lookup("light", lights, &light_index, "light")
+                    .and_then(|l| Ok((l, lookup("reflectance", reflectances, &reflectance_index, "reflectance")?)));
+                (this.unknown_keys(t, COLOUR_KEYS, &at), cell, this.cell_rest(t, &at, free))
+            })
+            .collect();
+        for (i, (warnings, cell, rest)) in read.into_iter().enumerate() {
+            self.warnings.extend(warnings);
+            let (light, reflectance) = cell?;
             if let Some(first) = cells.insert((light, reflectance), i) {
                 return Err(self.invalid(
-                    &at,
+                    format!("colours[{i}]"),
                     format!(
                         "duplicate cell: light `{}` on reflectance `{}` is already given by colours[{first}]",
                         lights[light].name, reflectances[reflectance].name
                     ),
                 ));
             }
-            let free_group = match t.get("free") {
-                Some(v) => {
-                    let key = format!("{at}.free");
-                    let name = self.string(v, &key)?;
-                    Some(free.iter().position(|g| g.name == name).ok_or_else(|| {
-                        let known = if free.is_empty() {
-                            "none declared: add a [[free]] table".to_string()
-                        } else {
-                            free.iter().map(|g| g.name.as_str()).collect::<Vec<_>>().join(", ")
-                        };
-                        self.invalid(&key, format!("unknown free group `{name}` (known: {known})"))
-                    })?)
-                }
-                None => None,
-            };
-            let (target, notation) = match t.get("target") {
-                Some(v) => self.target(v, &format!("{at}.target"))?,
-                None if free_group.is_some() => (Vector3::zeros(), TargetNotation::Hex),
-                None => {
-                    return Err(self.invalid(
-                        format!("{at}.target"),
-                        "missing: a colour needs a target (\"#rrggbb\" or [r, g, b]) or a free group",
-                    ));
-                }
-            };
-            let weight = match t.get("weight") {
-                Some(v) => {
-                    let key = format!("{at}.weight");
-                    let w = self.number(v, &key, false)?;
-                    if w < 0.0 {
-                        return Err(self.invalid(key, format!("weights must not be negative, got {w}")));
-                    }
-                    w
-                }
-                None => 1.0,
-            };
-            let enabled = match t.get("use") {
-                Some(v) => self.boolean(v, &format!("{at}.use"))?,
-                None => true,
-            };
-            out.push(ColourCell { light, reflectance, target, notation, weight, free: free_group, enabled });
+            let CellRest { free, target, notation, weight, enabled } = rest?;
+            out.push(ColourCell { light, reflectance, target, notation, weight, free, enabled });
         }
         Ok(out)
     }
 
+    /// A cell's keys besides its light and reflectance.
+    fn cell_rest(&self, t: &Table, at: &str, free: &[FreeGroup]) -> Res<CellRest> {
+        let free_group = match t.value("free") {
+            Some(v) => {
+                let key = format!("{at}.free");
+                let name = self.string(v, &key)?;
+                Some(free.iter().position(|g| g.name == name).ok_or_else(|| {
+                    let known = if free.is_empty() {
+                        "none declared: add a [[free]] table".to_string()
+                    } else {
+                        free.iter().map(|g| g.name.as_str()).collect::<Vec<_>>().join(", ")
+                    };
+                    self.invalid(&key, format!("unknown free group `{name}` (known: {known})"))
+                })?)
+            }
+            None => None,
+        };
+        let (target, notation) = match t.value("target") {
+            Some(v) => self.target(v, &format!("{at}.target"))?,
+            None if free_group.is_some() => (Vector3::zeros(), TargetNotation::Hex),
+            None => {
+                return Err(self.invalid(
+                    format!("{at}.target"),
+                    "missing: a colour needs a target (\"#rrggbb\" or [r, g, b]) or a free group",
+                ));
+            }
+        };
+        let weight = match t.value("weight") {
+            Some(v) => {
+                let key = format!("{at}.weight");
+                let w = self.number(v, &key, false)?;
+                if w < 0.0 {
+                    return Err(self.invalid(key, format!("weights must not be negative, got {w}")));
+                }
+                w
+            }
+            None => 1.0,
+        };
+        let enabled = match t.value("use") {
+            Some(v) => self.boolean(v, &format!("{at}.use"))?,
+            None => true,
+        };
+        Ok(CellRest { free: free_group, target, notation, weight, enabled })
+    }
+
     fn target(&self, v: &Value, key: &str) -> Res<(Vector3<f64>, TargetNotation)> {
         match v {
-            Value::String(s) => hex_to_linear(s).map(|c| (c, TargetNotation::Hex)).ok_or_else(|| {
+            Value::String(s) => hex_to_linear(s.as_ref()).map(|c| (c, TargetNotation::Hex)).ok_or_else(|| {
                 self.invalid(
                     key,
                     format!("bad hex colour `{s}`: write \"#rrggbb\" (display sRGB) or [r, g, b] (linear)"),
