@@ -175,4 +175,54 @@ mod tests {
         assert!(DeTable::parse(&string).is_ok());
         assert!(parse(&string).is_none());
     }
+
+    /// Differential check: snippets that open or close strings, arrays and tables, duplicate keys or add
+    /// headers, inserted at random line starts of a long palette. Whenever the pieces give a document, the
+    /// whole text must parse and the reader must see the same palette (or fail on both).
+    #[test]
+    fn random_insertions_never_make_the_pieces_disagree_with_the_whole_text() {
+        let base = long_palette(1500);
+        let lines: Vec<usize> = std::iter::once(0)
+            .chain(base.match_indices('\n').map(|(i, _)| i + 1))
+            .filter(|&i| i < base.len())
+            .collect();
+        let snippets = [
+            "\"\"\"\n",
+            "'''\n",
+            "samples = [\n",
+            "]\n",
+            "]]\n",
+            "[extra]\n",
+            "[[lights]]\n",
+            "[[colours]]\nlight = \"a\"\n",
+            "name = \"dup\"\n",
+            "x = 1\n",
+            "# [[reflectances]]\n",
+            "note = \"\"\"\n[[reflectances]]\n\"\"\"\n",
+            "t = { a = [\n",
+        ];
+        let mut seed = 0x5eed_u64;
+        let mut next = |n: usize| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 33) as usize) % n
+        };
+        let reader = || Reader::new(Path::new("long.toml"), Colorimetry::default().luminance());
+        let (mut in_pieces, mut cases) = (0, 0);
+        for _ in 0..24 {
+            let mut text = base.clone();
+            let mut at: Vec<usize> = (0..1 + next(3)).map(|_| lines[next(lines.len())]).collect();
+            at.sort_unstable_by(|a, b| b.cmp(a));
+            for p in at {
+                text.insert_str(p, snippets[next(snippets.len())]);
+            }
+            cases += 1;
+            let Some(parsed) = parse(&text) else { continue };
+            in_pieces += 1;
+            let whole = DeTable::parse(&text).expect("the pieces parsed, so the whole text must");
+            let a = reader().read(&parsed.root).map(|o| o.palette).ok();
+            let b = reader().read(whole.get_ref()).map(|o| o.palette).ok();
+            assert_eq!(a, b);
+        }
+        assert!(in_pieces > 0 && in_pieces < cases, "{in_pieces} of {cases} parsed in pieces");
+    }
 }
