@@ -399,6 +399,9 @@ fn unmet_reason(
             let start = if refl.design { s } else { e };
             let best = reach.closest(start, bounds, &r.target);
             let de = colorimetry.delta_e00_under(&r.target, &best, e);
+            // `closest` is closest in linear RGB; the achieved colour is reachable too (the solved spectrum
+            // is within its bounds) and may be perceptually closer: report whichever is.
+            let (best, de) = if r.delta_e_full < de { (r.rgb_full, r.delta_e_full) } else { (best, de) };
             if de > MET_DELTA_E {
                 format!(
                     "the target is outside what a {what} within [{lo}, {hi}] can reach {under}: the closest reachable colour is {} (ΔE00 {})",
