@@ -266,21 +266,14 @@ impl PaletteFile {
     /// The text that saving `palette` to `path` would write, checked by reading it back: the updated
     /// document and the file it reads as. Nothing is written.
     pub fn render(&self, palette: &Palette, path: &Path) -> Result<(DocumentMut, PaletteFile), PaletteError> {
-        let new_base = folder_of(path);
-        let old_base = self.path.as_deref().map(folder_of);
-        let ctx = write::SaveContext {
-            old_base: old_base.as_deref(),
-            new_base: &new_base,
-            csv_raw: &self.csv_raw,
-            luminance: Colorimetry::default().luminance(),
-        };
         let mut document = self.document()?.clone();
-        write::update_document(&mut document, &self.palette, palette, &ctx).map_err(|e| PaletteError::Invalid {
-            path: path.to_path_buf(),
-            key: "(document)".to_string(),
-            reason: e.0,
-            line: None,
-        })?;
+        self.with_save_context(path, |ctx| write::update_document(&mut document, &self.palette, palette, ctx))
+            .map_err(|e| PaletteError::Invalid {
+                path: path.to_path_buf(),
+                key: "(document)".to_string(),
+                reason: e.0,
+                line: None,
+            })?;
         let reread = PaletteFile::parse(&self.text_of(&document), path)?;
         Ok((document, reread))
     }
@@ -318,21 +311,27 @@ impl PaletteFile {
         Ok(())
     }
 
+    /// Run `f` with what a save to `path` needs: CSV sources are rebased from this file's folder to `path`'s.
+    fn with_save_context<T>(&self, path: &Path, f: impl FnOnce(&write::SaveContext) -> T) -> T {
+        let new_base = folder_of(path);
+        let old_base = self.path.as_deref().map(folder_of);
+        f(&write::SaveContext {
+            old_base: old_base.as_deref(),
+            new_base: &new_base,
+            csv_raw: &self.csv_raw,
+            luminance: Colorimetry::default().luminance(),
+        })
+    }
+
     /// The splicing save of `palette` to `path`, when the change allows it (see [`splice`]).
     fn splice(&self, palette: &Palette, path: &Path) -> Option<splice::Spliced> {
         let spans = self.spans.as_ref()?;
         if self.original.is_empty() {
             return None;
         }
-        let new_base = folder_of(path);
-        let old_base = self.path.as_deref().map(folder_of);
-        let ctx = write::SaveContext {
-            old_base: old_base.as_deref(),
-            new_base: &new_base,
-            csv_raw: &self.csv_raw,
-            luminance: Colorimetry::default().luminance(),
-        };
-        let spliced = splice::splice(&self.original, spans, &self.palette, palette, &ctx, self.crlf)?;
+        let spliced = self.with_save_context(path, |ctx| {
+            splice::splice(&self.original, spans, &self.palette, palette, ctx, self.crlf)
+        })?;
         // Debug builds (the tests) also read the whole text back.
         #[cfg(debug_assertions)]
         {
