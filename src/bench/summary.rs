@@ -79,26 +79,22 @@ pub struct Ratio {
 pub fn solve_ratios(report: &solve::Report) -> Vec<Ratio> {
     let find = |group: &str, case: &str| report.rows.iter().find(|r| r.group == group && r.case == case);
     let mut out = Vec::new();
-    for r in report.rows.iter().filter(|r| r.group == "bounded, one dense system") {
-        if let Some(b) = find("bounded, blocks", &r.case) {
-            out.push(Ratio {
-                what: format!("blocks vs one dense system, {}", r.case),
-                measured: b.timing.display(),
-                baseline: r.timing.display(),
-                speedup: r.timing.median / b.timing.median.max(1e-12),
-                objective_gap: Some((b.objective - r.objective) / r.objective.abs().max(1e-300)),
-            });
-        }
-    }
-    for r in report.rows.iter().filter(|r| r.group == "unbounded, blocks") {
-        if let Some(b) = find("bounded [0,1], blocks", &r.case) {
-            out.push(Ratio {
-                what: format!("bounded [0,1] vs unbounded, {}", r.case),
-                measured: b.timing.display(),
-                baseline: r.timing.display(),
-                speedup: r.timing.median / b.timing.median.max(1e-12),
-                objective_gap: None,
-            });
+    // (baseline group, measured group, label, whether the objectives are comparable)
+    let pairs = [
+        ("bounded, one dense system", "bounded, blocks", "blocks vs one dense system", true),
+        ("unbounded, blocks", "bounded [0,1], blocks", "bounded [0,1] vs unbounded", false),
+    ];
+    for (baseline, measured, label, comparable) in pairs {
+        for r in report.rows.iter().filter(|r| r.group == baseline) {
+            if let Some(b) = find(measured, &r.case) {
+                out.push(Ratio {
+                    what: format!("{label}, {}", r.case),
+                    measured: b.timing.display(),
+                    baseline: r.timing.display(),
+                    speedup: r.timing.median / b.timing.median.max(1e-12),
+                    objective_gap: comparable.then(|| (b.objective - r.objective) / r.objective.abs().max(1e-300)),
+                });
+            }
         }
     }
     out
