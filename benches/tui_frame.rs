@@ -5,7 +5,8 @@
 //!
 //! Run: `cargo bench --bench tui_frame`
 
-#[path = "../tests/tui_support/mod.rs"]
+#[allow(dead_code)]
+#[path = "../tests/it/tui_support/mod.rs"]
 mod tui_support;
 
 use criterion::{Criterion, criterion_group, criterion_main};

@@ -10,10 +10,10 @@
 //! designs must improve monotonically: the engine's per-stage objective history never increases and the
 //! final objective is at most the start's.
 //!
-//! The condition numbers met are printed (`cargo test --test stress -- --nocapture`); `metamer bench
+//! The condition numbers met are printed (`cargo test --test it stress:: -- --nocapture`); `metamer bench
 //! solve` tabulates them for representative palettes.
 
-mod common;
+use crate::common;
 
 use common::{Stacked, bound_violation, kkt_residual, objective, oracle_point, stack, stacked_solution};
 use metamer::bench::summary::condition_number;

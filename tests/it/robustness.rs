@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 use proptest::prelude::*;
 use std::path::Path;
 
-const EXAMPLE: &str = include_str!("../palettes/metamers.toml");
+const EXAMPLE: &str = include_str!("../../palettes/metamers.toml");
 const SMALL: &str = r##"name = "p"
 [settings]
 smoothness = 0.01

@@ -1,7 +1,6 @@
 //! Shared by the design tests (`design_oracle`, `stress`): an independent assembly of the pinned objective
 //! (DESIGN_SPEC §2, full colour rows, free groups, smoothness) as one stacked `‖A x − b‖²` with box bounds,
 //! the clarabel QP oracle on it, and first-order (KKT) checks computed from that assembly alone.
-#![allow(dead_code)]
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT};

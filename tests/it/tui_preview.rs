@@ -1,6 +1,6 @@
 //! The light-dial preview: a scene raycast once and relit with the designer's current spectra.
 
-mod tui_support;
+use crate::tui_support;
 
 use metamer::colorimetry::Colorimetry;
 use metamer::render::scene::Scene;
@@ -52,7 +52,7 @@ fn the_preview_follows_edited_spectra() {
 fn preview_screen_snapshot() {
     let mut s = demo_with_preview();
     let (text, _) = replay(&mut s, "]\n]", 100, 30);
-    insta::with_settings!({ snapshot_path => "../snapshots", prepend_module_to_snapshot => false }, {
+    insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
         insta::assert_snapshot!("preview_100x30", text);
     });
 }

@@ -1,8 +1,6 @@
 //! Saving from the designer: Ctrl-s then q writes a palette that keeps the file's comments and solves to
 //! the objective the designer showed.
 
-mod tui_support;
-
 use metamer::colorimetry::Colorimetry;
 use metamer::design::{self, SolveOptions};
 use metamer::palette::file::PaletteFile;

@@ -1,14 +1,14 @@
 //! Snapshot tests of the designer's screens, driven through the same event loop as the terminal with an
 //! off-screen backend. Snapshots live in the top-level `snapshots/` directory.
 
-mod tui_support;
+use crate::tui_support;
 
 use metamer::tui::colour::ColourMode;
 use tui_support::{demo_palette, replay, square_palette, state};
 
 macro_rules! snap {
     ($name:expr, $text:expr) => {
-        insta::with_settings!({ snapshot_path => "../snapshots", prepend_module_to_snapshot => false }, {
+        insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
             insta::assert_snapshot!($name, $text);
         })
     };

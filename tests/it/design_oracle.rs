@@ -3,7 +3,7 @@
 //! the sum of squares at the returned spectra (assembled here independently of the engine), and every
 //! bound holds to 1e-9.
 
-mod common;
+use crate::common;
 
 use common::{oracle, stack};
 use metamer::colorimetry::Colorimetry;

@@ -9,7 +9,7 @@
 //! - every bound holds to 1e-9;
 //! - the objective is within 1e-6 relative of the optimum found by clarabel on this assembly.
 
-mod common;
+use crate::common;
 
 use common::{Stacked, oracle_point};
 use nalgebra::{DMatrix, DVector, SMatrix};

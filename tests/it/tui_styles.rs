@@ -1,6 +1,6 @@
 //! The colours the designer draws, checked on buffer cells (text snapshots drop styles).
 
-mod tui_support;
+use crate::tui_support;
 
 use metamer::colorimetry::{Colorimetry, linear_to_srgb8};
 use metamer::spectrum::Spectrum;

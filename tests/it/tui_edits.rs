@@ -1,7 +1,7 @@
 //! Spectrum and cell edits through the keys, each undone again: the palette model's edit operations as the
 //! designer drives them.
 
-mod tui_support;
+use crate::tui_support;
 
 use metamer::colorimetry::Colorimetry;
 use metamer::palette::{Kind, Source};

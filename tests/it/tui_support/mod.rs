@@ -1,7 +1,5 @@
 //! Shared helpers of the designer's tests: a palette built in code and a replay runner.
 
-#![allow(dead_code)]
-
 use metamer::colorimetry::{Colorimetry, hex_to_linear};
 use metamer::palette::{ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation};
 use metamer::spectrum::{Normalize, Spectrum};

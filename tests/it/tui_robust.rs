@@ -1,7 +1,7 @@
 //! No key sequence panics the designer or leaves its selection outside the matrix, whatever the palette
 //! (including an empty one) and screen size.
 
-mod tui_support;
+use crate::tui_support;
 
 use metamer::palette::Palette;
 use metamer::tui::colour::ColourMode;

@@ -1,7 +1,7 @@
 //! The solve worker: newest request wins, replies come in generation order, stale requests are dropped or
 //! cancelled, and the basis is trained once per training set.
 
-mod tui_support;
+use crate::tui_support;
 
 use metamer::tui::worker::{BasisMode, Reply, Worker, WorkerConfig};
 use std::time::Duration;

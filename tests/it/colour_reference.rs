@@ -12,7 +12,7 @@ fn data_lines(text: &str) -> impl Iterator<Item = &str> {
 #[test]
 fn colorchecker_linear_srgb_matches_reference_to_1e_9() {
     let c = Colorimetry::default();
-    let text = include_str!("data/colorchecker_linear_srgb.csv");
+    let text = include_str!("../data/colorchecker_linear_srgb.csv");
     let mut checked = 0;
     for line in data_lines(text).skip(1) {
         let f: Vec<&str> = line.split(',').collect();
@@ -36,7 +36,7 @@ fn colorchecker_linear_srgb_matches_reference_to_1e_9() {
 
 #[test]
 fn ciede2000_matches_sharma_pairs_to_1e_4() {
-    let text = include_str!("data/ciede2000_sharma2005.txt");
+    let text = include_str!("../data/ciede2000_sharma2005.txt");
     let mut checked = 0;
     for line in data_lines(text) {
         let v: Vec<f64> = line.split_whitespace().map(|x| x.parse().expect("number")).collect();

@@ -1,0 +1,30 @@
+//! All integration tests in one binary (one link instead of one per file): each former `tests/NAME.rs` is
+//! the module `NAME` here, run one with `cargo test --test it NAME::`.
+
+#[allow(dead_code)]
+mod common;
+#[allow(dead_code)]
+mod tui_support;
+
+mod cli_basis;
+mod cli_bench;
+mod cli_check;
+mod cli_design;
+mod colour_reference;
+mod design_cases;
+mod design_oracle;
+mod fuzz_regressions;
+mod palette_file;
+mod render_accuracy;
+mod render_cli;
+mod robustness;
+mod spec_objective;
+mod stress;
+mod tui_edits;
+mod tui_preview;
+mod tui_robust;
+mod tui_save;
+mod tui_screens;
+mod tui_styles;
+mod tui_worker;
+mod volume_readers;
