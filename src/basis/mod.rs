@@ -17,11 +17,13 @@
 //! off-diagonal entries (they act in directions `Q_rgb,m` barely sees). `metamer basis` reports both.
 
 pub mod accuracy;
+pub mod policy;
 pub mod refine;
 pub mod sharpen;
 pub mod store;
 pub mod train;
 
+pub use policy::{POOR_MODEL_MEAN_DE00, basis_for, basis_for_palette};
 pub use store::{Report, for_palette, palette_uses_basis};
 pub use train::{TrainError, TrainOptions, Trained, TrainingSet, train, train_for_palette};
 
