@@ -54,6 +54,9 @@ pub const FACTOR_SLACK: (f64, f64) = (0.05, 0.1);
 /// 10⁶ costs 10⁻³ of mean squared ΔE00), dominant beyond ~10⁵.
 pub const DEFAULT_CONDITIONING_WEIGHT: f64 = 1e-9;
 
+/// Iterations per stage when screening the starts (see [`TrainOptions::screen_iterations`]).
+pub const DEFAULT_SCREEN_ITERATIONS: u64 = 300;
+
 /// A singular value counts towards the rank of the colour signals when it exceeds this fraction of the
 /// largest one (the signals are f64 products of tabulated spectra; 1e-9 is far above rounding noise).
 pub const RANK_TOLERANCE: f64 = 1e-9;
@@ -186,6 +189,9 @@ pub struct TrainOptions {
     /// Refine the further sharpening starts ([`Start::ProjectedBands`], [`Start::PositiveBands`]) beside the
     /// PCA basis and interval sharpening.
     pub multi_start: bool,
+    /// With several starts, each is first refined with at most this many iterations per stage; only the
+    /// best of them is then refined with the full budget.
+    pub screen_iterations: u64,
 }
 
 impl Default for TrainOptions {
@@ -197,6 +203,7 @@ impl Default for TrainOptions {
             lambda_weight: DEFAULT_LAMBDA_WEIGHT,
             conditioning_weight: DEFAULT_CONDITIONING_WEIGHT,
             multi_start: true,
+            screen_iterations: DEFAULT_SCREEN_ITERATIONS,
         }
     }
 }
@@ -211,6 +218,7 @@ impl TrainOptions {
             lambda_weight: 0.0,
             conditioning_weight: 0.0,
             multi_start: false,
+            screen_iterations: 0,
         }
     }
 
@@ -279,6 +287,9 @@ pub struct CandidateSummary {
     pub start: Start,
     /// False for the unrefined PCA basis (the fallback that makes the guarantee hold).
     pub refined: bool,
+    /// True when refined with the screening budget only ([`TrainOptions::screen_iterations`]).
+    #[serde(default)]
+    pub screened: bool,
     #[serde(deserialize_with = "super::accuracy::f64_or_infinity")]
     pub factor_mean: f64,
     #[serde(deserialize_with = "super::accuracy::f64_or_infinity")]
@@ -430,13 +441,43 @@ pub fn train(
             starts.push((Start::PositiveBands, StartPoint::Basis(sharpen::positive_bands(m))));
         }
     }
-    let ctx = CandidateContext { set, b0: &b0, colorimetry, options, factor_objective: &factor_objective };
+    // Screening: every start refined with a small budget; then the most promising one (by real
+    // factor-model ΔE00) is refined again from its start with the whole budget. Both runs stay candidates.
+    let screen_options = TrainOptions {
+        transform_iterations: options.transform_iterations.min(options.screen_iterations),
+        full_iterations: options.full_iterations.min(options.screen_iterations),
+        ..options.clone()
+    };
+    let screening = starts.len() > 1 && screen_options != *options;
+    let ctx = CandidateContext {
+        set,
+        b0: &b0,
+        colorimetry,
+        options: if screening { &screen_options } else { options },
+        factor_objective: &factor_objective,
+    };
     let mut candidates: Vec<Candidate> =
-        starts.into_par_iter().map(|(start, point)| ctx.refine(start, point, &report_objective)).collect();
+        starts.par_iter().map(|(start, point)| ctx.refine(*start, point.clone(), &report_objective)).collect();
+    for c in &mut candidates {
+        c.screened = screening;
+    }
+    if screening {
+        let promising = candidates
+            .iter()
+            .enumerate()
+            .min_by(|(_, a), (_, b)| rank_key(a).partial_cmp(&rank_key(b)).unwrap_or(std::cmp::Ordering::Equal))
+            .map(|(i, _)| i);
+        if let Some(i) = promising {
+            let full = CandidateContext { options, ..ctx };
+            let (start, point) = &starts[i];
+            candidates.push(full.refine(*start, point.clone(), &report_objective));
+        }
+    }
     // The plain PCA basis as a factor model is always a candidate, so the accepted basis can never be worse.
     candidates.push(Candidate {
         start: Start::Pca,
         refined: false,
+        screened: false,
         basis: b0.clone(),
         transform_only: Some(b0.clone()),
         stats: pca_stats,
@@ -455,6 +496,7 @@ pub fn train(
         .map(|(i, c)| CandidateSummary {
             start: c.start,
             refined: c.refined,
+            screened: c.screened,
             factor_mean: c.stats.map_or(f64::INFINITY, |s| s.mean),
             factor_p95: c.stats.map_or(f64::INFINITY, |s| s.p95),
             condition: balanced_condition(&c.basis),
@@ -515,6 +557,7 @@ pub fn balanced_condition(b: &DMatrix<f64>) -> f64 {
 }
 
 /// Where a candidate's refinement starts: a transform T of the PCA basis (`B = B0 T`) or a whole basis.
+#[derive(Clone)]
 enum StartPoint {
     Transform(DMatrix<f64>),
     Basis(DMatrix<f64>),
@@ -524,6 +567,8 @@ enum StartPoint {
 struct Candidate {
     start: Start,
     refined: bool,
+    /// Refined with the screening budget only.
+    screened: bool,
     basis: DMatrix<f64>,
     /// `B0 T` after refining T (for starts in the PCA span).
     transform_only: Option<DMatrix<f64>>,
@@ -625,7 +670,7 @@ impl CandidateContext<'_> {
             }
         }
         let stats = factor_stats(set, &b, colorimetry);
-        Candidate { start, refined: true, basis: b, transform_only, stats, stages, notes }
+        Candidate { start, refined: true, screened: false, basis: b, transform_only, stats, stages, notes }
     }
 }
 

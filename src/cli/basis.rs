@@ -138,7 +138,15 @@ pub fn table(report: &Report, palette: &Path, cache: Option<&Path>) -> String {
     for c in &report.candidates {
         out.push_str(&format!(
             "  candidate {:<40} mean {:>8.3} p95 {:>8.3} cond {:.2e}{}\n",
-            format!("{}{}", c.start.label(), if c.refined { ", refined" } else { ", unrefined" }),
+            format!(
+                "{}{}",
+                c.start.label(),
+                match (c.refined, c.screened) {
+                    (false, _) => ", unrefined",
+                    (true, true) => ", screened",
+                    (true, false) => ", refined",
+                }
+            ),
             c.factor_mean,
             c.factor_p95,
             c.condition,
