@@ -88,7 +88,7 @@ impl Report {
     /// When the factor model is poor on the spectra's own pairs: a plain sentence with the fix.
     pub fn poor_model(&self) -> Option<String> {
         let f = &self.accuracy.factor_model;
-        (f.count > 0 && !(f.mean <= POOR_MODEL_MEAN_DE00)).then(|| {
+        (f.count > 0 && (f.mean.is_nan() || f.mean > POOR_MODEL_MEAN_DE00)).then(|| {
             format!(
                 "the spectral factor model (m = {}) is poor for these spectra: mean ΔE00 {:.2} (p95 {:.2}) against \
                  full 31-sample colour on their own {} light × reflectance pairs, above {POOR_MODEL_MEAN_DE00}; \
@@ -97,5 +97,43 @@ impl Report {
                 self.dimension, f.mean, f.p95, f.count
             )
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::colorimetry::Colorimetry;
+
+    #[test]
+    fn a_second_call_is_a_memory_hit_with_the_same_basis() {
+        let c = Colorimetry::default();
+        let full = TrainingSet::colorchecker_seven_lights(&c);
+        let set = TrainingSet::new(vec![full.lights[0], full.lights[4]], full.reflectances[3..7].to_vec()).unwrap();
+        let first = basis_for(&set, 4, None).unwrap();
+        let key = store::cache_key(&set, 4);
+        let hit = cached(&key).expect("in memory after the first call");
+        assert!(hit.1.from_cache);
+        let second = basis_for(&set, 4, None).unwrap();
+        // The very same stored basis and report: no training, no accuracy work.
+        assert!(Arc::ptr_eq(&hit, &second));
+        assert_eq!(first.0, second.0);
+        assert_eq!(first.1.accuracy, second.1.accuracy);
+        // Another m is another basis.
+        assert!(cached(&store::cache_key(&set, 5)).is_none());
+    }
+
+    #[test]
+    fn a_poor_model_says_so_with_the_fix() {
+        let c = Colorimetry::default();
+        let full = TrainingSet::colorchecker_seven_lights(&c);
+        // Seven lights × 24 reflectances with m = 3 cannot be held by the factor model.
+        let resolved = basis_for(&full, 3, None).unwrap();
+        let mean = resolved.1.accuracy.factor_model.mean;
+        assert!(mean > POOR_MODEL_MEAN_DE00, "{mean}");
+        let w = resolved.1.poor_model().expect("warned");
+        assert!(w.contains("raise basis_dimension") && w.contains("subspace_error") && w.contains("fit_in_subspace"));
+        let good = basis_for(&full, 7, None).unwrap();
+        assert!(good.1.poor_model().is_none(), "{:?}", good.1.accuracy.factor_model);
     }
 }

@@ -737,8 +737,8 @@ mod tests {
         let set = small_set(&c);
         let (b0, t) = test_basis(&set, 5);
         let b = &b0 * &t;
-        for mu in [0.0, 0.7] {
-            let obj = Objective::new(&set, &c).with_lambda_weight(mu);
+        for (mu, rho) in [(0.0, 0.0), (0.7, 0.0), (0.0, 1e-3), (0.3, 1e-2)] {
+            let obj = Objective::new(&set, &c).with_lambda_weight(mu).with_conditioning_weight(rho);
             let (cost, grad) = obj.cost_and_gradient(&b).unwrap();
             assert!(cost > 0.0);
             assert!((cost - obj.cost_of(&b)).abs() <= 1e-12 * cost);
