@@ -14,9 +14,11 @@
 //! rewritten atomically (temporary file + rename); a failure to write is reported in
 //! [`Report::notes`] and the basis is still returned.
 //!
-//! **Training is skipped entirely when nothing uses it**: [`for_palette`] is the only entry point, and
-//! callers call it only when they need the factor model — the solver when [`palette_uses_basis`] says so
-//! (`fit_in_subspace` or `subspace_error > 0`), the renderer in `factor` mode, `metamer basis`.
+//! **The product reaches this only through [`super::policy::basis_for`]**, which adds a process-wide
+//! memory in front of the sidecar. Callers ask only when they need the factor model — the solver when
+//! [`palette_uses_basis`] says so (`fit_in_subspace` or `subspace_error > 0`), `solve`'s subspace colours,
+//! the designer's V7 colours, the renderer in `factor` mode, `metamer basis`. A sidecar hit does no
+//! training and no accuracy work: each entry stores the [`AccuracyReport`] measured at training.
 
 use super::accuracy::{self, ErrorStats, LambdaMass, Model};
 use super::train::{
@@ -170,7 +172,8 @@ pub fn cache_key(set: &TrainingSet, m: usize) -> String {
     format!("{:016x}", h.finish())
 }
 
-/// The palette's basis of dimension m: loaded from the sidecar `cache` when one trained from exactly these
+/// The palette's basis of dimension m, without the process memory of [`super::policy::basis_for`] (which
+/// is what the product uses): loaded from the sidecar `cache` when one trained from exactly these
 /// spectra is there, else trained (all lights × reflectances, designed ones at their current samples, with
 /// [`TrainOptions::default`]) and stored. `cache = None` always trains and stores nothing.
 pub fn for_palette(palette: &Palette, m: usize, cache: Option<&Path>) -> Result<(Basis, Report), StoreError> {

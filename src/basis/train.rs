@@ -1,29 +1,34 @@
 //! Training a spectral factor basis from lights and reflectances (seed §2.2).
 //!
-//! The pipeline, each stage starting from the previous one:
-//!
 //! 1. **PCA** ([`principal_components`]): the m leading left singular vectors `B0` (31×m, orthonormal) of the
 //!    matrix of colour signals `E_l ∘ S_r` over every light × reflectance pair. When the signals have rank
 //!    r < m (one light and few reflectances, all-zero spectra, …) the remaining m − r columns are padded
 //!    with band vectors orthogonal to the signal span, so the basis keeps its dimension and stays well
 //!    conditioned; the training report says so.
-//! 2. **Interval sharpening** ([`super::sharpen`]): an m×m transform `T0` after Finlayson, Drew & Funt
-//!    (sensor-based sharpening): per wavelength band one generalised eigenproblem, then each column scaled so
-//!    that a flat spectrum has unit coefficients.
-//! 3. **Refining T** ([`super::refine`]): L-BFGS (argmin) on `B = B0 T`, minimising the factor-model
-//!    colour error over the training pairs, measured in a local CIEDE2000 metric at each true colour.
-//! 4. **Refining all of B**: the same objective with all 31×m entries of B free, plus μ times the same
-//!    error for the full-Λ model of Eq. 7 (`Q_rgb,31 B B⁺(B e ∘ B s)`), [`DEFAULT_LAMBDA_WEIGHT`]. Without
-//!    that term B drifts to a span where the factor model is excellent but Eq. 7 is poor (mean ΔE00 ≈ 10
-//!    on ColorChecker × 7 lights, m = 7); with μ = 0.3 both are accurate (≈ 0.3 and ≈ 0.2), so the
-//!    DESIGN_SPEC §2 subspace criteria, which use Λ, agree with what post-illumination renders. (Stage 3
-//!    cannot change Eq. 7 colours: they depend only on the span of B.) The objective is only a local model
-//!    of ΔE00, so the refined B is accepted only if its real factor-model ΔE00 is no worse than the T-only
-//!    basis ([`FACTOR_SLACK`]); otherwise it is redone with μ/10, then with μ = 0, else B0 T is kept — on
-//!    palettes with many near-black colours (lights designed to have no power in whole bands) the full
-//!    μ lets the Λ term trade the factor model away.
+//! 2. **Several starts** ([`Start`]), because the factor-model objective is far from convex and one start
+//!    can collapse (D65 + A + F11 × four ColorChecker patches, m = 7: interval sharpening alone ended at
+//!    mean ΔE00 31, cond(B) ≈ 7e7): the PCA basis itself (T = I); interval sharpening after Finlayson, Drew
+//!    & Funt ([`super::sharpen::interval_transform`]); box band indicators projected onto the PCA span
+//!    ([`super::sharpen::projected_bands_transform`]); and the box band indicators themselves, the
+//!    non-negative, perfectly sharp limit of Drew & Finlayson's sharpening with positivity
+//!    ([`super::sharpen::positive_bands`]).
+//! 3. **Refining each start**: for starts in the PCA span, L-BFGS (argmin) on T with `B = B0 T`, then on
+//!    all 31×m entries of B, minimising the factor-model colour error over the training pairs in a local
+//!    CIEDE2000 metric at each true colour ([`super::refine`]), plus μ times the same error of the full-Λ
+//!    model of Eq. 7 ([`DEFAULT_LAMBDA_WEIGHT`]; without it B drifts to a span where Eq. 7 is poor), plus ρ
+//!    times a conditioning term, the columns' variance inflation factors
+//!    ([`DEFAULT_CONDITIONING_WEIGHT`], [`Objective::with_conditioning_weight`]), which keeps B⁺ stable in
+//!    double precision. The objective is only a local model of ΔE00, so a refined B is accepted only if its
+//!    real factor-model ΔE00 is no worse than its start ([`FACTOR_SLACK`]); otherwise it is redone with
+//!    μ/10, then μ = 0, else the start is kept. Every start is first refined with a small budget
+//!    ([`DEFAULT_SCREEN_ITERATIONS`] per stage); the most promising is then refined with the full budget.
+//! 4. **Choice**: the candidate with the lowest real mean (then p95) factor-model ΔE00 on the training
+//!    pairs. The unrefined PCA basis is always a candidate, so the accepted basis is never worse than the
+//!    PCA start used as a factor model. [`Trained::candidates`] lists every candidate with its error and
+//!    the condition number of its column-balanced B ([`balanced_condition`]).
 //!
-//! Every stage is deterministic: no randomness, fixed iteration limits.
+//! Every stage is deterministic: no randomness, fixed iteration limits, candidates refined in parallel but
+//! collected in order.
 
 use super::accuracy::{self, ErrorStats, Model};
 use super::refine::{self, Objective, RefineOutcome};
