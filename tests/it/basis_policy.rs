@@ -232,3 +232,49 @@ fn the_designer_shows_what_solve_reports_for_every_shipped_cell() {
     println!("compared {compared} designer ΔE00 with solve --subspace --report; largest difference {worst:.2e}");
     assert!(compared >= 38, "{compared} figures compared");
 }
+
+#[test]
+fn basis_solve_and_render_say_when_the_model_is_poor() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().expect("tempdir");
+    // The engine palette at m = 2: far too few dimensions for its three lights × three materials.
+    let text = std::fs::read_to_string(root.join("volumes/engine_palette.toml")).expect("palette");
+    let poor = with_dimension(&text, 2);
+    std::fs::write(dir.path().join("engine_palette.toml"), poor).expect("write");
+    let scene = std::fs::read_to_string(root.join("volumes/engine_generated.toml"))
+        .expect("scene")
+        .replace("generated_size = 160", "generated_size = 24");
+    std::fs::write(dir.path().join("scene.toml"), scene).expect("write");
+    let run = |args: &[&str]| {
+        let out =
+            Command::new(env!("CARGO_BIN_EXE_metamer")).args(args).current_dir(dir.path()).output().expect("runs");
+        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+    };
+    let said = |out: &str, what: &str| {
+        assert!(
+            out.contains("is poor for these spectra") && out.contains("raise basis_dimension"),
+            "{what} did not warn:\n{out}"
+        );
+    };
+    said(&run(&["basis", "engine_palette.toml"]), "basis");
+    said(&run(&["solve", "engine_palette.toml", "--subspace", "-q"]), "solve");
+    said(
+        &run(&["render", "scene.toml", "--frames", "2", "--size", "16", "-o", "frames", "--mode", "factor"]),
+        "render",
+    );
+    // At the palette's own m = 7 nobody warns.
+    std::fs::write(dir.path().join("good.toml"), with_dimension(&text, 7)).expect("write");
+    let good = run(&["basis", "good.toml"]);
+    assert!(!good.contains("is poor"), "{good}");
+}
+
+/// The palette text with `basis_dimension = m`.
+fn with_dimension(text: &str, m: usize) -> String {
+    text.lines()
+        .map(|l| {
+            if l.trim_start().starts_with("basis_dimension") { format!("basis_dimension = {m}") } else { l.to_string() }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
