@@ -44,7 +44,12 @@ fn frame(c: &mut Criterion) {
         c.bench_function(&format!("design/{label}"), |b| {
             b.iter(|| {
                 update(&mut state, Action::Move(Direction::Right));
-                let solved = design::solve(&state.palette, state.basis.as_deref(), &state.colorimetry, &options);
+                let solved = design::solve(
+                    &state.palette,
+                    state.basis.as_ref().map(|(_, r)| &r.0),
+                    &state.colorimetry,
+                    &options,
+                );
                 match solved {
                     Ok(s) => state.solve.solution = Some((state.solve.generation, Arc::new(s))),
                     Err(e) => state.solve.error = Some(e),

@@ -5,6 +5,9 @@
 //! Models compared:
 //! - the spectral factor model `Q_rgb,31 B (B⁺E ∘ B⁺S)` (Eq. 15) of a basis ([`Model::Factor`]),
 //! - the same basis with the full product matrix Λ of Eq. 7 ([`Model::Lambda`]),
+//! - the orthogonal projection of the colour signal itself onto the span of a basis,
+//!   `Q_rgb,31 P (E ∘ S)` ([`Model::SignalProjection`]): no factor model at all, the best any basis with
+//!   that span can do for a signal it is given whole (the reference of the training guarantee),
 //! - the RGB factor model (seed Eq. 9): linear RGB of the light on white times linear RGB of the reflectance
 //!   under flat white, componentwise, divided by the "camera scaling" `w = Q_rgb,31 1` (the RGB of the flat
 //!   light on flat white, which is not (1, 1, 1) because sRGB's white is D65) ([`Model::Rgb`]).
@@ -24,6 +27,8 @@ pub enum Model<'a> {
     Lambda(&'a Basis),
     /// `(Q_rgb,31 E) ∘ (Q_rgb,31 S) / (Q_rgb,31 1)` (seed Eq. 9).
     Rgb,
+    /// `Q_rgb,31 P (E ∘ S)`, `P = B B⁺`: the colour signal projected onto span B.
+    SignalProjection(&'a Basis),
 }
 
 impl Model<'_> {
@@ -32,6 +37,10 @@ impl Model<'_> {
         match self {
             Model::Factor(b) => b.rgb_factor(e, s),
             Model::Lambda(b) => b.rgb_lambda(e, s),
+            Model::SignalProjection(b) => {
+                let v = &b.q_rgb_projector * nalgebra::DVector::from_column_slice(e.product(s).as_slice());
+                Vector3::new(v[0], v[1], v[2])
+            }
             Model::Rgb => {
                 let white = colorimetry.rgb_of_signal(&Spectrum::flat(1.0));
                 colorimetry.rgb_of_signal(e).component_mul(&colorimetry.rgb_of_signal(s)).component_div(&white)
@@ -40,12 +49,22 @@ impl Model<'_> {
     }
 }
 
+/// JSON has no infinity: serde_json writes a non-finite f64 as `null`, read back here as +∞ (how
+/// [`ErrorStats`] counts a non-finite error).
+pub fn f64_or_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
+    Ok(v.unwrap_or(f64::INFINITY))
+}
+
 /// Summary of a set of ΔE00 values.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ErrorStats {
+    #[serde(deserialize_with = "f64_or_infinity")]
     pub mean: f64,
     /// 95th percentile, linearly interpolated between order statistics (as numpy's default).
+    #[serde(deserialize_with = "f64_or_infinity")]
     pub p95: f64,
+    #[serde(deserialize_with = "f64_or_infinity")]
     pub max: f64,
     pub count: usize,
 }
@@ -91,13 +110,15 @@ pub fn stats(set: &TrainingSet, model: Model<'_>, colorimetry: &Colorimetry) -> 
 }
 
 /// How far Λ (Eq. 7) is from diagonal.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LambdaMass {
     /// `‖G_ijk, not i=j=k‖_F / ‖G_iii‖_F` over the product tensor `G_ijk = B⁺_i (B_j ∘ B_k)`
     /// (0 for a perfectly sharp basis, for which `G_ijk = δ_ij δ_jk`).
+    #[serde(deserialize_with = "f64_or_infinity")]
     pub tensor: f64,
     /// Mean over the reflectances `s = B⁺S` of `‖offdiag Λ(s)‖_F / ‖diag Λ(s)‖_F`: the off-diagonal mass of
     /// the matrices that the factor model replaces by their diagonal.
+    #[serde(deserialize_with = "f64_or_infinity")]
     pub reflectances: f64,
 }
 

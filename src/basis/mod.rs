@@ -4,12 +4,15 @@
 //! [`Basis`] holds B and everything derived from it: `Q_m,31 = B⁺`, `Q_rgb,m = Q_rgb,31 B`, and the
 //! product tensor `G_ijk = B⁺_i (B_j ∘ B_k)` from which Λ(x) (seed Eq. 7) is formed.
 //!
-//! - [`train`]: PCA of a palette's colour signals → interval sharpening → L-BFGS refinement of T, then of
-//!   all of B, minimising the factor-model colour error in a local CIEDE2000 metric.
+//! - [`train`]: PCA of a palette's colour signals, several sharpening starts (the PCA basis, interval
+//!   sharpening, projected and positive band indicators), each refined by L-BFGS (T, then all of B) against
+//!   the factor-model colour error in a local CIEDE2000 metric with a conditioning term; the best kept.
+//! - [`policy`]: [`basis_for`], the one place that decides which basis a set of spectra uses (memory, then
+//!   sidecar, else trained), and the poor-model warning ([`POOR_MODEL_MEAN_DE00`]).
 //! - [`accuracy`]: ΔE00 of the factor model (and the RGB factor model, the unsharpened projection, the
 //!   full-Λ model) against full 31-sample colour; off-diagonal mass of Λ.
-//! - [`store`]: [`for_palette`], the palette's basis cached in a `NAME.basis.json` sidecar keyed by its
-//!   spectra, m and the training version.
+//! - [`store`]: the `NAME.basis.json` sidecar keyed by the spectra, m and the training version, holding
+//!   each basis with the accuracy report measured when it was trained.
 //!
 //! Λ and the factor model: refining all of B optimises the factor model `c = e ∘ s` (what
 //! post-illumination renders) together with the full-Λ model of Eq. 7 (`rgb_lambda`, `subspace_operator`,
@@ -17,11 +20,13 @@
 //! off-diagonal entries (they act in directions `Q_rgb,m` barely sees). `metamer basis` reports both.
 
 pub mod accuracy;
+pub mod policy;
 pub mod refine;
 pub mod sharpen;
 pub mod store;
 pub mod train;
 
+pub use policy::{POOR_MODEL_MEAN_DE00, basis_for, basis_for_palette};
 pub use store::{Report, for_palette, palette_uses_basis};
 pub use train::{TrainError, TrainOptions, Trained, TrainingSet, train, train_for_palette};
 

@@ -77,6 +77,23 @@ pub fn interval_transform_with_bands(b0: &DMatrix<f64>, bands: &[Range<usize>]) 
     normalise_to_flat(b0, t)
 }
 
+/// Box band indicators (31×m, 1 inside band k, 0 outside; [`equal_bands`]): non-negative and perfectly
+/// sharp (`B⁺(B_j ∘ B_k) = δ_jk e_k`), a flat spectrum has unit coefficients.
+pub fn positive_bands(m: usize) -> DMatrix<f64> {
+    let bands = equal_bands(m);
+    DMatrix::from_fn(SAMPLES, bands.len(), |i, k| if bands[k].contains(&i) { 1.0 } else { 0.0 })
+}
+
+/// The least-squares projection of the box band indicators onto the span of an orthonormal `b0`:
+/// `T = B0ᵀ Box`, then scaled as [`normalise_to_flat`]. `None` when ill-conditioned.
+pub fn projected_bands_transform(b0: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    if b0.nrows() != SAMPLES {
+        return None;
+    }
+    let t = b0.transpose() * positive_bands(b0.ncols());
+    normalise_to_flat(b0, t)
+}
+
 /// Scale the columns of T so that `(B0 T)⁺ 1 = 1`; columns whose flat coefficient is (nearly) zero are
 /// instead scaled to unit L1 norm with a non-negative sum. `None` if T is ill-conditioned.
 pub fn normalise_to_flat(b0: &DMatrix<f64>, mut t: DMatrix<f64>) -> Option<DMatrix<f64>> {

@@ -14,12 +14,16 @@
 //! rewritten atomically (temporary file + rename); a failure to write is reported in
 //! [`Report::notes`] and the basis is still returned.
 //!
-//! **Training is skipped entirely when nothing uses it**: [`for_palette`] is the only entry point, and
-//! callers call it only when they need the factor model — the solver when [`palette_uses_basis`] says so
-//! (`fit_in_subspace` or `subspace_error > 0`), the renderer in `factor` mode, `metamer basis`.
+//! **The product reaches this only through [`super::policy::basis_for`]**, which adds a process-wide
+//! memory in front of the sidecar. Callers ask only when they need the factor model — the solver when
+//! [`palette_uses_basis`] says so (`fit_in_subspace` or `subspace_error > 0`), `solve`'s subspace colours,
+//! the designer's V7 colours, the renderer in `factor` mode, `metamer basis`. A sidecar hit does no
+//! training and no accuracy work: each entry stores the [`AccuracyReport`] measured at training.
 
 use super::accuracy::{self, ErrorStats, LambdaMass, Model};
-use super::train::{self, Fnv1a, StageResult, TRAINING_VERSION, TrainError, TrainOptions, TrainingSet};
+use super::train::{
+    self, CandidateSummary, Fnv1a, StageResult, Start, TRAINING_VERSION, TrainError, TrainOptions, TrainingSet,
+};
 use super::{Basis, BasisError};
 use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
@@ -56,20 +60,26 @@ pub fn sidecar_path(palette_file: &Path) -> PathBuf {
 }
 
 /// Accuracy of the factor model and of the comparison models over a palette's own light × reflectance
-/// pairs (ΔE00 against the full 31-sample colour, see [`accuracy`]).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+/// pairs: every figure is ΔE00 of some model's colour against the full 31-sample colour
+/// `Q_rgb,31 (E ∘ S)` of the same pair (see [`accuracy`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AccuracyReport {
-    /// The spectral factor model `Q_rgb,31 B (B⁺E ∘ B⁺S)` with the trained basis.
+    /// The spectral factor model `Q_rgb,31 B (B⁺E ∘ B⁺S)` (Eq. 15) with the accepted basis: what
+    /// post-illumination renders and the designer's V7 half shows.
     pub factor_model: ErrorStats,
-    /// The same after refining only T (B in the PCA span), when known.
-    pub transform_only: Option<ErrorStats>,
+    /// The factor model with the best basis that stays in the PCA span (refining only T), when known.
+    pub factor_model_pca_span: Option<ErrorStats>,
+    /// The factor model with the unsharpened, orthonormal PCA basis (the start the accepted basis is
+    /// guaranteed not to be worse than).
+    pub pca_factor_model: ErrorStats,
+    /// No factor model: each colour signal `E ∘ S` itself orthogonally projected onto the top-m principal
+    /// components, `Q_rgb,31 P (E ∘ S)` — how well the PCA span holds the signals.
+    pub pca_signal_projection: ErrorStats,
     /// The RGB factor model (seed Eq. 9).
     pub rgb_factor_model: ErrorStats,
-    /// The componentwise product in the unsharpened PCA basis.
-    pub pca_projection: ErrorStats,
-    /// The trained basis with the full Λ of Eq. 7 instead of its diagonal.
-    pub full_lambda: ErrorStats,
-    /// Off-diagonal mass of Λ for the trained basis.
+    /// The accepted basis with the full Λ of Eq. 7 instead of its diagonal (what the design criteria use).
+    pub full_lambda_model: ErrorStats,
+    /// Off-diagonal mass of Λ for the accepted basis.
     pub lambda_offdiagonal: LambdaMass,
 }
 
@@ -78,16 +88,17 @@ impl AccuracyReport {
     pub fn measure(
         set: &TrainingSet,
         basis: &Basis,
-        transform_only: Option<&Basis>,
+        pca_span: Option<&Basis>,
         pca: &Basis,
         colorimetry: &Colorimetry,
     ) -> AccuracyReport {
         AccuracyReport {
             factor_model: accuracy::stats(set, Model::Factor(basis), colorimetry),
-            transform_only: transform_only.map(|b| accuracy::stats(set, Model::Factor(b), colorimetry)),
+            factor_model_pca_span: pca_span.map(|b| accuracy::stats(set, Model::Factor(b), colorimetry)),
+            pca_factor_model: accuracy::stats(set, Model::Factor(pca), colorimetry),
+            pca_signal_projection: accuracy::stats(set, Model::SignalProjection(pca), colorimetry),
             rgb_factor_model: accuracy::stats(set, Model::Rgb, colorimetry),
-            pca_projection: accuracy::stats(set, Model::Factor(pca), colorimetry),
-            full_lambda: accuracy::stats(set, Model::Lambda(basis), colorimetry),
+            full_lambda_model: accuracy::stats(set, Model::Lambda(basis), colorimetry),
             lambda_offdiagonal: accuracy::lambda_mass(basis, set),
         }
     }
@@ -109,6 +120,12 @@ pub struct Report {
     /// Wall-clock seconds of the training (as recorded when it was trained, for a cached basis).
     pub training_seconds: f64,
     pub stages: Vec<StageResult>,
+    /// The start the accepted basis was refined from, and every candidate tried.
+    pub start: Option<Start>,
+    pub candidates: Vec<CandidateSummary>,
+    /// Condition number of the accepted B with unit-norm columns (B⁺ loses about log10 of it in digits).
+    pub condition: f64,
+    /// Measured once, when the basis was trained, and stored with it.
     pub accuracy: AccuracyReport,
     pub notes: Vec<String>,
 }
@@ -129,6 +146,15 @@ struct Entry {
     transform_only: Option<Vec<Vec<f64>>>,
     #[serde(default)]
     stages: Vec<StageResult>,
+    #[serde(default)]
+    start: Option<Start>,
+    #[serde(default)]
+    candidates: Vec<CandidateSummary>,
+    #[serde(default)]
+    condition: Option<f64>,
+    /// The accuracy report measured at training (an entry without one is retrained).
+    #[serde(default)]
+    accuracy: Option<AccuracyReport>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -146,7 +172,8 @@ pub fn cache_key(set: &TrainingSet, m: usize) -> String {
     format!("{:016x}", h.finish())
 }
 
-/// The palette's basis of dimension m: loaded from the sidecar `cache` when one trained from exactly these
+/// The palette's basis of dimension m, without the process memory of [`super::policy::basis_for`] (which
+/// is what the product uses): loaded from the sidecar `cache` when one trained from exactly these
 /// spectra is there, else trained (all lights × reflectances, designed ones at their current samples, with
 /// [`TrainOptions::default`]) and stored. `cache = None` always trains and stores nothing.
 pub fn for_palette(palette: &Palette, m: usize, cache: Option<&Path>) -> Result<(Basis, Report), StoreError> {
@@ -164,7 +191,8 @@ pub fn for_palette_with(
     for_set(&TrainingSet::from_palette(palette)?, m, cache, options)
 }
 
-/// As [`for_palette_with`] for any training set (e.g. a scene's dial lights × its materials).
+/// As [`for_palette_with`] for any training set (e.g. a scene's dial lights × its materials). A sidecar hit
+/// does no training and no accuracy work: the report is the one stored at training.
 pub fn for_set(
     set: &TrainingSet,
     m: usize,
@@ -172,68 +200,81 @@ pub fn for_set(
     options: &TrainOptions,
 ) -> Result<(Basis, Report), StoreError> {
     let colorimetry = Colorimetry::default();
-    let set = set.clone();
-    let key = cache_key(&set, m);
+    let key = cache_key(set, m);
     let mut notes = Vec::new();
     let mut sidecar = match cache {
         Some(path) => read_sidecar(path, &mut notes),
         None => Sidecar { format: FORMAT.into(), entries: Vec::new() },
     };
-    let (pca_matrix, rank) = train::principal_components(&set.signals(), m)?;
-    let pca = Basis::from_matrix(pca_matrix, &colorimetry)?;
-
-    let cached = sidecar.entries.iter().find(|e| e.key == key).and_then(|e| entry_basis(e, m, &colorimetry));
-    let (basis, transform_only, report_base) = match cached {
-        Some((basis, entry)) => {
-            notes.extend(entry.notes.iter().cloned());
-            let t = entry.transform_only.as_ref().and_then(|cols| columns_basis(cols, m, &colorimetry));
-            (basis, t, (true, entry.training_seconds, entry.stages.clone(), entry.signal_rank, entry.padded))
+    if let Some((basis, entry)) =
+        sidecar.entries.iter().find(|e| e.key == key).and_then(|e| entry_basis(e, m, &colorimetry))
+        && let Some(accuracy) = entry.accuracy.clone()
+    {
+        notes.extend(entry.notes.iter().cloned());
+        let report = Report {
+            dimension: m,
+            pairs: set.pairs(),
+            signal_rank: entry.signal_rank,
+            padded: entry.padded,
+            key,
+            from_cache: true,
+            training_seconds: entry.training_seconds,
+            stages: entry.stages.clone(),
+            start: entry.start,
+            candidates: entry.candidates.clone(),
+            condition: entry.condition.unwrap_or_else(|| train::balanced_condition(&basis.b)),
+            accuracy,
+            notes,
+        };
+        return Ok((basis, report));
+    }
+    let start = Instant::now();
+    let trained = train::train(set, m, &colorimetry, options)?;
+    let seconds = start.elapsed().as_secs_f64();
+    notes.extend(trained.notes.iter().cloned());
+    let pca = Basis::from_matrix(trained.pca.clone(), &colorimetry)?;
+    let pca_span = Basis::from_matrix(trained.transform_only.clone(), &colorimetry).ok();
+    let accuracy = AccuracyReport::measure(set, &trained.basis, pca_span.as_ref(), &pca, &colorimetry);
+    if let Some(path) = cache {
+        sidecar.entries.retain(|e| e.key != key);
+        sidecar.entries.push(Entry {
+            key: key.clone(),
+            training_version: TRAINING_VERSION,
+            dimension: m,
+            signal_rank: trained.signal_rank,
+            padded: trained.padded,
+            training_seconds: seconds,
+            notes: trained.notes.clone(),
+            basis: columns(&trained.basis.b),
+            transform_only: Some(columns(&trained.transform_only)),
+            stages: trained.stages.clone(),
+            start: Some(trained.start),
+            candidates: trained.candidates.clone(),
+            condition: Some(trained.condition),
+            accuracy: Some(accuracy.clone()),
+        });
+        let excess = sidecar.entries.len().saturating_sub(MAX_ENTRIES);
+        sidecar.entries.drain(..excess);
+        if let Err(e) = write_sidecar(path, &sidecar) {
+            notes.push(format!("could not store the basis in {}: {e}", path.display()));
         }
-        None => {
-            let start = Instant::now();
-            let trained = train::train(&set, m, &colorimetry, options)?;
-            let seconds = start.elapsed().as_secs_f64();
-            notes.extend(trained.notes.iter().cloned());
-            if let Some(path) = cache {
-                sidecar.entries.retain(|e| e.key != key);
-                sidecar.entries.push(Entry {
-                    key: key.clone(),
-                    training_version: TRAINING_VERSION,
-                    dimension: m,
-                    signal_rank: trained.signal_rank,
-                    padded: trained.padded,
-                    training_seconds: seconds,
-                    notes: trained.notes.clone(),
-                    basis: columns(&trained.basis.b),
-                    transform_only: Some(columns(&trained.transform_only)),
-                    stages: trained.stages.clone(),
-                });
-                let excess = sidecar.entries.len().saturating_sub(MAX_ENTRIES);
-                sidecar.entries.drain(..excess);
-                if let Err(e) = write_sidecar(path, &sidecar) {
-                    notes.push(format!("could not store the basis in {}: {e}", path.display()));
-                }
-            }
-            let t = Basis::from_matrix(trained.transform_only.clone(), &colorimetry).ok();
-            (trained.basis, t, (false, seconds, trained.stages, trained.signal_rank, trained.padded))
-        }
-    };
-    let (from_cache, training_seconds, stages, signal_rank, padded) = report_base;
-    debug_assert!(from_cache || signal_rank == rank);
-    let accuracy = AccuracyReport::measure(&set, &basis, transform_only.as_ref(), &pca, &colorimetry);
+    }
     let report = Report {
         dimension: m,
         pairs: set.pairs(),
-        signal_rank,
-        padded,
+        signal_rank: trained.signal_rank,
+        padded: trained.padded,
         key,
-        from_cache,
-        training_seconds,
-        stages,
+        from_cache: false,
+        training_seconds: seconds,
+        stages: trained.stages,
+        start: Some(trained.start),
+        candidates: trained.candidates,
+        condition: trained.condition,
         accuracy,
         notes,
     };
-    Ok((basis, report))
+    Ok((trained.basis, report))
 }
 
 /// The columns of a 31×m matrix as lists of samples.

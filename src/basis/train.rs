@@ -1,29 +1,34 @@
 //! Training a spectral factor basis from lights and reflectances (seed §2.2).
 //!
-//! The pipeline, each stage starting from the previous one:
-//!
 //! 1. **PCA** ([`principal_components`]): the m leading left singular vectors `B0` (31×m, orthonormal) of the
 //!    matrix of colour signals `E_l ∘ S_r` over every light × reflectance pair. When the signals have rank
 //!    r < m (one light and few reflectances, all-zero spectra, …) the remaining m − r columns are padded
 //!    with band vectors orthogonal to the signal span, so the basis keeps its dimension and stays well
 //!    conditioned; the training report says so.
-//! 2. **Interval sharpening** ([`super::sharpen`]): an m×m transform `T0` after Finlayson, Drew & Funt
-//!    (sensor-based sharpening): per wavelength band one generalised eigenproblem, then each column scaled so
-//!    that a flat spectrum has unit coefficients.
-//! 3. **Refining T** ([`super::refine`]): L-BFGS (argmin) on `B = B0 T`, minimising the factor-model
-//!    colour error over the training pairs, measured in a local CIEDE2000 metric at each true colour.
-//! 4. **Refining all of B**: the same objective with all 31×m entries of B free, plus μ times the same
-//!    error for the full-Λ model of Eq. 7 (`Q_rgb,31 B B⁺(B e ∘ B s)`), [`DEFAULT_LAMBDA_WEIGHT`]. Without
-//!    that term B drifts to a span where the factor model is excellent but Eq. 7 is poor (mean ΔE00 ≈ 10
-//!    on ColorChecker × 7 lights, m = 7); with μ = 0.3 both are accurate (≈ 0.3 and ≈ 0.2), so the
-//!    DESIGN_SPEC §2 subspace criteria, which use Λ, agree with what post-illumination renders. (Stage 3
-//!    cannot change Eq. 7 colours: they depend only on the span of B.) The objective is only a local model
-//!    of ΔE00, so the refined B is accepted only if its real factor-model ΔE00 is no worse than the T-only
-//!    basis ([`FACTOR_SLACK`]); otherwise it is redone with μ/10, then with μ = 0, else B0 T is kept — on
-//!    palettes with many near-black colours (lights designed to have no power in whole bands) the full
-//!    μ lets the Λ term trade the factor model away.
+//! 2. **Several starts** ([`Start`]), because the factor-model objective is far from convex and one start
+//!    can collapse (D65 + A + F11 × four ColorChecker patches, m = 7: interval sharpening alone ended at
+//!    mean ΔE00 31, cond(B) ≈ 7e7): the PCA basis itself (T = I); interval sharpening after Finlayson, Drew
+//!    & Funt ([`super::sharpen::interval_transform`]); box band indicators projected onto the PCA span
+//!    ([`super::sharpen::projected_bands_transform`]); and the box band indicators themselves, the
+//!    non-negative, perfectly sharp limit of Drew & Finlayson's sharpening with positivity
+//!    ([`super::sharpen::positive_bands`]).
+//! 3. **Refining each start**: for starts in the PCA span, L-BFGS (argmin) on T with `B = B0 T`, then on
+//!    all 31×m entries of B, minimising the factor-model colour error over the training pairs in a local
+//!    CIEDE2000 metric at each true colour ([`super::refine`]), plus μ times the same error of the full-Λ
+//!    model of Eq. 7 ([`DEFAULT_LAMBDA_WEIGHT`]; without it B drifts to a span where Eq. 7 is poor), plus ρ
+//!    times a conditioning term, the columns' variance inflation factors
+//!    ([`DEFAULT_CONDITIONING_WEIGHT`], [`Objective::with_conditioning_weight`]), which keeps B⁺ stable in
+//!    double precision. The objective is only a local model of ΔE00, so a refined B is accepted only if its
+//!    real factor-model ΔE00 is no worse than its start ([`FACTOR_SLACK`]); otherwise it is redone with
+//!    μ/10, then μ = 0, else the start is kept. Every start is first refined with a small budget
+//!    ([`DEFAULT_SCREEN_ITERATIONS`] per stage); the most promising is then refined with the full budget.
+//! 4. **Choice**: the candidate with the lowest real mean (then p95) factor-model ΔE00 on the training
+//!    pairs. The unrefined PCA basis is always a candidate, so the accepted basis is never worse than the
+//!    PCA start used as a factor model. [`Trained::candidates`] lists every candidate with its error and
+//!    the condition number of its column-balanced B ([`balanced_condition`]).
 //!
-//! Every stage is deterministic: no randomness, fixed iteration limits.
+//! Every stage is deterministic: no randomness, fixed iteration limits, candidates refined in parallel but
+//! collected in order.
 
 use super::accuracy::{self, ErrorStats, Model};
 use super::refine::{self, Objective, RefineOutcome};
@@ -35,9 +40,10 @@ use crate::spectrum::{Normalize, SAMPLES, Spectrum};
 #[cfg(test)]
 use nalgebra::Vector3;
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 /// Bumped whenever a change to training changes its result (it is part of the cache key).
-pub const TRAINING_VERSION: u32 = 4;
+pub const TRAINING_VERSION: u32 = 5;
 
 /// Default weight μ of the full-Λ colour error while refining all of B. On ColorChecker × 7 lights, m = 7,
 /// μ = 0.3 brings the full-Λ model (Eq. 7, which DESIGN_SPEC §2's subspace criteria use) from mean ΔE00
@@ -47,6 +53,14 @@ pub const DEFAULT_LAMBDA_WEIGHT: f64 = 0.3;
 /// How much worse (mean, p95 ΔE00) the factor model may get when refining all of B with the full-Λ term,
 /// compared with the T-only basis, before that refinement is rejected.
 pub const FACTOR_SLACK: (f64, f64) = (0.05, 0.1);
+
+/// Default weight ρ of the conditioning term (sum of the columns' variance inflation factors, see
+/// [`Objective::with_conditioning_weight`]): negligible for a balanced condition number up to ~10³ (VIF ≤
+/// 10⁶ costs 10⁻³ of mean squared ΔE00), dominant beyond ~10⁵.
+pub const DEFAULT_CONDITIONING_WEIGHT: f64 = 1e-9;
+
+/// Iterations per stage when screening the starts (see [`TrainOptions::screen_iterations`]).
+pub const DEFAULT_SCREEN_ITERATIONS: u64 = 300;
 
 /// A singular value counts towards the rank of the colour signals when it exceeds this fraction of the
 /// largest one (the signals are f64 products of tabulated spectra; 1e-9 is far above rounding noise).
@@ -175,6 +189,14 @@ pub struct TrainOptions {
     pub full_iterations: u64,
     /// Weight μ of the full-Λ (Eq. 7) colour error in the objective (see [`Objective::with_lambda_weight`]).
     pub lambda_weight: f64,
+    /// Weight ρ of the conditioning term (see [`Objective::with_conditioning_weight`]).
+    pub conditioning_weight: f64,
+    /// Refine the further sharpening starts ([`Start::ProjectedBands`], [`Start::PositiveBands`]) beside the
+    /// PCA basis and interval sharpening.
+    pub multi_start: bool,
+    /// With several starts, each is first refined with at most this many iterations per stage; only the
+    /// best of them is then refined with the full budget.
+    pub screen_iterations: u64,
 }
 
 impl Default for TrainOptions {
@@ -184,6 +206,9 @@ impl Default for TrainOptions {
             transform_iterations: 5000,
             full_iterations: 5000,
             lambda_weight: DEFAULT_LAMBDA_WEIGHT,
+            conditioning_weight: DEFAULT_CONDITIONING_WEIGHT,
+            multi_start: true,
+            screen_iterations: DEFAULT_SCREEN_ITERATIONS,
         }
     }
 }
@@ -191,7 +216,15 @@ impl Default for TrainOptions {
 impl TrainOptions {
     /// Only PCA: the unsharpened basis.
     pub fn pca_only() -> TrainOptions {
-        TrainOptions { sharpen: false, transform_iterations: 0, full_iterations: 0, lambda_weight: 0.0 }
+        TrainOptions {
+            sharpen: false,
+            transform_iterations: 0,
+            full_iterations: 0,
+            lambda_weight: 0.0,
+            conditioning_weight: 0.0,
+            multi_start: false,
+            screen_iterations: 0,
+        }
     }
 
     /// PCA, interval sharpening and the T refinement, but B stays in the PCA span.
@@ -206,8 +239,70 @@ impl TrainOptions {
 pub enum Stage {
     Pca,
     IntervalSharpening,
+    ProjectedBands,
+    PositiveBands,
     RefinedTransform,
     RefinedBasis,
+}
+
+/// Where a candidate's refinement starts (each is refined; the best by factor-model ΔE00 is kept).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Start {
+    /// The orthonormal PCA basis itself (T = I).
+    Pca,
+    /// Interval (sensor-based) sharpening after Finlayson, Drew & Funt: per band the combination of the PCA
+    /// vectors most concentrated in it ([`sharpen::interval_transform`]).
+    IntervalSharpening,
+    /// The least-squares projection of box band indicators onto the PCA span (`T = B0ᵀ Box`), scaled so a
+    /// flat spectrum has unit coefficients ([`sharpen::projected_bands_transform`]).
+    ProjectedBands,
+    /// The non-negative box band indicators themselves, outside the PCA span: the perfectly sharp,
+    /// positive limit of sharpening with positivity (Drew & Finlayson), `G_ijk = δ_ij δ_jk`
+    /// ([`sharpen::positive_bands`]).
+    PositiveBands,
+}
+
+impl Start {
+    /// The stage that reports the unrefined start.
+    pub fn stage(self) -> Stage {
+        match self {
+            Start::Pca => Stage::Pca,
+            Start::IntervalSharpening => Stage::IntervalSharpening,
+            Start::ProjectedBands => Stage::ProjectedBands,
+            Start::PositiveBands => Stage::PositiveBands,
+        }
+    }
+
+    /// A short human-readable name.
+    pub fn label(self) -> &'static str {
+        match self {
+            Start::Pca => "PCA start",
+            Start::IntervalSharpening => "interval-sharpening start",
+            Start::ProjectedBands => "projected-band start",
+            Start::PositiveBands => "positive-band start",
+        }
+    }
+}
+
+/// How one candidate ended: its real factor-model ΔE00 on the training pairs and the condition number of
+/// its column-balanced B.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CandidateSummary {
+    pub start: Start,
+    /// False for the unrefined PCA basis (the fallback that makes the guarantee hold).
+    pub refined: bool,
+    /// True when refined with the screening budget only ([`TrainOptions::screen_iterations`]).
+    #[serde(default)]
+    pub screened: bool,
+    #[serde(deserialize_with = "super::accuracy::f64_or_infinity")]
+    pub factor_mean: f64,
+    #[serde(deserialize_with = "super::accuracy::f64_or_infinity")]
+    pub factor_p95: f64,
+    #[serde(deserialize_with = "super::accuracy::f64_or_infinity")]
+    pub condition: f64,
+    /// True for the candidate that was kept.
+    pub accepted: bool,
 }
 
 /// What one stage reached: its objective (mean squared local ΔE00 over the pairs) and iterations.
@@ -233,6 +328,12 @@ pub struct Trained {
     pub stages: Vec<StageResult>,
     /// Anything the user should know (padding, a stage that was skipped or failed).
     pub notes: Vec<String>,
+    /// The start the accepted basis was refined from.
+    pub start: Start,
+    /// Every candidate tried, in order (the last is the unrefined PCA basis).
+    pub candidates: Vec<CandidateSummary>,
+    /// Condition number of the accepted B with unit-norm columns.
+    pub condition: f64,
 }
 
 /// The m leading principal components of the colour signals (uncentred: the signals' own span), as an
@@ -323,93 +424,259 @@ pub fn train(
              outside their span"
         ));
     }
-    // The full-Λ colours depend only on the span of B, which T does not change: stage 3 minimises the
-    // factor-model term alone; every stage is reported with the whole objective.
+    // The full-Λ colours depend only on the span of B, which T does not change: refining T minimises the
+    // factor-model term alone; every stage is reported with the whole objective (without the conditioning
+    // term, so that stage objectives stay mean squared ΔE00).
     let factor_objective = Objective::new(set, colorimetry);
-    let objective = factor_objective.clone().with_lambda_weight(options.lambda_weight);
-    let mut stages = vec![StageResult { stage: Stage::Pca, objective: objective.cost_of(&b0), iterations: 0 }];
+    let report_objective = factor_objective.clone().with_lambda_weight(options.lambda_weight);
+    let pca_stage = StageResult { stage: Stage::Pca, objective: report_objective.cost_of(&b0), iterations: 0 };
+    let pca_stats = factor_stats(set, &b0, colorimetry);
 
-    let mut t = DMatrix::identity(m, m);
+    let mut starts: Vec<(Start, StartPoint)> = vec![(Start::Pca, StartPoint::Transform(DMatrix::identity(m, m)))];
     if options.sharpen {
         match sharpen::interval_transform(&b0) {
-            Some(t0) => {
-                t = t0;
-                let b = &b0 * &t;
-                stages.push(StageResult {
-                    stage: Stage::IntervalSharpening,
-                    objective: objective.cost_of(&b),
-                    iterations: 0,
-                });
+            Some(t0) => starts.push((Start::IntervalSharpening, StartPoint::Transform(t0))),
+            None => notes.push("interval sharpening gave an ill-conditioned transform; not used as a start".into()),
+        }
+        if options.multi_start {
+            match sharpen::projected_bands_transform(&b0) {
+                Some(t0) => starts.push((Start::ProjectedBands, StartPoint::Transform(t0))),
+                None => notes.push("the projected band start was ill-conditioned; not used as a start".into()),
             }
-            None => notes.push(
-                "interval sharpening gave an ill-conditioned transform; refinement starts from the PCA basis"
-                    .to_string(),
-            ),
+            starts.push((Start::PositiveBands, StartPoint::Basis(sharpen::positive_bands(m))));
         }
     }
-    if options.transform_iterations > 0 {
-        match refine::refine_transform(&factor_objective, &b0, &t, options.transform_iterations) {
-            RefineOutcome::Improved { value, iterations, .. } => {
-                t = value;
-                let cost = objective.cost_of(&(&b0 * &t));
-                stages.push(StageResult { stage: Stage::RefinedTransform, objective: cost, iterations });
-            }
-            RefineOutcome::Kept { reason } => notes.push(format!("refining T stopped early: {reason}")),
+    // Screening: every start refined with a small budget; then the most promising one (by real
+    // factor-model ΔE00) is refined again from its start with the whole budget. Both runs stay candidates.
+    let screen_options = TrainOptions {
+        transform_iterations: options.transform_iterations.min(options.screen_iterations),
+        full_iterations: options.full_iterations.min(options.screen_iterations),
+        ..options.clone()
+    };
+    let screening = starts.len() > 1 && screen_options != *options;
+    let ctx = CandidateContext {
+        set,
+        b0: &b0,
+        colorimetry,
+        options: if screening { &screen_options } else { options },
+        factor_objective: &factor_objective,
+    };
+    let mut candidates: Vec<Candidate> =
+        starts.par_iter().map(|(start, point)| ctx.refine(*start, point.clone(), &report_objective)).collect();
+    for c in &mut candidates {
+        c.screened = screening;
+    }
+    if screening {
+        let promising = candidates
+            .iter()
+            .enumerate()
+            .min_by(|(_, a), (_, b)| rank_key(a).partial_cmp(&rank_key(b)).unwrap_or(std::cmp::Ordering::Equal))
+            .map(|(i, _)| i);
+        if let Some(i) = promising {
+            let full = CandidateContext { options, ..ctx };
+            let (start, point) = &starts[i];
+            candidates.push(full.refine(*start, point.clone(), &report_objective));
         }
     }
-    let transform_only = &b0 * &t;
-    let mut b = transform_only.clone();
-    if options.full_iterations > 0 {
-        // The objective is a local (quadratic) model of ΔE00; the Λ term can dominate it on palettes whose
-        // Eq. 7 colours are far off. The factor model is what renders, so a refined B is accepted only if
-        // its real factor-model ΔE00 is no worse than the T-only basis (within FACTOR_SLACK); otherwise the
-        // refinement is redone on the factor term alone, and if that does not help either, B stays B0 T.
-        let reference = factor_stats(set, &transform_only, colorimetry);
-        let weights: Vec<f64> = if options.lambda_weight > 0.0 {
-            vec![options.lambda_weight, options.lambda_weight * 0.1, 0.0]
-        } else {
-            vec![0.0]
+    // The plain PCA basis as a factor model is always a candidate, so the accepted basis can never be worse.
+    candidates.push(Candidate {
+        start: Start::Pca,
+        refined: false,
+        screened: false,
+        basis: b0.clone(),
+        transform_only: Some(b0.clone()),
+        stats: pca_stats,
+        stages: Vec::new(),
+        notes: Vec::new(),
+    });
+    let best = candidates
+        .iter()
+        .enumerate()
+        .min_by(|(_, a), (_, b)| rank_key(a).partial_cmp(&rank_key(b)).unwrap_or(std::cmp::Ordering::Equal))
+        .map(|(i, _)| i)
+        .unwrap_or(candidates.len() - 1);
+    let summaries: Vec<CandidateSummary> = candidates
+        .iter()
+        .enumerate()
+        .map(|(i, c)| CandidateSummary {
+            start: c.start,
+            refined: c.refined,
+            screened: c.screened,
+            factor_mean: c.stats.map_or(f64::INFINITY, |s| s.mean),
+            factor_p95: c.stats.map_or(f64::INFINITY, |s| s.p95),
+            condition: balanced_condition(&c.basis),
+            accepted: i == best,
+        })
+        .collect();
+    // The best basis that stays in the PCA span, refining only T (what `transform_only` reports).
+    let transform_only = candidates
+        .iter()
+        .filter_map(|c| c.transform_only.as_ref().map(|t| (t, factor_stats(set, t, colorimetry))))
+        .min_by(|a, b| {
+            let key = |s: &Option<ErrorStats>| s.map_or((f64::INFINITY, f64::INFINITY), |s| (s.mean, s.p95));
+            key(&a.1).partial_cmp(&key(&b.1)).unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .map_or_else(|| b0.clone(), |(t, _)| t.clone());
+    let chosen = candidates.swap_remove(best);
+    notes.extend(chosen.notes);
+    let mut stages = vec![pca_stage];
+    stages.extend(chosen.stages);
+    let basis = Basis::from_matrix(chosen.basis, colorimetry)?;
+    let condition = balanced_condition(&basis.b);
+    Ok(Trained {
+        basis,
+        pca: b0,
+        transform_only,
+        signal_rank: rank,
+        padded,
+        stages,
+        notes,
+        start: chosen.start,
+        candidates: summaries,
+        condition,
+    })
+}
+
+/// Candidates are ranked by their real factor-model ΔE00 on the training pairs: mean, then p95; an unrefined
+/// candidate loses a tie (so the plain PCA basis is kept only when nothing beats it).
+fn rank_key(c: &Candidate) -> (f64, f64, u8) {
+    match c.stats {
+        Some(s) if s.mean.is_finite() => (s.mean, s.p95, u8::from(!c.refined)),
+        _ => (f64::INFINITY, f64::INFINITY, 2),
+    }
+}
+
+/// Condition number of B with its columns scaled to unit norm (what limits the accuracy of `B⁺`; the
+/// factor model itself depends on the column scales, so they are not balanced away).
+pub fn balanced_condition(b: &DMatrix<f64>) -> f64 {
+    let mut bal = b.clone();
+    for mut col in bal.column_iter_mut() {
+        let n = col.norm();
+        if n > 0.0 {
+            col /= n;
+        }
+    }
+    let sv = bal.singular_values();
+    let (smax, smin) = (sv.max(), sv.min());
+    if smin > 0.0 { smax / smin } else { f64::INFINITY }
+}
+
+/// Where a candidate's refinement starts: a transform T of the PCA basis (`B = B0 T`) or a whole basis.
+#[derive(Clone)]
+enum StartPoint {
+    Transform(DMatrix<f64>),
+    Basis(DMatrix<f64>),
+}
+
+/// One refined candidate.
+struct Candidate {
+    start: Start,
+    refined: bool,
+    /// Refined with the screening budget only.
+    screened: bool,
+    basis: DMatrix<f64>,
+    /// `B0 T` after refining T (for starts in the PCA span).
+    transform_only: Option<DMatrix<f64>>,
+    stats: Option<ErrorStats>,
+    stages: Vec<StageResult>,
+    notes: Vec<String>,
+}
+
+struct CandidateContext<'a> {
+    set: &'a TrainingSet,
+    b0: &'a DMatrix<f64>,
+    colorimetry: &'a Colorimetry,
+    options: &'a TrainOptions,
+    factor_objective: &'a Objective,
+}
+
+impl CandidateContext<'_> {
+    /// Refine one start: T (if it starts in the PCA span), then all of B with the full-Λ weight schedule.
+    fn refine(&self, start: Start, point: StartPoint, report: &Objective) -> Candidate {
+        let (set, colorimetry, options) = (self.set, self.colorimetry, self.options);
+        let rho = options.conditioning_weight;
+        let factor = self.factor_objective.clone().with_conditioning_weight(rho);
+        let mut stages = Vec::new();
+        let mut notes = Vec::new();
+        let label = start.label();
+        let (start_b, transform_only) = match point {
+            StartPoint::Transform(t0) => {
+                let mut t = t0;
+                if start != Start::Pca {
+                    stages.push(StageResult {
+                        stage: start.stage(),
+                        objective: report.cost_of(&(self.b0 * &t)),
+                        iterations: 0,
+                    });
+                }
+                if options.transform_iterations > 0 {
+                    match refine::refine_transform(&factor, self.b0, &t, options.transform_iterations) {
+                        RefineOutcome::Improved { value, iterations, .. } => {
+                            t = value;
+                            let cost = report.cost_of(&(self.b0 * &t));
+                            stages.push(StageResult { stage: Stage::RefinedTransform, objective: cost, iterations });
+                        }
+                        RefineOutcome::Kept { reason } => {
+                            notes.push(format!("{label}: refining T stopped early: {reason}"))
+                        }
+                    }
+                }
+                let b = self.b0 * &t;
+                (b.clone(), Some(b))
+            }
+            StartPoint::Basis(b) => {
+                stages.push(StageResult { stage: start.stage(), objective: report.cost_of(&b), iterations: 0 });
+                (b, None)
+            }
         };
-        for (attempt, &mu) in weights.iter().enumerate() {
-            let weaker;
-            let obj = if mu == options.lambda_weight {
-                &objective
+        let mut b = start_b.clone();
+        if options.full_iterations > 0 {
+            // The objective is a local (quadratic) model of ΔE00; the Λ term can dominate it on palettes whose
+            // Eq. 7 colours are far off. The factor model is what renders, so a refined B is accepted only if
+            // its real factor-model ΔE00 is no worse than its start (within FACTOR_SLACK); otherwise the
+            // refinement is redone with a weaker Λ term, and if that does not help either, B stays the start.
+            let reference = factor_stats(set, &start_b, colorimetry);
+            let weights: Vec<f64> = if options.lambda_weight > 0.0 {
+                vec![options.lambda_weight, options.lambda_weight * 0.1, 0.0]
             } else {
-                weaker = factor_objective.clone().with_lambda_weight(mu);
-                &weaker
+                vec![0.0]
             };
-            match refine::refine_basis(obj, &transform_only, options.full_iterations) {
-                RefineOutcome::Improved { value, cost, iterations } => {
-                    let refined = factor_stats(set, &value, colorimetry);
-                    let acceptable = match (reference, refined) {
-                        (Some(r), Some(n)) => n.mean <= r.mean + FACTOR_SLACK.0 && n.p95 <= r.p95 + FACTOR_SLACK.1,
-                        (None, Some(_)) => true,
-                        _ => false,
-                    };
-                    if acceptable {
-                        b = value;
-                        stages.push(StageResult { stage: Stage::RefinedBasis, objective: cost, iterations });
+            for (attempt, &mu) in weights.iter().enumerate() {
+                let obj = factor.clone().with_lambda_weight(mu);
+                match refine::refine_basis(&obj, &start_b, options.full_iterations) {
+                    RefineOutcome::Improved { value, iterations, .. } => {
+                        let refined = factor_stats(set, &value, colorimetry);
+                        let acceptable = match (reference, refined) {
+                            (Some(r), Some(n)) => n.mean <= r.mean + FACTOR_SLACK.0 && n.p95 <= r.p95 + FACTOR_SLACK.1,
+                            (None, Some(_)) => true,
+                            _ => false,
+                        };
+                        if acceptable {
+                            let cost = report.cost_of(&value);
+                            b = value;
+                            stages.push(StageResult { stage: Stage::RefinedBasis, objective: cost, iterations });
+                            break;
+                        }
+                        let next = match weights.get(attempt + 1) {
+                            Some(w) if *w > 0.0 => format!("retried with μ = {w}"),
+                            Some(_) => "retried on the factor-model error alone".to_string(),
+                            None => "kept its start".to_string(),
+                        };
+                        notes.push(format!(
+                            "{label}: refining all of B with full-Λ weight μ = {mu} made the factor model worse; \
+                             {next}"
+                        ));
+                    }
+                    RefineOutcome::Kept { reason } => {
+                        notes.push(format!("{label}: refining all of B (μ = {mu}) found nothing better ({reason})"));
                         break;
                     }
-                    let next = match weights.get(attempt + 1) {
-                        Some(w) if *w > 0.0 => format!("retried with μ = {w}"),
-                        Some(_) => "retried on the factor-model error alone".to_string(),
-                        None => "kept B0 T".to_string(),
-                    };
-                    notes.push(format!(
-                        "refining all of B with full-Λ weight μ = {mu} made the factor model worse than refining \
-                         T alone; {next}"
-                    ));
-                }
-                RefineOutcome::Kept { reason } => {
-                    notes.push(format!("refining all of B (μ = {mu}) found nothing better ({reason}); kept B0 T"));
-                    break;
                 }
             }
         }
+        let stats = factor_stats(set, &b, colorimetry);
+        Candidate { start, refined: true, screened: false, basis: b, transform_only, stats, stages, notes }
     }
-    let basis = Basis::from_matrix(b, colorimetry)?;
-    Ok(Trained { basis, pca: b0, transform_only, signal_rank: rank, padded, stages, notes })
 }
 
 /// Real factor-model ΔE00 of a candidate B on the training set; `None` if B is not a valid basis.
@@ -475,8 +742,8 @@ mod tests {
         let set = small_set(&c);
         let (b0, t) = test_basis(&set, 5);
         let b = &b0 * &t;
-        for mu in [0.0, 0.7] {
-            let obj = Objective::new(&set, &c).with_lambda_weight(mu);
+        for (mu, rho) in [(0.0, 0.0), (0.7, 0.0), (0.0, 1e-3), (0.3, 1e-2)] {
+            let obj = Objective::new(&set, &c).with_lambda_weight(mu).with_conditioning_weight(rho);
             let (cost, grad) = obj.cost_and_gradient(&b).unwrap();
             assert!(cost > 0.0);
             assert!((cost - obj.cost_of(&b)).abs() <= 1e-12 * cost);

@@ -3,7 +3,8 @@
 //! colours, beside the RGB factor model and the unsharpened PCA projection (DESIGN_SPEC §5).
 
 use crate::basis::store::{self, Report};
-use crate::basis::{Basis, accuracy::ErrorStats};
+use crate::basis::train::{TrainOptions, TrainingSet};
+use crate::basis::{Basis, POOR_MODEL_MEAN_DE00, accuracy::ErrorStats};
 use crate::palette::file::PaletteFile;
 use crate::spectrum::SAMPLES;
 use anyhow::{Context, bail};
@@ -17,7 +18,7 @@ use std::path::{Path, PathBuf};
                   L-BFGS refinement of the sharpening transform and of all of B against the factor-model colour \
                   error in a local CIEDE2000 metric. Prints mean / p95 / max ΔE00 of the factor model c = e ∘ s \
                   against full 31-sample colour for the palette's own pairs, beside the RGB factor model and the \
-                  unsharpened PCA projection, and the off-diagonal mass of Λ (seed Eq. 7).",
+                  unsharpened PCA basis, the projection of the signals onto the PCA span, and the off-diagonal mass of Λ (seed Eq. 7).",
     after_help = "The trained basis is stored next to the palette as NAME.basis.json, keyed by the exact spectra, m and \
                   the training version: it is reused until one of them changes (--no-cache trains afresh and writes \
                   nothing). With --json the output is {\"dimension\": m, \"basis\": [[31 numbers] × m], ...}, the \
@@ -49,12 +50,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let sidecar = store::sidecar_path(&args.palette);
     let cache = (!args.no_cache).then_some(sidecar.as_path());
-    let (basis, report) = store::for_palette(&file.palette, m, cache)
+    let set = TrainingSet::from_palette(&file.palette)
         .with_context(|| format!("{}: cannot build its basis", args.palette.display()))?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&json(&basis, &report, &args.palette, cache))?);
+    let resolved = if args.no_cache {
+        // Train afresh: neither the sidecar nor this process's memory.
+        std::sync::Arc::new(
+            store::for_set(&set, m, None, &TrainOptions::default())
+                .with_context(|| format!("{}: cannot build its basis", args.palette.display()))?,
+        )
     } else {
-        print!("{}", table(&report, &args.palette, cache));
+        crate::basis::basis_for(&set, m, cache)
+            .with_context(|| format!("{}: cannot build its basis", args.palette.display()))?
+    };
+    let (basis, report) = &*resolved;
+    if let Some(w) = report.poor_model() {
+        eprintln!("warning: {}: {w}", args.palette.display());
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&json(basis, report, &args.palette, cache))?);
+    } else {
+        print!("{}", table(report, &args.palette, cache));
     }
     Ok(())
 }
@@ -75,6 +90,11 @@ pub fn json(basis: &Basis, report: &Report, palette: &Path, cache: Option<&Path>
         "key": report.key,
         "accuracy": report.accuracy,
         "stages": report.stages,
+        "start": report.start,
+        "candidates": report.candidates,
+        "condition": report.condition,
+        "poor_model_threshold": POOR_MODEL_MEAN_DE00,
+        "poor_model": report.poor_model(),
         "notes": report.notes,
     })
 }
@@ -97,18 +117,45 @@ pub fn table(report: &Report, palette: &Path, cache: Option<&Path>) -> String {
     let mut row = |label: &str, s: &ErrorStats| {
         out.push_str(&format!("{label:<52}{:>8.2}{:>8.2}{:>8.2}\n", s.mean, s.p95, s.max));
     };
-    row("spectral factor model c = e ∘ s (refined B)", &a.factor_model);
-    if let Some(t) = &a.transform_only {
-        row("  same, refining the sharpening T only", t);
+    row("spectral factor model c = e ∘ s (accepted B)", &a.factor_model);
+    if let Some(t) = &a.factor_model_pca_span {
+        row("  same, best B in the PCA span (T refined only)", t);
     }
+    row("  same, unsharpened PCA basis", &a.pca_factor_model);
+    row("no factor model: signal E ∘ S projected on PCA span", &a.pca_signal_projection);
     row("RGB factor model (seed Eq. 9)", &a.rgb_factor_model);
-    row("unsharpened PCA projection, c = e ∘ s", &a.pca_projection);
-    row("full Λ (seed Eq. 7) with the trained B", &a.full_lambda);
+    row("full Λ (seed Eq. 7) with the accepted B", &a.full_lambda_model);
     out.push_str(&format!(
         "\nΛ off-diagonal mass ‖offdiag Λ(s)‖/‖diag Λ(s)‖, mean over reflectances: {:.3}\n\
          product tensor B⁺(B_j ∘ B_k) off-diagonal / diagonal (Frobenius): {:.3}\n",
         a.lambda_offdiagonal.reflectances, a.lambda_offdiagonal.tensor
     ));
+    let start = report.start.map_or("unknown", |s| s.label());
+    out.push_str(&format!(
+        "accepted: {start}; condition number of B with unit-norm columns {:.3e}\n",
+        report.condition
+    ));
+    for c in &report.candidates {
+        out.push_str(&format!(
+            "  candidate {:<40} mean {:>8.3} p95 {:>8.3} cond {:.2e}{}\n",
+            format!(
+                "{}{}",
+                c.start.label(),
+                match (c.refined, c.screened) {
+                    (false, _) => ", unrefined",
+                    (true, true) => ", screened",
+                    (true, false) => ", refined",
+                }
+            ),
+            c.factor_mean,
+            c.factor_p95,
+            c.condition,
+            if c.accepted { "  ← accepted" } else { "" }
+        ));
+    }
+    if let Some(w) = report.poor_model() {
+        out.push_str(&format!("WARNING: {w}\n"));
+    }
     for n in &report.notes {
         out.push_str(&format!("note: {n}\n"));
     }

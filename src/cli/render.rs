@@ -85,6 +85,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (Some(_), true) => bail!("give either a scene file or --builtin, not both"),
         (None, _) => crate::render::scene::builtin_scene(args.builtin_volume_size)?,
     };
+    if mode == Mode::Factor {
+        let resolved = crate::render::scene_basis_report(&scene)?;
+        if let Some(w) = resolved.1.poor_model() {
+            eprintln!("warning: palette `{}`: {w}", scene.palette.name.escape_debug());
+        }
+    }
     let model = colour_model(&scene, mode, &colorimetry)?;
     let accel = Acceleration {
         early_termination: !args.no_early_termination,

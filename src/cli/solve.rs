@@ -3,7 +3,7 @@
 //! that cannot be met and why, write the solved palette (atomically; never after a failed solve) and a
 //! JSON report.
 
-use crate::basis::Basis;
+use crate::basis::basis_for_palette;
 use crate::basis::store::{self, palette_uses_basis};
 use crate::colorimetry::{Colorimetry, linear_to_hex};
 use crate::design::report::Fixed;
@@ -63,12 +63,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let palette = &file.palette;
     let colorimetry = Colorimetry::default();
     let sidecar = store::sidecar_path(&args.input);
-    let m = palette.settings.basis_dimension;
     let uses = palette_uses_basis(palette);
-    let basis: Option<Basis> = if uses {
-        let (b, _) = store::for_palette(palette, m, Some(&sidecar))
-            .with_context(|| format!("{}: settings need the trained basis", args.input.display()))?;
-        Some(b)
+    // The solve's own subspace criteria need the basis of the spectra it starts from.
+    let basis = if uses {
+        Some(
+            basis_for_palette(palette, Some(&sidecar))
+                .with_context(|| format!("{}: settings need the trained basis", args.input.display()))?,
+        )
     } else {
         None
     };
@@ -76,16 +77,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         anyhow::bail!("--time-limit must be a positive number of seconds, got {}", args.time_limit);
     }
     let options = SolveOptions { time_limit: Duration::from_secs_f64(args.time_limit), cancel: None };
-    let mut solution = design::solve(palette, basis.as_ref(), &colorimetry, &options)
+    let mut solution = design::solve(palette, basis.as_ref().map(|b| &b.0), &colorimetry, &options)
         .with_context(|| format!("{}: the design cannot be solved", args.input.display()))?;
-    // Subspace colours for the report: the solve's basis, else one trained on the solved spectra.
+    // Subspace colours for the report: always the basis of the *solved* spectra (the one basis policy,
+    // the basis that rendering the solved palette and the designer use).
     let spectra = palette.lights.len() + palette.reflectances.len();
-    let want_subspace = !args.no_subspace && (args.subspace || spectra <= AUTO_SUBSPACE_SPECTRA);
+    let want_subspace = uses || (!args.no_subspace && (args.subspace || spectra <= AUTO_SUBSPACE_SPECTRA));
     let mut notes = Vec::new();
-    if basis.is_none() && want_subspace {
-        match store::for_palette(&solution.palette, m, Some(&sidecar)) {
-            Ok((b, _)) => {
-                solution.cells = design::report::cell_results(palette, Some(&b), &colorimetry, &values_of(&solution));
+    let mut basis_warning = None;
+    if want_subspace {
+        match basis_for_palette(&solution.palette, Some(&sidecar)) {
+            Ok(resolved) => {
+                let (b, report) = &*resolved;
+                solution.cells = design::report::cell_results(palette, Some(b), &colorimetry, &values_of(&solution));
+                basis_warning = report.poor_model();
             }
             Err(e) => notes.push(format!("no subspace colours: {e}")),
         }
@@ -102,10 +107,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                         .with_context(|| format!("{}: cannot write the solved palette", out.display())),
                     None => Ok(()),
                 },
-                || table_text(&solution, &notes, args.quiet),
+                || table_text(&solution, &notes, basis_warning.as_deref(), args.quiet),
             )
         },
-        || args.report.as_ref().map(|_| report_text(&solution, seconds)),
+        || args.report.as_ref().map(|_| report_text(&solution, seconds, basis_warning.as_deref())),
     );
     saved?;
     let (printed, reported) = rayon::join(
@@ -141,7 +146,7 @@ fn pad(w: &mut String, from: usize, width: usize) {
 }
 
 /// The per-cell table (unless `quiet`) and the remark lines: everything printed but the summary.
-fn table_text(s: &Solution, notes: &[String], quiet: bool) -> String {
+fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet: bool) -> String {
     let palette = &s.palette;
     let mut w = String::with_capacity(if quiet { 0 } else { 130 * (s.cells.len() + 1) } + 200 * s.diagnostics.len());
     if !quiet {
@@ -197,6 +202,9 @@ fn table_text(s: &Solution, notes: &[String], quiet: bool) -> String {
     for n in notes {
         let _ = writeln!(w, "note: {n}");
     }
+    if let Some(b) = basis_warning {
+        let _ = writeln!(w, "WARNING: {b}");
+    }
     w
 }
 
@@ -224,9 +232,11 @@ fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -
 }
 
 /// The JSON report, pretty-printed.
-fn report_text(s: &Solution, seconds: f64) -> anyhow::Result<Vec<u8>> {
+fn report_text(s: &Solution, seconds: f64, basis_warning: Option<&str>) -> anyhow::Result<Vec<u8>> {
     let mut text = Vec::with_capacity(256 * (s.cells.len() + s.palette.lights.len() + s.palette.reflectances.len()));
-    serde_json::to_writer_pretty(&mut text, &Report::new(s, seconds))?;
+    let mut report = Report::new(s, seconds);
+    report.basis_warning = basis_warning;
+    serde_json::to_writer_pretty(&mut text, &report)?;
     text.push(b'\n');
     Ok(text)
 }
@@ -297,6 +307,10 @@ pub struct Report<'a> {
     free: Vec<FreeJson<'a>>,
     cells: Vec<CellJson<'a>>,
     diagnostics: Vec<DiagnosticJson<'a>>,
+    /// Set when the factor model behind `rgb_subspace` is poor on the solved spectra's own pairs
+    /// ([`crate::basis::Report::poor_model`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    basis_warning: Option<&'a str>,
 }
 
 fn arr(c: &Vector3<f64>) -> [f64; 3] {
@@ -344,6 +358,7 @@ impl<'a> Report<'a> {
                 .iter()
                 .map(|d| DiagnosticJson { cell: d.cell.map(names), message: &d.message })
                 .collect(),
+            basis_warning: None,
         }
     }
 }

@@ -109,27 +109,22 @@ pub fn render_views(
         .collect()
 }
 
-/// The sharpened basis the factor model renders a scene with: the palette's trained basis of dimension
-/// `settings.basis_dimension` ([`crate::basis::store::for_palette`]: PCA of all light × reflectance colour
-/// signals, sharpened and refined), read from / stored in the palette's `.basis.json` sidecar when the
-/// scene came from files, so repeated renders skip training.
-///
-/// The basis module reports the factor-model error of its refined basis and of the basis whose sharpening
-/// transform alone was refined; when the latter is more accurate on the palette's own pairs, that one is
-/// trained (uncached) and used instead.
+/// The sharpened basis the factor model renders a scene with: the basis of the palette's spectra of
+/// dimension `settings.basis_dimension` decided by the one basis policy ([`crate::basis::basis_for`]),
+/// read from / stored in the palette's `.basis.json` sidecar when the scene came from files, so repeated
+/// renders skip training.
 pub fn scene_basis(scene: &Scene) -> Result<Basis, RenderError> {
-    use crate::basis::store::{for_palette, for_palette_with, sidecar_path};
-    use crate::basis::train::TrainOptions;
+    Ok(scene_basis_report(scene)?.0.clone())
+}
+
+/// As [`scene_basis`], with the basis's report (its accuracy on the palette's own pairs and
+/// [`crate::basis::Report::poor_model`]).
+pub fn scene_basis_report(scene: &Scene) -> Result<crate::basis::policy::Resolved, RenderError> {
     let m = scene.palette.settings.basis_dimension.clamp(1, SAMPLES);
-    let sidecar = scene.palette_path.as_deref().map(sidecar_path);
+    let sidecar = scene.palette_path.as_deref().map(crate::basis::store::sidecar_path);
     let err =
         |e: crate::basis::store::StoreError| RenderError::Invalid(format!("palette `{}`: {e}", scene.palette.name));
-    let (basis, report) = for_palette(&scene.palette, m, sidecar.as_deref()).map_err(err)?;
-    let refined = report.accuracy.factor_model.mean;
-    match report.accuracy.transform_only {
-        Some(t) if t.mean < refined => {
-            Ok(for_palette_with(&scene.palette, m, None, &TrainOptions::transform_only()).map_err(err)?.0)
-        }
-        _ => Ok(basis),
-    }
+    let set = crate::basis::train::TrainingSet::from_palette(&scene.palette)
+        .map_err(|e| err(crate::basis::store::StoreError::Train(e)))?;
+    crate::basis::basis_for(&set, m, sidecar.as_deref()).map_err(err)
 }

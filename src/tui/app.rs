@@ -1,7 +1,6 @@
 //! The designer's state: the palette being edited, the selection, popups, undo history and the latest
 //! solve. Everything the view draws is read from here; only [`crate::tui::update`] changes it.
 
-use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
 use crate::design::{DesignError, Solution};
 use crate::palette::{Bounds, Kind, Palette};
@@ -237,6 +236,9 @@ pub struct SolveStatus {
     pub basis_generation: u64,
     /// Why the basis could not be trained.
     pub basis_error: Option<String>,
+    /// The factor model's mean ΔE00 on the shown spectra's own pairs, when it is poor (above
+    /// [`crate::basis::POOR_MODEL_MEAN_DE00`], [`crate::basis::Report::poor_model`]).
+    pub basis_poor: Option<f64>,
 }
 
 impl SolveStatus {
@@ -255,8 +257,9 @@ pub struct State {
     /// The palette as last loaded or saved (the `●` marker shows when they differ).
     pub saved: Palette,
     pub colorimetry: Colorimetry,
-    /// The spectral factor basis for subspace colours, when one is available.
-    pub basis: Option<Arc<Basis>>,
+    /// The spectral factor basis for subspace colours and the key of the spectra it is for (the derived
+    /// colours use it only while the shown spectra have that key).
+    pub basis: Option<(String, crate::basis::policy::Resolved)>,
     pub selection: Selection,
     pub focus: Focus,
     pub slider: usize,
@@ -328,7 +331,7 @@ impl State {
             &self.palette,
             self.solve.current().or(self.solve.solution.as_ref().map(|(_, s)| s.as_ref())),
             &self.colorimetry,
-            self.basis.as_deref(),
+            self.basis.as_ref().map(|(k, r)| (k.as_str(), &r.0)),
         );
         self.relight();
     }

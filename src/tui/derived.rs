@@ -3,6 +3,8 @@
 //! subspace model, its desired colour and the CIEDE2000 errors between them.
 
 use crate::basis::Basis;
+use crate::basis::store::cache_key;
+use crate::basis::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
 use crate::design::Solution;
 use crate::palette::{Palette, SpectrumEntry};
@@ -47,6 +49,12 @@ pub struct Derived {
     pub worst_delta_e: Option<f64>,
     /// True when the shown spectra come from a solution.
     pub solved: bool,
+    /// The basis key of the shown spectra and m ([`crate::basis::store::cache_key`]): the subspace colours
+    /// are computed only with the basis of exactly these spectra.
+    pub basis_key: Option<String>,
+    /// The shown spectra have a key but the basis given was not theirs: the subspace colours are not
+    /// shown (rather than stale ones) until it arrives.
+    pub subspace_pending: bool,
 }
 
 /// True when `a` and `b` list the same spectra by name, in order.
@@ -61,7 +69,7 @@ impl Derived {
         palette: &Palette,
         solution: Option<&Solution>,
         colorimetry: &Colorimetry,
-        basis: Option<&Basis>,
+        basis: Option<(&str, &Basis)>,
     ) -> Derived {
         let solution = solution.filter(|s| {
             same_names(&s.palette.lights, &palette.lights) && same_names(&s.palette.reflectances, &palette.reflectances)
@@ -82,6 +90,13 @@ impl Derived {
             .enumerate()
             .map(|(i, e)| pick(e, solution.and_then(|s| s.palette.reflectances.get(i))))
             .collect();
+        let basis_key = TrainingSet::new(light_spectra.clone(), reflectance_spectra.clone())
+            .ok()
+            .map(|set| cache_key(&set, palette.settings.basis_dimension));
+        let basis = basis
+            .filter(|(k, b)| Some(*k) == basis_key.as_deref() && b.b.nrows() == crate::spectrum::SAMPLES)
+            .map(|(_, b)| b);
+        let subspace_pending = basis_key.is_some() && basis.is_none();
         let white = Spectrum::flat(1.0);
         let light_swatches = light_spectra.iter().map(|e| colorimetry.rgb(e, &white)).collect();
         let reflectance_swatches = reflectance_spectra.iter().map(|s| colorimetry.rgb(&white, s)).collect();
@@ -91,7 +106,7 @@ impl Derived {
         for (i, s) in reflectance_spectra.iter().enumerate() {
             for (j, e) in light_spectra.iter().enumerate() {
                 let full = colorimetry.rgb(e, s);
-                let subspace = basis.filter(|b| b.b.nrows() == crate::spectrum::SAMPLES).map(|b| b.rgb_factor(e, s));
+                let subspace = basis.map(|b| b.rgb_factor(e, s));
                 let criterion = palette.cell(j, i);
                 let desired = criterion.and_then(|c| match c.free {
                     Some(g) => solution.and_then(|s| s.free.get(g).copied()),
@@ -126,6 +141,8 @@ impl Derived {
             reflectance_spectra,
             worst_delta_e: worst,
             solved: solution.is_some(),
+            basis_key,
+            subspace_pending,
         }
     }
 

@@ -74,31 +74,33 @@ fn backend_error(e: impl std::fmt::Display) -> io::Error {
 }
 
 /// Apply a worker reply to the state.
-fn apply_reply(state: &mut State, reply: Reply, worker: &Worker) {
+fn apply_reply(state: &mut State, reply: Reply, worker: &mut Worker) {
     state.solve.running = worker.solving();
     state.solve.training = worker.training();
     match reply {
         Reply::Trained(t) => {
-            if t.generation < state.solve.basis_generation {
+            if state.derived.basis_key.as_deref() != Some(t.key.as_str()) {
+                // For spectra no longer shown (it stays in the basis memory if they come back).
+                ensure_basis(state, worker);
                 return;
             }
             state.solve.basis_generation = t.generation;
             match t.result {
-                Ok(basis) => {
-                    state.basis = Some(basis);
+                Ok(resolved) => {
+                    state.solve.basis_poor = poor_mean(&resolved);
+                    state.basis = Some((t.key, resolved));
                     state.solve.basis_error = None;
                 }
-                Err(e) => state.solve.basis_error = Some(e),
+                Err(e) => {
+                    state.solve.basis_error = Some(e);
+                    state.solve.basis_poor = None;
+                }
             }
         }
         Reply::Solved(s) => {
             if s.generation != state.solve.generation {
                 // Stale: a newer palette is being (or will be) solved.
                 return;
-            }
-            if let Some(b) = s.basis {
-                state.basis = Some(b);
-                state.solve.basis_generation = state.solve.basis_generation.max(s.generation);
             }
             state.solve.last_time = Some(s.elapsed);
             match s.result {
@@ -111,6 +113,47 @@ fn apply_reply(state: &mut State, reply: Reply, worker: &Worker) {
         }
     }
     state.refresh();
+    ensure_basis(state, worker);
+}
+
+/// The factor model's mean ΔE00 when it is poor on its own spectra.
+fn poor_mean(resolved: &crate::basis::policy::Resolved) -> Option<f64> {
+    resolved.1.poor_model().map(|_| resolved.1.accuracy.factor_model.mean)
+}
+
+/// Have the basis of the spectra the matrix shows: at once from the basis memory, else asked of the worker
+/// (the V7 half shows "updating" meanwhile). Nothing is asked while a solve of a palette with designed
+/// spectra is under way (the shown spectra are about to change), nor for spectra whose basis is at hand.
+fn ensure_basis(state: &mut State, worker: &mut Worker) {
+    let Some(key) = state.derived.basis_key.clone() else { return };
+    if state.basis.as_ref().is_some_and(|(k, _)| *k == key) {
+        return;
+    }
+    if !worker.trains_bases() {
+        state.solve.basis_error = Some("basis training is off".into());
+        return;
+    }
+    if let Some(hit) = crate::basis::policy::cached(&key) {
+        state.solve.basis_poor = poor_mean(&hit);
+        state.basis = Some((key, hit));
+        state.solve.basis_error = None;
+        state.refresh();
+        return;
+    }
+    let designs = state.palette.lights.iter().chain(&state.palette.reflectances).any(|e| e.design);
+    if designs && state.solve.running.is_some() {
+        return;
+    }
+    match crate::basis::train::TrainingSet::new(
+        state.derived.light_spectra.clone(),
+        state.derived.reflectance_spectra.clone(),
+    ) {
+        Ok(set) => {
+            worker.request_basis(state.solve.generation, key, set, state.palette.settings.basis_dimension);
+            state.solve.training = worker.training();
+        }
+        Err(e) => state.solve.basis_error = Some(format!("cannot train the basis: {e}")),
+    }
 }
 
 fn submit(state: &mut State, worker: &mut Worker) {
@@ -118,6 +161,7 @@ fn submit(state: &mut State, worker: &mut Worker) {
     state.solve.running = worker.solving();
     state.solve.training = worker.training();
     state.solve.running_for = Duration::ZERO;
+    ensure_basis(state, worker);
 }
 
 /// The palette to write: designed spectra replaced by the current solution's (stored as samples, DESIGN_SPEC §3).
@@ -186,13 +230,13 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
         if events.synchronous() {
             while worker.busy() {
                 match worker.wait_reply(Duration::from_secs(3600)) {
-                    Some(reply) => apply_reply(state, reply, &worker),
+                    Some(reply) => apply_reply(state, reply, &mut worker),
                     None => break,
                 }
             }
         }
         while let Some(reply) = worker.try_reply() {
-            apply_reply(state, reply, &worker);
+            apply_reply(state, reply, &mut worker);
             redraw = true;
         }
         if state.solve.running.is_some() || state.solve.training {
@@ -225,7 +269,7 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
             Some(Input::WaitSolve) => {
                 while worker.busy() {
                     match worker.wait_reply(Duration::from_secs(3600)) {
-                        Some(reply) => apply_reply(state, reply, &worker),
+                        Some(reply) => apply_reply(state, reply, &mut worker),
                         None => break,
                     }
                 }

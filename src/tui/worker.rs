@@ -5,22 +5,22 @@
 //! [`SolveOptions::cancel`] when a newer palette arrives. Every request carries the palette's generation
 //! so the UI can drop replies to palettes that have since changed.
 //!
-//! The basis (the spectral factor model, for the subspace colours of the matrix and for palettes that fit
-//! in the subspace) is trained by [`crate::basis::store::for_palette`] — optionally through its sidecar
-//! cache — and kept in memory by its training-set key, shared by both threads, so it is retrained only
-//! when a spectrum or the dimension changes.
+//! Every basis comes from the one basis policy, [`crate::basis::basis_for`] (memory shared by every thread,
+//! then the sidecar cache when configured), keyed by the exact spectra and m, so it is retrained only when
+//! a spectrum or the dimension changes. The solver thread asks for the basis of the palette it solves when
+//! the palette's criteria need one; the basis thread trains the basis of the spectra the matrix *shows*
+//! (the solved ones), which the UI requests with [`Worker::request_basis`] after each solve.
 
-use crate::basis::Basis;
-use crate::basis::store::{self, cache_key, palette_uses_basis};
+use crate::basis::policy::{self, Resolved};
+use crate::basis::store::palette_uses_basis;
 use crate::basis::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
 use crate::design::{self, DesignError, Solution, SolveOptions};
 use crate::palette::Palette;
-use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Whether and how the worker trains the palette's basis.
@@ -45,8 +45,6 @@ pub struct WorkerConfig {
 pub struct Solved {
     pub generation: u64,
     pub result: Result<Arc<Solution>, DesignError>,
-    /// The basis the solve used, if it needed one.
-    pub basis: Option<Arc<Basis>>,
     /// Wall-clock time of the solve (and of any basis training it waited for).
     pub elapsed: Duration,
 }
@@ -55,7 +53,9 @@ pub struct Solved {
 #[derive(Debug)]
 pub struct Trained {
     pub generation: u64,
-    pub result: Result<Arc<Basis>, String>,
+    /// The key of the spectra it is for ([`crate::basis::store::cache_key`]).
+    pub key: String,
+    pub result: Result<Resolved, String>,
 }
 
 /// Something the worker finished.
@@ -71,30 +71,16 @@ struct Request {
     cancel: Arc<AtomicBool>,
 }
 
-/// Bases by training-set key, shared by the two threads.
-type BasisCache = Arc<Mutex<HashMap<String, Arc<Basis>>>>;
-
-/// The palette's basis: from memory, else trained (through the sidecar when configured).
-fn basis_for(palette: &Palette, cache: &BasisCache, sidecar: Option<&PathBuf>) -> Result<Arc<Basis>, String> {
-    let m = palette.settings.basis_dimension;
-    let set = TrainingSet::from_palette(palette).map_err(|e| format!("cannot train the basis: {e}"))?;
-    let key = cache_key(&set, m);
-    if let Some(b) = cache.lock().ok().and_then(|c| c.get(&key).cloned()) {
-        return Ok(b);
-    }
-    let (basis, _) = store::for_palette(palette, m, sidecar.map(PathBuf::as_path)).map_err(|e| e.to_string())?;
-    let basis = Arc::new(basis);
-    if let Ok(mut c) = cache.lock() {
-        if c.len() > 32 {
-            c.clear();
-        }
-        c.insert(key, basis.clone());
-    }
-    Ok(basis)
+/// A request for the basis of some spectra.
+struct BasisRequest {
+    generation: u64,
+    key: String,
+    set: TrainingSet,
+    m: usize,
 }
 
 /// The newest request queued behind `first`.
-fn newest(first: Request, requests: &Receiver<Request>) -> Option<Request> {
+fn newest<R>(first: R, requests: &Receiver<R>) -> Option<R> {
     let mut request = first;
     loop {
         match requests.try_recv() {
@@ -105,7 +91,7 @@ fn newest(first: Request, requests: &Receiver<Request>) -> Option<Request> {
     }
 }
 
-fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: WorkerConfig, cache: BasisCache) {
+fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: WorkerConfig) {
     let colorimetry = Colorimetry::default();
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
@@ -113,7 +99,7 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
         let cancelled = request.cancel.load(Ordering::Relaxed);
         let basis = match (&config.basis, palette_uses_basis(&request.palette)) {
             (BasisMode::Train { sidecar }, true) if !cancelled => {
-                Some(basis_for(&request.palette, &cache, sidecar.as_ref()))
+                Some(policy::basis_for_palette(&request.palette, sidecar.as_deref()).map_err(|e| e.to_string()))
             }
             _ => None,
         };
@@ -122,27 +108,24 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
             Some(Err(e)) => Err(DesignError::Invalid(e.clone())),
             _ => {
                 let options = SolveOptions { time_limit: config.time_limit, cancel: Some(request.cancel.clone()) };
-                let b = basis.as_ref().and_then(|b| b.as_ref().ok()).map(|b| b.as_ref());
+                let b = basis.as_ref().and_then(|b| b.as_ref().ok()).map(|b| &b.0);
                 design::solve(&request.palette, b, &colorimetry, &options).map(Arc::new)
             }
         };
-        let reply = Solved {
-            generation: request.generation,
-            result,
-            basis: basis.and_then(Result::ok),
-            elapsed: started.elapsed(),
-        };
+        let reply = Solved { generation: request.generation, result, elapsed: started.elapsed() };
         if replies.send(Reply::Solved(reply)).is_err() {
             return;
         }
     }
 }
 
-fn serve_bases(requests: Receiver<Request>, replies: Sender<Reply>, sidecar: Option<PathBuf>, cache: BasisCache) {
+fn serve_bases(requests: Receiver<BasisRequest>, replies: Sender<Reply>, sidecar: Option<PathBuf>) {
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
-        let result = basis_for(&request.palette, &cache, sidecar.as_ref());
-        if replies.send(Reply::Trained(Trained { generation: request.generation, result })).is_err() {
+        let result = policy::basis_for(&request.set, request.m, sidecar.as_deref())
+            .map_err(|e| format!("cannot train the basis: {e}"));
+        let reply = Trained { generation: request.generation, key: request.key, result };
+        if replies.send(Reply::Trained(reply)).is_err() {
             return;
         }
     }
@@ -152,7 +135,7 @@ fn serve_bases(requests: Receiver<Request>, replies: Sender<Reply>, sidecar: Opt
 #[derive(Debug)]
 pub struct Worker {
     solves: Option<Sender<Request>>,
-    bases: Option<Sender<Request>>,
+    bases: Option<Sender<BasisRequest>>,
     replies: Receiver<Reply>,
     /// Cancel flag of the newest solve request.
     cancel: Option<Arc<AtomicBool>>,
@@ -167,13 +150,12 @@ impl Worker {
     /// Start the worker threads.
     pub fn start(config: WorkerConfig) -> std::io::Result<Worker> {
         let (reply_tx, reply_rx) = mpsc::channel();
-        let cache: BasisCache = Arc::default();
         let (solve_tx, solve_rx) = mpsc::channel();
         {
-            let (replies, config, cache) = (reply_tx.clone(), config.clone(), cache.clone());
+            let (replies, config) = (reply_tx.clone(), config.clone());
             std::thread::Builder::new()
                 .name("metamer-solve".into())
-                .spawn(move || serve_solves(solve_rx, replies, config, cache))?;
+                .spawn(move || serve_solves(solve_rx, replies, config))?;
         }
         let bases = match config.basis {
             BasisMode::Off => None,
@@ -181,7 +163,7 @@ impl Worker {
                 let (basis_tx, basis_rx) = mpsc::channel();
                 std::thread::Builder::new()
                     .name("metamer-basis".into())
-                    .spawn(move || serve_bases(basis_rx, reply_tx, sidecar, cache))?;
+                    .spawn(move || serve_bases(basis_rx, reply_tx, sidecar))?;
                 Some(basis_tx)
             }
         };
@@ -196,8 +178,7 @@ impl Worker {
         })
     }
 
-    /// Solve `palette` (generation `generation`), cancelling whatever solve runs now, and have its basis
-    /// trained when its spectra or dimension changed.
+    /// Solve `palette` (generation `generation`), cancelling whatever solve runs now.
     pub fn submit(&mut self, generation: u64, palette: &Palette) {
         if let Some(old) = self.cancel.take() {
             old.store(true, Ordering::Relaxed);
@@ -207,17 +188,31 @@ impl Worker {
         let request = Request { generation, palette: palette.clone(), cancel };
         let sent = self.solves.as_ref().is_some_and(|tx| tx.send(request).is_ok());
         self.pending_solve = sent.then_some(generation);
+    }
+
+    /// True when this worker trains bases at all (not [`BasisMode::Off`]).
+    pub fn trains_bases(&self) -> bool {
+        self.bases.is_some()
+    }
+
+    /// Have the basis of dimension m for these spectra (key `key`) trained or loaded, unless it was the
+    /// last one asked for. The reply is a [`Reply::Trained`] with the key.
+    pub fn request_basis(&mut self, generation: u64, key: String, set: TrainingSet, m: usize) {
+        if self.basis_asked.as_deref() == Some(key.as_str()) {
+            return;
+        }
         if let Some(tx) = &self.bases {
-            let key =
-                TrainingSet::from_palette(palette).ok().map(|set| cache_key(&set, palette.settings.basis_dimension));
-            if key.is_some() && key != self.basis_asked {
-                let request = Request { generation, palette: palette.clone(), cancel: Arc::default() };
-                if tx.send(request).is_ok() {
-                    self.pending_basis = Some(generation);
-                    self.basis_asked = key;
-                }
+            let request = BasisRequest { generation, key: key.clone(), set, m };
+            if tx.send(request).is_ok() {
+                self.pending_basis = Some(generation);
+                self.basis_asked = Some(key);
             }
         }
+    }
+
+    /// Forget which basis was asked for last (so it is asked for again, e.g. after a failure).
+    pub fn forget_basis_request(&mut self) {
+        self.basis_asked = None;
     }
 
     /// The generation being solved, if any.
@@ -238,7 +233,7 @@ impl Worker {
     fn note(&mut self, reply: &Reply) {
         match reply {
             Reply::Solved(s) if self.pending_solve == Some(s.generation) => self.pending_solve = None,
-            Reply::Trained(t) if self.pending_basis == Some(t.generation) => self.pending_basis = None,
+            Reply::Trained(t) if self.basis_asked.as_deref() == Some(t.key.as_str()) => self.pending_basis = None,
             _ => {}
         }
     }

@@ -6,6 +6,7 @@ mod common;
 #[allow(dead_code)]
 mod tui_support;
 
+mod basis_policy;
 mod cli_basis;
 mod cli_bench;
 mod cli_check;

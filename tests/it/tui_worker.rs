@@ -39,21 +39,29 @@ fn the_newest_palette_is_always_solved_last() {
 
 #[test]
 fn the_basis_is_trained_once_per_training_set() {
+    use metamer::basis::store::cache_key;
+    use metamer::basis::train::TrainingSet;
     let mut worker =
         Worker::start(WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Train { sidecar: None } })
             .expect("threads");
     let mut palette = tui_support::demo_palette();
+    // Solving alone trains nothing (the demo palette's criteria do not use the basis).
     worker.submit(1, &palette);
+    assert!(!worker.training());
+    let set = TrainingSet::from_palette(&palette).expect("spectra");
+    let key = cache_key(&set, 7);
+    worker.request_basis(1, key.clone(), set.clone(), 7);
     assert!(worker.training());
-    // A target edit keeps the spectra: no second training is asked for.
+    // The same spectra again (a target edit keeps them): no second training is asked for.
     palette.colours[0].weight = 3.0;
     worker.submit(2, &palette);
+    worker.request_basis(2, key.clone(), set.clone(), 7);
     let mut trained = 0;
     while worker.busy() {
         match worker.wait_reply(Duration::from_secs(120)) {
             Some(Reply::Trained(t)) => {
-                assert_eq!(t.generation, 1);
-                assert_eq!(t.result.expect("trains").dimension(), 7);
+                assert_eq!((t.generation, &t.key), (1, &key));
+                assert_eq!(t.result.expect("trains").0.dimension(), 7);
                 trained += 1;
             }
             Some(Reply::Solved(_)) => {}
@@ -62,7 +70,6 @@ fn the_basis_is_trained_once_per_training_set() {
     }
     assert_eq!(trained, 1);
     // A new dimension is a new training set.
-    palette.settings.basis_dimension = 5;
-    worker.submit(3, &palette);
+    worker.request_basis(3, cache_key(&set, 5), set, 5);
     assert!(worker.training());
 }

@@ -103,7 +103,13 @@ pub fn geometry(state: &State, area: Rect) -> Geometry {
 fn cell_styles(state: &State, cell: &CellView) -> (Style, Style) {
     let mode = state.colour_mode;
     let full = mode.linear(&cell.full);
-    let sub = cell.subspace.as_ref().map_or(full, |s| mode.linear(s));
+    // While the basis of the shown spectra is being trained the lower half is grey, never a stale colour.
+    let pending = state.derived.subspace_pending && state.solve.basis_error.is_none();
+    let sub = match &cell.subspace {
+        Some(s) => mode.linear(s),
+        None if pending => Color::DarkGray,
+        None => full,
+    };
     let desired = match &cell.desired {
         Some(d) => Style::new().fg(mode.linear(d)),
         None => Style::new().fg(Color::DarkGray),

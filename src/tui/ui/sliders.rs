@@ -96,12 +96,18 @@ impl Widget for Sliders<'_> {
                 let hex = view.and_then(|c| c.desired).map_or("—".to_string(), |d| linear_to_hex(&d));
                 let de = |v: Option<f64>| v.map_or("–".to_string(), |d| format!("{d:.1}"));
                 let m = p.settings.basis_dimension;
-                let line = format!(
-                    "{hex}  full ΔE {}  V{m} ΔE {}",
-                    de(view.and_then(|c| c.delta_e_full)),
-                    de(view.and_then(|c| c.delta_e_subspace))
-                );
+                // Never a stale V7 number: while the basis of the shown spectra is being trained, say so.
+                let updating = state.derived.subspace_pending && state.solve.basis_error.is_none();
+                let v7 = if updating { "updating".to_string() } else { de(view.and_then(|c| c.delta_e_subspace)) };
+                let line = format!("{hex}  full ΔE {}  V{m} ΔE {v7}", de(view.and_then(|c| c.delta_e_full)));
                 put(buf, area, x0, 5, &line, Style::new());
+                if let Some(mean) = state.solve.basis_poor {
+                    let text = format!(
+                        "⚠ V{m} model poor here (mean ΔE00 {mean:.2} > {}): raise m, add subspace error or fit in V{m}",
+                        crate::basis::POOR_MODEL_MEAN_DE00
+                    );
+                    put(buf, area, x0, 8, &fit(&text, w.saturating_sub(2)), Style::new().fg(Color::Yellow));
+                }
                 let cell_index = state.cell_index(light, reflectance);
                 if let Some(d) = state.diagnostics().iter().find(|d| d.cell.is_some() && d.cell == cell_index) {
                     let text = format!("⚠ {}", d.message);
@@ -119,6 +125,7 @@ impl Widget for Sliders<'_> {
                     x = put(buf, area, x, 6, &format!("  V{m} "), Style::new().fg(Color::Gray));
                     match &v.subspace {
                         Some(s) => put(buf, area, x, 6, "██", swatch(mode, s)),
+                        None if updating => put(buf, area, x, 6, "…", Style::new().fg(Color::Yellow)),
                         None => put(buf, area, x, 6, "n/a", Style::new().fg(Color::DarkGray)),
                     };
                 }

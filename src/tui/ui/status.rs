@@ -74,6 +74,9 @@ pub fn title_right(state: &State, compact: bool) -> Line<'static> {
     }
     if s.training {
         spans.push(Span::styled(format!("{spin} basis "), Style::new().fg(Color::Yellow)));
+    } else if s.basis_poor.is_some() {
+        let m = state.palette.settings.basis_dimension;
+        spans.push(Span::styled(format!("⚠ V{m} poor "), Style::new().fg(Color::Yellow)));
     }
     Line::from(spans)
 }
