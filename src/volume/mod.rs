@@ -6,6 +6,7 @@
 //! a scene's material ranges are written in the file's own units (e.g. `0..=255` for 8-bit CT).
 //! Every reader returns a [`VolumeError`] naming the file and the reason; none panics on bad input.
 
+pub mod data;
 pub mod generate;
 pub mod nrrd;
 pub mod raw;
