@@ -142,13 +142,13 @@ fn pad(w: &mut String, from: usize, width: usize) {
 
 /// What the table's columns and remarks mean, printed above it.
 pub const TABLE_LEGEND: &str = "\
-columns: light, reflectance = the cell; target = its target colour as #rrggbb (display sRGB) and as linear sRGB; \
-full = the achieved linear sRGB of the full 31-sample model, then its CIEDE2000 from the target; subspace = the \
-same in the m-D spectral factor model the renderer uses (- without a basis). Remarks: (not used) = a cell with \
-weight 0 or enabled = false, left out of the design; unphysical = a designed spectrum of the cell leaves [0, 1] \
-(reflectance) or goes below 0 (light), which no material or lamp can do (turn bounds on). Summary: objective = \
-the weighted sum of squares minimised; KKT residual = the distance from the optimality conditions (0 at the exact \
-optimum); remarks = the UNMET and note lines.";
+columns: light, reflectance = the cell; target = its target as #rrggbb (display sRGB) and as linear sRGB;
+  full = the achieved linear sRGB of the full 31-sample model, then its CIEDE2000 (ΔE00) from the target;
+  subspace = the same in the m-D spectral factor model the renderer uses (- without a basis).
+remarks: (not used) = weight 0 or use = false, left out of the design; unphysical = a designed spectrum of the
+  cell leaves [0, 1] (reflectance) or goes below 0 (light), which no surface or lamp can do (turn bounds on).
+summary: objective = the weighted sum of squares minimised; KKT residual = distance from the optimality
+  conditions (0 at the exact optimum); remarks = remark lines naming a cell. Formats: docs/formats/report.md";
 
 /// Samples of a physical spectrum may miss [0, 1] (reflectance) or 0 (light) by this much (rounding at a bound).
 const PHYSICAL_SLACK: f64 = 1e-6;
