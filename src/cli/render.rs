@@ -13,8 +13,11 @@ use crate::render::sweep::{SweepOptions, sweep_exposure, write_sweep};
 use crate::render::{Acceleration, colour_model, render_views};
 
 #[derive(Debug, clap::Args)]
+#[command(after_help = "The scene format is docs/formats/scene.md (dial keyframes: docs/formats/dial.md). A scene's \
+                        volume is --volume PATH, else its `volume` key beside the scene file, else that file name \
+                        in the folder named by METAMER_DATA (or its volumes/).")]
 pub struct Args {
-    /// Scene file (DESIGN_SPEC §4). Without it (or with --builtin) the embedded default renders: a
+    /// Scene file (docs/formats/scene.md). Without it (or with --builtin) the embedded default renders: a
     /// generated engine-like volume with a built-in palette, no data files needed.
     pub scene: Option<PathBuf>,
     /// Render the embedded default scene.

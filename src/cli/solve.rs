@@ -24,14 +24,15 @@ pub const AUTO_SUBSPACE_SPECTRA: usize = 100;
 #[derive(Debug, clap::Args)]
 #[command(
     about = "Solve a palette's design headless: write the solved palette and a JSON report",
-    long_about = "Solve the design of a palette (DESIGN_SPEC §2): every designed light and reflectance and every \
+    long_about = "Solve the design of a palette (docs/formats/palette.md): every designed light and reflectance and every \
                   free colour is chosen to minimise the weighted colour errors plus smoothness under the bounds. \
                   Prints one row per colour cell (target, achieved colour in full 31-sample and in the spectral \
                   factor model, CIEDE2000) and says for every cell that cannot be met why. The solved palette is \
                   written to OUT only when the solve succeeds, atomically (OUT may be IN).",
     after_help = "Subspace colours need the palette's trained basis (cached in IN's .basis.json sidecar). It is \
                   always used when the palette sets fit_in_subspace or subspace_error; otherwise it is trained for \
-                  palettes of up to 100 spectra, or when --subspace is given, and skipped with --no-subspace."
+                  palettes of up to 100 spectra, or when --subspace is given, and skipped with --no-subspace. The palette \
+                  format is docs/formats/palette.md, the table and the report docs/formats/report.md."
 )]
 pub struct Args {
     /// The palette to solve.

@@ -69,3 +69,23 @@ fn unphysical_designs_are_flagged_in_the_table_and_the_report() {
     let (spectra, cells) = flags(&report);
     assert!(spectra.iter().all(|(_, bad)| !bad) && cells.iter().all(|c| !c), "{spectra:?} {cells:?}");
 }
+
+#[test]
+fn help_names_the_format_pages_and_they_exist() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let help = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_metamer")).args(args).output().expect("metamer runs");
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let top = help(&["--help"]);
+    for page in ["palette.md", "scene.md", "report.md"] {
+        let rel = format!("docs/formats/{page}");
+        assert!(top.contains(&rel), "`metamer --help` does not name {rel}:\n{top}");
+        let text = std::fs::read_to_string(repo.join(&rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
+        assert!(text.starts_with("# ") && text.contains("| key |"), "{rel} is not a key reference");
+    }
+    assert!(help(&["solve", "--help"]).contains("docs/formats/report.md"));
+    assert!(help(&["render", "--help"]).contains("docs/formats/scene.md"));
+    assert!(top.contains("METAMER_DATA"));
+}
