@@ -265,6 +265,15 @@ fn scene_volume_from_the_command_line_or_the_data_folder_and_a_missing_one_says_
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--volume") && err.contains("absent.nhdr"), "{err}");
 
+    // A header whose data file is missing: the I/O error is said once, not once per layer.
+    let broken = d.join("broken");
+    write_tiny_engine(&broken);
+    std::fs::remove_file(broken.join("engine.raw")).unwrap();
+    let o = render(&["--volume", broken.join("engine.nhdr").to_str().unwrap()], None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("engine.raw"), "{err}");
+    assert_eq!(err.matches("(os error").count(), 1, "{err}");
+
     // METAMER_DATA=DIR finds the key's file name in DIR or DIR/volumes.
     std::fs::remove_dir_all(&out).unwrap();
     let data = d.join("data");
