@@ -20,10 +20,14 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def shared_dir():
-    for d in (os.path.join(HERE, "..", "..", "shared"), "/work/shared"):
-        if os.path.isdir(d):
+    """The folder holding spectra/ with the CIE tables: the repository's own copies in data/ (the same
+    published tables), else $METAMER_DATA, else ../shared beside the checkout."""
+    candidates = [os.path.join(HERE, "..", "data"), os.environ.get("METAMER_DATA", ""),
+                  os.path.join(HERE, "..", "..", "shared")]
+    for d in candidates:
+        if d and os.path.isfile(os.path.join(d, "spectra", "cie1931_2deg_10nm.csv")):
             return d
-    sys.exit("cannot find the shared/ folder with the CIE tables")
+    sys.exit("cannot find spectra/cie1931_2deg_10nm.csv in data/, $METAMER_DATA or ../shared")
 
 
 def q_rgb():

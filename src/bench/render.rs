@@ -1,5 +1,5 @@
 //! `metamer bench render`: the renderer's costs and accuracy on the engine (the GE CT from
-//! `../shared/volumes/engine.nhdr` when present, else the generated engine-like volume) with four
+//! `engine.nhdr` in `$METAMER_DATA` or `../shared/volumes/` when present, else the generated engine-like volume) with four
 //! ColorChecker materials swept D65 → A → F11:
 //!
 //! - raycast time at 512² with early ray termination and empty-space skipping on/off (speed-ups);
@@ -100,15 +100,11 @@ pub struct RenderBenchReport {
     pub markdown: String,
 }
 
-/// `$CARGO_MANIFEST_DIR/../shared/volumes/engine.nhdr`, `../shared/…` from the working folder, or
-/// `/work/shared/…`.
+/// The engine CT: `engine.nhdr` in the folder named by `METAMER_DATA` (or its `volumes/`), else
+/// `../shared/volumes/engine.nhdr` from the working folder (a checkout with the data folder beside it).
 pub fn find_shared_engine() -> Option<PathBuf> {
-    let candidates = [
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/volumes/engine.nhdr"),
-        PathBuf::from("../shared/volumes/engine.nhdr"),
-        PathBuf::from("/work/shared/volumes/engine.nhdr"),
-    ];
-    candidates.into_iter().find(|p| p.is_file())
+    let name = std::ffi::OsStr::new("engine.nhdr");
+    crate::volume::data::find_in_data_dir(name).or_else(|| crate::volume::data::find_in(Path::new("../shared"), name))
 }
 
 /// User + system CPU seconds of this process so far (Linux `/proc/self/stat`, 100 ticks per second).
@@ -148,8 +144,15 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
     let col = Colorimetry::default();
     let volume_path = options.volume.clone().or_else(find_shared_engine);
     let (scene, volume_name): (Scene, String) = match &volume_path {
-        Some(p) => (engine_check_scene(Volume::open(p)?), p.display().to_string()),
-        None => (generated_check_scene(256), "generated engine-like 256×256×128 (../shared not found)".into()),
+        // The file name only: the report must not record where the data folder sits on this machine.
+        Some(p) => (
+            engine_check_scene(Volume::open(p)?),
+            p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned()),
+        ),
+        None => (
+            generated_check_scene(256),
+            "generated engine-like 256×256×128 (engine.nhdr not found: set METAMER_DATA or pass --volume)".into(),
+        ),
     };
     std::fs::create_dir_all(&options.out_dir)
         .map_err(|e| RenderError::Output { path: options.out_dir.clone(), reason: e.to_string() })?;

@@ -401,9 +401,10 @@ fn metamer_binary() -> Option<std::path::PathBuf> {
 /// scipy's BVLS solving them one by one (benches/scipy_bvls.py, which also checks the objectives agree).
 pub fn versus_scipy(designs: usize) -> VersusScipy {
     let skip = |why: String| VersusScipy::Skipped(why);
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches").join("scipy_bvls.py");
+    // Relative to the working folder (the bench runs from a checkout): no build machine's path is compiled in.
+    let script = Path::new("benches").join("scipy_bvls.py");
     if !script.is_file() {
-        return skip(format!("{} not found", script.display()));
+        return skip(format!("{} not found (run the bench from the repository's folder)", script.display()));
     }
     let Some(metamer) = metamer_binary() else { return skip("the metamer binary was not found".into()) };
     let Ok(dir) = tempfile::tempdir() else { return skip("no temporary folder".into()) };

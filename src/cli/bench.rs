@@ -3,7 +3,7 @@
 
 use crate::bench::report::{self, ReportOptions, Suite};
 use anyhow::Context;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Which {
@@ -22,7 +22,8 @@ pub struct Args {
     /// Which benchmark to run.
     #[arg(value_enum, default_value_t = Which::All)]
     pub which: Which,
-    /// Output folder for the report (README.md) and plots.
+    /// Output folder for the report (README.md) and plots (`bench/` is ignored by git in a checkout;
+    /// `-o docs/bench` replaces the tracked report, and the run then lists the tracked files it rewrote).
     #[arg(short, long, default_value = "bench")]
     pub output: PathBuf,
     /// A small, fast version of every suite (smoke test; figures are not meaningful).
@@ -35,7 +36,7 @@ pub struct Args {
     /// headline table and the Pareto plots.
     #[arg(long)]
     pub readme: Option<PathBuf>,
-    /// Renderer benchmark: volume to use instead of ../shared/volumes/engine.nhdr.
+    /// Renderer benchmark: volume to use instead of engine.nhdr from METAMER_DATA or ../shared/volumes.
     #[arg(long)]
     pub volume: Option<PathBuf>,
 }
@@ -59,5 +60,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for f in &report.files {
         println!("wrote {}", f.display());
     }
+    // Say plainly when the run replaced files that git tracks (e.g. `-o docs/bench --readme README.md` in a
+    // checkout), so a user does not commit regenerated figures by accident.
+    let written: Vec<&PathBuf> = report.files.iter().chain(args.readme.as_ref()).collect();
+    let tracked: Vec<String> = written.iter().filter(|f| tracked_by_git(f)).map(|f| f.display().to_string()).collect();
+    if !tracked.is_empty() {
+        println!(
+            "rewrote {} file(s) tracked by git (review with `git diff --stat`, undo with `git checkout -- FILE`): {}",
+            tracked.len(),
+            tracked.join(", ")
+        );
+    }
     Ok(())
+}
+
+/// True when `git ls-files --error-unmatch` knows `path` (false without git or outside a repository).
+fn tracked_by_git(path: &Path) -> bool {
+    std::process::Command::new("git")
+        .args(["ls-files", "--error-unmatch", "--"])
+        .arg(path)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
 }

@@ -15,7 +15,7 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 #[command(
     about = "Validate palettes and print their design matrices",
-    long_about = "Validate palette files (DESIGN_SPEC §3) and print each design matrix: lights as columns (each \
+    long_about = "Validate palette files (docs/formats/palette.md) and print each design matrix: lights as columns (each \
                   light on a flat white reflectance across the top), reflectances as rows (each under a flat white \
                   light down the side), and in every cell the colour the current spectra produce with its target \
                   below it. Exits non-zero when any file is invalid, after printing why.",

@@ -59,7 +59,7 @@ pub struct Args {
     /// Train the basis without reading or writing its sidecar cache (PALETTE.basis.json).
     #[arg(long, conflicts_with = "no_basis")]
     pub no_basis_cache: bool,
-    /// Show a half-block preview of this scene (DESIGN_SPEC §4), relit live with the designed spectra as
+    /// Show a half-block preview of this scene (docs/formats/scene.md), relit live with the designed spectra as
     /// `[` and `]` move along its light dial (`v` switches between preview and spectra).
     #[arg(long, value_name = "SCENE.toml")]
     pub scene: Option<PathBuf>,

@@ -11,10 +11,20 @@ pub mod design;
 pub mod render;
 pub mod solve;
 
+/// Where the file formats are documented, for `--help`.
+pub const FORMATS_HELP: &str = "\
+File formats (reference pages in the source repository):
+  docs/formats/palette.md   palettes: lights, reflectances, colours, free groups, settings; the .basis.json sidecar
+  docs/formats/scene.md     scenes for `render` and `design --scene`: palette, volume, materials, camera, dial
+  docs/formats/dial.md      the light dial's keyframes
+  docs/formats/report.md    the table and the JSON report of `solve`
+Data: scenes find their volume from `render --volume PATH`, the scene's `volume` key, or the folder named by
+METAMER_DATA (README, section Data, says where each public dataset comes from).";
+
 /// Design spectra (metamers, colour constancy, metameric blacks) and render spectral volumes
 /// relit in real time.
 #[derive(Debug, Parser)]
-#[command(name = "metamer", version, about, long_about = None, propagate_version = true)]
+#[command(name = "metamer", version, about, long_about = None, propagate_version = true, after_help = FORMATS_HELP)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

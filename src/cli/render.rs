@@ -13,20 +13,27 @@ use crate::render::sweep::{SweepOptions, sweep_exposure, write_sweep};
 use crate::render::{Acceleration, colour_model, render_views};
 
 #[derive(Debug, clap::Args)]
+#[command(after_help = "The scene format is docs/formats/scene.md (dial keyframes: docs/formats/dial.md). A scene's \
+                        volume is --volume PATH, else its `volume` key beside the scene file, else that file name \
+                        in the folder named by METAMER_DATA (or its volumes/).")]
 pub struct Args {
-    /// Scene file (DESIGN_SPEC §4). Without it (or with --builtin) the embedded default renders: a
+    /// Scene file (docs/formats/scene.md). Without it (or with --builtin) the embedded default renders: a
     /// generated engine-like volume with a built-in palette, no data files needed.
     pub scene: Option<PathBuf>,
     /// Render the embedded default scene.
     #[arg(long)]
     pub builtin: bool,
+    /// The volume file to render, instead of the scene's `volume` key (which is otherwise looked for beside
+    /// the scene file, then by file name in the folder named by METAMER_DATA or its volumes/).
+    #[arg(long, value_name = "PATH")]
+    pub volume: Option<PathBuf>,
     /// Frames in the whole sweep (N): frame k sits at t = k/(N−1) along the dial path.
     #[arg(long, default_value_t = 48)]
     pub frames: usize,
     /// Image width and height in pixels.
     #[arg(long, default_value_t = 384)]
     pub size: usize,
-    /// Output folder for frame_0000.png …
+    /// Output folder for frame_0000.png … (created; `frames/` is ignored by git in a checkout).
     #[arg(short, long, default_value = "frames")]
     pub output: PathBuf,
     /// Colour model: factor (m-D spectral factor model), full (31 samples, reference) or rgb (RGB factor model).
@@ -81,8 +88,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let colorimetry = Colorimetry::default();
     let scene = match (&args.scene, args.builtin) {
-        (Some(p), false) => Scene::load(p)?,
+        (Some(p), false) => Scene::load_with_volume(p, args.volume.as_deref())?,
         (Some(_), true) => bail!("give either a scene file or --builtin, not both"),
+        (None, _) if args.volume.is_some() => bail!("--volume needs a scene file (it replaces the scene's `volume`)"),
         (None, _) => crate::render::scene::builtin_scene(args.builtin_volume_size)?,
     };
     if mode == Mode::Factor {

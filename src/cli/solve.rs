@@ -24,14 +24,15 @@ pub const AUTO_SUBSPACE_SPECTRA: usize = 100;
 #[derive(Debug, clap::Args)]
 #[command(
     about = "Solve a palette's design headless: write the solved palette and a JSON report",
-    long_about = "Solve the design of a palette (DESIGN_SPEC §2): every designed light and reflectance and every \
+    long_about = "Solve the design of a palette (docs/formats/palette.md): every designed light and reflectance and every \
                   free colour is chosen to minimise the weighted colour errors plus smoothness under the bounds. \
                   Prints one row per colour cell (target, achieved colour in full 31-sample and in the spectral \
                   factor model, CIEDE2000) and says for every cell that cannot be met why. The solved palette is \
                   written to OUT only when the solve succeeds, atomically (OUT may be IN).",
     after_help = "Subspace colours need the palette's trained basis (cached in IN's .basis.json sidecar). It is \
                   always used when the palette sets fit_in_subspace or subspace_error; otherwise it is trained for \
-                  palettes of up to 100 spectra, or when --subspace is given, and skipped with --no-subspace."
+                  palettes of up to 100 spectra, or when --subspace is given, and skipped with --no-subspace. The palette \
+                  format is docs/formats/palette.md, the table and the report docs/formats/report.md."
 )]
 pub struct Args {
     /// The palette to solve.
@@ -145,11 +146,67 @@ fn pad(w: &mut String, from: usize, width: usize) {
     w.extend(std::iter::repeat_n(' ', width.saturating_sub(used)));
 }
 
+/// What the table's columns and remarks mean, printed above it.
+pub const TABLE_LEGEND: &str = "\
+columns: light, reflectance = the cell; target = its target as #rrggbb (display sRGB) and as linear sRGB;
+  full = the achieved linear sRGB of the full 31-sample model, then its CIEDE2000 (ΔE00) from the target;
+  subspace = the same in the m-D spectral factor model the renderer uses (- without a basis).
+remarks: (not used) = weight 0 or use = false, left out of the design; unphysical = a designed spectrum of the
+  cell leaves [0, 1] (reflectance) or goes below 0 (light), which no surface or lamp can do (turn bounds on).
+summary: objective = the weighted sum of squares minimised; KKT residual = distance from the optimality
+  conditions (0 at the exact optimum); remarks = remark lines naming a cell. Formats: docs/formats/report.md";
+
+/// Samples of a physical spectrum may miss [0, 1] (reflectance) or 0 (light) by this much (rounding at a bound).
+const PHYSICAL_SLACK: f64 = 1e-6;
+
+/// The (lowest, highest) sample of a designed spectrum that is not physical: a reflectance outside [0, 1] or
+/// a light below 0. `None` for fixed spectra (the user's own data) and for physical designs.
+pub fn unphysical_range(e: &SpectrumEntry) -> Option<(f64, f64)> {
+    if !e.design {
+        return None;
+    }
+    let x = e.spectrum.as_slice();
+    let lo = x.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let bad = match e.kind {
+        crate::palette::Kind::Reflectance => lo < -PHYSICAL_SLACK || hi > 1.0 + PHYSICAL_SLACK || !hi.is_finite(),
+        crate::palette::Kind::Light => lo < -PHYSICAL_SLACK || !hi.is_finite(),
+    };
+    bad.then_some((lo, hi))
+}
+
+/// A line per designed spectrum that is not physical.
+fn unphysical_lines(w: &mut String, p: &crate::palette::Palette) {
+    for e in p.lights.iter().chain(&p.reflectances) {
+        if let Some((lo, hi)) = unphysical_range(e) {
+            let (kind, range, fix) = match e.kind {
+                crate::palette::Kind::Reflectance => {
+                    ("reflectance", "outside [0, 1]", "reflectance_bounds = [0.0, 1.0]")
+                }
+                crate::palette::Kind::Light => ("light", "below 0", "light_bounds = [0.0, inf]"),
+            };
+            let _ = writeln!(
+                w,
+                "unphysical: designed {kind} {:?} ranges {} … {}, {range}: no real {} does that (set {fix} in \
+                 [settings], or bounds on the spectrum)",
+                e.name,
+                Fixed(lo, 3),
+                Fixed(hi, 3),
+                if kind == "light" { "lamp" } else { "surface" }
+            );
+        }
+    }
+}
+
 /// The per-cell table (unless `quiet`) and the remark lines: everything printed but the summary.
 fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet: bool) -> String {
     let palette = &s.palette;
     let mut w = String::with_capacity(if quiet { 0 } else { 130 * (s.cells.len() + 1) } + 200 * s.diagnostics.len());
+    let light_bad: Vec<bool> = palette.lights.iter().map(|e| unphysical_range(e).is_some()).collect();
+    let refl_bad: Vec<bool> = palette.reflectances.iter().map(|e| unphysical_range(e).is_some()).collect();
     if !quiet {
+        w.push_str(TABLE_LEGEND);
+        w.push('\n');
         let _ = writeln!(
             w,
             "{:<14} {:<14} {:<8} {:<22} {:<22} {:>7} {:<22} {:>7}",
@@ -192,9 +249,13 @@ fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet
             if !cell.is_active() {
                 w.push_str("  (not used)");
             }
+            if light_bad[cell.light] || refl_bad[cell.reflectance] {
+                w.push_str("  unphysical");
+            }
             w.push('\n');
         }
     }
+    unphysical_lines(&mut w, palette);
     for d in &s.diagnostics {
         let tag = if d.cell.is_some() && d.message.contains("not met") { "UNMET" } else { "note" };
         let _ = writeln!(w, "{tag}: {}", d.message);
@@ -253,11 +314,19 @@ struct SpectrumJson<'a> {
     kind: &'static str,
     design: bool,
     samples: &'a [f64],
+    /// A designed reflectance outside [0, 1] or a designed light below 0 (see [`unphysical_range`]).
+    unphysical: bool,
 }
 
 impl<'a> SpectrumJson<'a> {
     fn new(e: &'a SpectrumEntry) -> Self {
-        SpectrumJson { name: &e.name, kind: e.kind.as_str(), design: e.design, samples: e.spectrum.as_slice() }
+        SpectrumJson {
+            name: &e.name,
+            kind: e.kind.as_str(),
+            design: e.design,
+            samples: e.spectrum.as_slice(),
+            unphysical: unphysical_range(e).is_some(),
+        }
     }
 }
 
@@ -279,6 +348,8 @@ struct CellJson<'a> {
     free: Option<&'a str>,
     weight: f64,
     enabled: bool,
+    /// The cell's light or reflectance is an unphysical design.
+    unphysical: bool,
 }
 
 #[derive(serde::Serialize)]
@@ -293,7 +364,8 @@ struct DiagnosticJson<'a> {
     message: &'a str,
 }
 
-/// The JSON report (DESIGN_SPEC §5) plus `kkt_residual`, `diagnostics` and per-cell `weight`/`enabled`.
+/// The JSON report (DESIGN_SPEC §5) plus `kkt_residual`, `diagnostics`, per-cell `weight`/`enabled` and
+/// `unphysical` on spectra and cells.
 #[derive(serde::Serialize)]
 pub struct Report<'a> {
     palette: &'a str,
@@ -350,6 +422,8 @@ impl<'a> Report<'a> {
                         free: cell.free.map(|g| p.free[g].name.as_str()),
                         weight: cell.weight,
                         enabled: cell.enabled,
+                        unphysical: unphysical_range(&p.lights[cell.light]).is_some()
+                            || unphysical_range(&p.reflectances[cell.reflectance]).is_some(),
                     }
                 })
                 .collect(),

@@ -145,8 +145,23 @@ impl Scene {
         Scene::parse(text, path)
     }
 
+    /// Read a scene file with its volume taken from `volume` instead of the scene's `volume` key (the
+    /// command line's `--volume PATH`); `None` resolves the key as [`Scene::load`] does.
+    pub fn load_with_volume(path: &Path, volume: Option<&Path>) -> Result<Scene, RenderError> {
+        let bytes = std::fs::read(path).map_err(|e| scene_err(path, "file", format!("cannot read: {e}")))?;
+        let text =
+            std::str::from_utf8(&bytes).map_err(|_| scene_err(path, "file", "not a text file (invalid UTF-8)"))?;
+        Scene::parse_with_volume(text, path, volume)
+    }
+
     /// Parse a scene's text; `path` names it in errors and anchors relative paths.
     pub fn parse(text: &str, path: &Path) -> Result<Scene, RenderError> {
+        Scene::parse_with_volume(text, path, None)
+    }
+
+    /// [`Scene::parse`] with the volume file given (`Some`) instead of found from the `volume` key: see
+    /// [`resolve_volume_path`].
+    pub fn parse_with_volume(text: &str, path: &Path, volume_override: Option<&Path>) -> Result<Scene, RenderError> {
         if text.trim().is_empty() {
             return Err(scene_err(path, "file", "the file is empty (a scene needs palette, volume and materials)"));
         }
@@ -162,7 +177,8 @@ impl Scene {
         let palette_path = dir.join(&file.palette);
         let palette = load_palette(&palette_path).map_err(|e| scene_err(path, "palette", e))?;
         let render = file.render.as_ref();
-        let volume = if let Some(kind) = file.volume.strip_prefix("generated:") {
+        let generated = file.volume.strip_prefix("generated:").filter(|_| volume_override.is_none());
+        let volume = if let Some(kind) = generated {
             match kind {
                 "engine_like" => generate::engine_like(render.and_then(|r| r.generated_size).unwrap_or(160)),
                 other => {
@@ -170,7 +186,7 @@ impl Scene {
                 }
             }
         } else {
-            let vpath = dir.join(&file.volume);
+            let vpath = resolve_volume_path(path, &file.volume, volume_override)?;
             match &file.raw {
                 Some(r) => {
                     let ty = ScalarType::parse(&r.ty)
@@ -241,6 +257,55 @@ impl Scene {
             palette,
         })
     }
+}
+
+/// The volume file of a scene: `volume_override` (the command line's `--volume`) when given, else the
+/// scene's `volume` key relative to the scene file's folder, else the key's file name in the data folder
+/// named by `METAMER_DATA` (the file itself or under `volumes/`). A missing file is an error naming the
+/// scene's `volume` key (or `--volume`), where it was looked for and how to get the dataset.
+pub fn resolve_volume_path(scene: &Path, key: &str, volume_override: Option<&Path>) -> Result<PathBuf, RenderError> {
+    use crate::volume::data;
+    // Paths are quoted and their control characters escaped (Debug) in the messages.
+    let q = |p: &Path| format!("{:?}", p.display().to_string());
+    if let Some(p) = volume_override {
+        if p.is_file() {
+            return Ok(p.to_path_buf());
+        }
+        return Err(scene_err(
+            scene,
+            "--volume",
+            format!("{} is not a file (it replaces the scene's `volume` = {key:?})", q(p)),
+        ));
+    }
+    let dir = scene.parent().unwrap_or(Path::new("."));
+    let beside = dir.join(key);
+    if beside.is_file() {
+        return Ok(beside);
+    }
+    let name = Path::new(key).file_name();
+    let env = data::data_dir();
+    if let (Some(dir), Some(name)) = (&env, name)
+        && let Some(found) = data::find_in(dir, name)
+    {
+        return Ok(found);
+    }
+    let name_str = name.map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| key.to_string());
+    let looked = match &env {
+        Some(d) => {
+            format!("looked for {} and for {name_str:?} in {}={} and its volumes/", q(&beside), data::DATA_ENV, q(d))
+        }
+        None => format!("looked for {}; {} is not set", q(&beside), data::DATA_ENV),
+    };
+    let what = data::dataset_origin(&name_str).map(|o| format!(". {name_str} is {o}")).unwrap_or_default();
+    Err(scene_err(
+        scene,
+        "volume",
+        format!(
+            "{key:?} not found ({looked}){what}. Pass the file with --volume PATH, or set {}=DIR to a folder \
+             that holds {name_str:?} (README, section Data)",
+            data::DATA_ENV
+        ),
+    ))
 }
 
 fn scene_err(path: &Path, key: impl Into<String>, reason: impl Into<String>) -> RenderError {

@@ -14,7 +14,13 @@ pub struct TerminalGuard {
 
 impl TerminalGuard {
     /// Enter raw mode and the alternate screen; installs a panic hook that restores the terminal first.
+    /// Without a terminal on both standard input and output it fails before writing anything (no stray
+    /// escape sequences in a redirected output).
     pub fn enter() -> io::Result<TerminalGuard> {
+        use std::io::IsTerminal;
+        if !(io::stdin().is_terminal() && io::stdout().is_terminal()) {
+            return Err(io::Error::other("standard input and output are not both a terminal"));
+        }
         match ratatui::try_init() {
             Ok(terminal) => Ok(TerminalGuard { terminal }),
             Err(e) => {

@@ -6,6 +6,7 @@
 //! a scene's material ranges are written in the file's own units (e.g. `0..=255` for 8-bit CT).
 //! Every reader returns a [`VolumeError`] naming the file and the reason; none panics on bad input.
 
+pub mod data;
 pub mod generate;
 pub mod nrrd;
 pub mod raw;
@@ -16,8 +17,10 @@ use std::path::{Path, PathBuf};
 /// Why a volume could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum VolumeError {
-    #[error("{}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    /// The I/O error is part of the message and deliberately not the error's `source()`, so a report of the
+    /// whole chain (anyhow's `{:#}`) does not print it twice.
+    #[error("{}: {error}", path.display())]
+    Io { path: PathBuf, error: std::io::Error },
     #[error("{}: {reason}", path.display())]
     Invalid { path: PathBuf, reason: String },
 }
@@ -28,7 +31,7 @@ impl VolumeError {
     }
 
     pub(crate) fn io(path: &Path, source: std::io::Error) -> VolumeError {
-        VolumeError::Io { path: path.to_path_buf(), source }
+        VolumeError::Io { path: path.to_path_buf(), error: source }
     }
 }
 

@@ -44,3 +44,26 @@ fn cli_rejects_an_unknown_suite() {
     let err = metamer::cli::Cli::try_parse_from(["metamer", "bench", "everything"]).unwrap_err();
     assert!(err.to_string().contains("solve"), "{err}");
 }
+
+#[test]
+fn bench_says_which_tracked_files_it_rewrote() {
+    use std::process::Command;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let git = |args: &[&str]| Command::new("git").args(args).current_dir(d).output().expect("git runs");
+    assert!(git(&["init", "-q"]).status.success());
+    let readme = format!("# x\n\n{}\n{}\n", report::README_BEGIN, report::README_END);
+    std::fs::write(d.join("README.md"), readme).unwrap();
+    assert!(git(&["add", "README.md"]).status.success());
+    let out = Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .args(["bench", "basis", "--quick", "--runs", "1", "-o", "out", "--readme", "README.md"])
+        .current_dir(d)
+        .output()
+        .expect("metamer runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    let line =
+        stdout.lines().find(|l| l.starts_with("rewrote ")).unwrap_or_else(|| panic!("no `rewrote` line:\n{stdout}"));
+    // README.md is tracked; the report in out/ is new and untracked, so it is not listed.
+    assert!(line.starts_with("rewrote 1 file(s) tracked by git") && line.ends_with(": README.md"), "{line}");
+}

@@ -83,4 +83,8 @@ fn bad_scripts_and_files_are_reported_with_their_names() {
     let output = metamer().args(["design", palette.to_str().unwrap_or_default()]).output().expect("metamer runs");
     assert!(!output.status.success());
     assert!(String::from_utf8_lossy(&output.stderr).contains("--replay"));
+    // … and prints only its error: nothing on stdout (no stray ESC[?1049l from leaving an alternate screen
+    // it never entered), no escape sequence on stderr.
+    assert!(output.stdout.is_empty(), "stdout: {:?}", String::from_utf8_lossy(&output.stdout));
+    assert!(!output.stderr.contains(&0x1b), "stderr: {:?}", String::from_utf8_lossy(&output.stderr));
 }

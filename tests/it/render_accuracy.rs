@@ -7,12 +7,6 @@ use metamer::colorimetry::Colorimetry;
 use metamer::render::accuracy::compare_models;
 use metamer::render::scene::{Scene, engine_check_scene, generated_check_scene};
 use metamer::volume::Volume;
-use std::path::{Path, PathBuf};
-
-fn shared_dir() -> Option<PathBuf> {
-    let beside = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared");
-    [beside, PathBuf::from("/work/shared")].into_iter().find(|p| p.join("volumes").is_dir())
-}
 
 fn check(scene: &Scene, size: usize, frames: usize, what: &str) {
     let col = Colorimetry::default();
@@ -41,10 +35,11 @@ fn factor_model_tracks_full_spectra_on_the_generated_engine() {
 
 #[test]
 fn factor_model_tracks_full_spectra_on_the_shared_engine() {
-    let Some(shared) = shared_dir() else {
-        eprintln!("skipping: ../shared/volumes not found (looked beside the crate and in /work/shared)");
+    let Some(dir) =
+        crate::common::data::volumes_or_skip("render_accuracy::factor_model_tracks_full_spectra_on_the_shared_engine")
+    else {
         return;
     };
-    let vol = Volume::open(&shared.join("volumes/engine.nhdr")).expect("engine.nhdr reads");
+    let vol = Volume::open(&dir.join("engine.nhdr")).expect("engine.nhdr reads");
     check(&engine_check_scene(vol), 128, 9, "shared engine");
 }

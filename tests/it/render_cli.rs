@@ -214,3 +214,71 @@ fn builtin_scene_matches_the_generated_engine_scene_file() {
     assert_eq!(file.volume.dims, builtin.volume.dims);
     assert_eq!(file.palette.reflectances, builtin.palette.reflectances);
 }
+
+/// A small detached NRRD `engine.nhdr` + `engine.raw` (8³ bytes) in `dir`.
+fn write_tiny_engine(dir: &Path) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let header = "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 8 8 8\nencoding: raw\ndata file: engine.raw\n";
+    std::fs::write(dir.join("engine.nhdr"), header).unwrap();
+    std::fs::write(dir.join("engine.raw"), (0..512u32).map(|i| (i % 256) as u8).collect::<Vec<u8>>()).unwrap();
+    dir.join("engine.nhdr")
+}
+
+#[test]
+fn scene_volume_from_the_command_line_or_the_data_folder_and_a_missing_one_says_how_to_get_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = write_scene(d, &GOOD.replace("generated:engine_like", "no_data_here/engine.nhdr"));
+    let out = d.join("out");
+    let render = |extra: &[&str], data: Option<&Path>| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_metamer"));
+        c.args(["render", scene.to_str().unwrap(), "--frames", "2", "--size", "16", "-o", out.to_str().unwrap()]);
+        c.args(extra);
+        match data {
+            Some(p) => c.env("METAMER_DATA", p),
+            None => c.env_remove("METAMER_DATA"),
+        };
+        c.output().expect("the binary runs")
+    };
+    // Missing: one line naming the scene, its `volume` key, where it looked and how to get the dataset.
+    let o = render(&[], None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    for needle in ["scene.toml", "volume", "no_data_here/engine.nhdr", "--volume", "METAMER_DATA", "volvis.org"] {
+        assert!(err.contains(needle), "missing volume error does not name `{needle}`: {err}");
+    }
+    assert!(!err.contains("os error"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    // A data folder without the file says where it looked.
+    let empty = d.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let o = render(&[], Some(&empty));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("empty") && err.contains("METAMER_DATA="), "{err}");
+
+    // --volume PATH replaces the key.
+    let tiny = write_tiny_engine(&d.join("elsewhere"));
+    let o = render(&["--volume", tiny.to_str().unwrap()], None);
+    ok(&o);
+    assert!(frame(&out, 1).exists());
+    let o = render(&["--volume", d.join("absent.nhdr").to_str().unwrap()], None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--volume") && err.contains("absent.nhdr"), "{err}");
+
+    // A header whose data file is missing: the I/O error is said once, not once per layer.
+    let broken = d.join("broken");
+    write_tiny_engine(&broken);
+    std::fs::remove_file(broken.join("engine.raw")).unwrap();
+    let o = render(&["--volume", broken.join("engine.nhdr").to_str().unwrap()], None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("engine.raw"), "{err}");
+    assert_eq!(err.matches("(os error").count(), 1, "{err}");
+
+    // METAMER_DATA=DIR finds the key's file name in DIR or DIR/volumes.
+    std::fs::remove_dir_all(&out).unwrap();
+    let data = d.join("data");
+    write_tiny_engine(&data.join("volumes"));
+    ok(&render(&[], Some(&data)));
+    assert!(frame(&out, 1).exists());
+    ok(&render(&[], Some(&data.join("volumes"))));
+}

@@ -7,13 +7,6 @@ use flate2::Compression;
 use flate2::write::{GzEncoder, ZlibEncoder};
 use metamer::volume::{Endian, ScalarType, Volume, VolumeError, raw};
 use std::io::Write;
-use std::path::{Path, PathBuf};
-
-/// `$CARGO_MANIFEST_DIR/../shared`, else `/work/shared`.
-fn shared_dir() -> Option<PathBuf> {
-    let beside = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared");
-    [beside, PathBuf::from("/work/shared")].into_iter().find(|p| p.join("volumes").is_dir())
-}
 
 fn values(n: usize) -> Vec<f32> {
     (0..n).map(|i| ((i * 37) % 251) as f32 - 20.0).collect()
@@ -345,13 +338,9 @@ fn raw_reader_checks_size() {
 
 #[test]
 fn shared_volumes_read() {
-    let Some(shared) = shared_dir() else {
-        eprintln!(
-            "skipping shared_volumes_read: ../shared/volumes not found (looked beside the crate and in /work/shared)"
-        );
+    let Some(dir) = crate::common::data::volumes_or_skip("volume_readers::shared_volumes_read") else {
         return;
     };
-    let dir = shared.join("volumes");
     for (name, dims) in [
         ("engine.nhdr", [256, 256, 128]),
         ("lobster.nhdr", [301, 324, 56]),

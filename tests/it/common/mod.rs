@@ -2,6 +2,8 @@
 //! (DESIGN_SPEC §2, full colour rows, free groups, smoothness) as one stacked `‖A x − b‖²` with box bounds,
 //! the clarabel QP oracle on it, and first-order (KKT) checks computed from that assembly alone.
 
+pub mod data;
+
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT};
 use metamer::colorimetry::Colorimetry;

@@ -1,0 +1,91 @@
+//! `metamer solve`'s table and report for a newcomer: a legend line above the table, and designed spectra
+//! that are not physical (a reflectance outside [0, 1], a light below 0) flagged in the table, on their own
+//! line and in the JSON report, while physical designs are not flagged.
+
+use std::path::Path;
+use std::process::Command;
+
+fn solve(palette: &Path, report: &Path) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .args(["solve", palette.to_str().unwrap(), "--report", report.to_str().unwrap()])
+        .output()
+        .expect("metamer runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    stdout
+}
+
+/// (name, unphysical) of every spectrum, and the cells' unphysical flags, from a JSON report.
+fn flags(report: &Path) -> (Vec<(String, bool)>, Vec<bool>) {
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
+    let spectra = r["spectra"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| (s["name"].as_str().unwrap().to_string(), s["unphysical"].as_bool().unwrap()))
+        .collect();
+    let cells = r["cells"].as_array().unwrap().iter().map(|c| c["unphysical"].as_bool().unwrap()).collect();
+    (spectra, cells)
+}
+
+#[test]
+fn unphysical_designs_are_flagged_in_the_table_and_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("palettes/metameric_black.toml")).unwrap();
+    assert!(text.contains("reflectance_bounds = [-inf, inf]"));
+
+    // Bounds off: the metameric black "ghost" needs negative samples.
+    let off = dir.path().join("off.toml");
+    std::fs::write(&off, &text).unwrap();
+    let report = dir.path().join("off.json");
+    let table = solve(&off, &report);
+    let lines: Vec<&str> = table.lines().collect();
+    assert!(lines[0].starts_with("columns: light, reflectance"), "{table}");
+    let header = lines.iter().position(|l| l.starts_with("light ")).expect("column header");
+    assert!(lines[..header].iter().any(|l| l.contains("unphysical =")), "legend explains unphysical: {table}");
+    assert!(lines[..header].iter().any(|l| l.contains("KKT residual =")), "legend explains the summary: {table}");
+    for l in &lines[header + 1..] {
+        if l.starts_with("daylight       ghost") || l.starts_with("sodium         ghost") {
+            assert!(l.ends_with("unphysical"), "{l}");
+        } else if l.starts_with("daylight       bone") || l.starts_with("sodium         bone") {
+            assert!(!l.contains("unphysical"), "{l}");
+        }
+    }
+    let named = lines.iter().find(|l| l.starts_with("unphysical: ")).expect("an unphysical line");
+    assert!(named.contains("\"ghost\"") && named.contains("outside [0, 1]"), "{named}");
+    let (spectra, cells) = flags(&report);
+    for (name, bad) in &spectra {
+        assert_eq!(*bad, name == "ghost", "{name}");
+    }
+    assert!(cells.iter().any(|c| *c));
+
+    // Bounds on: nothing is flagged.
+    let on = dir.path().join("on.toml");
+    std::fs::write(&on, text.replace("reflectance_bounds = [-inf, inf]", "reflectance_bounds = [0.0, 1.0]")).unwrap();
+    let report = dir.path().join("on.json");
+    let table = solve(&on, &report);
+    assert!(!table.lines().any(|l| l.ends_with("unphysical") || l.starts_with("unphysical: ")), "{table}");
+    let (spectra, cells) = flags(&report);
+    assert!(spectra.iter().all(|(_, bad)| !bad) && cells.iter().all(|c| !c), "{spectra:?} {cells:?}");
+}
+
+#[test]
+fn help_names_the_format_pages_and_they_exist() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let help = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_metamer")).args(args).output().expect("metamer runs");
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let top = help(&["--help"]);
+    for page in ["palette.md", "scene.md", "report.md"] {
+        let rel = format!("docs/formats/{page}");
+        assert!(top.contains(&rel), "`metamer --help` does not name {rel}:\n{top}");
+        let text = std::fs::read_to_string(repo.join(&rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
+        assert!(text.starts_with("# ") && text.contains("| key |"), "{rel} is not a key reference");
+    }
+    assert!(help(&["solve", "--help"]).contains("docs/formats/report.md"));
+    assert!(help(&["render", "--help"]).contains("docs/formats/scene.md"));
+    assert!(top.contains("METAMER_DATA"));
+}
