@@ -278,3 +278,20 @@ fn with_dimension(text: &str, m: usize) -> String {
         .collect::<Vec<_>>()
         .join("\n")
 }
+
+#[test]
+fn the_designer_says_when_the_model_is_poor() {
+    use metamer::tui::colour::ColourMode;
+    use metamer::tui::replay::MemorySaver;
+    use metamer::tui::worker::BasisMode;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut palette = PaletteFile::load(&root.join("palettes/metamers.toml")).expect("loads").palette;
+    palette.settings.basis_dimension = 2;
+    let mut state = tui_support::state(palette, ColourMode::TrueColor);
+    let basis = BasisMode::Train { sidecar: None };
+    let (screen, _) =
+        tui_support::replay_with(&mut state, "wait-solve\nDown\nRight", 100, 30, &mut MemorySaver::default(), basis);
+    let mean = state.solve.basis_poor.expect("the designer knows the model is poor");
+    assert!(mean > POOR_MODEL_MEAN_DE00);
+    assert!(screen.contains("V2 poor") && screen.contains("raise m"), "{screen}");
+}

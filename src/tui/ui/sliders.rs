@@ -102,11 +102,11 @@ impl Widget for Sliders<'_> {
                 let line = format!("{hex}  full ΔE {}  V{m} ΔE {v7}", de(view.and_then(|c| c.delta_e_full)));
                 put(buf, area, x0, 5, &line, Style::new());
                 if let Some(mean) = state.solve.basis_poor {
-                    let text = format!(
-                        "⚠ V{m} model poor here (mean ΔE00 {mean:.2} > {}): raise m, add subspace error or fit in V{m}",
-                        crate::basis::POOR_MODEL_MEAN_DE00
-                    );
-                    put(buf, area, x0, 8, &fit(&text, w.saturating_sub(2)), Style::new().fg(Color::Yellow));
+                    let warn = Style::new().fg(Color::Yellow);
+                    let text = format!("⚠ V{m} model poor: ΔE00 {mean:.2} > {}", crate::basis::POOR_MODEL_MEAN_DE00);
+                    put(buf, area, x0, 8, &fit(&text, w.saturating_sub(2)), warn);
+                    let fix = format!("fix: raise m, subspace error, fit V{m}");
+                    put(buf, area, x0, 9, &fit(&fix, w.saturating_sub(2)), warn);
                 }
                 let cell_index = state.cell_index(light, reflectance);
                 if let Some(d) = state.diagnostics().iter().find(|d| d.cell.is_some() && d.cell == cell_index) {
