@@ -15,7 +15,7 @@ use metamer::render::scene::colorchecker_palette;
 use metamer::spectrum::{Normalize, Spectrum};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 /// Luminance-normalised built-in lights.
@@ -122,25 +122,17 @@ proptest! {
     }
 }
 
-fn shared_dir() -> Option<PathBuf> {
-    let from_env = std::env::var_os("METAMER_SHARED").map(PathBuf::from);
-    let beside = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared");
-    from_env.into_iter().chain([beside]).find(|p| p.join("volumes/engine.nhdr").is_file())
-}
-
 #[test]
 fn engine_sweep_factor_mode_tracks_full_mode() {
     use metamer::render::accuracy::compare_models;
     use metamer::render::dial::{Dial, DialStop};
     use metamer::render::raycast::{Camera, MaterialClass};
     use metamer::render::scene::{Material, Scene, SceneSettings};
-    let Some(shared) = shared_dir() else {
-        eprintln!(
-            "SKIPPED engine_sweep_factor_mode_tracks_full_mode: no ../shared/volumes/engine.nhdr (set METAMER_SHARED)"
-        );
+    let Some(volumes) = crate::common::data::volumes_or_skip("basis_policy::engine_sweep_factor_mode_tracks_full_mode")
+    else {
         return;
     };
-    let volume = metamer::volume::Volume::open(&shared.join("volumes/engine.nhdr")).expect("engine.nhdr reads");
+    let volume = metamer::volume::Volume::open(&volumes.join("engine.nhdr")).expect("engine.nhdr reads");
     let names = [("smoke", "cyan"), ("inner", "orange"), ("block", "green"), ("hot", "red")];
     let palette = colorchecker_palette("issue11", &["D65", "A", "F11"], &names).expect("palette");
     let classes = [([20.0, 90.0], 0.02), ([91.0, 127.0], 0.1), ([128.0, 175.0], 0.3), ([176.0, 255.0], 0.6)];
