@@ -71,6 +71,7 @@ pub fn json(basis: &Basis, report: &Report, palette: &Path, cache: Option<&Path>
         "signal_rank": report.signal_rank,
         "padded": report.padded,
         "from_cache": report.from_cache,
+        "stored": report.stored,
         "training_seconds": report.training_seconds,
         "key": report.key,
         "accuracy": report.accuracy,
@@ -84,7 +85,10 @@ pub fn table(report: &Report, palette: &Path, cache: Option<&Path>) -> String {
     let a = &report.accuracy;
     let origin = match (report.from_cache, cache) {
         (true, Some(c)) => format!("loaded from {} (trained in {:.2} s)", c.display(), report.training_seconds),
-        (false, Some(c)) => format!("trained in {:.2} s, stored in {}", report.training_seconds, c.display()),
+        (false, Some(c)) if report.stored => {
+            format!("trained in {:.2} s, stored in {}", report.training_seconds, c.display())
+        }
+        (false, Some(c)) => format!("trained in {:.2} s, not stored in {}", report.training_seconds, c.display()),
         _ => format!("trained in {:.2} s, not stored", report.training_seconds),
     };
     let mut out = format!(

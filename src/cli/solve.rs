@@ -63,6 +63,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let palette = &file.palette;
     let colorimetry = Colorimetry::default();
     let sidecar = store::sidecar_path(&args.input);
+    // No output may be an input or another output (compared as files, not as strings). The solved palette
+    // may be IN itself (an in-place solve), but nothing else may.
+    let mut files = crate::fsio::Outputs::new();
+    file.record_inputs("palette", &mut files);
+    files.input("basis sidecar", &sidecar);
+    if let Some(out) = &args.output {
+        files.output_except("solved palette", out, &args.input)?;
+    }
+    if let Some(report) = &args.report {
+        files.output("report", report)?;
+    }
     let m = palette.settings.basis_dimension;
     let uses = palette_uses_basis(palette);
     let basis: Option<Basis> = if uses {
@@ -231,9 +242,9 @@ fn report_text(s: &Solution, seconds: f64) -> anyhow::Result<Vec<u8>> {
     Ok(text)
 }
 
-/// Write the report to `path`.
+/// Write the report to `path` (atomically, through the one writer).
 fn write_report(path: &Path, text: &[u8]) -> anyhow::Result<()> {
-    std::fs::write(path, text).with_context(|| format!("{}: cannot write the report", path.display()))
+    crate::fsio::write_atomic(path, text).context("cannot write the report")
 }
 
 /// One spectrum of the report.
