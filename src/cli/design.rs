@@ -108,8 +108,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     match &args.replay {
         Some(script_path) => {
-            let text = std::fs::read_to_string(script_path)
-                .with_context(|| format!("cannot read the key script {}", script_path.display()))?;
+            // The screen must not be the palette, its CSV sources, its sidecar, the scene or the script.
+            let mut files = crate::fsio::Outputs::new();
+            saver.file.record_inputs("palette", &mut files);
+            files.input("basis sidecar", &sidecar_path(&args.input)).input("key script", script_path);
+            if let Some(scene) = &args.scene {
+                files.input("scene", scene);
+            }
+            if let Some(screen) = &args.screen {
+                files.output("screen", screen)?;
+            }
+            let text = crate::fsio::read_to_string(script_path, crate::fsio::Kind::KeyScript)?;
             let steps = replay::parse_script(&text).with_context(|| format!("{}", script_path.display()))?;
             let (w, h) = args.size;
             let (frames, _) = replay::run(&mut state, steps, w, h, args.every_frame, &mut saver, worker)
@@ -120,7 +129,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 frames.concat()
             };
             match &args.screen {
-                Some(path) => std::fs::write(path, out).with_context(|| format!("cannot write {}", path.display()))?,
+                Some(path) => crate::fsio::write_atomic(path, out.as_bytes()).context("cannot write the screen")?,
                 None => print!("{out}"),
             }
             Ok(())

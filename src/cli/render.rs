@@ -85,6 +85,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (Some(_), true) => bail!("give either a scene file or --builtin, not both"),
         (None, _) => crate::render::scene::builtin_scene(args.builtin_volume_size)?,
     };
+    // No output may be the scene, its palette or the palette's basis sidecar, nor one another.
+    let mut files = crate::fsio::Outputs::new();
+    if let Some(p) = &scene.path {
+        files.input("scene", p);
+    }
+    if let Some(p) = &scene.palette_path {
+        files.input("palette", p);
+        files.input("basis sidecar", &crate::basis::store::sidecar_path(p));
+    }
+    for k in range.clone() {
+        files.check("frame", &args.output.join(crate::render::sweep::frame_name(k)))?;
+    }
+    if let Some(sheet) = &args.contact_sheet {
+        files.output("contact sheet", sheet)?;
+        let frames = range.clone().map(|k| args.output.join(crate::render::sweep::frame_name(k)));
+        let mut frames_only = crate::fsio::Outputs::new();
+        for f in frames {
+            frames_only.input("frame", &f);
+        }
+        frames_only.check("contact sheet", sheet)?;
+    }
     let model = colour_model(&scene, mode, &colorimetry)?;
     let accel = Acceleration {
         early_termination: !args.no_early_termination,
