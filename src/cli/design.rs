@@ -99,7 +99,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let mut saver = FileSaver { file };
     let worker = WorkerConfig {
-        time_limit: Duration::from_secs_f64(args.time_limit),
+        time_limit: Duration::try_from_secs_f64(args.time_limit).unwrap_or(Duration::MAX),
         basis: if args.no_basis {
             BasisMode::Off
         } else {

@@ -86,7 +86,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !(args.time_limit.is_finite() && args.time_limit > 0.0) {
         anyhow::bail!("--time-limit must be a positive number of seconds, got {}", args.time_limit);
     }
-    let options = SolveOptions { time_limit: Duration::from_secs_f64(args.time_limit), cancel: None };
+    let options = SolveOptions {
+        time_limit: Duration::try_from_secs_f64(args.time_limit).unwrap_or(Duration::MAX),
+        cancel: None,
+    };
     let mut solution = design::solve(palette, basis.as_ref(), &colorimetry, &options)
         .with_context(|| format!("{}: the design cannot be solved", args.input.display()))?;
     // Subspace colours for the report: the solve's basis, else one trained on the solved spectra.

@@ -110,28 +110,29 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
         let started = Instant::now();
-        let cancelled = request.cancel.load(Ordering::Relaxed);
-        let basis = match (&config.basis, palette_uses_basis(&request.palette)) {
-            (BasisMode::Train { sidecar }, true) if !cancelled => {
-                Some(basis_for(&request.palette, &cache, sidecar.as_ref()))
-            }
-            _ => None,
-        };
-        let result = match &basis {
-            _ if cancelled || request.cancel.load(Ordering::Relaxed) => Err(DesignError::Cancelled),
-            Some(Err(e)) => Err(DesignError::Invalid(e.clone())),
-            _ => {
-                let options = SolveOptions { time_limit: config.time_limit, cancel: Some(request.cancel.clone()) };
-                let b = basis.as_ref().and_then(|b| b.as_ref().ok()).map(|b| b.as_ref());
-                design::solve(&request.palette, b, &colorimetry, &options).map(Arc::new)
-            }
-        };
-        let reply = Solved {
-            generation: request.generation,
-            result,
-            basis: basis.and_then(Result::ok),
-            elapsed: started.elapsed(),
-        };
+        // A panic in the engine becomes an error reply (the UI shows it) instead of a silent dead thread
+        // and "solving…" forever.
+        let work = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let cancelled = request.cancel.load(Ordering::Relaxed);
+            let basis = match (&config.basis, palette_uses_basis(&request.palette)) {
+                (BasisMode::Train { sidecar }, true) if !cancelled => {
+                    Some(basis_for(&request.palette, &cache, sidecar.as_ref()))
+                }
+                _ => None,
+            };
+            let result = match &basis {
+                _ if cancelled || request.cancel.load(Ordering::Relaxed) => Err(DesignError::Cancelled),
+                Some(Err(e)) => Err(DesignError::Invalid(e.clone())),
+                _ => {
+                    let options = SolveOptions { time_limit: config.time_limit, cancel: Some(request.cancel.clone()) };
+                    let b = basis.as_ref().and_then(|b| b.as_ref().ok()).map(|b| b.as_ref());
+                    design::solve(&request.palette, b, &colorimetry, &options).map(Arc::new)
+                }
+            };
+            (result, basis.and_then(Result::ok))
+        }));
+        let (result, basis) = work.unwrap_or_else(|panic| (Err(DesignError::Invalid(panic_message(&panic))), None));
+        let reply = Solved { generation: request.generation, result, basis, elapsed: started.elapsed() };
         if replies.send(Reply::Solved(reply)).is_err() {
             return;
         }
@@ -141,11 +142,24 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
 fn serve_bases(requests: Receiver<Request>, replies: Sender<Reply>, sidecar: Option<PathBuf>, cache: BasisCache) {
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
-        let result = basis_for(&request.palette, &cache, sidecar.as_ref());
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            basis_for(&request.palette, &cache, sidecar.as_ref())
+        }))
+        .unwrap_or_else(|panic| Err(panic_message(&panic)));
         if replies.send(Reply::Trained(Trained { generation: request.generation, result })).is_err() {
             return;
         }
     }
+}
+
+/// The message of a caught panic, for the status line.
+pub fn panic_message(panic: &Box<dyn std::any::Any + Send>) -> String {
+    let what = panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown cause".into());
+    format!("internal error in the worker (please report it): {what}")
 }
 
 /// Handle on the worker threads.
