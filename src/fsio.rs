@@ -49,7 +49,7 @@ impl Kind {
         match self {
             // A 200 × 200 palette of designed spectra with comments is about 2 MiB; parsing costs a few
             // times the input (see the robustness section of the README).
-            Kind::Palette => 16 * MIB,
+            Kind::Palette => 8 * MIB,
             Kind::Csv => 16 * MIB,
             Kind::Scene => 4 * MIB,
             Kind::Volume => 4096 * MIB,

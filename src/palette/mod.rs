@@ -239,7 +239,7 @@ impl Palette {
             for (i, e) in entries.iter().enumerate() {
                 check_value(|| format!("{side}[{i}].scale"), "scale", e.scale)?;
                 for v in e.spectrum.as_slice() {
-                    check_value(|| format!("{side}[{i}]"), "a resolved sample", *v)?;
+                    check_value(|| format!("{side}[{i}].{}", e.source.key()), "a resolved sample", *v)?;
                 }
                 if let Some(b) = e.bounds {
                     check_bounds(|| format!("{side}[{i}].bounds"), b.lower, b.upper)?;

@@ -8,6 +8,7 @@
 //! Reading uses `toml`'s borrowing parser (spans kept, no document built); the `toml_edit` document is only
 //! parsed when a save needs it.
 
+mod budget;
 mod parallel;
 mod read;
 mod splice;
@@ -44,6 +45,12 @@ pub enum PaletteError {
     },
     #[error("{cause}")]
     Write { path: PathBuf, cause: crate::fsio::FsError },
+    #[error(
+        "{}: the palette holds {tables} tables, {arrays} arrays and {values} values for its size: parsing it \
+         would take about {estimate_mb} MB, more than the limit of {limit_mb} MB",
+        path.display()
+    )]
+    TooComplex { path: PathBuf, tables: u64, arrays: u64, values: u64, estimate_mb: u64, limit_mb: u64 },
     #[error("this palette has no file yet: save it with save_as")]
     NoPath,
 }
@@ -148,6 +155,18 @@ impl PaletteFile {
     pub fn parse(text: &str, path: &Path) -> Result<PaletteFile, PaletteError> {
         if text.trim().is_empty() {
             return Err(PaletteError::Empty { path: path.to_path_buf() });
+        }
+        // Parse memory is bounded by the input size (see [`budget`]): refused before any parse.
+        let counts = budget::count(text);
+        if counts.cost() > budget::budget(text.len()) {
+            return Err(PaletteError::TooComplex {
+                path: path.to_path_buf(),
+                tables: counts.tables,
+                arrays: counts.arrays,
+                values: counts.values,
+                estimate_mb: counts.cost() >> 20,
+                limit_mb: budget::budget(text.len()) >> 20,
+            });
         }
         let syntax = |message: &str, span: Option<std::ops::Range<usize>>| {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
