@@ -41,7 +41,7 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let file = PaletteFile::load(&args.palette)?;
     for w in &file.warnings {
-        eprintln!("warning: {w}");
+        eprintln!("warning: {}", crate::fsio::escape_lines(w));
     }
     let m = args.dimension.unwrap_or(file.palette.settings.basis_dimension);
     if !(1..=SAMPLES).contains(&m) {
@@ -54,7 +54,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&json(&basis, &report, &args.palette, cache))?);
     } else {
-        print!("{}", table(&report, &args.palette, cache));
+        print!("{}", crate::fsio::escape_lines(&table(&report, &args.palette, cache)));
     }
     Ok(())
 }

@@ -136,7 +136,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
     bar.finish_and_clear();
-    let path: Vec<&str> = scene.dial.stops.iter().map(|s| s.name.as_str()).collect();
+    let path: Vec<String> = scene.dial.stops.iter().map(|s| crate::fsio::escape(&s.name).into_owned()).collect();
     println!(
         "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}",
         report.written.len(),
@@ -146,7 +146,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         mode.as_str(),
         view.image.channels,
         path.join(" → "),
-        args.output.display()
+        crate::fsio::show(&args.output)
     );
     println!(
         "raycast {:.1} ms ({} samples, {} skipped), relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms",
@@ -158,7 +158,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         start.elapsed().as_secs_f64() * 1e3
     );
     if let Some(sheet) = &args.contact_sheet {
-        println!("contact sheet {}", sheet.display());
+        println!("contact sheet {}", crate::fsio::show(sheet));
     }
     Ok(())
 }

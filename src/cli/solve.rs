@@ -219,7 +219,8 @@ fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -
     let unmet = s.diagnostics.iter().filter(|d| d.cell.is_some()).count();
     let stdout = std::io::stdout();
     let mut w = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
-    w.write_all(table.as_bytes())?;
+    // Names in the table are the user's: control characters are shown escaped.
+    w.write_all(crate::fsio::escape_lines(table).as_bytes())?;
     writeln!(
         w,
         "objective {:.6e}, KKT residual {:.1e}, {} cells ({} with remarks), read and solved in {:.3} s{}",
@@ -229,7 +230,7 @@ fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -
         unmet,
         seconds,
         match output {
-            Some(p) => format!(", solved palette written to {}", p.display()),
+            Some(p) => format!(", solved palette written to {}", crate::fsio::show(p)),
             None => ", solved palette not written (no -o)".into(),
         }
     )?;

@@ -402,12 +402,12 @@ impl State {
 
     /// Show a message until the next key.
     pub fn say(&mut self, text: impl Into<String>) {
-        self.message = Some(Message { text: text.into(), is_error: false });
+        self.message = Some(Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: false });
     }
 
     /// Show an error until the next key.
     pub fn complain(&mut self, text: impl Into<String>) {
-        self.message = Some(Message { text: text.into(), is_error: true });
+        self.message = Some(Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: true });
     }
 
     /// The palette file's folder (CSV paths are relative to it).
