@@ -93,11 +93,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !file.warnings.is_empty() {
         state.say(file.warnings.join("; "));
     }
+    let recovery = crate::tui::event_loop::recovery_path(&args.input);
+    if recovery.is_file() {
+        state.say(format!(
+            "unsaved work from an interrupted session is in {}: open it with `metamer design {}` (delete it \
+             when done)",
+            recovery.display(),
+            recovery.display()
+        ));
+    }
     if let Some(scene) = &args.scene {
         let preview = Preview::load(scene, &state.colorimetry).context("--scene")?;
         state.set_preview(preview);
     }
-    let mut saver = FileSaver { file };
+    let mut saver = FileSaver::new(file);
     let worker = WorkerConfig {
         time_limit: Duration::try_from_secs_f64(args.time_limit).unwrap_or(Duration::MAX),
         basis: if args.no_basis {
@@ -137,7 +146,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => {
             let mut guard = TerminalGuard::enter()
                 .context("metamer design needs a terminal (use --replay KEYS.txt for headless runs)")?;
-            let mut events = TerminalEvents;
+            let mut events = TerminalEvents::new().context("cannot listen for SIGTERM and SIGHUP")?;
             event_loop::run_main_loop(
                 &mut guard.terminal,
                 &mut state,

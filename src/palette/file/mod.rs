@@ -297,6 +297,17 @@ impl PaletteFile {
         Ok((document, reread))
     }
 
+    /// True when the file on disk is no longer the text this file was read from or last saved as: another
+    /// program changed it. A file that is gone is not a change (saving writes it again).
+    pub fn changed_on_disk(&self) -> bool {
+        let Some(path) = &self.path else { return false };
+        match crate::fsio::read(path, crate::fsio::Kind::Palette) {
+            Ok(bytes) => bytes != self.original.as_bytes(),
+            Err(crate::fsio::FsError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => false,
+            Err(_) => true,
+        }
+    }
+
     /// Record the files this palette was read from (itself, as `role`, and the CSV files its sources name)
     /// as inputs of `outputs`, so no output of the command can be one of them.
     pub fn record_inputs(&self, role: &str, outputs: &mut crate::fsio::Outputs) {
