@@ -252,8 +252,8 @@ struct View {
     centre_world: [f64; 3],
     radius: f64,
     /// The most steps one ray takes: enough to cross the box's index-space diagonal at `dir`'s length
-    /// (so no ray inside the box is cut short), and never more than [`MAX_RAY_STEPS`] whatever the
-    /// spacings (a spacing of 1e-308 beside 1 cannot make a ray spin).
+    /// (so no ray inside the box is cut short), at most `MAX_ANISOTROPY × diagonal / step` and never more
+    /// than [`MAX_RAY_STEPS`], whatever the spacings (a spacing of 1e-308 beside 1 cannot make a ray spin).
     max_steps: f64,
 }
 
@@ -284,7 +284,9 @@ impl View {
         let dir = [0, 1, 2].map(|a| view_world[a] * step_world / volume.spacing[a]);
         let diagonal = volume.dims.iter().map(|&d| ((d.max(1) - 1) as f64).powi(2)).sum::<f64>().sqrt();
         let length = dir.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let max_steps = (diagonal / length).ceil() + 2.0;
+        // With spacings at most MAX_ANISOTROPY apart (the readers' check) `length ≥ step / MAX_ANISOTROPY`,
+        // so the second bound never cuts a ray of a valid volume; it stops one whose spacings are extreme.
+        let max_steps = (diagonal / length).min(crate::volume::MAX_ANISOTROPY * diagonal / step).ceil() + 2.0;
         let max_steps = if max_steps.is_finite() { max_steps.min(MAX_RAY_STEPS) } else { MAX_RAY_STEPS };
         View {
             dir,
@@ -528,7 +530,8 @@ impl RayContext<'_> {
             }
         }
         let t1 = t1.min(t0 + view.max_steps);
-        if !(t0 <= t1) {
+        // Steps are whole numbers in f64: beyond 2^52 `k + 1 == k` and a ray would never advance.
+        if !(t0 <= t1) || t1 >= (1u64 << 52) as f64 {
             return;
         }
         // Samples sit at whole steps from the origin, so skipping never shifts them.
