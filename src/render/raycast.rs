@@ -531,7 +531,7 @@ impl RayContext<'_> {
         }
         let t1 = t1.min(t0 + view.max_steps);
         // Steps are whole numbers in f64: beyond 2^52 `k + 1 == k` and a ray would never advance.
-        if !(t0 <= t1) || t1 >= (1u64 << 52) as f64 {
+        if t0.is_nan() || t1.is_nan() || t0 > t1 || t1 >= (1u64 << 52) as f64 {
             return;
         }
         // Samples sit at whole steps from the origin, so skipping never shifts them.

@@ -27,7 +27,7 @@ use toml_edit::DocumentMut;
 #[derive(Debug, thiserror::Error)]
 pub enum PaletteError {
     #[error("{cause}")]
-    Read { path: PathBuf, cause: crate::fsio::FsError },
+    Read { path: PathBuf, cause: Box<crate::fsio::FsError> },
     #[error("{}: the file is empty (a palette needs at least a name, lights and reflectances)", path.display())]
     Empty { path: PathBuf },
     #[error("{}: not a text file (invalid UTF-8 at byte {offset})", path.display())]
@@ -44,7 +44,7 @@ pub enum PaletteError {
         line: Option<usize>,
     },
     #[error("{cause}")]
-    Write { path: PathBuf, cause: crate::fsio::FsError },
+    Write { path: PathBuf, cause: Box<crate::fsio::FsError> },
     #[error(
         "{}: the palette holds {tables} tables, {arrays} arrays and {values} values for its size: parsing it \
          would take about {estimate_mb} MB, more than the limit of {limit_mb} MB",
@@ -135,7 +135,7 @@ impl PaletteFile {
     /// Read and validate a palette file.
     pub fn load(path: &Path) -> Result<PaletteFile, PaletteError> {
         let bytes = crate::fsio::read(path, crate::fsio::Kind::Palette)
-            .map_err(|cause| PaletteError::Read { path: path.to_path_buf(), cause })?;
+            .map_err(|cause| PaletteError::Read { path: path.to_path_buf(), cause: Box::new(cause) })?;
         PaletteFile::parse_bytes(&bytes, path)
     }
 
@@ -332,7 +332,7 @@ impl PaletteFile {
     pub fn save_as(&mut self, palette: &Palette, path: &Path) -> Result<(), PaletteError> {
         if let Some(spliced) = self.splice(palette, path) {
             write_atomically(path, &spliced.text)
-                .map_err(|cause| PaletteError::Write { path: path.to_path_buf(), cause })?;
+                .map_err(|cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) })?;
             self.palette = spliced.palette;
             self.spans = Some(spliced.spans);
             self.original = spliced.text;
@@ -342,7 +342,7 @@ impl PaletteFile {
         }
         let (document, reread) = self.render(palette, path)?;
         write_atomically(path, &self.text_of(&document))
-            .map_err(|cause| PaletteError::Write { path: path.to_path_buf(), cause })?;
+            .map_err(|cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) })?;
         self.document = OnceLock::from(document);
         self.palette = reread.palette;
         self.csv_raw = reread.csv_raw;
