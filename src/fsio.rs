@@ -92,6 +92,13 @@ pub enum FsError {
 }
 
 impl FsError {
+    /// The message without the leading file name (for callers that name the file themselves).
+    pub fn reason(&self) -> String {
+        let text = self.to_string();
+        let prefix = format!("{}: ", show(self.path()));
+        text.strip_prefix(&prefix).map(str::to_string).unwrap_or(text)
+    }
+
     /// The file the error is about.
     pub fn path(&self) -> &Path {
         match self {

@@ -20,7 +20,7 @@ pub struct SpectrumCsvError {
 /// The reason a spectrum CSV file was rejected.
 #[derive(Debug, thiserror::Error)]
 pub enum CsvErrorKind {
-    #[error("{0}")]
+    #[error("{}", .0.reason())]
     Io(crate::fsio::FsError),
     #[error("not a text file (invalid UTF-8 at byte {offset})")]
     Binary { offset: usize },
