@@ -154,7 +154,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             )
             .context("the terminal failed")?;
             drop(guard);
-            Ok(())
+            match &state.terminated {
+                Some(Some(copy)) => bail!("ended by a signal; unsaved work was written to {}", copy.display()),
+                Some(None) => bail!("ended by a signal"),
+                None => Ok(()),
+            }
         }
     }
 }

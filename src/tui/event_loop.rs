@@ -303,10 +303,9 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
             }
             Some(Input::End) => return Ok(()),
             Some(Input::Terminated) => {
-                if state.palette != state.saved {
-                    // Best effort: the process is ending either way; the next open offers the copy.
-                    let _ = saver.recover(&palette_to_save(state));
-                }
+                // Best effort: the process is ending either way; the next open offers the copy.
+                let copy = (state.palette != state.saved).then(|| saver.recover(&palette_to_save(state)).ok());
+                state.terminated = Some(copy.flatten());
                 return Ok(());
             }
             Some(Input::Resize) => {

@@ -469,3 +469,20 @@ fn control_characters_never_reach_the_terminal() {
     assert!(!o.status.success());
     assert!(!o.stderr.contains(&0x1b), "{}", stderr(&o));
 }
+
+#[test]
+fn the_next_open_offers_the_recovery_copy() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("p.toml"), SMALL).unwrap();
+    std::fs::write(d.join("keys.txt"), "wait-solve\n").unwrap();
+    let screen = |d: &Path| {
+        let o = metamer(d, &["design", "p.toml", "--no-basis", "--replay", "keys.txt", "--size", "160x30"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    assert!(!screen(d).contains("interrupted session"));
+    std::fs::write(recovery_path(&d.join("p.toml")), SMALL).unwrap();
+    let s = screen(d);
+    assert!(s.contains("unsaved work from an interrupted session is in p.recovery.toml"), "{s}");
+}
