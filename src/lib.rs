@@ -10,6 +10,7 @@ pub mod bench;
 pub mod cli;
 pub mod colorimetry;
 pub mod design;
+pub mod fsio;
 pub mod palette;
 pub mod render;
 pub mod spectrum;

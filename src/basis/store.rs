@@ -30,7 +30,6 @@ use crate::palette::Palette;
 use crate::spectrum::SAMPLES;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -117,6 +116,9 @@ pub struct Report {
     pub key: String,
     /// True when the basis came from the sidecar rather than being trained now.
     pub from_cache: bool,
+    /// True when the basis was trained now and written to the sidecar (false when there was no sidecar to
+    /// write or the write failed: the reason is among the notes).
+    pub stored: bool,
     /// Wall-clock seconds of the training (as recorded when it was trained, for a cached basis).
     pub training_seconds: f64,
     pub stages: Vec<StageResult>,
@@ -202,6 +204,7 @@ pub fn for_set(
     let colorimetry = Colorimetry::default();
     let key = cache_key(set, m);
     let mut notes = Vec::new();
+    let mut stored = false;
     let mut sidecar = match cache {
         Some(path) => read_sidecar(path, &mut notes),
         None => Sidecar { format: FORMAT.into(), entries: Vec::new() },
@@ -218,6 +221,7 @@ pub fn for_set(
             padded: entry.padded,
             key,
             from_cache: true,
+            stored: false,
             training_seconds: entry.training_seconds,
             stages: entry.stages.clone(),
             start: entry.start,
@@ -255,8 +259,9 @@ pub fn for_set(
         });
         let excess = sidecar.entries.len().saturating_sub(MAX_ENTRIES);
         sidecar.entries.drain(..excess);
-        if let Err(e) = write_sidecar(path, &sidecar) {
-            notes.push(format!("could not store the basis in {}: {e}", path.display()));
+        match write_sidecar(path, &sidecar) {
+            Ok(()) => stored = true,
+            Err(e) => notes.push(format!("could not store the basis in {}: {e}", path.display())),
         }
     }
     let report = Report {
@@ -266,6 +271,7 @@ pub fn for_set(
         padded: trained.padded,
         key,
         from_cache: false,
+        stored,
         training_seconds: seconds,
         stages: trained.stages,
         start: Some(trained.start),
@@ -300,39 +306,36 @@ fn entry_basis<'a>(entry: &'a Entry, m: usize, colorimetry: &Colorimetry) -> Opt
 
 fn read_sidecar(path: &Path, notes: &mut Vec<String>) -> Sidecar {
     let empty = Sidecar { format: FORMAT.into(), entries: Vec::new() };
-    let text = match std::fs::read_to_string(path) {
+    // Through the one bounded reader: a FIFO or a device as the sidecar is ignored, never waited on.
+    let text = match crate::fsio::read_to_string(path, crate::fsio::Kind::Sidecar) {
         Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return empty,
+        Err(crate::fsio::FsError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+            return empty;
+        }
         Err(e) => {
-            notes.push(format!("ignored the basis cache {}: {e}", path.display()));
+            notes.push(format!("ignored the basis cache: {e}"));
             return empty;
         }
     };
     match serde_json::from_str::<Sidecar>(&text) {
         Ok(s) if s.format == FORMAT => s,
         Ok(s) => {
-            notes.push(format!("ignored the basis cache {}: unknown format {:?}", path.display(), s.format));
+            notes.push(format!("ignored the basis cache {}: unknown format {:?}", crate::fsio::show(path), s.format));
             empty
         }
         Err(e) => {
-            notes.push(format!("ignored the basis cache {}: {e}", path.display()));
+            notes.push(format!("ignored the basis cache {}: {e}", crate::fsio::show(path)));
             empty
         }
     }
 }
 
-fn write_sidecar(path: &Path, sidecar: &Sidecar) -> std::io::Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let text = serde_json::to_string_pretty(sidecar).map_err(std::io::Error::other)?;
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)?;
-    tmp.write_all(text.as_bytes())?;
-    tmp.write_all(b"\n")?;
-    tmp.as_file().sync_all()?;
-    tmp.persist(path).map_err(|e| e.error)?;
-    Ok(())
+/// Write the sidecar through the one atomic writer ([`crate::fsio::write_atomic`]).
+fn write_sidecar(path: &Path, sidecar: &Sidecar) -> Result<(), crate::fsio::FsError> {
+    let mut text = serde_json::to_vec_pretty(sidecar)
+        .map_err(|e| crate::fsio::FsError::Write { path: path.to_path_buf(), source: std::io::Error::other(e) })?;
+    text.push(b'\n');
+    crate::fsio::write_atomic(path, &text)
 }
 
 #[cfg(test)]

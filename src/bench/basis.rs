@@ -73,8 +73,8 @@ pub enum BenchError {
     Basis(#[from] BasisError),
     #[error(transparent)]
     Plot(#[from] PlotError),
-    #[error("cannot write {path}: {source}")]
-    Write { path: String, source: std::io::Error },
+    #[error("{0}")]
+    File(crate::fsio::FsError),
 }
 
 /// The post-illumination kernel: for every pixel's m coefficients `s`, `rgb = Q (e ∘ s)` with `q` the 3×m
@@ -238,7 +238,7 @@ pub fn run_and_write(options: &BenchOptions, dir: &Path) -> Result<String, Bench
     let results = run(options)?;
     let md = markdown(&results);
     let path = dir.join("basis.md");
-    std::fs::write(&path, &md).map_err(|source| BenchError::Write { path: path.display().to_string(), source })?;
+    crate::fsio::write_atomic(&path, md.as_bytes()).map_err(BenchError::File)?;
     plots(&results, dir)?;
     Ok(md)
 }

@@ -97,77 +97,86 @@ pub fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Result<(), P
     let xr = range(all().map(|p| p.0).chain(spreads()), plot.x_scale).ok_or(PlotError::Empty)?;
     let yr = range(all().map(|p| p.1), plot.y_scale).ok_or(PlotError::Empty)?;
 
-    let root = BitMapBackend::new(path, (width, height)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut builder = ChartBuilder::on(&root);
-    builder.caption(&plot.title, ("sans-serif", 22)).margin(12).x_label_area_size(42).y_label_area_size(64);
+    // Drawn in memory, then written through the one atomic writer (never straight onto the path).
+    let mut rgb = vec![0u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let mut builder = ChartBuilder::on(&root);
+        builder.caption(&plot.title, ("sans-serif", 22)).margin(12).x_label_area_size(42).y_label_area_size(64);
 
-    macro_rules! body {
-        ($chart:expr) => {{
-            let mut chart = $chart;
-            chart
-                .configure_mesh()
-                .x_desc(plot.x_label.as_str())
-                .y_desc(plot.y_label.as_str())
-                .label_style(("sans-serif", 14))
-                .draw()
-                .map_err(|e| err(&e))?;
-            for (i, s) in plot.series.iter().enumerate() {
-                let colour = COLOURS[i % COLOURS.len()];
-                let pts: Vec<(f64, f64)> =
-                    s.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
-                if s.line && pts.len() > 1 {
-                    chart.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2))).map_err(|e| err(&e))?;
+        macro_rules! body {
+            ($chart:expr) => {{
+                let mut chart = $chart;
+                chart
+                    .configure_mesh()
+                    .x_desc(plot.x_label.as_str())
+                    .y_desc(plot.y_label.as_str())
+                    .label_style(("sans-serif", 14))
+                    .draw()
+                    .map_err(|e| err(&e))?;
+                for (i, s) in plot.series.iter().enumerate() {
+                    let colour = COLOURS[i % COLOURS.len()];
+                    let pts: Vec<(f64, f64)> =
+                        s.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
+                    if s.line && pts.len() > 1 {
+                        chart.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2))).map_err(|e| err(&e))?;
+                    }
+                    if let Some(spread) = &s.spread {
+                        for ((_, y), (a, b)) in s.points.iter().zip(spread) {
+                            chart
+                                .draw_series(LineSeries::new(vec![(*a, *y), (*b, *y)], colour.stroke_width(1)))
+                                .map_err(|e| err(&e))?;
+                        }
+                    }
+                    chart
+                        .draw_series(pts.iter().map(|p| Circle::new(*p, 4, colour.filled())))
+                        .map_err(|e| err(&e))?
+                        .label(s.label.as_str())
+                        .legend(move |(x, y)| Circle::new((x + 8, y), 4, colour.filled()));
                 }
-                if let Some(spread) = &s.spread {
-                    for ((_, y), (a, b)) in s.points.iter().zip(spread) {
+                if plot.pareto {
+                    let pts: Vec<(f64, f64)> = all().collect();
+                    let front: Vec<(f64, f64)> = super::pareto_front(&pts).into_iter().map(|i| pts[i]).collect();
+                    if front.len() > 1 {
                         chart
-                            .draw_series(LineSeries::new(vec![(*a, *y), (*b, *y)], colour.stroke_width(1)))
-                            .map_err(|e| err(&e))?;
+                            .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
+                            .map_err(|e| err(&e))?
+                            .label("Pareto front")
+                            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK));
                     }
                 }
                 chart
-                    .draw_series(pts.iter().map(|p| Circle::new(*p, 4, colour.filled())))
-                    .map_err(|e| err(&e))?
-                    .label(s.label.as_str())
-                    .legend(move |(x, y)| Circle::new((x + 8, y), 4, colour.filled()));
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .label_font(("sans-serif", 14))
+                    .draw()
+                    .map_err(|e| err(&e))?;
+            }};
+        }
+        match (plot.x_scale, plot.y_scale) {
+            (Scale::Linear, Scale::Linear) => {
+                body!(builder.build_cartesian_2d(xr.0..xr.1, yr.0..yr.1).map_err(|e| err(&e))?)
             }
-            if plot.pareto {
-                let pts: Vec<(f64, f64)> = all().collect();
-                let front: Vec<(f64, f64)> = super::pareto_front(&pts).into_iter().map(|i| pts[i]).collect();
-                if front.len() > 1 {
-                    chart
-                        .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
+            (Scale::Log, Scale::Linear) => {
+                body!(builder.build_cartesian_2d((xr.0..xr.1).log_scale(), yr.0..yr.1).map_err(|e| err(&e))?)
+            }
+            (Scale::Linear, Scale::Log) => {
+                body!(builder.build_cartesian_2d(xr.0..xr.1, (yr.0..yr.1).log_scale()).map_err(|e| err(&e))?)
+            }
+            (Scale::Log, Scale::Log) => {
+                body!(
+                    builder
+                        .build_cartesian_2d((xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale())
                         .map_err(|e| err(&e))?
-                        .label("Pareto front")
-                        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK));
-                }
+                )
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 14))
-                .draw()
-                .map_err(|e| err(&e))?;
-        }};
+        }
+        root.present().map_err(|e| err(&e))?;
     }
-    match (plot.x_scale, plot.y_scale) {
-        (Scale::Linear, Scale::Linear) => {
-            body!(builder.build_cartesian_2d(xr.0..xr.1, yr.0..yr.1).map_err(|e| err(&e))?)
-        }
-        (Scale::Log, Scale::Linear) => {
-            body!(builder.build_cartesian_2d((xr.0..xr.1).log_scale(), yr.0..yr.1).map_err(|e| err(&e))?)
-        }
-        (Scale::Linear, Scale::Log) => {
-            body!(builder.build_cartesian_2d(xr.0..xr.1, (yr.0..yr.1).log_scale()).map_err(|e| err(&e))?)
-        }
-        (Scale::Log, Scale::Log) => {
-            body!(builder.build_cartesian_2d((xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale()).map_err(|e| err(&e))?)
-        }
-    }
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+    let png = crate::render::sweep::encode_png(&rgb, width as usize, height as usize).map_err(|e| err(&e))?;
+    crate::fsio::write_atomic(path, &png).map_err(|e| err(&e))
 }
 
 #[cfg(test)]

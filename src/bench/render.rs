@@ -262,7 +262,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
     };
     report.markdown = markdown(&report, options);
     let md = options.out_dir.join("render.md");
-    std::fs::write(&md, &report.markdown)
+    crate::fsio::write_atomic(&md, report.markdown.as_bytes())
         .map_err(|e| RenderError::Output { path: md.clone(), reason: e.to_string() })?;
     plots(&report, &options.out_dir)?;
     Ok(report)

@@ -46,6 +46,8 @@ pub struct ReportOptions {
 pub enum ReportError {
     #[error("cannot write {}: {source}", path.display())]
     Io { path: PathBuf, source: std::io::Error },
+    #[error("{0}")]
+    File(crate::fsio::FsError),
     #[error("basis benchmark: {0}")]
     Basis(#[from] basis::BenchError),
     #[error("render benchmark: {0}")]
@@ -74,7 +76,7 @@ pub struct BenchReport {
 }
 
 fn write(path: &Path, text: &str) -> Result<(), ReportError> {
-    std::fs::write(path, text).map_err(|source| ReportError::Io { path: path.to_path_buf(), source })
+    crate::fsio::write_atomic(path, text.as_bytes()).map_err(ReportError::File)
 }
 
 fn image(md: &mut String, files: &mut Vec<PathBuf>, dir: &Path, name: &str, alt: &str) {
@@ -140,8 +142,7 @@ pub const README_END: &str = "<!-- metamer bench: end -->";
 /// Replace the text between [`README_BEGIN`] and [`README_END`] in `readme` with the report's headline
 /// table and its Pareto plots (image paths relative to the README's folder); atomic (temp file + rename).
 pub fn splice_readme(readme: &Path, report: &BenchReport, out_dir: &Path) -> Result<(), ReportError> {
-    let io = |source| ReportError::Io { path: readme.to_path_buf(), source };
-    let text = std::fs::read_to_string(readme).map_err(io)?;
+    let text = crate::fsio::read_to_string(readme, crate::fsio::Kind::Text).map_err(ReportError::File)?;
     let missing = || ReportError::Readme { path: readme.to_path_buf() };
     let begin = text.find(README_BEGIN).ok_or_else(missing)?;
     let end = text[begin..].find(README_END).map(|i| begin + i).ok_or_else(missing)?;
@@ -163,9 +164,7 @@ pub fn splice_readme(readme: &Path, report: &BenchReport, out_dir: &Path) -> Res
     }
     block.push_str(&format!("\nFull report: [{0}/README.md]({0}/README.md).\n\n", rel.display()));
     let new = format!("{}{block}{}", &text[..begin], &text[end..]);
-    let tmp = readme.with_extension("md.tmp");
-    std::fs::write(&tmp, new).map_err(io)?;
-    std::fs::rename(&tmp, readme).map_err(io)
+    crate::fsio::write_atomic(readme, new.as_bytes()).map_err(ReportError::File)
 }
 
 fn solve_section(options: &ReportOptions, report: &mut BenchReport) -> Result<String, ReportError> {

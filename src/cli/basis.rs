@@ -42,7 +42,7 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let file = PaletteFile::load(&args.palette)?;
     for w in &file.warnings {
-        eprintln!("warning: {w}");
+        eprintln!("warning: {}", crate::fsio::escape_lines(w));
     }
     let m = args.dimension.unwrap_or(file.palette.settings.basis_dimension);
     if !(1..=SAMPLES).contains(&m) {
@@ -69,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&json(basis, report, &args.palette, cache))?);
     } else {
-        print!("{}", table(report, &args.palette, cache));
+        print!("{}", crate::fsio::escape_lines(&table(report, &args.palette, cache)));
     }
     Ok(())
 }
@@ -86,6 +86,7 @@ pub fn json(basis: &Basis, report: &Report, palette: &Path, cache: Option<&Path>
         "signal_rank": report.signal_rank,
         "padded": report.padded,
         "from_cache": report.from_cache,
+        "stored": report.stored,
         "training_seconds": report.training_seconds,
         "key": report.key,
         "accuracy": report.accuracy,
@@ -104,7 +105,10 @@ pub fn table(report: &Report, palette: &Path, cache: Option<&Path>) -> String {
     let a = &report.accuracy;
     let origin = match (report.from_cache, cache) {
         (true, Some(c)) => format!("loaded from {} (trained in {:.2} s)", c.display(), report.training_seconds),
-        (false, Some(c)) => format!("trained in {:.2} s, stored in {}", report.training_seconds, c.display()),
+        (false, Some(c)) if report.stored => {
+            format!("trained in {:.2} s, stored in {}", report.training_seconds, c.display())
+        }
+        (false, Some(c)) => format!("trained in {:.2} s, not stored in {}", report.training_seconds, c.display()),
         _ => format!("trained in {:.2} s, not stored", report.training_seconds),
     };
     let mut out = format!(

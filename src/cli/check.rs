@@ -65,13 +65,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
                 printed = true;
                 for w in &file.warnings {
-                    eprintln!("warning: {w}");
+                    eprintln!("warning: {}", crate::fsio::escape_lines(w));
                 }
                 print!("{}", render_matrix(&file.palette, &colorimetry, colour));
-                println!("ok: {}: {}", path.display(), summary(&file.palette));
+                println!("ok: {}: {}", crate::fsio::show(path), summary(&file.palette));
             }
             Err(e) => {
-                eprintln!("error: {e}");
+                eprintln!("error: {}", crate::fsio::escape_lines(&e.to_string()));
                 failed.push(path.display().to_string());
             }
         }
@@ -91,7 +91,7 @@ pub fn summary(p: &Palette) -> String {
     format!(
         "\"{}\": {} ({} designed), {} ({} designed), {} ({} in free groups, {} off), {}; m = {}, \
          smoothness = {}, subspace_error = {}",
-        p.name,
+        crate::fsio::escape(&p.name),
         count(p.lights.len(), "light"),
         designed(&p.lights),
         count(p.reflectances.len(), "reflectance"),
@@ -176,7 +176,7 @@ fn source_label(e: &SpectrumEntry) -> String {
 }
 
 fn name_label(e: &SpectrumEntry) -> String {
-    format!("{}{}", e.name, if e.design { " *" } else { "" })
+    format!("{}{}", crate::fsio::escape(&e.name), if e.design { " *" } else { "" })
 }
 
 /// The design matrix of a palette as text (with ANSI truecolor swatches when `colour`).
@@ -254,7 +254,7 @@ pub fn render_matrix(p: &Palette, colorimetry: &Colorimetry, colour: bool) -> St
                     c.push("→ ");
                     match cell.free.and_then(|g| p.free.get(g)) {
                         Some(g) => {
-                            c.push(&format!("free {}", truncate(&g.name, 6)));
+                            c.push(&format!("free {}", truncate(&crate::fsio::escape(&g.name), 6)));
                         }
                         None => {
                             c.colour(&cell.target, colour);
@@ -283,7 +283,13 @@ pub fn render_matrix(p: &Palette, colorimetry: &Colorimetry, colour: bool) -> St
     );
     for g in &p.free {
         let side = |v: &Vector3<f64>| format!("[{}, {}, {}]", v[0], v[1], v[2]);
-        let _ = writeln!(out, "free group {}: linear sRGB from {} to {}", g.name, side(&g.lower), side(&g.upper));
+        let _ = writeln!(
+            out,
+            "free group {}: linear sRGB from {} to {}",
+            crate::fsio::escape(&g.name),
+            side(&g.lower),
+            side(&g.upper)
+        );
     }
     let designed_lights = p.lights.iter().filter(|e| e.design).count();
     let designed_refl = p.reflectances.iter().filter(|e| e.design).count();

@@ -93,13 +93,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !file.warnings.is_empty() {
         state.say(file.warnings.join("; "));
     }
+    let recovery = crate::tui::event_loop::recovery_path(&args.input);
+    if recovery.is_file() {
+        state.say(format!(
+            "unsaved work from an interrupted session is in {}: open it with `metamer design {}` (delete it \
+             when done)",
+            recovery.display(),
+            recovery.display()
+        ));
+    }
     if let Some(scene) = &args.scene {
         let preview = Preview::load(scene, &state.colorimetry).context("--scene")?;
         state.set_preview(preview);
     }
-    let mut saver = FileSaver { file };
+    let mut saver = FileSaver::new(file);
     let worker = WorkerConfig {
-        time_limit: Duration::from_secs_f64(args.time_limit),
+        time_limit: Duration::try_from_secs_f64(args.time_limit).unwrap_or(Duration::MAX),
         basis: if args.no_basis {
             BasisMode::Off
         } else {
@@ -108,8 +117,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     match &args.replay {
         Some(script_path) => {
-            let text = std::fs::read_to_string(script_path)
-                .with_context(|| format!("cannot read the key script {}", script_path.display()))?;
+            // The screen must not be the palette, its CSV sources, its sidecar, the scene or the script.
+            let mut files = crate::fsio::Outputs::new();
+            saver.file.record_inputs("palette", &mut files);
+            files.input("basis sidecar", &sidecar_path(&args.input)).input("key script", script_path);
+            if let Some(scene) = &args.scene {
+                files.input("scene", scene);
+            }
+            if let Some(screen) = &args.screen {
+                files.output("screen", screen)?;
+            }
+            let text = crate::fsio::read_to_string(script_path, crate::fsio::Kind::KeyScript)?;
             let steps = replay::parse_script(&text).with_context(|| format!("{}", script_path.display()))?;
             let (w, h) = args.size;
             let (frames, _) = replay::run(&mut state, steps, w, h, args.every_frame, &mut saver, worker)
@@ -120,7 +138,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 frames.concat()
             };
             match &args.screen {
-                Some(path) => std::fs::write(path, out).with_context(|| format!("cannot write {}", path.display()))?,
+                Some(path) => crate::fsio::write_atomic(path, out.as_bytes()).context("cannot write the screen")?,
                 None => print!("{out}"),
             }
             Ok(())
@@ -128,7 +146,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => {
             let mut guard = TerminalGuard::enter()
                 .context("metamer design needs a terminal (use --replay KEYS.txt for headless runs)")?;
-            let mut events = TerminalEvents;
+            let mut events = TerminalEvents::new().context("cannot listen for SIGTERM and SIGHUP")?;
             event_loop::run_main_loop(
                 &mut guard.terminal,
                 &mut state,
@@ -136,7 +154,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             )
             .context("the terminal failed")?;
             drop(guard);
-            Ok(())
+            match &state.terminated {
+                Some(Some(copy)) => bail!("ended by a signal; unsaved work was written to {}", copy.display()),
+                Some(None) => bail!("ended by a signal"),
+                None => Ok(()),
+            }
         }
     }
 }

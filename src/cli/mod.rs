@@ -52,7 +52,9 @@ pub fn main() -> ExitCode {
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            // Every message may quote user text (names, paths, file contents): control characters are
+            // shown escaped, never sent to the terminal.
+            eprintln!("error: {}", crate::fsio::escape_lines(&format!("{e:#}")));
             ExitCode::FAILURE
         }
     }

@@ -99,6 +99,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             eprintln!("warning: palette `{}`: {w}", scene.palette.name.escape_debug());
         }
     }
+    // No output may be the scene, its palette or the palette's basis sidecar, nor one another.
+    let mut files = crate::fsio::Outputs::new();
+    if let Some(p) = &scene.path {
+        files.input("scene", p);
+    }
+    if let Some(p) = &scene.palette_path {
+        files.input("palette", p);
+        files.input("basis sidecar", &crate::basis::store::sidecar_path(p));
+    }
+    for k in range.clone() {
+        files.check("frame", &args.output.join(crate::render::sweep::frame_name(k)))?;
+    }
+    if let Some(sheet) = &args.contact_sheet {
+        files.output("contact sheet", sheet)?;
+        let frames = range.clone().map(|k| args.output.join(crate::render::sweep::frame_name(k)));
+        let mut frames_only = crate::fsio::Outputs::new();
+        for f in frames {
+            frames_only.input("frame", &f);
+        }
+        frames_only.check("contact sheet", sheet)?;
+    }
     let model = colour_model(&scene, mode, &colorimetry)?;
     let accel = Acceleration {
         early_termination: !args.no_early_termination,
@@ -129,7 +150,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
     bar.finish_and_clear();
-    let path: Vec<&str> = scene.dial.stops.iter().map(|s| s.name.as_str()).collect();
+    let path: Vec<String> = scene.dial.stops.iter().map(|s| crate::fsio::escape(&s.name).into_owned()).collect();
     println!(
         "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}",
         report.written.len(),
@@ -139,7 +160,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         mode.as_str(),
         view.image.channels,
         path.join(" → "),
-        args.output.display()
+        crate::fsio::show(&args.output)
     );
     println!(
         "raycast {:.1} ms ({} samples, {} skipped), relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms",
@@ -151,7 +172,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         start.elapsed().as_secs_f64() * 1e3
     );
     if let Some(sheet) = &args.contact_sheet {
-        println!("contact sheet {}", sheet.display());
+        println!("contact sheet {}", crate::fsio::show(sheet));
     }
     Ok(())
 }

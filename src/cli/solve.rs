@@ -64,6 +64,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let palette = &file.palette;
     let colorimetry = Colorimetry::default();
     let sidecar = store::sidecar_path(&args.input);
+    // No output may be an input or another output (compared as files, not as strings). The solved palette
+    // may be IN itself (an in-place solve), but nothing else may.
+    let mut files = crate::fsio::Outputs::new();
+    file.record_inputs("palette", &mut files);
+    files.input("basis sidecar", &sidecar);
+    if let Some(out) = &args.output {
+        files.output_except("solved palette", out, &args.input)?;
+    }
+    if let Some(report) = &args.report {
+        files.output("report", report)?;
+    }
     let uses = palette_uses_basis(palette);
     // The solve's own subspace criteria need the basis of the spectra it starts from.
     let basis = if uses {
@@ -77,7 +88,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !(args.time_limit.is_finite() && args.time_limit > 0.0) {
         anyhow::bail!("--time-limit must be a positive number of seconds, got {}", args.time_limit);
     }
-    let options = SolveOptions { time_limit: Duration::from_secs_f64(args.time_limit), cancel: None };
+    let options = SolveOptions {
+        time_limit: Duration::try_from_secs_f64(args.time_limit).unwrap_or(Duration::MAX),
+        cancel: None,
+    };
     let mut solution = design::solve(palette, basis.as_ref().map(|b| &b.0), &colorimetry, &options)
         .with_context(|| format!("{}: the design cannot be solved", args.input.display()))?;
     // Subspace colours for the report: always the basis of the *solved* spectra (the one basis policy,
@@ -274,7 +288,8 @@ fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -
     let unmet = s.diagnostics.iter().filter(|d| d.cell.is_some()).count();
     let stdout = std::io::stdout();
     let mut w = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
-    w.write_all(table.as_bytes())?;
+    // Names in the table are the user's: control characters are shown escaped.
+    w.write_all(crate::fsio::escape_lines(table).as_bytes())?;
     writeln!(
         w,
         "objective {:.6e}, KKT residual {:.1e}, {} cells ({} with remarks), read and solved in {:.3} s{}",
@@ -284,7 +299,7 @@ fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -
         unmet,
         seconds,
         match output {
-            Some(p) => format!(", solved palette written to {}", p.display()),
+            Some(p) => format!(", solved palette written to {}", crate::fsio::show(p)),
             None => ", solved palette not written (no -o)".into(),
         }
     )?;
@@ -302,9 +317,9 @@ fn report_text(s: &Solution, seconds: f64, basis_warning: Option<&str>) -> anyho
     Ok(text)
 }
 
-/// Write the report to `path`.
+/// Write the report to `path` (atomically, through the one writer).
 fn write_report(path: &Path, text: &[u8]) -> anyhow::Result<()> {
-    std::fs::write(path, text).with_context(|| format!("{}: cannot write the report", path.display()))
+    crate::fsio::write_atomic(path, text).context("cannot write the report")
 }
 
 /// One spectrum of the report.

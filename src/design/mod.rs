@@ -128,9 +128,14 @@ pub fn solve_with(
     if cancelled() {
         return Err(DesignError::Cancelled);
     }
+    // Numbers whose products overflow are input errors, named by key (a palette from a file was checked
+    // when read; this covers palettes built or edited in memory).
+    palette.check_scale().map_err(|e| DesignError::Invalid(e.to_string()))?;
     let design = system::Design::new(palette, basis, colorimetry)?;
     let start = design.start_values();
-    let limits = joint::JointLimits::new(started + options.time_limit, options.cancel.clone());
+    // A huge time limit saturates (it cannot overflow `Instant`).
+    let deadline = started.checked_add(options.time_limit).unwrap_or_else(|| far_future(started));
+    let limits = joint::JointLimits::new(deadline, options.cancel.clone());
     let (values, blocks) = solve::solve_all(&design, &start, &limits, parallel);
     if cancelled() {
         return Err(DesignError::Cancelled);
@@ -160,6 +165,12 @@ pub fn solve_with(
         }
     }
     let objective = design.objective(&values);
+    if !objective.is_finite() {
+        return Err(DesignError::Invalid(format!(
+            "the objective at the solution is {objective}, not a finite number: the palette's values are too \
+             large or too far apart in scale for the design"
+        )));
+    }
     let kkt_residual = blocks.iter().map(|b| b.kkt).fold(0.0, f64::max);
     let cells = report::cell_results(palette, basis, colorimetry, &values);
     diagnostics.extend(report::diagnostics(&design, colorimetry, &values, &cells));
@@ -184,6 +195,18 @@ pub fn solve_with(
         cells,
         diagnostics,
     })
+}
+
+/// An instant about a century after `from` (the latest a deadline needs to be), or the latest that can
+/// be represented.
+fn far_future(from: Instant) -> Instant {
+    let mut d = Duration::from_secs(100 * 365 * 24 * 3600);
+    loop {
+        if let Some(t) = from.checked_add(d) {
+            return t;
+        }
+        d /= 2;
+    }
 }
 
 /// The pinned objective (DESIGN_SPEC §2) of a palette as it stands, with the given free colours (one

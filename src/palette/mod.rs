@@ -178,7 +178,88 @@ pub struct Palette {
     pub free: Vec<FreeGroup>,
 }
 
+/// The largest magnitude of any number the design uses (samples, targets, weights, finite bounds, settings).
+/// The objective multiplies weights, samples, colour-matching values and targets and squares the result;
+/// below this bound every such product stays far inside `f64` (1e15⁴ = 1e60), above it the SVD meets
+/// infinities and NaN. Larger values are input errors, named by their key.
+pub const MAX_MAGNITUDE: f64 = 1e15;
+
+/// A number the design cannot use: its key (e.g. `lights[0].samples`, `colours[2].weight`) and why.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{key}: {reason}")]
+pub struct ScaleError {
+    pub key: String,
+    pub reason: String,
+}
+
+fn too_large(key: String, what: &str, v: f64) -> ScaleError {
+    ScaleError {
+        key,
+        reason: if v.is_finite() {
+            format!("{what} {v:e} is too large (at most {MAX_MAGNITUDE:e} in magnitude: larger values overflow)")
+        } else {
+            format!("{what} {v} is not a finite number")
+        },
+    }
+}
+
+fn check_value(key: impl FnOnce() -> String, what: &str, v: f64) -> Result<(), ScaleError> {
+    if v.is_finite() && v.abs() <= MAX_MAGNITUDE { Ok(()) } else { Err(too_large(key(), what, v)) }
+}
+
+fn check_bounds(key: impl Fn() -> String, lower: f64, upper: f64) -> Result<(), ScaleError> {
+    if lower.is_nan() || upper.is_nan() || lower == f64::INFINITY || upper == f64::NEG_INFINITY {
+        return Err(ScaleError {
+            key: key(),
+            reason: format!(
+                "bounds [{lower}, {upper}] admit no finite value (the lower bound may be -inf, the upper inf)"
+            ),
+        });
+    }
+    for (what, v) in [("lower bound", lower), ("upper bound", upper)] {
+        if v.is_finite() {
+            check_value(&key, what, v)?;
+        }
+    }
+    Ok(())
+}
+
 impl Palette {
+    /// Check that every number the design uses is finite and at most [`MAX_MAGNITUDE`] in magnitude (bounds
+    /// may be infinite on their open side): the first one that is not, by key.
+    pub fn check_scale(&self) -> Result<(), ScaleError> {
+        let s = &self.settings;
+        check_value(|| "settings.smoothness".into(), "smoothness", s.smoothness)?;
+        check_value(|| "settings.subspace_error".into(), "subspace_error", s.subspace_error)?;
+        let rb = s.reflectance_bounds;
+        check_bounds(|| "settings.reflectance_bounds".into(), rb.lower, rb.upper)?;
+        let lb = s.light_bounds;
+        check_bounds(|| "settings.light_bounds".into(), lb.lower, lb.upper)?;
+        for (side, entries) in [("lights", &self.lights), ("reflectances", &self.reflectances)] {
+            for (i, e) in entries.iter().enumerate() {
+                check_value(|| format!("{side}[{i}].scale"), "scale", e.scale)?;
+                for v in e.spectrum.as_slice() {
+                    check_value(|| format!("{side}[{i}].{}", e.source.key()), "a resolved sample", *v)?;
+                }
+                if let Some(b) = e.bounds {
+                    check_bounds(|| format!("{side}[{i}].bounds"), b.lower, b.upper)?;
+                }
+            }
+        }
+        for (k, c) in self.colours.iter().enumerate() {
+            for v in c.target.iter() {
+                check_value(|| format!("colours[{k}].target"), "target value", *v)?;
+            }
+            check_value(|| format!("colours[{k}].weight"), "weight", c.weight)?;
+        }
+        for (g, f) in self.free.iter().enumerate() {
+            for c in 0..3 {
+                check_bounds(|| format!("free[{g}]"), f.lower[c], f.upper[c])?;
+            }
+        }
+        Ok(())
+    }
+
     /// The entries of one side.
     pub fn entries(&self, kind: Kind) -> &[SpectrumEntry] {
         match kind {

@@ -251,7 +251,14 @@ struct View {
     half_extent: f64,
     centre_world: [f64; 3],
     radius: f64,
+    /// The most steps one ray takes: enough to cross the box's index-space diagonal at `dir`'s length
+    /// (so no ray inside the box is cut short), at most `MAX_ANISOTROPY × diagonal / step` and never more
+    /// than [`MAX_RAY_STEPS`], whatever the spacings (a spacing of 1e-308 beside 1 cannot make a ray spin).
+    max_steps: f64,
 }
+
+/// The hard bound on the steps of one ray.
+pub const MAX_RAY_STEPS: f64 = (1u64 << 22) as f64;
 
 fn normalize(v: [f64; 3]) -> [f64; 3] {
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -275,6 +282,12 @@ impl View {
         let min_spacing = volume.spacing.iter().copied().fold(f64::INFINITY, f64::min);
         let step_world = step * min_spacing;
         let dir = [0, 1, 2].map(|a| view_world[a] * step_world / volume.spacing[a]);
+        let diagonal = volume.dims.iter().map(|&d| ((d.max(1) - 1) as f64).powi(2)).sum::<f64>().sqrt();
+        let length = dir.iter().map(|v| v * v).sum::<f64>().sqrt();
+        // With spacings at most MAX_ANISOTROPY apart (the readers' check) `length ≥ step / MAX_ANISOTROPY`,
+        // so the second bound never cuts a ray of a valid volume; it stops one whose spacings are extreme.
+        let max_steps = (diagonal / length).min(crate::volume::MAX_ANISOTROPY * diagonal / step).ceil() + 2.0;
+        let max_steps = if max_steps.is_finite() { max_steps.min(MAX_RAY_STEPS) } else { MAX_RAY_STEPS };
         View {
             dir,
             view_world,
@@ -283,6 +296,7 @@ impl View {
             half_extent: radius / camera.zoom.max(1e-6),
             centre_world: [0, 1, 2].map(|a| 0.5 * ext[a]),
             radius,
+            max_steps,
         }
     }
 }
@@ -515,7 +529,9 @@ impl RayContext<'_> {
                 t1 = t1.min(tb);
             }
         }
-        if t0 > t1 {
+        let t1 = t1.min(t0 + view.max_steps);
+        // Steps are whole numbers in f64: beyond 2^52 `k + 1 == k` and a ray would never advance.
+        if t0.is_nan() || t1.is_nan() || t0 > t1 || t1 >= (1u64 << 52) as f64 {
             return;
         }
         // Samples sit at whole steps from the origin, so skipping never shifts them.

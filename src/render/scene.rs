@@ -139,7 +139,8 @@ fn load_palette(path: &Path) -> Result<Palette, String> {
 impl Scene {
     /// Read a scene file, its palette and its volume.
     pub fn load(path: &Path) -> Result<Scene, RenderError> {
-        let bytes = std::fs::read(path).map_err(|e| scene_err(path, "file", format!("cannot read: {e}")))?;
+        let bytes =
+            crate::fsio::read(path, crate::fsio::Kind::Scene).map_err(|e| scene_err(path, "file", e.to_string()))?;
         let text =
             std::str::from_utf8(&bytes).map_err(|_| scene_err(path, "file", "not a text file (invalid UTF-8)"))?;
         Scene::parse(text, path)

@@ -135,9 +135,11 @@ pub fn write_sweep(
     Ok(SweepReport { written, seconds: start.elapsed().as_secs_f64() })
 }
 
+/// Every frame and the contact sheet go through the one atomic writer ([`crate::fsio::write_atomic`]):
+/// a FIFO or device in the output folder is refused, an interrupted sweep leaves whole frames only.
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
-    std::fs::write(path, bytes)
-        .map_err(|e| RenderError::Output { path: path.to_path_buf(), reason: format!("cannot write: {e}") })
+    crate::fsio::write_atomic(path, bytes)
+        .map_err(|e| RenderError::Output { path: path.to_path_buf(), reason: e.to_string() })
 }
 
 /// A grid of thumbnails (about 1600 pixels wide at most) of the given frames, in order.

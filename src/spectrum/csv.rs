@@ -20,8 +20,8 @@ pub struct SpectrumCsvError {
 /// The reason a spectrum CSV file was rejected.
 #[derive(Debug, thiserror::Error)]
 pub enum CsvErrorKind {
-    #[error("cannot read the file: {0}")]
-    Io(#[from] std::io::Error),
+    #[error("{}", .0.reason())]
+    Io(crate::fsio::FsError),
     #[error("not a text file (invalid UTF-8 at byte {offset})")]
     Binary { offset: usize },
     #[error("the file holds no data lines (expected two columns: wavelength in nm, value)")]
@@ -44,7 +44,7 @@ pub enum CsvErrorKind {
 /// Read a spectrum CSV file and resample it onto the standard grid.
 pub fn read_spectrum_csv(path: &Path) -> Result<Spectrum, SpectrumCsvError> {
     let wrap = |kind| SpectrumCsvError { path: path.to_path_buf(), kind };
-    let bytes = std::fs::read(path).map_err(|e| wrap(CsvErrorKind::Io(e)))?;
+    let bytes = crate::fsio::read(path, crate::fsio::Kind::Csv).map_err(|e| wrap(CsvErrorKind::Io(e)))?;
     parse_spectrum_csv_bytes(&bytes).map_err(wrap)
 }
 

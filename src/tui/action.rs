@@ -45,6 +45,8 @@ pub enum Action {
     Undo,
     Redo,
     Save,
+    /// Read the palette file again (another program changed it), dropping unsaved changes (undo keeps them).
+    Reload,
     Help,
     /// List the solver's diagnostics.
     Diagnostics,

@@ -276,6 +276,9 @@ pub struct State {
     /// Colours and errors derived from the palette and the latest solution (recomputed on change).
     pub derived: Derived,
     pub quit: bool,
+    /// The designer was ended by SIGTERM/SIGHUP: where unsaved work was written (`Some(None)` when there was
+    /// none to write, or it could not be written).
+    pub terminated: Option<Option<std::path::PathBuf>>,
     /// Frames drawn so far (spinner phase).
     pub ticks: u64,
     /// The scene preview (`--scene`), its dial position in [0, 1], whether it is shown, and its pixels
@@ -309,6 +312,7 @@ impl State {
             remembered_bounds: (Bounds::new(0.0, 1.0), Bounds::new(0.0, f64::INFINITY)),
             derived: Derived::default(),
             quit: false,
+            terminated: None,
             ticks: 0,
             preview: None,
             dial: 0.0,
@@ -405,12 +409,12 @@ impl State {
 
     /// Show a message until the next key.
     pub fn say(&mut self, text: impl Into<String>) {
-        self.message = Some(Message { text: text.into(), is_error: false });
+        self.message = Some(Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: false });
     }
 
     /// Show an error until the next key.
     pub fn complain(&mut self, text: impl Into<String>) {
-        self.message = Some(Message { text: text.into(), is_error: true });
+        self.message = Some(Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: true });
     }
 
     /// The palette file's folder (CSV paths are relative to it).

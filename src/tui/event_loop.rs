@@ -26,6 +26,8 @@ pub enum Input {
     WaitSolve,
     /// No more input: stop.
     End,
+    /// The process was told to end (SIGTERM, SIGHUP): write a recovery copy of unsaved work and stop.
+    Terminated,
 }
 
 /// Where inputs come from.
@@ -42,20 +44,85 @@ pub trait Events {
 pub trait Saver {
     /// Save `palette`; the text says where it went, the error why it failed.
     fn save(&mut self, palette: &Palette) -> Result<String, String>;
+    /// Write `palette` as a recovery copy beside the file (on SIGTERM/SIGHUP with unsaved changes);
+    /// returns where it went.
+    fn recover(&mut self, _palette: &Palette) -> Result<std::path::PathBuf, String> {
+        Err("no file to write a recovery copy beside".into())
+    }
+    /// Read the file again; returns its palette.
+    fn reload(&mut self) -> Result<Palette, String> {
+        Err("there is no file to reload".into())
+    }
+}
+
+/// Where the designer's version goes when the file changed on disk: `NAME.mine.toml` beside it.
+pub fn mine_path(palette_path: &std::path::Path) -> std::path::PathBuf {
+    let name = palette_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    palette_path.with_file_name(format!("{name}.mine.toml"))
+}
+
+/// Where the recovery copy of `palette_path` is written: `NAME.recovery.toml` beside it.
+pub fn recovery_path(palette_path: &std::path::Path) -> std::path::PathBuf {
+    let name = palette_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    palette_path.with_file_name(format!("{name}.recovery.toml"))
 }
 
 /// Saves to the palette file through its document, so comments, key order and unknown keys survive
 /// (atomically: a temporary file renamed over the old one; see [`PaletteFile::save`]).
+///
+/// When another program changed the file since it was opened or last saved, a save does not overwrite it:
+/// the designer's version is saved as `NAME.mine.toml` beside it, and the user chooses: Ctrl-s again
+/// overwrites the file, Ctrl-r reloads it.
 #[derive(Debug)]
 pub struct FileSaver {
     pub file: PaletteFile,
+    /// The outside change was shown and the user may now overwrite it (the next save does).
+    overwrite_armed: bool,
+}
+
+impl FileSaver {
+    pub fn new(file: PaletteFile) -> FileSaver {
+        FileSaver { file, overwrite_armed: false }
+    }
 }
 
 impl Saver for FileSaver {
     fn save(&mut self, palette: &Palette) -> Result<String, String> {
+        if !std::mem::take(&mut self.overwrite_armed) && self.file.changed_on_disk() {
+            let path = self.file.path.clone().unwrap_or_default();
+            let mine = mine_path(&path);
+            let mut copy = self.file.clone();
+            let kept = match copy.save_as(palette, &mine) {
+                Ok(()) => format!("your version is saved as {}", mine.display()),
+                Err(e) => format!("your version could not be saved aside ({e})"),
+            };
+            self.overwrite_armed = true;
+            return Err(format!(
+                "{} changed on disk since it was opened; {kept}. Ctrl-s again overwrites the file, Ctrl-r \
+                 reloads it",
+                path.display()
+            ));
+        }
         self.file.save(palette).map_err(|e| e.to_string())?;
         let path = self.file.path.as_ref().map_or("the palette".to_string(), |p| p.display().to_string());
         Ok(format!("saved {path}"))
+    }
+
+    fn recover(&mut self, palette: &Palette) -> Result<std::path::PathBuf, String> {
+        let path = self.file.path.as_deref().ok_or("the palette has no file")?;
+        let target = recovery_path(path);
+        // A copy of the file's document, so comments and unknown keys are in the recovery copy too; the
+        // palette file itself is not touched.
+        let mut copy = self.file.clone();
+        copy.save_as(palette, &target).map_err(|e| e.to_string())?;
+        Ok(target)
+    }
+
+    fn reload(&mut self) -> Result<Palette, String> {
+        let path = self.file.path.clone().ok_or("the palette has no file")?;
+        self.file = PaletteFile::load(&path).map_err(|e| e.to_string())?;
+        self.overwrite_armed = false;
+        Ok(self.file.palette.clone())
     }
 }
 
@@ -186,6 +253,24 @@ fn run_effects(state: &mut State, effects: Effects, worker: &mut Worker, saver: 
     if effects.solve {
         submit(state, worker);
     }
+    if effects.reload {
+        match saver.reload() {
+            Ok(palette) => {
+                // The palette on screen is kept in the undo history: `z` brings it back.
+                let mine = std::mem::replace(&mut state.palette, palette.clone());
+                state.history.undo.push(mine);
+                state.history.redo.clear();
+                state.history.last_edit = None;
+                state.saved = palette;
+                state.solve.generation += 1;
+                state.clamp_selection();
+                state.refresh();
+                submit(state, worker);
+                state.say("reloaded from disk (z undoes the reload)");
+            }
+            Err(e) => state.complain(format!("not reloaded: {e}")),
+        }
+    }
     if effects.save {
         let palette = palette_to_save(state);
         match saver.save(&palette) {
@@ -261,6 +346,12 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
                 }
             }
             Some(Input::End) => return Ok(()),
+            Some(Input::Terminated) => {
+                // Best effort: the process is ending either way; the next open offers the copy.
+                let copy = (state.palette != state.saved).then(|| saver.recover(&palette_to_save(state)).ok());
+                state.terminated = Some(copy.flatten());
+                return Ok(());
+            }
             Some(Input::Resize) => {
                 terminal.autoresize().map_err(backend_error)?;
                 terminal.clear().map_err(backend_error)?;

@@ -71,6 +71,7 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('z'), ctrl('z')], A::Undo, "undo"),
     bind(&[ch('Z'), ctrl('y')], A::Redo, "redo"),
     bind(&[ctrl('s')], A::Save, "save (atomic, keeps comments)"),
+    bind(&[ctrl('r')], A::Reload, "reload from disk (z undoes it)"),
     bind(&[ch('!')], A::Diagnostics, "the solver's diagnostics"),
     bind(&[ch(']')], A::Dial { forward: true }, "scene preview: light dial forward"),
     bind(&[ch('[')], A::Dial { forward: false }, "scene preview: light dial back"),

@@ -5,6 +5,8 @@ use crate::tui::event_loop::{Events, Input};
 use ratatui::DefaultTerminal;
 use ratatui::crossterm::event::{self, Event};
 use std::io;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 /// Owns the terminal while the designer runs; restores it when dropped.
@@ -38,13 +40,42 @@ impl Drop for TerminalGuard {
     }
 }
 
-/// Keys and resizes from the terminal.
-pub struct TerminalEvents;
+/// Keys and resizes from the terminal, and the end signals (SIGTERM, SIGHUP) as [`Input::Terminated`].
+pub struct TerminalEvents {
+    terminated: Arc<AtomicBool>,
+}
+
+impl TerminalEvents {
+    /// Listen to the terminal, and to SIGTERM and SIGHUP (whose default action would leave the terminal in
+    /// raw mode on the alternate screen and lose unsaved work).
+    pub fn new() -> io::Result<TerminalEvents> {
+        let terminated = Arc::new(AtomicBool::new(false));
+        #[cfg(unix)]
+        for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP] {
+            signal_hook::flag::register(signal, terminated.clone())?;
+        }
+        Ok(TerminalEvents { terminated })
+    }
+}
+
+/// How often a wait for input looks at the end signals.
+const SIGNAL_CHECK: Duration = Duration::from_millis(50);
 
 impl Events for TerminalEvents {
     fn next(&mut self, timeout: Duration) -> io::Result<Option<Input>> {
-        if !event::poll(timeout)? {
-            return Ok(None);
+        let mut left = timeout;
+        loop {
+            if self.terminated.load(Ordering::Relaxed) {
+                return Ok(Some(Input::Terminated));
+            }
+            let slice = left.min(SIGNAL_CHECK);
+            if event::poll(slice)? {
+                break;
+            }
+            left = left.saturating_sub(slice);
+            if left.is_zero() {
+                return Ok(None);
+            }
         }
         Ok(match event::read()? {
             Event::Key(k) => Some(Input::Key(k)),

@@ -20,11 +20,13 @@ pub struct Effects {
     pub save: bool,
     /// Quit once the save succeeded.
     pub quit_after_save: bool,
+    /// Read the palette file again.
+    pub reload: bool,
 }
 
 impl Effects {
-    const NONE: Effects = Effects { solve: false, save: false, quit_after_save: false };
-    const SOLVE: Effects = Effects { solve: true, save: false, quit_after_save: false };
+    const NONE: Effects = Effects { solve: false, save: false, quit_after_save: false, reload: false };
+    const SOLVE: Effects = Effects { solve: true, save: false, quit_after_save: false, reload: false };
 }
 
 /// Slider steps in display sRGB eighths of a byte: one step is 1/255.
@@ -208,6 +210,7 @@ fn update_main(state: &mut State, action: Action) -> Effects {
             }
         },
         Action::Save => Effects { save: true, ..Effects::NONE },
+        Action::Reload => Effects { reload: true, ..Effects::NONE },
         Action::Help => {
             state.popup = Some(Popup::Help { scroll: 0 });
             Effects::NONE

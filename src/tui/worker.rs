@@ -96,22 +96,27 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
         let started = Instant::now();
-        let cancelled = request.cancel.load(Ordering::Relaxed);
-        let basis = match (&config.basis, palette_uses_basis(&request.palette)) {
-            (BasisMode::Train { sidecar }, true) if !cancelled => {
-                Some(policy::basis_for_palette(&request.palette, sidecar.as_deref()).map_err(|e| e.to_string()))
+        // A panic in the engine becomes an error reply (the UI shows it) instead of a silent dead thread
+        // and "solving…" forever.
+        let work = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let cancelled = request.cancel.load(Ordering::Relaxed);
+            let basis = match (&config.basis, palette_uses_basis(&request.palette)) {
+                (BasisMode::Train { sidecar }, true) if !cancelled => {
+                    Some(policy::basis_for_palette(&request.palette, sidecar.as_deref()).map_err(|e| e.to_string()))
+                }
+                _ => None,
+            };
+            match &basis {
+                _ if cancelled || request.cancel.load(Ordering::Relaxed) => Err(DesignError::Cancelled),
+                Some(Err(e)) => Err(DesignError::Invalid(e.clone())),
+                _ => {
+                    let options = SolveOptions { time_limit: config.time_limit, cancel: Some(request.cancel.clone()) };
+                    let b = basis.as_ref().and_then(|b| b.as_ref().ok()).map(|b| &b.0);
+                    design::solve(&request.palette, b, &colorimetry, &options).map(Arc::new)
+                }
             }
-            _ => None,
-        };
-        let result = match &basis {
-            _ if cancelled || request.cancel.load(Ordering::Relaxed) => Err(DesignError::Cancelled),
-            Some(Err(e)) => Err(DesignError::Invalid(e.clone())),
-            _ => {
-                let options = SolveOptions { time_limit: config.time_limit, cancel: Some(request.cancel.clone()) };
-                let b = basis.as_ref().and_then(|b| b.as_ref().ok()).map(|b| &b.0);
-                design::solve(&request.palette, b, &colorimetry, &options).map(Arc::new)
-            }
-        };
+        }));
+        let result = work.unwrap_or_else(|panic| Err(DesignError::Invalid(panic_message(&panic))));
         let reply = Solved { generation: request.generation, result, elapsed: started.elapsed() };
         if replies.send(Reply::Solved(reply)).is_err() {
             return;
@@ -122,13 +127,26 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
 fn serve_bases(requests: Receiver<BasisRequest>, replies: Sender<Reply>, sidecar: Option<PathBuf>) {
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
-        let result = policy::basis_for(&request.set, request.m, sidecar.as_deref())
-            .map_err(|e| format!("cannot train the basis: {e}"));
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            policy::basis_for(&request.set, request.m, sidecar.as_deref())
+                .map_err(|e| format!("cannot train the basis: {e}"))
+        }))
+        .unwrap_or_else(|panic| Err(panic_message(&panic)));
         let reply = Trained { generation: request.generation, key: request.key, result };
         if replies.send(Reply::Trained(reply)).is_err() {
             return;
         }
     }
+}
+
+/// The message of a caught panic, for the status line.
+pub fn panic_message(panic: &Box<dyn std::any::Any + Send>) -> String {
+    let what = panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown cause".into());
+    format!("internal error in the worker (please report it): {what}")
 }
 
 /// Handle on the worker threads.

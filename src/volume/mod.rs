@@ -17,23 +17,30 @@ use std::path::{Path, PathBuf};
 /// Why a volume could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum VolumeError {
-    /// The I/O error is part of the message and deliberately not the error's `source()`, so a report of the
-    /// whole chain (anyhow's `{:#}`) does not print it twice.
-    #[error("{}: {error}", path.display())]
-    Io { path: PathBuf, error: std::io::Error },
+    #[error("{0}")]
+    File(crate::fsio::FsError),
     #[error("{}: {reason}", path.display())]
     Invalid { path: PathBuf, reason: String },
+}
+
+/// Read a volume file (header, attached or detached data) through the one bounded reader
+/// ([`crate::fsio::read`]): regular files only, at most [`crate::fsio::Kind::Volume`]'s cap.
+pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, VolumeError> {
+    crate::fsio::read(path, crate::fsio::Kind::Volume).map_err(VolumeError::File)
 }
 
 impl VolumeError {
     pub(crate) fn invalid(path: &Path, reason: impl Into<String>) -> VolumeError {
         VolumeError::Invalid { path: path.to_path_buf(), reason: reason.into() }
     }
-
-    pub(crate) fn io(path: &Path, source: std::io::Error) -> VolumeError {
-        VolumeError::Io { path: path.to_path_buf(), error: source }
-    }
 }
+
+/// The smallest and largest voxel spacing accepted (any unit: only ratios matter to the renderer).
+pub const MIN_SPACING: f64 = 1e-9;
+pub const MAX_SPACING: f64 = 1e9;
+/// The largest ratio of the largest to the smallest spacing: the renderer steps by the smallest spacing,
+/// so this ratio bounds how many steps a ray takes per voxel of the coarsest axis.
+pub const MAX_ANISOTROPY: f64 = 100.0;
 
 /// The storage type of voxel values in a file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -143,6 +150,23 @@ impl Volume {
         }
         if let Some(s) = spacing.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
             return Err(VolumeError::invalid(origin, format!("spacing {s} is not a positive number")));
+        }
+        if let Some(s) = spacing.iter().find(|s| !(MIN_SPACING..=MAX_SPACING).contains(*s)) {
+            return Err(VolumeError::invalid(
+                origin,
+                format!("spacing {s} is outside the sane range {MIN_SPACING:e} … {MAX_SPACING:e}"),
+            ));
+        }
+        let (lo_s, hi_s) = spacing.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| (lo.min(*s), hi.max(*s)));
+        if hi_s / lo_s > MAX_ANISOTROPY {
+            return Err(VolumeError::invalid(
+                origin,
+                format!(
+                    "spacings {spacing:?} differ by a factor {:.3e}, more than {MAX_ANISOTROPY} \
+                     (the renderer steps by the smallest spacing)",
+                    hi_s / lo_s
+                ),
+            ));
         }
         let mut lo = f32::INFINITY;
         let mut hi = f32::NEG_INFINITY;

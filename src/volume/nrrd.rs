@@ -31,14 +31,10 @@ struct Header {
 
 /// Read a `.nhdr` or `.nrrd` file.
 pub fn read(path: &Path) -> Result<Volume, VolumeError> {
-    let bytes = std::fs::read(path).map_err(|e| VolumeError::io(path, e))?;
-    parse(path, &bytes, |p| {
-        // Only regular files: a header naming a device (`/dev/zero`) must not make the reader read forever.
-        if !std::fs::metadata(p).map_err(|e| VolumeError::io(p, e))?.is_file() {
-            return Err(VolumeError::invalid(p, "the detached data file is not a regular file"));
-        }
-        std::fs::read(p).map_err(|e| VolumeError::io(p, e))
-    })
+    let bytes = super::read_file(path)?;
+    // The detached data file goes through the same bounded reader: only regular files (a header naming
+    // `/dev/zero` or a FIFO is refused, never read), at most the volume cap.
+    parse(path, &bytes, super::read_file)
 }
 
 /// Read an attached NRRD held in memory (`origin` names it in errors). A header that names a detached
@@ -205,13 +201,12 @@ fn parse_header(path: &Path, text: &str) -> Result<Header, VolumeError> {
             return Err(bad("spacings", format!("{} spacings for {} axes", s.len(), sizes.len())));
         }
         for (a, v) in s.iter().enumerate() {
-            // NaN spacing means "unknown" in NRRD: keep 1.
-            if v.is_finite() {
-                if *v <= 0.0 {
-                    return Err(bad("spacings", format!("spacing {v} is not positive")));
-                }
-                spacing[a] = *v;
+            // Every spacing must be a usable number: `nan` and `inf` are refused (the renderer's step
+            // count depends on them), and the range is checked by `Volume::new`.
+            if !(v.is_finite() && *v > 0.0) {
+                return Err(bad("spacings", format!("spacing {v} is not a positive finite number")));
             }
+            spacing[a] = *v;
         }
     }
     if ty.size() > 1 && endian.is_none() && encoding != Encoding::Text {

@@ -14,7 +14,7 @@ use std::path::Path;
 
 /// Read a `.vti` file.
 pub fn read(path: &Path) -> Result<Volume, VolumeError> {
-    let bytes = std::fs::read(path).map_err(|e| VolumeError::io(path, e))?;
+    let bytes = super::read_file(path)?;
     from_bytes(path, &bytes)
 }
 

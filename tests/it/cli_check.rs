@@ -112,7 +112,7 @@ fn invalid_files_fail_with_file_key_and_reason() {
     assert!(text(&out.stderr).contains("1 of 2 palettes are invalid"), "{}", text(&out.stderr));
     let out = metamer(&["check", "/nonexistent/palette.toml"]);
     assert!(!out.status.success());
-    assert!(text(&out.stderr).contains("/nonexistent/palette.toml: cannot read the file"), "{}", text(&out.stderr));
+    assert!(text(&out.stderr).contains("/nonexistent/palette.toml: cannot read the palette"), "{}", text(&out.stderr));
 }
 
 #[test]

@@ -16,6 +16,7 @@ mod colour_reference;
 mod design_cases;
 mod design_oracle;
 mod fuzz_regressions;
+mod hostile;
 mod palette_file;
 mod render_accuracy;
 mod render_cli;

@@ -568,7 +568,7 @@ fn csv_sources_resolve_relative_to_the_palette_and_report_their_errors() {
         ("short.csv", "must cover 400–700 nm"),
         ("unsorted.csv", "line 3: wavelengths must increase strictly"),
         ("word.csv", "line 2, column 5: `oops` is not a number"),
-        ("missing.csv", "cannot read the file"),
+        ("missing.csv", "cannot read the CSV spectrum"),
     ] {
         let e = load(csv).unwrap_err();
         let msg = e.to_string();

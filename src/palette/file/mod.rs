@@ -8,6 +8,7 @@
 //! Reading uses `toml`'s borrowing parser (spans kept, no document built); the `toml_edit` document is only
 //! parsed when a save needs it.
 
+mod budget;
 mod parallel;
 mod read;
 mod splice;
@@ -17,7 +18,6 @@ use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
 use crate::spectrum::Spectrum;
 use std::collections::HashMap;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use toml::de::DeTable;
@@ -26,8 +26,8 @@ use toml_edit::DocumentMut;
 /// Why a palette file cannot be read, validated or written.
 #[derive(Debug, thiserror::Error)]
 pub enum PaletteError {
-    #[error("{}: cannot read the file: {source}", path.display())]
-    Read { path: PathBuf, source: std::io::Error },
+    #[error("{cause}")]
+    Read { path: PathBuf, cause: Box<crate::fsio::FsError> },
     #[error("{}: the file is empty (a palette needs at least a name, lights and reflectances)", path.display())]
     Empty { path: PathBuf },
     #[error("{}: not a text file (invalid UTF-8 at byte {offset})", path.display())]
@@ -43,8 +43,14 @@ pub enum PaletteError {
         /// The line of the key (or of its table when the key is missing), when known.
         line: Option<usize>,
     },
-    #[error("{}: cannot write the file: {source}", path.display())]
-    Write { path: PathBuf, source: std::io::Error },
+    #[error("{cause}")]
+    Write { path: PathBuf, cause: Box<crate::fsio::FsError> },
+    #[error(
+        "{}: the palette holds {tables} tables, {arrays} arrays and {values} values for its size: parsing it \
+         would take about {estimate_mb} MB, more than the limit of {limit_mb} MB",
+        path.display()
+    )]
+    TooComplex { path: PathBuf, tables: u64, arrays: u64, values: u64, estimate_mb: u64, limit_mb: u64 },
     #[error("this palette has no file yet: save it with save_as")]
     NoPath,
 }
@@ -128,7 +134,8 @@ fn span_of_key(root: &DeTable, key: &str) -> Option<std::ops::Range<usize>> {
 impl PaletteFile {
     /// Read and validate a palette file.
     pub fn load(path: &Path) -> Result<PaletteFile, PaletteError> {
-        let bytes = std::fs::read(path).map_err(|source| PaletteError::Read { path: path.to_path_buf(), source })?;
+        let bytes = crate::fsio::read(path, crate::fsio::Kind::Palette)
+            .map_err(|cause| PaletteError::Read { path: path.to_path_buf(), cause: Box::new(cause) })?;
         PaletteFile::parse_bytes(&bytes, path)
     }
 
@@ -148,6 +155,18 @@ impl PaletteFile {
     pub fn parse(text: &str, path: &Path) -> Result<PaletteFile, PaletteError> {
         if text.trim().is_empty() {
             return Err(PaletteError::Empty { path: path.to_path_buf() });
+        }
+        // Parse memory is bounded by the input size (see [`budget`]): refused before any parse.
+        let counts = budget::count(text);
+        if counts.cost() > budget::budget(text.len()) {
+            return Err(PaletteError::TooComplex {
+                path: path.to_path_buf(),
+                tables: counts.tables,
+                arrays: counts.arrays,
+                values: counts.values,
+                estimate_mb: counts.cost() >> 20,
+                limit_mb: budget::budget(text.len()) >> 20,
+            });
         }
         let syntax = |message: &str, span: Option<std::ops::Range<usize>>| {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
@@ -278,6 +297,29 @@ impl PaletteFile {
         Ok((document, reread))
     }
 
+    /// True when the file on disk is no longer the text this file was read from or last saved as: another
+    /// program changed it. A file that is gone is not a change (saving writes it again).
+    pub fn changed_on_disk(&self) -> bool {
+        let Some(path) = &self.path else { return false };
+        match crate::fsio::read(path, crate::fsio::Kind::Palette) {
+            Ok(bytes) => bytes != self.original.as_bytes(),
+            Err(crate::fsio::FsError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => false,
+            Err(_) => true,
+        }
+    }
+
+    /// Record the files this palette was read from (itself, as `role`, and the CSV files its sources name)
+    /// as inputs of `outputs`, so no output of the command can be one of them.
+    pub fn record_inputs(&self, role: &str, outputs: &mut crate::fsio::Outputs) {
+        if let Some(path) = &self.path {
+            outputs.input(role, path);
+            let base = folder_of(path);
+            for csv in self.csv_raw.keys() {
+                outputs.input("CSV spectrum", &base.join(csv));
+            }
+        }
+    }
+
     /// Save `palette` over this file (atomically). On any error the file on disk is left as it was.
     pub fn save(&mut self, palette: &Palette) -> Result<(), PaletteError> {
         let path = self.path.clone().ok_or(PaletteError::NoPath)?;
@@ -290,7 +332,7 @@ impl PaletteFile {
     pub fn save_as(&mut self, palette: &Palette, path: &Path) -> Result<(), PaletteError> {
         if let Some(spliced) = self.splice(palette, path) {
             write_atomically(path, &spliced.text)
-                .map_err(|source| PaletteError::Write { path: path.to_path_buf(), source })?;
+                .map_err(|cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) })?;
             self.palette = spliced.palette;
             self.spans = Some(spliced.spans);
             self.original = spliced.text;
@@ -300,7 +342,7 @@ impl PaletteFile {
         }
         let (document, reread) = self.render(palette, path)?;
         write_atomically(path, &self.text_of(&document))
-            .map_err(|source| PaletteError::Write { path: path.to_path_buf(), source })?;
+            .map_err(|cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) })?;
         self.document = OnceLock::from(document);
         self.palette = reread.palette;
         self.csv_raw = reread.csv_raw;
@@ -353,27 +395,7 @@ fn folder_of(path: &Path) -> PathBuf {
     }
 }
 
-/// Write `text` to `path` atomically: a temporary file in the same folder, flushed to disk, then renamed over
-/// `path` (a symbolic link is followed so the link stays). The folder is synced so the rename is durable.
-fn write_atomically(path: &Path, text: &str) -> std::io::Result<()> {
-    let target = match std::fs::symlink_metadata(path) {
-        Ok(m) if m.file_type().is_symlink() => std::fs::canonicalize(path)?,
-        _ => path.to_path_buf(),
-    };
-    let dir = folder_of(&target);
-    let stem = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let mut tmp = tempfile::Builder::new().prefix(&format!(".{stem}.")).suffix(".tmp").tempfile_in(&dir)?;
-    tmp.write_all(text.as_bytes())?;
-    tmp.flush()?;
-    if let Ok(meta) = std::fs::metadata(&target) {
-        tmp.as_file().set_permissions(meta.permissions())?;
-    }
-    tmp.as_file().sync_all()?;
-    tmp.persist(&target).map_err(|e| e.error)?;
-    #[cfg(unix)]
-    if let Ok(d) = std::fs::File::open(&dir) {
-        // Best effort: some file systems refuse to sync a directory.
-        let _ = d.sync_all();
-    }
-    Ok(())
+/// Write `text` to `path` through the one atomic writer ([`crate::fsio::write_atomic`]).
+fn write_atomically(path: &Path, text: &str) -> Result<(), crate::fsio::FsError> {
+    crate::fsio::write_atomic(path, text.as_bytes())
 }

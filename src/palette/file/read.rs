@@ -244,11 +244,9 @@ impl<'a> Reader<'a> {
         let reflectances = self.spectra(root, "reflectances", Kind::Reflectance)?;
         let free = self.free_groups(root)?;
         let colours = self.colours(root, &lights, &reflectances, &free)?;
-        Ok(ReadOutcome {
-            palette: Palette { name, settings, lights, reflectances, colours, free },
-            warnings: self.warnings,
-            csv_raw: self.csv_raw,
-        })
+        let palette = Palette { name, settings, lights, reflectances, colours, free };
+        palette.check_scale().map_err(|e| self.invalid(e.key, e.reason))?;
+        Ok(ReadOutcome { palette, warnings: self.warnings, csv_raw: self.csv_raw })
     }
 
     fn wavelengths(&mut self, v: &Value) -> Res<()> {

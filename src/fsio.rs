@@ -1,0 +1,454 @@
+//! The one way metamer reads and writes files.
+//!
+//! **Reads** ([`read`], [`read_to_string`]) open without blocking (`O_NONBLOCK`, so a FIFO cannot hang the
+//! open), check the *opened* file with `fstat`, refuse anything that is not a regular file (FIFOs, devices
+//! such as `/dev/zero`, directories, sockets), refuse a file larger than the cap of its [`Kind`] from its size
+//! alone (a 2 GB sparse file is never read) and never read more than the cap (a file that grows while it is
+//! read is refused too).
+//!
+//! **Writes** ([`write_atomic`]) go to a temporary file in the target's folder, are synced, renamed over the
+//! target and the folder is synced: a reader (or a crash, or a full disk) sees the old file or the new one,
+//! never a mix. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused; a
+//! symbolic link to a regular file is followed, so the target is rewritten and the link kept. New files follow
+//! the umask (the temporary file is created `0666 & !umask`); an in-place save keeps the old file's mode and,
+//! where permitted, its owner and group.
+//!
+//! **Same file** ([`Outputs`]): an output must not be any input nor another output. Files are compared by
+//! identity (device and inode when they exist, the canonical folder plus name when they do not), so
+//! `p.toml`, `./p.toml` and a link to it are one file.
+
+use std::borrow::Cow;
+use std::fs::{File, Metadata};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+/// What kind of file is read: it names the file in messages and sets its size cap.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// A palette (TOML).
+    Palette,
+    /// A CSV spectrum named by `csv = "..."`.
+    Csv,
+    /// A scene description (TOML).
+    Scene,
+    /// A volume file (NRRD header, attached NRRD, VTI, raw or detached data).
+    Volume,
+    /// A designer key script (`--replay`).
+    KeyScript,
+    /// The trained-basis sidecar (`X.basis.json`), read automatically.
+    Sidecar,
+    /// A text file the tool updates (the README's generated section).
+    Text,
+}
+
+const MIB: u64 = 1 << 20;
+
+impl Kind {
+    /// The largest file of this kind that is read, in bytes.
+    pub fn cap(self) -> u64 {
+        match self {
+            // A 200 × 200 palette of designed spectra with comments is about 2 MiB; parsing costs a few
+            // times the input (see the robustness section of the README).
+            Kind::Palette => 8 * MIB,
+            Kind::Csv => 16 * MIB,
+            Kind::Scene => 4 * MIB,
+            Kind::Volume => 4096 * MIB,
+            Kind::KeyScript => 4 * MIB,
+            Kind::Sidecar => 64 * MIB,
+            Kind::Text => 16 * MIB,
+        }
+    }
+
+    /// The kind as messages name it.
+    pub fn label(self) -> &'static str {
+        match self {
+            Kind::Palette => "palette",
+            Kind::Csv => "CSV spectrum",
+            Kind::Scene => "scene",
+            Kind::Volume => "volume file",
+            Kind::KeyScript => "key script",
+            Kind::Sidecar => "basis sidecar",
+            Kind::Text => "text file",
+        }
+    }
+}
+
+/// Why a file could not be read or written. Every message names the file (control characters escaped) and
+/// the reason.
+#[derive(Debug, thiserror::Error)]
+pub enum FsError {
+    #[error("{}: cannot read the {}: {source}", show(path), kind.label())]
+    Read { path: PathBuf, kind: Kind, source: std::io::Error },
+    #[error("{}: the {} is {found}, not a regular file", show(path), kind.label())]
+    NotRegularInput { path: PathBuf, kind: Kind, found: &'static str },
+    #[error("{}: the {} is {size} bytes, more than the limit of {cap} bytes", show(path), kind.label())]
+    TooLarge { path: PathBuf, kind: Kind, size: u64, cap: u64 },
+    #[error("{}: refusing to write: it is {found}, not a regular file", show(path))]
+    NotRegularOutput { path: PathBuf, found: &'static str },
+    #[error("{}: refusing to write the {role}: it is the same file as the {other_role} {}", show(path), show(other))]
+    SameFile { path: PathBuf, role: String, other: PathBuf, other_role: String },
+    #[error("{}: cannot write: {source}", show(path))]
+    Write { path: PathBuf, source: std::io::Error },
+}
+
+impl FsError {
+    /// The message without the leading file name (for callers that name the file themselves).
+    pub fn reason(&self) -> String {
+        let text = self.to_string();
+        let prefix = format!("{}: ", show(self.path()));
+        text.strip_prefix(&prefix).map(str::to_string).unwrap_or(text)
+    }
+
+    /// The file the error is about.
+    pub fn path(&self) -> &Path {
+        match self {
+            FsError::Read { path, .. }
+            | FsError::NotRegularInput { path, .. }
+            | FsError::TooLarge { path, .. }
+            | FsError::NotRegularOutput { path, .. }
+            | FsError::SameFile { path, .. }
+            | FsError::Write { path, .. } => path,
+        }
+    }
+}
+
+/// `text` with every control character (and the escape character in particular) shown as `\u{..}`, `\n`,
+/// `\t` or `\r`: the one helper for text from users or files that reaches a terminal.
+pub fn escape(text: &str) -> Cow<'_, str> {
+    escape_keeping(text, false)
+}
+
+/// As [`escape`], but keep line feeds and tabs (for multi-line messages and tables).
+pub fn escape_lines(text: &str) -> Cow<'_, str> {
+    escape_keeping(text, true)
+}
+
+fn escape_keeping(text: &str, keep_lines: bool) -> Cow<'_, str> {
+    let bad = |c: char| c.is_control() && !(keep_lines && (c == '\n' || c == '\t')) || is_bidi_control(c);
+    if !text.chars().any(bad) {
+        return Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 16);
+    for c in text.chars() {
+        if !bad(c) {
+            out.push(c);
+            continue;
+        }
+        match c {
+            '\n' => out.push_str("\\n"),
+            '\t' => out.push_str("\\t"),
+            '\r' => out.push_str("\\r"),
+            c => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
+        }
+    }
+    Cow::Owned(out)
+}
+
+/// Bidirectional overrides and isolates, which reorder what a terminal shows.
+fn is_bidi_control(c: char) -> bool {
+    matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+}
+
+/// A path for messages, control characters escaped.
+pub fn show(path: &Path) -> String {
+    escape(&path.to_string_lossy()).into_owned()
+}
+
+/// What a non-regular file is, for messages.
+fn describe(meta: &Metadata) -> &'static str {
+    let t = meta.file_type();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_dir() {
+        return "a directory";
+    }
+    if t.is_symlink() {
+        return "a symbolic link";
+    }
+    "not a regular file"
+}
+
+/// Open `path` for reading without blocking on a FIFO and without making a terminal the controlling one.
+fn open_nonblocking(path: &Path) -> std::io::Result<File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY);
+    }
+    options.open(path)
+}
+
+/// Read the whole of a regular file of kind `kind`, at most its cap.
+pub fn read(path: &Path, kind: Kind) -> Result<Vec<u8>, FsError> {
+    read_capped(path, kind, kind.cap())
+}
+
+/// As [`read`], with an explicit cap (bytes).
+pub fn read_capped(path: &Path, kind: Kind, cap: u64) -> Result<Vec<u8>, FsError> {
+    let io = |source| FsError::Read { path: path.to_path_buf(), kind, source };
+    // Look before opening: a device is never opened (opening some has side effects).
+    let before = std::fs::metadata(path).map_err(io)?;
+    check_input(path, kind, cap, &before)?;
+    let file = open_nonblocking(path).map_err(io)?;
+    // The opened file is what counts (the path may have been swapped in between).
+    let meta = file.metadata().map_err(io)?;
+    check_input(path, kind, cap, &meta)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
+    file.take(cap.saturating_add(1)).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > cap {
+        return Err(FsError::TooLarge { path: path.to_path_buf(), kind, size: bytes.len() as u64, cap });
+    }
+    Ok(bytes)
+}
+
+fn check_input(path: &Path, kind: Kind, cap: u64, meta: &Metadata) -> Result<(), FsError> {
+    if !meta.is_file() {
+        return Err(FsError::NotRegularInput { path: path.to_path_buf(), kind, found: describe(meta) });
+    }
+    if meta.len() > cap {
+        return Err(FsError::TooLarge { path: path.to_path_buf(), kind, size: meta.len(), cap });
+    }
+    Ok(())
+}
+
+/// Read a regular UTF-8 text file of kind `kind` (at most its cap); invalid UTF-8 is an error naming the
+/// byte offset.
+pub fn read_to_string(path: &Path, kind: Kind) -> Result<String, FsError> {
+    let bytes = read(path, kind)?;
+    String::from_utf8(bytes).map_err(|e| FsError::Read {
+        path: path.to_path_buf(),
+        kind,
+        source: std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text (at byte {})", e.utf8_error().valid_up_to()),
+        ),
+    })
+}
+
+/// Size and modification time of a file: how the designer notices outside changes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stamp {
+    pub len: u64,
+    pub modified: Option<std::time::SystemTime>,
+    id: Option<(u64, u64)>,
+}
+
+/// The [`Stamp`] of `path` now (None when it cannot be read).
+pub fn stamp(path: &Path) -> Option<Stamp> {
+    let meta = std::fs::metadata(path).ok()?;
+    Some(Stamp { len: meta.len(), modified: meta.modified().ok(), id: inode(&meta) })
+}
+
+#[cfg(unix)]
+fn inode(meta: &Metadata) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    Some((meta.dev(), meta.ino()))
+}
+
+#[cfg(not(unix))]
+fn inode(_meta: &Metadata) -> Option<(u64, u64)> {
+    None
+}
+
+/// Which file a path names, whether or not it exists yet.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Identity {
+    /// An existing file: device and inode (links and different spellings agree).
+    Inode(u64, u64),
+    /// A file that does not exist yet: its canonical folder and name.
+    Path(PathBuf),
+}
+
+/// The [`Identity`] of `path` (None when neither it nor its folder can be resolved).
+pub fn identity(path: &Path) -> Option<Identity> {
+    if let Ok(meta) = std::fs::metadata(path)
+        && let Some((dev, ino)) = inode(&meta)
+    {
+        return Some(Identity::Inode(dev, ino));
+    }
+    if let Ok(c) = std::fs::canonicalize(path) {
+        return Some(Identity::Path(c));
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(Identity::Path(std::fs::canonicalize(parent).ok()?.join(name)))
+}
+
+/// The files one command reads and writes, checked so no output is an input or another output.
+#[derive(Debug, Default)]
+pub struct Outputs {
+    known: Vec<(Identity, PathBuf, String)>,
+}
+
+impl Outputs {
+    pub fn new() -> Outputs {
+        Outputs::default()
+    }
+
+    /// Record an input (`role` names it in messages, e.g. "palette").
+    pub fn input(&mut self, role: &str, path: &Path) -> &mut Self {
+        if let Some(id) = identity(path) {
+            self.known.push((id, path.to_path_buf(), role.to_string()));
+        }
+        self
+    }
+
+    /// Check that output `path` (`role`: "report", "solved palette"…) is none of the inputs and outputs
+    /// recorded so far, and record it.
+    pub fn output(&mut self, role: &str, path: &Path) -> Result<&mut Self, FsError> {
+        self.check(role, path)?;
+        if let Some(id) = identity(path) {
+            self.known.push((id, path.to_path_buf(), role.to_string()));
+        }
+        Ok(self)
+    }
+
+    /// As [`Outputs::output`], but `path` may be the file `allowed` (an in-place save: `solve p.toml -o
+    /// p.toml`); it must still be no other input or output.
+    pub fn output_except(&mut self, role: &str, path: &Path, allowed: &Path) -> Result<&mut Self, FsError> {
+        let skip = identity(allowed);
+        self.check_skipping(role, path, skip.as_ref())?;
+        if let Some(id) = identity(path) {
+            self.known.push((id, path.to_path_buf(), role.to_string()));
+        }
+        Ok(self)
+    }
+
+    /// Check `path` against everything recorded without recording it (for many files of one role,
+    /// e.g. frames).
+    pub fn check(&self, role: &str, path: &Path) -> Result<(), FsError> {
+        self.check_skipping(role, path, None)
+    }
+
+    fn check_skipping(&self, role: &str, path: &Path, skip: Option<&Identity>) -> Result<(), FsError> {
+        let Some(id) = identity(path) else { return Ok(()) };
+        if skip == Some(&id) {
+            return Ok(());
+        }
+        match self.known.iter().find(|(k, _, _)| *k == id) {
+            Some((_, other, other_role)) => Err(FsError::SameFile {
+                path: path.to_path_buf(),
+                role: role.to_string(),
+                other: other.clone(),
+                other_role: other_role.clone(),
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Where a write to `path` lands: a symbolic link is followed (to its final target), so the link is kept.
+fn resolve_target(path: &Path) -> std::io::Result<PathBuf> {
+    let mut target = path.to_path_buf();
+    // A bounded walk: a loop of links ends in an error rather than spinning.
+    for _ in 0..40 {
+        match std::fs::symlink_metadata(&target) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let link = std::fs::read_link(&target)?;
+                target = match target.parent() {
+                    Some(dir) if link.is_relative() => dir.join(link),
+                    _ => link,
+                };
+            }
+            _ => return Ok(target),
+        }
+    }
+    Err(std::io::Error::other("too many levels of symbolic links"))
+}
+
+/// The folder a file lives in (`.` for a bare file name).
+fn folder_of(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// Write `bytes` to `path` atomically (see the module docs). Nothing at `path` changes unless the whole
+/// new content is on disk.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FsError> {
+    let err = |source| FsError::Write { path: path.to_path_buf(), source };
+    let target = resolve_target(path).map_err(err)?;
+    let existing = match std::fs::metadata(&target) {
+        Ok(m) if !m.is_file() => {
+            return Err(FsError::NotRegularOutput { path: path.to_path_buf(), found: describe(&m) });
+        }
+        Ok(m) => Some(m),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(err(e)),
+    };
+    let dir = folder_of(&target);
+    let stem = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let prefix = format!(".{stem}.");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // The kernel applies the umask to this mode, as for any new file.
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut tmp = builder.tempfile_in(&dir).map_err(err)?;
+    tmp.write_all(bytes).map_err(err)?;
+    tmp.flush().map_err(err)?;
+    if let Some(meta) = &existing {
+        tmp.as_file().set_permissions(meta.permissions()).map_err(err)?;
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            // Keep owner and group where permitted (as root, or a group the user is in); else the new file
+            // is the user's own, as with any editor's save.
+            let file = tmp.as_file();
+            if std::os::unix::fs::fchown(file, Some(meta.uid()), Some(meta.gid())).is_err() {
+                let _ = std::os::unix::fs::fchown(file, None, Some(meta.gid()));
+            }
+            // chown may clear set-id bits; put the mode back.
+            let _ = file.set_permissions(meta.permissions());
+        }
+    }
+    tmp.as_file().sync_all().map_err(err)?;
+    tmp.persist(&target).map_err(|e| err(e.error))?;
+    #[cfg(unix)]
+    if let Ok(d) = File::open(&dir) {
+        // Best effort: some file systems refuse to sync a directory.
+        let _ = d.sync_all();
+    }
+    Ok(())
+}
+
+/// Create the folder `dir` (and its parents) for outputs; an existing non-folder is an error.
+pub fn create_dir_all(dir: &Path) -> Result<(), FsError> {
+    std::fs::create_dir_all(dir).map_err(|source| FsError::Write { path: dir.to_path_buf(), source })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn escape_shows_control_characters() {
+        assert_eq!(escape("a\x1b]0;x\x07b"), "a\\u{1b}]0;x\\u{7}b");
+        assert_eq!(escape("plain"), "plain");
+        assert_eq!(escape_lines("a\nb\x1b"), "a\nb\\u{1b}");
+        assert_eq!(escape("a\nb"), "a\\nb");
+    }
+}

@@ -1,0 +1,105 @@
+//! A bound on the memory a palette's parse takes, checked before parsing.
+//!
+//! The TOML parsers keep every value with its span: measured on this crate's parse path, a scalar costs about
+//! 140 bytes, an array about 470 and a table about 1.4 KB, whatever the text spells it with. A value can be
+//! written in two bytes (`1,`) and an inline table in five (`{a=1}`), so a 12 MB file of inline tables took
+//! 2.8 GB. A single pass over the text counts tables, arrays and values (outside strings and comments) and
+//! refuses a file whose estimated parse exceeds [`budget`] bytes: a fixed allowance plus a small multiple of
+//! the input, far above what real palettes need (spectra written as `samples = [...]` cost about 19 times
+//! their text, colour cells about 40 times).
+
+/// Estimated parse cost per element, bytes (measured, rounded up).
+const TABLE: u64 = 1536;
+const ARRAY: u64 = 512;
+const VALUE: u64 = 160;
+
+/// The largest estimated parse of a text of `len` bytes: 64 MiB plus 48 bytes per byte of input.
+pub fn budget(len: usize) -> u64 {
+    (64u64 << 20) + 48 * len as u64
+}
+
+/// What the text holds, counted outside strings and comments.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counts {
+    pub tables: u64,
+    pub arrays: u64,
+    pub values: u64,
+}
+
+impl Counts {
+    /// The estimated parse memory, bytes.
+    pub fn cost(&self) -> u64 {
+        self.tables * TABLE + self.arrays * ARRAY + self.values * VALUE
+    }
+}
+
+/// Count tables (`{`, and `[` at the start of a line), arrays (other `[`) and values (`=` and `,`).
+pub fn count(text: &str) -> Counts {
+    let b = text.as_bytes();
+    let mut c = Counts::default();
+    let mut i = 0;
+    let mut line_start = true;
+    while i < b.len() {
+        match b[i] {
+            b'#' => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+                continue;
+            }
+            q @ (b'"' | b'\'') => {
+                let triple = b.get(i..i + 3).is_some_and(|s| s == [q, q, q]);
+                i += if triple { 3 } else { 1 };
+                while i < b.len() {
+                    if q == b'"' && b[i] == b'\\' {
+                        i += 2;
+                        continue;
+                    }
+                    if !triple && b[i] == b'\n' {
+                        break;
+                    }
+                    if b[i] == q && (!triple || b.get(i..i + 3).is_some_and(|s| s == [q, q, q])) {
+                        i += if triple { 3 } else { 1 };
+                        break;
+                    }
+                    i += 1;
+                }
+                line_start = false;
+                continue;
+            }
+            b'\n' => line_start = true,
+            b' ' | b'\t' | b'\r' => {}
+            ch => {
+                match ch {
+                    b'{' => c.tables += 1,
+                    b'[' if line_start => {
+                        c.tables += 1;
+                        // `[[x]]` is one table.
+                        if b.get(i + 1) == Some(&b'[') {
+                            i += 1;
+                        }
+                    }
+                    b'[' => c.arrays += 1,
+                    b'=' | b',' => c.values += 1,
+                    _ => {}
+                }
+                line_start = false;
+            }
+        }
+        i += 1;
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_skip_strings_and_comments() {
+        let c = count("# {[,=\n[[lights]]\nname = \"a{[,]\" # x, y\nsamples = [1, 2, 3]\nt = {a = 1}\n");
+        assert_eq!(c, Counts { tables: 2, arrays: 1, values: 6 });
+        let c = count("s = '''{\n[,'''\nu = \"\"\"a\\\"{b\"\"\"\n");
+        assert_eq!(c, Counts { tables: 0, arrays: 0, values: 2 });
+    }
+}
