@@ -101,6 +101,9 @@ fn apply_reply(state: &mut State, reply: Reply, worker: &Worker) {
                 state.solve.basis_generation = state.solve.basis_generation.max(s.generation);
             }
             state.solve.last_time = Some(s.elapsed);
+            if let Some((cell, result)) = s.feasibility {
+                state.feasibility = Some(crate::tui::app::FeasibilityView { generation: s.generation, cell, result });
+            }
             match s.result {
                 Ok(solution) => {
                     state.solve.solution = Some((s.generation, solution));
@@ -114,6 +117,7 @@ fn apply_reply(state: &mut State, reply: Reply, worker: &Worker) {
 }
 
 fn submit(state: &mut State, worker: &mut Worker) {
+    worker.set_feasibility(state.feasibility_cell());
     worker.submit(state.solve.generation, &state.palette);
     state.solve.running = worker.solving();
     state.solve.training = worker.training();

@@ -14,6 +14,7 @@ use crate::basis::Basis;
 use crate::basis::store::{self, cache_key, palette_uses_basis};
 use crate::basis::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
+use crate::design::feasibility::{self, Panel, RegionCache};
 use crate::design::{self, DesignError, Solution, SolveOptions};
 use crate::palette::Palette;
 use std::collections::HashMap;
@@ -49,6 +50,8 @@ pub struct Solved {
     pub basis: Option<Arc<Basis>>,
     /// Wall-clock time of the solve (and of any basis training it waited for).
     pub elapsed: Duration,
+    /// The mismatch region asked for with the request (cell, panel or why not), computed after the solve.
+    pub feasibility: Option<(usize, Result<Arc<Panel>, String>)>,
 }
 
 /// A finished basis training (or cache hit).
@@ -69,6 +72,8 @@ struct Request {
     generation: u64,
     palette: Palette,
     cancel: Arc<AtomicBool>,
+    /// The cell whose mismatch region to compute after the solve.
+    feasibility: Option<usize>,
 }
 
 /// Bases by training-set key, shared by the two threads.
@@ -105,8 +110,28 @@ fn newest(first: Request, requests: &Receiver<Request>) -> Option<Request> {
     }
 }
 
+/// The mismatch-region panel of `cell` at a solution.
+fn feasibility_panel(
+    solution: &Solution,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    cell: usize,
+    regions: &RegionCache,
+) -> Result<Arc<Panel>, String> {
+    let values = design::system::Values {
+        lights: solution.palette.lights.iter().map(|e| e.spectrum).collect(),
+        reflectances: solution.palette.reflectances.iter().map(|e| e.spectrum).collect(),
+        free: solution.free.clone(),
+    };
+    let tolerance = feasibility::DEFAULT_TOLERANCE;
+    feasibility::panel(&solution.palette, basis, colorimetry, &values, cell, tolerance, regions)
+        .map(Arc::new)
+        .map_err(|e| e.to_string())
+}
+
 fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: WorkerConfig, cache: BasisCache) {
     let colorimetry = Colorimetry::default();
+    let mut regions = RegionCache::default();
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
         let started = Instant::now();
@@ -126,12 +151,18 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
                 design::solve(&request.palette, b, &colorimetry, &options).map(Arc::new)
             }
         };
-        let reply = Solved {
-            generation: request.generation,
-            result,
-            basis: basis.and_then(Result::ok),
-            elapsed: started.elapsed(),
+        let elapsed = started.elapsed();
+        let basis = basis.and_then(Result::ok);
+        let feasibility = match (&result, request.feasibility) {
+            (Ok(solution), Some(cell)) if !request.cancel.load(Ordering::Relaxed) => {
+                if regions.len() > 64 {
+                    regions = RegionCache::default();
+                }
+                Some((cell, feasibility_panel(solution, basis.as_deref(), &colorimetry, cell, &regions)))
+            }
+            _ => None,
         };
+        let reply = Solved { generation: request.generation, result, basis, elapsed, feasibility };
         if replies.send(Reply::Solved(reply)).is_err() {
             return;
         }
@@ -161,6 +192,8 @@ pub struct Worker {
     pending_basis: Option<u64>,
     /// Key of the newest basis asked for, to skip asking again for the same spectra.
     basis_asked: Option<String>,
+    /// The cell whose mismatch region every solve also computes.
+    feasibility: Option<usize>,
 }
 
 impl Worker {
@@ -193,6 +226,7 @@ impl Worker {
             pending_solve: None,
             pending_basis: None,
             basis_asked: None,
+            feasibility: None,
         })
     }
 
@@ -204,20 +238,26 @@ impl Worker {
         }
         let cancel = Arc::new(AtomicBool::new(false));
         self.cancel = Some(cancel.clone());
-        let request = Request { generation, palette: palette.clone(), cancel };
+        let request = Request { generation, palette: palette.clone(), cancel, feasibility: self.feasibility };
         let sent = self.solves.as_ref().is_some_and(|tx| tx.send(request).is_ok());
         self.pending_solve = sent.then_some(generation);
         if let Some(tx) = &self.bases {
             let key =
                 TrainingSet::from_palette(palette).ok().map(|set| cache_key(&set, palette.settings.basis_dimension));
             if key.is_some() && key != self.basis_asked {
-                let request = Request { generation, palette: palette.clone(), cancel: Arc::default() };
+                let request =
+                    Request { generation, palette: palette.clone(), cancel: Arc::default(), feasibility: None };
                 if tx.send(request).is_ok() {
                     self.pending_basis = Some(generation);
                     self.basis_asked = key;
                 }
             }
         }
+    }
+
+    /// Have every following solve also compute the mismatch region of `cell` (None: none).
+    pub fn set_feasibility(&mut self, cell: Option<usize>) {
+        self.feasibility = cell;
     }
 
     /// The generation being solved, if any.
