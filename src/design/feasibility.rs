@@ -33,6 +33,14 @@
 //! approximation, measured in CIELAB linearised at t). Within [`ON_BAND`] ΔE00 of the boundary a target
 //! is "on" it.
 //!
+//! **What inside and outside promise** (measured by `tests/it/feasibility.rs` on 30 random single-reflectance
+//! designs under two or three lights, all cells first met, then one cell's target moved; τ = 0.5): every
+//! target placed inside was met by the next solve with every cell within ΔE00 τ (116 of 116, worst cell
+//! 0.27); every target placed outside by more than 2τ left some cell beyond τ (83 of 83). Between 0 and 2τ
+//! outside, the least-squares solve may trade the gap against the held cells (which may then move up to
+//! about τ each) and bring every cell within τ (9 of 37 such targets). Designs with smoothness, weights
+//! other than 1 or unmet partner cells trade differently; the geometry itself (what x can do) is exact.
+//!
 //! **Cache.** [`RegionCache`] keys a region by everything it depends on: the designed unit, the cell, its
 //! operator (the fixed partner spectrum), the bounds, the tolerance, every partner's operator and colour,
 //! and the number of directions.

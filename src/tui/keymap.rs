@@ -72,7 +72,7 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('Z'), ctrl('y')], A::Redo, "redo"),
     bind(&[ctrl('s')], A::Save, "save (atomic, keeps comments)"),
     bind(&[ch('!')], A::Diagnostics, "the solver's diagnostics"),
-    bind(&[ch('m')], A::Feasibility, "mismatch region of the cell: reachable colours (on/off)"),
+    bind(&[ch('m')], A::Feasibility, "reachable colours of a cell on/off"),
     bind(&[ch(']')], A::Dial { forward: true }, "scene preview: light dial forward"),
     bind(&[ch('[')], A::Dial { forward: false }, "scene preview: light dial back"),
     bind(&[ch('v')], A::TogglePreview, "scene preview / spectra plot"),

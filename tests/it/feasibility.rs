@@ -286,3 +286,94 @@ fn inside_targets_are_met_and_outside_targets_are_not() {
     );
     assert!(inside >= 20 && outside >= 20, "inside {inside}, outside {outside}");
 }
+
+/// One designed reflectance whose three targets cannot all be met: `metamer solve --feasibility` adds one
+/// line per unmet cell (and the JSON report one entry), naming the cells that must move.
+const UNMET_PALETTE: &str = r##"name = "reach"
+
+[settings]
+smoothness = 0.0
+reflectance_bounds = [0.0, 1.0]
+
+[[lights]]
+name = "daylight"
+illuminant = "D65"
+
+[[lights]]
+name = "tungsten"
+illuminant = "A"
+
+[[lights]]
+name = "fluorescent"
+illuminant = "F11"
+
+[[reflectances]]
+name = "paint"
+flat = 0.5
+design = true
+
+[[colours]]
+light = "daylight"
+reflectance = "paint"
+target = "#808080"
+
+[[colours]]
+light = "tungsten"
+reflectance = "paint"
+target = "#a08060"
+
+[[colours]]
+light = "fluorescent"
+reflectance = "paint"
+target = "#30c040"
+"##;
+
+#[test]
+fn solve_reports_feasibility_of_unmet_cells() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let palette = dir.path().join("reach.toml");
+    let report = dir.path().join("r.json");
+    std::fs::write(&palette, UNMET_PALETTE).expect("write");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .arg("solve")
+        .arg(&palette)
+        .arg("--feasibility")
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .expect("runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let unmet = text.lines().filter(|l| l.starts_with("UNMET: cell")).count();
+    let lines: Vec<&str> = text.lines().filter(|l| l.starts_with("feasibility: cell")).collect();
+    assert!(unmet >= 1, "{text}");
+    assert_eq!(lines.len(), unmet, "{text}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
+    let entries = json["feasibility"].as_array().expect("a feasibility array");
+    assert_eq!(entries.len(), unmet);
+    for (e, line) in entries.iter().zip(&lines) {
+        let placement = e["placement"].as_str().expect("placement");
+        // The solve leaves these cells unmet (ΔE00 > 1), so each target lies outside its region.
+        assert_eq!(placement, "outside", "{line}");
+        assert!(e["signed_delta_e"].as_f64().expect("distance") > 0.0);
+        let closest = e["closest"].as_array().expect("closest");
+        assert_eq!(closest.len(), 3);
+        let movers = e["reachable_if_moves"].as_array().expect("movers");
+        if e["reachable_alone"].as_bool() == Some(true) {
+            assert!(line.contains("reachable only if"), "{line}");
+            for m in movers {
+                assert!(line.contains(m.as_str().expect("name")), "{line}");
+            }
+        }
+    }
+    // This palette has a cell the bounds alone could meet but the other cells hold back.
+    assert!(lines.iter().any(|l| l.contains("reachable only if")), "{text}");
+    // --tolerance needs --feasibility.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .arg("solve")
+        .arg(&palette)
+        .args(["--tolerance", "1"])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+}

@@ -23,12 +23,12 @@ pub struct FeasibilityOverlay<'a>(pub &'a State);
 impl Widget for FeasibilityOverlay<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let state = self.0;
-        let w = WIDTH.min(area.width.saturating_sub(2));
-        let h = HEIGHT.min(area.height.saturating_sub(2));
+        let w = WIDTH.min(area.width);
+        let h = HEIGHT.min(area.height);
         if w < 20 || h < 6 {
             return;
         }
-        let rect = Rect::new(area.x + area.width - w - 1, area.y + area.height - h - 1, w, h);
+        let rect = Rect::new(area.x + area.width - w, area.y + area.height - h, w, h);
         Clear.render(rect, buf);
         let cell = state.feasibility_cell();
         let view = state.feasibility.as_ref().filter(|v| Some(v.cell) == cell);
@@ -114,8 +114,8 @@ fn draw_slice(panel: &Panel, area: Rect, buf: &mut Buffer) {
     let canvas =
         Canvas::default().marker(Marker::Braille).x_bounds([x0 - px, x1 + px]).y_bounds([y0 - py, y1 + py]).paint(
             |ctx| {
-                for k in 0..poly.len() {
-                    let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+                for (k, a) in poly.iter().enumerate() {
+                    let b = poly[(k + 1) % poly.len()];
                     ctx.draw(&CanvasLine { x1: a[0], y1: a[1], x2: b[0], y2: b[1], color: region });
                 }
                 ctx.layer();

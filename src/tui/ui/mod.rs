@@ -107,7 +107,7 @@ impl Widget for &State {
             }
         }
         if self.show_feasibility {
-            feasibility::FeasibilityOverlay(self).render(inner, buf);
+            feasibility::FeasibilityOverlay(self).render(Block::bordered().inner(area), buf);
         }
         if self.popup.is_some() {
             popup::PopupView(self).render(area, buf);
