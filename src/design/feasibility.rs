@@ -186,6 +186,9 @@ pub struct Problem {
     label: String,
 }
 
+/// A support value and the colour attaining it.
+pub type Support = (f64, Vector3<f64>);
+
 /// The result of one LP or QP.
 enum Outcome {
     Optimal(Vec<f64>),
@@ -423,7 +426,7 @@ impl Problem {
     }
 
     /// The support value `max d·(A_k x)` and a maximiser's colour; `None` when unbounded in `d`.
-    fn support_with(&self, lp: &Lp, d: &Vector3<f64>) -> Result<Option<(f64, Vector3<f64>)>, FeasibilityError> {
+    fn support_with(&self, lp: &Lp, d: &Vector3<f64>) -> Result<Option<Support>, FeasibilityError> {
         let g = self.op.transpose() * d;
         let q: Vec<f64> = g.iter().map(|v| -v).collect();
         match self.run(lp, &CscMatrix::zeros((SAMPLES, SAMPLES)), &q)? {
@@ -438,7 +441,7 @@ impl Problem {
     }
 
     /// The support value in direction `d` (linear sRGB): `None` when the region is unbounded that way.
-    pub fn support(&self, d: &Vector3<f64>) -> Result<Option<(f64, Vector3<f64>)>, FeasibilityError> {
+    pub fn support(&self, d: &Vector3<f64>) -> Result<Option<Support>, FeasibilityError> {
         self.support_with(&self.lp(&[]), d)
     }
 
@@ -543,7 +546,7 @@ pub fn region(problem: &Problem, n: usize) -> Result<Region, FeasibilityError> {
     unit_dirs.push(Vector3::new(-1.0, 0.0, 0.0));
     // d·c = u·(J c): the half-space u·y ≤ h in linearised CIELAB is d·c ≤ h in linear sRGB.
     let directions: Vec<Vector3<f64>> = unit_dirs.iter().map(|u| j.transpose() * u).collect();
-    let results: Vec<Result<Option<(f64, Vector3<f64>)>, FeasibilityError>> =
+    let results: Vec<Result<Option<Support>, FeasibilityError>> =
         directions.par_iter().map(|d| problem.support_with(&lp, d)).collect();
     let mut support = Vec::with_capacity(directions.len());
     let mut points = Vec::with_capacity(directions.len());

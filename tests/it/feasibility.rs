@@ -184,10 +184,12 @@ fn inner_hull_accuracy_at_the_default_directions() {
     let col = Colorimetry::default();
     let mut rng = Rng::new(4);
     let mut worst: f64 = 0.0;
+    let mut seconds = Vec::new();
     for case in 0..4 {
         let p = design_palette(&mut rng, 2 + case % 2, &col);
         let (_, problem) = solved_problem(&p, &col, DEFAULT_TOLERANCE);
         let region = feasibility::region(&problem, DEFAULT_DIRECTIONS).expect("region");
+        seconds.push(region.seconds);
         let j = problem.jacobian(&problem.achieved);
         for _ in 0..20 {
             let u = random_direction(&mut rng);
@@ -199,7 +201,13 @@ fn inner_hull_accuracy_at_the_default_directions() {
             worst = worst.max(gap);
         }
     }
-    println!("inner hull at {DEFAULT_DIRECTIONS} directions: worst support gap {worst:.3} ΔE*ab (linearised)");
+    seconds.sort_by(f64::total_cmp);
+    println!(
+        "inner hull at {DEFAULT_DIRECTIONS} directions: worst support gap {worst:.3} ΔE*ab (linearised); \
+         region times {:.1}–{:.1} ms (test profile)",
+        seconds[0] * 1e3,
+        seconds[seconds.len() - 1] * 1e3
+    );
     assert!(worst < 1.0, "worst gap {worst}");
 }
 
