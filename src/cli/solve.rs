@@ -3,6 +3,7 @@
 //! that cannot be met and why, write the solved palette (atomically; never after a failed solve) and a
 //! JSON report.
 
+use crate::basis::Basis;
 use crate::basis::basis_for_palette;
 use crate::basis::store::{self, palette_uses_basis};
 use crate::colorimetry::{Colorimetry, linear_to_hex};
@@ -56,6 +57,14 @@ pub struct Args {
     /// Print only the summary and the unmet cells, not the per-cell table.
     #[arg(short, long)]
     pub quiet: bool,
+    /// For every unmet cell, say whether its target is reachable at all while the other cells of its
+    /// designed spectrum keep their colours (the cell's metamer mismatch region), how far it is, and the
+    /// closest reachable colour.
+    #[arg(long)]
+    pub feasibility: bool,
+    /// How far (ΔE) the other cells may move for --feasibility.
+    #[arg(long, default_value_t = design::feasibility::DEFAULT_TOLERANCE, value_name = "DELTA_E", requires = "feasibility")]
+    pub tolerance: f64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -110,9 +119,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Err(e) => notes.push(format!("no subspace colours: {e}")),
         }
     }
+    if !(args.tolerance.is_finite() && args.tolerance >= 0.0) {
+        anyhow::bail!("--tolerance must be a finite ΔE ≥ 0, got {}", args.tolerance);
+    }
     // `seconds` is the time to read and solve. The solved palette is saved (mostly waiting for the disk)
     // while the table and the report are formatted; nothing is printed or reported when the save fails.
     let seconds = started.elapsed().as_secs_f64();
+    let feasibility =
+        args.feasibility.then(|| feasibility_of(&solution, basis.as_ref().map(|b| &b.0), &colorimetry, args.tolerance));
     let ((saved, table), report) = rayon::join(
         || {
             rayon::join(
@@ -122,10 +136,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                         .with_context(|| format!("{}: cannot write the solved palette", out.display())),
                     None => Ok(()),
                 },
-                || table_text(&solution, &notes, basis_warning.as_deref(), args.quiet),
+                || {
+                    let mut t = table_text(&solution, &notes, basis_warning.as_deref(), args.quiet);
+                    for f in feasibility.iter().flatten() {
+                        let _ = writeln!(t, "feasibility: {}", f.line);
+                    }
+                    t
+                },
             )
         },
-        || args.report.as_ref().map(|_| report_text(&solution, seconds, basis_warning.as_deref())),
+        || {
+            args.report
+                .as_ref()
+                .map(|_| report_text(&solution, seconds, basis_warning.as_deref(), feasibility.as_deref()))
+        },
     );
     saved?;
     let (printed, reported) = rayon::join(
@@ -308,10 +332,16 @@ fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -
 }
 
 /// The JSON report, pretty-printed.
-fn report_text(s: &Solution, seconds: f64, basis_warning: Option<&str>) -> anyhow::Result<Vec<u8>> {
+fn report_text(
+    s: &Solution,
+    seconds: f64,
+    basis_warning: Option<&str>,
+    feasibility: Option<&[FeasibilityJson]>,
+) -> anyhow::Result<Vec<u8>> {
     let mut text = Vec::with_capacity(256 * (s.cells.len() + s.palette.lights.len() + s.palette.reflectances.len()));
     let mut report = Report::new(s, seconds);
     report.basis_warning = basis_warning;
+    report.feasibility = feasibility;
     serde_json::to_writer_pretty(&mut text, &report)?;
     text.push(b'\n');
     Ok(text)
@@ -398,6 +428,86 @@ pub struct Report<'a> {
     /// ([`crate::basis::Report::poor_model`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     basis_warning: Option<&'a str>,
+    /// With `--feasibility`: one entry per unmet cell.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    feasibility: Option<&'a [FeasibilityJson]>,
+}
+
+/// The feasibility of one unmet cell's target (`--feasibility`).
+#[derive(serde::Serialize)]
+pub struct FeasibilityJson {
+    light: String,
+    reflectance: String,
+    /// "inside", "on", "outside", or null when the region cannot be computed (see `line`).
+    placement: Option<&'static str>,
+    /// ΔE00 to the region's boundary: negative inside, positive outside.
+    signed_delta_e: Option<f64>,
+    /// The closest reachable colour (linear sRGB).
+    closest: Option<[f64; 3]>,
+    /// Reachable when the other cells of the spectrum are released.
+    reachable_alone: Option<bool>,
+    /// Cells that, released one at a time, make the target reachable ("light × reflectance").
+    reachable_if_moves: Vec<String>,
+    tolerance: f64,
+    volume_lab: Option<f64>,
+    l_range: Option<[f64; 2]>,
+    /// The line printed in the table.
+    line: String,
+}
+
+/// The feasibility of every unmet cell of a solution (in parallel; regions shared by one cache).
+fn feasibility_of(
+    s: &Solution,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    tolerance: f64,
+) -> Vec<FeasibilityJson> {
+    use design::feasibility::{self as fz, RegionCache};
+    use rayon::prelude::*;
+    let p = &s.palette;
+    let values = values_of(s);
+    let cache = RegionCache::default();
+    let unmet: Vec<usize> = s
+        .cells
+        .iter()
+        .filter(|c| p.colours[c.cell].is_active() && c.delta_e_full > design::report::MET_DELTA_E)
+        .map(|c| c.cell)
+        .collect();
+    unmet
+        .par_iter()
+        .map(|&k| {
+            let c = &p.colours[k];
+            let mut out = FeasibilityJson {
+                light: p.lights[c.light].name.clone(),
+                reflectance: p.reflectances[c.reflectance].name.clone(),
+                placement: None,
+                signed_delta_e: None,
+                closest: None,
+                reachable_alone: None,
+                reachable_if_moves: Vec::new(),
+                tolerance,
+                volume_lab: None,
+                l_range: None,
+                line: String::new(),
+            };
+            let analysed = fz::Problem::new(p, basis, colorimetry, &values, k, tolerance)
+                .and_then(|problem| fz::analyse(&problem, &cache, fz::DEFAULT_DIRECTIONS));
+            match analysed {
+                Ok(f) => {
+                    out.placement = Some(f.verdict.placement.as_str());
+                    out.signed_delta_e = Some(f.verdict.signed_delta_e).filter(|v| v.is_finite());
+                    out.closest = Some(arr(&f.verdict.closest));
+                    out.reachable_alone = Some(f.reachable_alone);
+                    out.reachable_if_moves = f.blockers.iter().map(|&b| fz::cell_label(p, b)).collect();
+                    out.volume_lab = Some(f.region.volume_lab).filter(|v| v.is_finite());
+                    out.l_range = Some([f.region.l_range.0, f.region.l_range.1]);
+                    out.line = fz::describe(p, &f, tolerance);
+                }
+                Err(e) => out.line = format!("cell {}: no region: {e}", fz::cell_label(p, k)),
+            }
+            out
+        })
+        .collect()
 }
 
 fn arr(c: &Vector3<f64>) -> [f64; 3] {
@@ -448,6 +558,7 @@ impl<'a> Report<'a> {
                 .map(|d| DiagnosticJson { cell: d.cell.map(names), message: &d.message })
                 .collect(),
             basis_warning: None,
+            feasibility: None,
         }
     }
 }

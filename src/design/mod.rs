@@ -17,6 +17,7 @@
 //! `Solution::kkt_residual` is the largest over the blocks of the projected-gradient infinity norm
 //! `‖x − P(x − ∇f(x))‖∞` divided by `1 + ‖∇f(0)‖∞` (linear blocks) or `1 + f(x)` (bilinear blocks).
 
+pub mod feasibility;
 pub mod joint;
 pub mod lbfgsb;
 pub mod lsq;

@@ -56,6 +56,8 @@ pub enum Action {
     },
     /// Show the scene preview or the spectra in the bottom panel.
     TogglePreview,
+    /// Show or hide the selected cell's metamer mismatch region.
+    Feasibility,
     Quit,
     // Inside popups.
     /// Type a character into the prompt.

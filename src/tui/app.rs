@@ -287,6 +287,19 @@ pub struct State {
     pub dial: f64,
     pub show_preview: bool,
     pub preview_frame: Vec<[u8; 3]>,
+    /// The mismatch-region overlay of the selected cell is shown (`m`).
+    pub show_feasibility: bool,
+    /// The latest region computed by the worker for the overlay.
+    pub feasibility: Option<FeasibilityView>,
+}
+
+/// A mismatch region computed off the UI thread, for the palette of `generation`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FeasibilityView {
+    pub generation: u64,
+    /// Index into `palette.colours`.
+    pub cell: usize,
+    pub result: Result<Arc<crate::design::feasibility::Panel>, String>,
 }
 
 impl State {
@@ -318,6 +331,8 @@ impl State {
             dial: 0.0,
             show_preview: false,
             preview_frame: Vec::new(),
+            show_feasibility: false,
+            feasibility: None,
         };
         state.clamp_selection();
         state.refresh();
@@ -431,6 +446,14 @@ impl State {
             .current()
             .or(self.solve.solution.as_ref().map(|(_, s)| s.as_ref()))
             .map_or(&[], |s| s.diagnostics.as_slice())
+    }
+
+    /// The cell whose mismatch region the overlay wants: the selected cell, when the overlay is on.
+    pub fn feasibility_cell(&self) -> Option<usize> {
+        match (self.show_feasibility, self.target()) {
+            (true, Target::Cell { light, reflectance }) => self.cell_index(light, reflectance),
+            _ => None,
+        }
     }
 
     /// The index into `palette.colours` of the cell at (light, reflectance).

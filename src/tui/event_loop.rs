@@ -170,6 +170,9 @@ fn apply_reply(state: &mut State, reply: Reply, worker: &mut Worker) {
                 return;
             }
             state.solve.last_time = Some(s.elapsed);
+            if let Some((cell, result)) = s.feasibility {
+                state.feasibility = Some(crate::tui::app::FeasibilityView { generation: s.generation, cell, result });
+            }
             match s.result {
                 Ok(solution) => {
                     state.solve.solution = Some((s.generation, solution));
@@ -224,6 +227,7 @@ fn ensure_basis(state: &mut State, worker: &mut Worker) {
 }
 
 fn submit(state: &mut State, worker: &mut Worker) {
+    worker.set_feasibility(state.feasibility_cell());
     worker.submit(state.solve.generation, &state.palette);
     state.solve.running = worker.solving();
     state.solve.training = worker.training();

@@ -73,6 +73,7 @@ pub const MAIN: &[Binding] = &[
     bind(&[ctrl('s')], A::Save, "save (atomic, keeps comments)"),
     bind(&[ctrl('r')], A::Reload, "reload from disk (z undoes it)"),
     bind(&[ch('!')], A::Diagnostics, "the solver's diagnostics"),
+    bind(&[ch('m')], A::Feasibility, "reachable colours of a cell on/off"),
     bind(&[ch(']')], A::Dial { forward: true }, "scene preview: light dial forward"),
     bind(&[ch('[')], A::Dial { forward: false }, "scene preview: light dial back"),
     bind(&[ch('v')], A::TogglePreview, "scene preview / spectra plot"),

@@ -36,10 +36,17 @@ const BIG_STEP: f64 = 16.0 / 255.0;
 /// Apply one action.
 pub fn update(state: &mut State, action: Action) -> Effects {
     state.message = None;
-    match state.popup.take() {
+    let wanted = state.feasibility_cell();
+    let mut effects = match state.popup.take() {
         Some(popup) => update_popup(state, popup, action),
         None => update_main(state, action),
+    };
+    // The mismatch-region overlay follows the selection: a new cell needs its region computed.
+    let now = state.feasibility_cell();
+    if now.is_some() && now != wanted {
+        effects.solve = true;
     }
+    effects
 }
 
 /// Make an edit on a copy of the palette; keep it (with an undo step) when it succeeds and changed something.
@@ -213,6 +220,13 @@ fn update_main(state: &mut State, action: Action) -> Effects {
         Action::Reload => Effects { reload: true, ..Effects::NONE },
         Action::Help => {
             state.popup = Some(Popup::Help { scroll: 0 });
+            Effects::NONE
+        }
+        Action::Feasibility => {
+            state.show_feasibility = !state.show_feasibility;
+            if state.show_feasibility && state.feasibility_cell().is_none() {
+                state.say("mismatch region: select a cell with a colour criterion");
+            }
             Effects::NONE
         }
         Action::Dial { forward } => {

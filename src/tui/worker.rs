@@ -11,10 +11,12 @@
 //! the palette's criteria need one; the basis thread trains the basis of the spectra the matrix *shows*
 //! (the solved ones), which the UI requests with [`Worker::request_basis`] after each solve.
 
+use crate::basis::Basis;
 use crate::basis::policy::{self, Resolved};
 use crate::basis::store::palette_uses_basis;
 use crate::basis::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
+use crate::design::feasibility::{self, Panel, RegionCache};
 use crate::design::{self, DesignError, Solution, SolveOptions};
 use crate::palette::Palette;
 use std::path::PathBuf;
@@ -47,6 +49,8 @@ pub struct Solved {
     pub result: Result<Arc<Solution>, DesignError>,
     /// Wall-clock time of the solve (and of any basis training it waited for).
     pub elapsed: Duration,
+    /// The mismatch region asked for with the request (cell, panel or why not), computed after the solve.
+    pub feasibility: Option<(usize, Result<Arc<Panel>, String>)>,
 }
 
 /// A finished basis training (or cache hit).
@@ -69,6 +73,8 @@ struct Request {
     generation: u64,
     palette: Palette,
     cancel: Arc<AtomicBool>,
+    /// The cell whose mismatch region to compute after the solve.
+    feasibility: Option<usize>,
 }
 
 /// A request for the basis of some spectra.
@@ -91,8 +97,28 @@ fn newest<R>(first: R, requests: &Receiver<R>) -> Option<R> {
     }
 }
 
+/// The mismatch-region panel of `cell` at a solution.
+fn feasibility_panel(
+    solution: &Solution,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    cell: usize,
+    regions: &RegionCache,
+) -> Result<Arc<Panel>, String> {
+    let values = design::system::Values {
+        lights: solution.palette.lights.iter().map(|e| e.spectrum).collect(),
+        reflectances: solution.palette.reflectances.iter().map(|e| e.spectrum).collect(),
+        free: solution.free.clone(),
+    };
+    let tolerance = feasibility::DEFAULT_TOLERANCE;
+    feasibility::panel(&solution.palette, basis, colorimetry, &values, cell, tolerance, regions)
+        .map(Arc::new)
+        .map_err(|e| e.to_string())
+}
+
 fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: WorkerConfig) {
     let colorimetry = Colorimetry::default();
+    let mut regions = RegionCache::default();
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
         let started = Instant::now();
@@ -106,7 +132,7 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
                 }
                 _ => None,
             };
-            match &basis {
+            let result = match &basis {
                 _ if cancelled || request.cancel.load(Ordering::Relaxed) => Err(DesignError::Cancelled),
                 Some(Err(e)) => Err(DesignError::Invalid(e.clone())),
                 _ => {
@@ -114,10 +140,26 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
                     let b = basis.as_ref().and_then(|b| b.as_ref().ok()).map(|b| &b.0);
                     design::solve(&request.palette, b, &colorimetry, &options).map(Arc::new)
                 }
-            }
+            };
+            (result, basis.and_then(Result::ok))
         }));
-        let result = work.unwrap_or_else(|panic| Err(DesignError::Invalid(panic_message(&panic))));
-        let reply = Solved { generation: request.generation, result, elapsed: started.elapsed() };
+        let (result, basis) = work.unwrap_or_else(|panic| (Err(DesignError::Invalid(panic_message(&panic))), None));
+        let elapsed = started.elapsed();
+        let feasibility = match (&result, request.feasibility) {
+            (Ok(solution), Some(cell)) if !request.cancel.load(Ordering::Relaxed) => {
+                if regions.len() > 64 {
+                    regions = RegionCache::default();
+                }
+                let b = basis.as_ref().map(|b| &b.0);
+                let panel = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    feasibility_panel(solution, b, &colorimetry, cell, &regions)
+                }))
+                .unwrap_or_else(|panic| Err(panic_message(&panic)));
+                Some((cell, panel))
+            }
+            _ => None,
+        };
+        let reply = Solved { generation: request.generation, result, elapsed, feasibility };
         if replies.send(Reply::Solved(reply)).is_err() {
             return;
         }
@@ -162,6 +204,8 @@ pub struct Worker {
     pending_basis: Option<u64>,
     /// Key of the newest basis asked for, to skip asking again for the same spectra.
     basis_asked: Option<String>,
+    /// The cell whose mismatch region every solve also computes.
+    feasibility: Option<usize>,
 }
 
 impl Worker {
@@ -193,6 +237,7 @@ impl Worker {
             pending_solve: None,
             pending_basis: None,
             basis_asked: None,
+            feasibility: None,
         })
     }
 
@@ -203,7 +248,7 @@ impl Worker {
         }
         let cancel = Arc::new(AtomicBool::new(false));
         self.cancel = Some(cancel.clone());
-        let request = Request { generation, palette: palette.clone(), cancel };
+        let request = Request { generation, palette: palette.clone(), cancel, feasibility: self.feasibility };
         let sent = self.solves.as_ref().is_some_and(|tx| tx.send(request).is_ok());
         self.pending_solve = sent.then_some(generation);
     }
@@ -231,6 +276,11 @@ impl Worker {
     /// Forget which basis was asked for last (so it is asked for again, e.g. after a failure).
     pub fn forget_basis_request(&mut self) {
         self.basis_asked = None;
+    }
+
+    /// Have every following solve also compute the mismatch region of `cell` (None: none).
+    pub fn set_feasibility(&mut self, cell: Option<usize>) {
+        self.feasibility = cell;
     }
 
     /// The generation being solved, if any.

@@ -15,6 +15,7 @@ mod cli_solve;
 mod colour_reference;
 mod design_cases;
 mod design_oracle;
+mod feasibility;
 mod fuzz_regressions;
 mod hostile;
 mod palette_file;

@@ -178,3 +178,20 @@ fn main_keys_work_through_help_and_esc_bursts() {
     assert_eq!(saver.saved.len(), 1);
     assert!(s.popup.is_none());
 }
+
+#[test]
+fn mismatch_region_overlay() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    // petal × tungsten: a designed reflectance under a fixed light.
+    let (text, _) = replay(&mut s, "Down\nRight\nm", 100, 30);
+    println!("{text}");
+    assert!(text.contains("reachable · "), "no region drawn:\n{text}");
+    assert!(text.contains("L* ") && text.contains("held within ΔE 0.5"));
+    assert!(text.contains('×') && text.contains('○'));
+    snap!("feasibility_100x30", text);
+    // It follows the selection; `m` closes it.
+    let (text, _) = replay(&mut s, "Right", 100, 30);
+    assert!(text.contains("reachable · "));
+    let (text, _) = replay(&mut s, "m", 100, 30);
+    assert!(!text.contains("reachable · "));
+}

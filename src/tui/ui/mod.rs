@@ -2,6 +2,7 @@
 //! the seed's Fig. 1 (matrix top left, sliders top right, settings in the middle, spectra at the bottom)
 //! and hands each panel a borrowed view of the state.
 
+pub mod feasibility;
 pub mod matrix;
 pub mod popup;
 pub mod preview;
@@ -104,6 +105,9 @@ impl Widget for &State {
                     spectra::SpectraPlot(self).render(inner, buf);
                 }
             }
+        }
+        if self.show_feasibility {
+            feasibility::FeasibilityOverlay(self).render(Block::bordered().inner(area), buf);
         }
         if self.popup.is_some() {
             popup::PopupView(self).render(area, buf);

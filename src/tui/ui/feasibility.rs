@@ -1,0 +1,131 @@
+//! The mismatch-region overlay (`m`): the selected cell's region of reachable colours, sliced through
+//! CIELAB at the target's L* (a*–b* plane, braille canvas) with the target (`×`) and the colour now (`○`)
+//! marked, and its L* range. The region is computed by the worker after each solve
+//! ([`crate::design::feasibility::panel`]); this only draws it.
+
+use crate::design::feasibility::{Panel, Placement};
+use crate::tui::app::State;
+use crate::tui::ui::{fit, put};
+use ratatui::buffer::Buffer;
+use ratatui::layout::Rect;
+use ratatui::style::{Color, Modifier, Style};
+use ratatui::symbols::Marker;
+use ratatui::widgets::canvas::{Canvas, Line as CanvasLine};
+use ratatui::widgets::{Block, Clear, Widget};
+
+/// Width and height of the overlay (clipped to the screen).
+pub const WIDTH: u16 = 46;
+pub const HEIGHT: u16 = 18;
+
+/// The overlay, drawn in the bottom-right corner of `area` (over the spectra panel).
+pub struct FeasibilityOverlay<'a>(pub &'a State);
+
+impl Widget for FeasibilityOverlay<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let state = self.0;
+        let w = WIDTH.min(area.width);
+        let h = HEIGHT.min(area.height);
+        if w < 20 || h < 6 {
+            return;
+        }
+        let rect = Rect::new(area.x + area.width - w, area.y + area.height - h, w, h);
+        Clear.render(rect, buf);
+        let cell = state.feasibility_cell();
+        let view = state.feasibility.as_ref().filter(|v| Some(v.cell) == cell);
+        let title = match view.and_then(|v| v.result.as_ref().ok()) {
+            Some(p) => format!(" reachable · {} ", p.label),
+            None => " reachable colours ".to_string(),
+        };
+        let block = Block::bordered().title(fit(&title, usize::from(w.saturating_sub(2)))).title_bottom(" m close ");
+        let inner = block.inner(rect);
+        block.render(rect, buf);
+        let dim = Style::new().fg(Color::Gray);
+        let width = usize::from(inner.width);
+        let Some(view) = view else {
+            let text = if cell.is_none() { "select a cell with a colour criterion" } else { "computing…" };
+            put(buf, inner, 0, 0, &fit(text, width), dim);
+            return;
+        };
+        let panel = match &view.result {
+            Ok(p) => p,
+            Err(e) => {
+                // The reason, wrapped over the overlay's lines.
+                let chars: Vec<char> = e.chars().collect();
+                for (i, line) in chars.chunks(width.max(1)).take(usize::from(inner.height)).enumerate() {
+                    put(buf, inner, 0, i as u16, &line.iter().collect::<String>(), dim);
+                }
+                return;
+            }
+        };
+        let stale = view.generation != state.solve.generation;
+        let text_rows = 3u16;
+        let canvas_area = Rect::new(inner.x, inner.y, inner.width, inner.height.saturating_sub(text_rows));
+        draw_slice(panel, canvas_area, buf);
+        let lines = summary(panel, stale);
+        for (i, line) in lines.iter().enumerate() {
+            let y = inner.height.saturating_sub(text_rows) + i as u16;
+            put(buf, inner, 0, y, &fit(line, width), Style::new());
+        }
+    }
+}
+
+/// The three lines under the canvas.
+pub fn summary(panel: &Panel, stale: bool) -> Vec<String> {
+    let (lo, hi) = panel.l_range;
+    let range = format!("L* {:.1}…{:.1}, slice at target L* {:.1}", lo, hi, panel.target_lab[0]);
+    let place = match panel.placement {
+        Placement::Inside => format!("× inside: ΔE00 {:.2} from the edge", -panel.signed_delta_e),
+        Placement::On => "× on the edge".to_string(),
+        Placement::Outside => format!("× outside: ΔE00 {:.2} away", panel.signed_delta_e),
+    };
+    let held = format!(
+        "{} other cell{} held within ΔE {}{}",
+        panel.held,
+        if panel.held == 1 { "" } else { "s" },
+        panel.tolerance,
+        if stale { " · updating…" } else { "" }
+    );
+    vec![range, format!("{place} · ○ now"), held]
+}
+
+/// The slice polygon and the two marks on a braille canvas, a* across, b* up.
+fn draw_slice(panel: &Panel, area: Rect, buf: &mut Buffer) {
+    if area.height < 2 {
+        return;
+    }
+    let poly: Vec<[f64; 2]> =
+        panel.slice.as_ref().map(|s| s.lab.iter().map(|l| [l[1], l[2]]).collect()).unwrap_or_default();
+    let marks = [[panel.target_lab[1], panel.target_lab[2]], [panel.achieved_lab[1], panel.achieved_lab[2]]];
+    let all = poly.iter().chain(&marks);
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for p in all.filter(|p| p[0].is_finite() && p[1].is_finite()) {
+        x0 = x0.min(p[0]);
+        x1 = x1.max(p[0]);
+        y0 = y0.min(p[1]);
+        y1 = y1.max(p[1]);
+    }
+    if !(x0.is_finite() && y0.is_finite()) {
+        return;
+    }
+    // Equal scales would waste the wide canvas; pad each axis by a tenth (at least one unit).
+    let pad = |a: f64, b: f64| ((b - a) * 0.1).max(1.0);
+    let (px, py) = (pad(x0, x1), pad(y0, y1));
+    let region = Color::LightCyan;
+    let canvas =
+        Canvas::default().marker(Marker::Braille).x_bounds([x0 - px, x1 + px]).y_bounds([y0 - py, y1 + py]).paint(
+            |ctx| {
+                for (k, a) in poly.iter().enumerate() {
+                    let b = poly[(k + 1) % poly.len()];
+                    ctx.draw(&CanvasLine { x1: a[0], y1: a[1], x2: b[0], y2: b[1], color: region });
+                }
+                ctx.layer();
+                let bold = Style::new().add_modifier(Modifier::BOLD);
+                ctx.print(marks[1][0], marks[1][1], ratatui::text::Line::styled("○", bold.fg(Color::LightGreen)));
+                ctx.print(marks[0][0], marks[0][1], ratatui::text::Line::styled("×", bold.fg(Color::LightRed)));
+            },
+        );
+    canvas.render(area, buf);
+    if poly.is_empty() {
+        put(buf, area, 0, 0, "the region does not reach this L*", Style::new().fg(Color::Gray));
+    }
+}
