@@ -15,6 +15,12 @@
 //! [dial]
 //! path = ["daylight", "split"]   # optional: default = the palette's lights that have `dial` positions,
 //!                                # in angular order around their centre, else all lights in file order
+//! vertices = { split = [1.0, 0.0] }   # optional vertex overrides (else the palette's `dial = [x, y]`)
+//! # or, instead of `path`, keyframes (docs/formats/dial.md; Shepard weights, see `super::dial`):
+//! # [[dial.keyframes]]
+//! # at = "daylight"          # or a point [x, y]
+//! # off = ["split"]          # switched off from here on; also on = [...], move = { name = [x, y] },
+//! #                          # intensity = { name = 0.5 }
 //! [render]                   # optional
 //! step = 1.0                 # voxels between samples
 //! ambient = 0.35             # shading = ambient + (1 − ambient)|n·v|
