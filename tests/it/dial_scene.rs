@@ -94,3 +94,45 @@ fn bad_dials_name_the_key_and_the_reason() {
     let (k, _) = error("[dial]\n[[dial.keyframes]]\nat = \"hide\"\nswitch = 1\n");
     assert!(k.starts_with("line"), "{k}");
 }
+
+/// Frames with the dial are byte-identical between two factor-model runs, and the dial touches only
+/// the lower-right panel (compared with a run without it).
+#[test]
+fn dial_frames_are_deterministic_and_the_dial_stays_lower_right() {
+    use metamer::colorimetry::Colorimetry;
+    use metamer::render::overlay::DialOverlay;
+    use metamer::render::relight::Mode;
+    use metamer::render::sweep::{SweepOptions, sweep_exposure, write_sweep};
+    use metamer::render::{Acceleration, colour_model, render_views};
+    let scene = metamer::render::scene::builtin_scene(32).unwrap();
+    let col = Colorimetry::default();
+    let size = 128;
+    let dir = tempfile::tempdir().unwrap();
+    let reflectances: Vec<_> = scene.materials.iter().map(|m| m.spectrum).collect();
+    let frames = 4;
+    let exposure = sweep_exposure(&col, &reflectances, &scene.dial, frames, 1.0);
+    let run = |name: &str, dial: bool| -> Vec<Vec<u8>> {
+        let model = colour_model(&scene, Mode::Factor, &col).unwrap();
+        let view = render_views(&scene, vec![model], size, size, Acceleration::default(), None).pop().unwrap();
+        let options = SweepOptions {
+            frames,
+            range: 0..frames,
+            exposure,
+            out_dir: dir.path().join(name),
+            contact_sheet: None,
+            overlay: dial.then(|| DialOverlay::new(&scene.dial, &col, size, size)),
+        };
+        let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| {}).unwrap();
+        report.written.iter().map(|p| std::fs::read(p).unwrap()).collect()
+    };
+    let (a, b, plain) = (run("a", true), run("b", true), run("plain", false));
+    assert_eq!(a, b, "two runs with the dial differ");
+    for (with, without) in a.iter().zip(&plain) {
+        let w = image::load_from_memory(with).unwrap().to_rgb8();
+        let p = image::load_from_memory(without).unwrap().to_rgb8();
+        let changed: Vec<(u32, u32)> =
+            w.enumerate_pixels().filter(|(x, y, px)| p.get_pixel(*x, *y) != *px).map(|(x, y, _)| (x, y)).collect();
+        assert!(changed.len() > 300, "the dial drew only {} pixels", changed.len());
+        assert!(changed.iter().all(|&(x, y)| x >= size as u32 / 2 && y >= size as u32 / 2));
+    }
+}
