@@ -48,7 +48,7 @@ impl Preview {
         let options = raycast_options(scene, PREVIEW_WIDTH, PREVIEW_HEIGHT, Acceleration::default());
         let (weights, _) = raycast(&scene.volume, &classes, None, &scene.camera, &options);
         let materials = scene.materials.iter().map(|m| (m.reflectance.clone(), m.spectrum)).collect();
-        let dial = scene.dial.stops.iter().map(|s| (s.name.clone(), s.spectrum)).collect();
+        let dial = scene.dial.visited().iter().map(|l| (l.name.clone(), l.spectrum)).collect();
         let mut preview = Preview { weights, materials, dial, exposure: 1.0 };
         // One exposure for the whole dial (as the renderer's sweep): the brightest channel over five dial
         // positions with the scene's own spectra maps to 1.

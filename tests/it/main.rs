@@ -15,6 +15,8 @@ mod cli_solve;
 mod colour_reference;
 mod design_cases;
 mod design_oracle;
+mod dial_figures;
+mod dial_scene;
 mod feasibility;
 mod fuzz_regressions;
 mod hostile;
