@@ -77,6 +77,7 @@ pub fn raycast_options(scene: &Scene, width: usize, height: usize, accel: Accele
         height,
         step: scene.settings.step,
         ambient: scene.settings.ambient,
+        shading: scene.settings.shading,
         interpolation: scene.settings.interpolation,
         early_termination: accel.early_termination,
         empty_space_skipping: accel.empty_space_skipping,
