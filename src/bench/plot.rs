@@ -1,21 +1,9 @@
 //! PNG plots of run time against error (plotters, bitmap backend, text in the embedded DejaVu Sans).
 
 use plotters::prelude::*;
+// The embedded DejaVu Sans, shared with the contact sheets' labels.
+use crate::render::sweep::register_font;
 use std::path::Path;
-use std::sync::Once;
-
-/// The font every plot uses, embedded so plots render the same on any machine (DejaVu fonts licence,
-/// see data/fonts/DejaVu-LICENSE.txt).
-static FONT: &[u8] = include_bytes!("../../data/fonts/DejaVuSans.ttf");
-static REGISTER: Once = Once::new();
-
-fn register_font() {
-    REGISTER.call_once(|| {
-        // The font is a known-good TTF compiled into the binary; if registration failed, text would be
-        // missing from plots, which the plot tests would catch.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
-    });
-}
 
 /// One series of points; `spread` optionally gives an x-interval (e.g. interquartile range of a timing)
 /// drawn as a horizontal bar through each point.

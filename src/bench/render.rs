@@ -218,13 +218,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
             .pop()
             .ok_or_else(|| RenderError::Invalid("no view".into()))?;
         let exposure = sweep_exposure(&col, &reflectances, &scene.dial, frames, 1.0);
-        let opts = SweepOptions {
-            frames,
-            range: 0..frames,
-            exposure,
-            out_dir: tmp.path().join(format!("sweep{frames}")),
-            contact_sheet: None,
-        };
+        let opts = SweepOptions::new(frames, exposure, tmp.path().join(format!("sweep{frames}")));
         write_sweep(&view.image, &view.model, &scene.dial, &opts, &|| {})?;
         Ok(start.elapsed().as_secs_f64())
     };

@@ -78,6 +78,8 @@ pub fn raycast_options(scene: &Scene, width: usize, height: usize, accel: Accele
         step: scene.settings.step,
         ambient: scene.settings.ambient,
         shading: scene.settings.shading,
+        jitter: scene.settings.jitter,
+        gradient: scene.settings.gradient,
         interpolation: scene.settings.interpolation,
         early_termination: accel.early_termination,
         empty_space_skipping: accel.empty_space_skipping,

@@ -33,7 +33,7 @@
 
 use super::RenderError;
 use super::dial::{Dial, DialStop};
-use super::raycast::{Camera, Interpolation, MAX_MATERIALS, MaterialClass, Shading};
+use super::raycast::{Camera, Gradient, Interpolation, MAX_MATERIALS, MaterialClass, Shading};
 use crate::palette::{Kind, Palette, SpectrumEntry};
 use crate::spectrum::{Normalize, Spectrum};
 use crate::volume::{Endian, ScalarType, Volume, generate, raw};
@@ -55,6 +55,9 @@ pub struct SceneSettings {
     pub step: f64,
     pub ambient: f64,
     pub shading: Shading,
+    /// Per-pixel ray-start jitter.
+    pub jitter: bool,
+    pub gradient: Gradient,
     pub interpolation: Interpolation,
     /// Multiplies the automatic sweep exposure.
     pub exposure: f64,
@@ -66,6 +69,8 @@ impl Default for SceneSettings {
             step: 1.0,
             ambient: 0.3,
             shading: Shading::Key,
+            jitter: true,
+            gradient: Gradient::Smooth,
             interpolation: Interpolation::Trilinear,
             exposure: 1.0,
         }
