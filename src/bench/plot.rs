@@ -315,6 +315,57 @@ mod tests {
     use super::*;
 
     #[test]
+    fn tick_labels_are_short_and_exact() {
+        assert_eq!(tick_label(0.001), "0.001");
+        assert_eq!(tick_label(0.00999999), "0.01");
+        assert_eq!(tick_label(2.5), "2.5");
+        assert_eq!(tick_label(30.0), "30");
+        assert_eq!(tick_label(1e-5), "1e-5");
+        assert_eq!(tick_label(3.2e6), "3.2e6");
+        assert_eq!(tick_label(0.0), "0");
+        assert!((1..200).map(|i| tick_label(i as f64 * 1.1e-4)).all(|s| s.len() <= 7));
+    }
+
+    #[test]
+    fn every_series_gets_its_own_colour_and_marker() {
+        let styles: Vec<(RGBColor, usize)> = (0..40).map(style_of).collect();
+        for i in 0..40 {
+            for j in 0..i {
+                assert!(styles[i] != styles[j], "series {i} and {j} look alike");
+            }
+        }
+    }
+
+    #[test]
+    fn non_finite_points_are_left_out_with_a_note() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.png"), dir.path().join("b.png"));
+        let series = |pts: Vec<(f64, f64)>| Series { label: "s".into(), points: pts, ..Series::default() };
+        let plot = |pts| XyPlot {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            x_scale: Scale::Log,
+            y_scale: Scale::Log,
+            series: vec![series(pts)],
+            pareto: false,
+        };
+        draw(&plot(vec![(1.0, 1.0), (2.0, 3.0)]), &a, 640, 400).unwrap();
+        draw(&plot(vec![(1.0, 1.0), (2.0, 3.0), (3.0, f64::NAN), (4.0, 0.0)]), &b, 640, 400).unwrap();
+        // Same axes and points; the second image differs only by the note in the legend column.
+        let (ia, ib) = (image::open(&a).unwrap().to_rgb8(), image::open(&b).unwrap().to_rgb8());
+        let split = 640 - LEGEND_W.min(640 / 3);
+        let diff = |x0: u32, x1: u32| {
+            (0..400)
+                .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                .filter(|(x, y)| ia.get_pixel(*x, *y) != ib.get_pixel(*x, *y))
+                .count()
+        };
+        assert_eq!(diff(0, split), 0, "a non-finite point changed the chart");
+        assert!(diff(split, 640) > 50, "no note about the left-out points");
+    }
+
+    #[test]
     fn draws_a_png_with_text_and_points() {
         let dir = tempfile::tempdir().unwrap();
         let path = std::env::var("METAMER_PLOT_DEMO")

@@ -421,3 +421,100 @@ pub fn register_font() {
         let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, FONT);
     });
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::dial::DialStop;
+
+    fn dial() -> Dial {
+        let stop = |n: &str, v: f64| DialStop { name: n.into(), spectrum: Spectrum::flat(v) };
+        Dial::new(vec![stop("dim", 0.5), stop("bright", 1.0)]).unwrap()
+    }
+
+    fn rgb_model() -> ColourModel {
+        ColourModel::rgb(Colorimetry::default())
+    }
+
+    #[test]
+    fn exposure_follows_a_high_percentile_not_the_brightest_pixel() {
+        // 1000 pixels of reflectance 0.2 and one of 1.0 (a speck); one black (uncovered) pixel.
+        let mut data = vec![0.2f32; 3 * 1002];
+        data[0..3].copy_from_slice(&[1.0, 1.0, 1.0]);
+        data[3 * 1001..].copy_from_slice(&[0.0, 0.0, 0.0]);
+        let img = ChannelImage { width: 1002, height: 1, channels: 3, data };
+        let model = rgb_model();
+        let e = percentile_exposure(&img, &model, &dial(), 5, EXPOSURE_PERCENTILE, 1.0).unwrap();
+        // Under the bright light (the last frame), the 0.2 pixels' brightest channel lands at 1.
+        let m = model.frame_matrix(&Spectrum::flat(1.0), e);
+        let lin = relight_linear(&ChannelImage { width: 1, height: 1, channels: 3, data: vec![0.2; 3] }, &m);
+        let peak = lin.iter().copied().fold(0.0f32, f32::max);
+        assert!((peak - 1.0).abs() < 1e-3, "covered pixels peak at {peak}");
+        // The conservative bound would expose 5× darker.
+        let empty = ChannelImage { width: 2, height: 1, channels: 3, data: vec![0.0; 6] };
+        assert!(percentile_exposure(&empty, &model, &dial(), 5, 0.99, 1.0).is_none());
+    }
+
+    #[test]
+    fn supersampling_averages_channels_so_frames_stay_exact() {
+        let data: Vec<f32> = (0..4 * 4 * 3).map(|i| (i % 7) as f32 * 0.1).collect();
+        let big = ChannelImage { width: 4, height: 4, channels: 3, data };
+        let small = downsample(&big, 2);
+        assert_eq!((small.width, small.height), (2, 2));
+        let m = rgb_model().frame_matrix(&Spectrum::flat(0.8), 1.3);
+        let (lb, ls) = (relight_linear(&big, &m), relight_linear(&small, &m));
+        // Relighting the averaged channels = averaging the relit pixels.
+        for (y, x) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+            for c in 0..3 {
+                let avg: f32 = [(0, 0), (0, 1), (1, 0), (1, 1)]
+                    .iter()
+                    .map(|(dy, dx)| lb[((2 * y + dy) * 4 + 2 * x + dx) * 3 + c])
+                    .sum::<f32>()
+                    / 4.0;
+                assert!((ls[(y * 2 + x) * 3 + c] - avg).abs() < 1e-5);
+            }
+        }
+        assert_eq!(downsample(&big, 1), big);
+    }
+
+    #[test]
+    fn contact_sheet_is_built_from_thumbnails_with_labels_and_a_centred_last_row() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (64usize, 48usize);
+        let img = ChannelImage { width: w, height: h, channels: 3, data: vec![0.5; w * h * 3] };
+        let sheet_path = dir.path().join("sheet.png");
+        let opts = SweepOptions {
+            contact_sheet: Some(sheet_path.clone()),
+            title: Some("a title".into()),
+            ..SweepOptions::new(5, 1.0, dir.path().join("frames"))
+        };
+        let report = write_sweep(&img, &rgb_model(), &dial(), &opts, &|| {}).unwrap();
+        assert_eq!(report.written.len(), 5);
+        let sheet = image::open(&sheet_path).unwrap().to_rgb8();
+        let layout = SheetLayout::new(5, w, h);
+        assert_eq!((layout.cols, layout.rows), (3, 2));
+        let cell_w = layout.tile_w + layout.gap;
+        assert_eq!(sheet.width(), 3 * cell_w + layout.gap);
+        assert_eq!(sheet.height(), layout.title_h + 2 * (layout.tile_h + layout.label_h + layout.gap) + layout.gap);
+        // Labels: light text pixels in the label band under the first tile.
+        let band_y = layout.title_h + layout.gap + layout.tile_h;
+        let text = (band_y..band_y + layout.label_h)
+            .flat_map(|y| (layout.gap..layout.gap + layout.tile_w).map(move |x| (x, y)))
+            .filter(|(x, y)| sheet.get_pixel(*x, *y).0[0] > 120)
+            .count();
+        assert!(text > 30, "label band has {text} text pixels");
+        // The last row holds two tiles, indented by half a cell: its first tile starts at gap + cell/2.
+        let row2_y = layout.title_h + layout.gap + layout.tile_h + layout.label_h + layout.gap + layout.tile_h / 2;
+        let lit = |x: u32| sheet.get_pixel(x, row2_y).0[0] > 60;
+        assert!(!lit(layout.gap + 2) && lit(layout.gap + cell_w / 2 + 2), "last row not centred");
+        assert!(frame_label(&dial(), 2, 5).contains("dim 50% bright 50%"));
+    }
+
+    #[test]
+    fn gamma_lifts_dark_values_only() {
+        let (plain, lifted) = (SrgbLut::new(), SrgbLut::with_gamma(2.0));
+        assert!(lifted.encode(0.05) > plain.encode(0.05));
+        assert_eq!(lifted.encode(1.0), plain.encode(1.0));
+        assert_eq!(lifted.encode(0.0), 0);
+    }
+}
