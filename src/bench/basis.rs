@@ -196,8 +196,14 @@ pub fn plots(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, BenchError> 
     let dims = |f: &dyn Fn(&Row) -> f64| -> Vec<(f64, f64)> {
         results.rows.iter().map(|r| (r.dimension as f64, f(r))).collect()
     };
-    let series =
-        |label: &str, points: Vec<(f64, f64)>| Series { label: label.into(), points, spread: None, line: true };
+    let series = |label: &str, points: Vec<(f64, f64)>| Series {
+        label: label.into(),
+        points,
+        spread: None,
+        line: true,
+        workload: None,
+        point_workloads: vec![],
+    };
     let first = results.rows.first().map_or(3.0, |r| r.dimension as f64);
     let last = results.rows.last().map_or(12.0, |r| r.dimension as f64);
     let error = XyPlot {

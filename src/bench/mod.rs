@@ -73,6 +73,11 @@ pub fn format_seconds(s: f64) -> String {
     }
 }
 
+/// `v` with `digits` decimals, or "n/a" when it is not finite (tables never show NaN or inf).
+pub fn fixed(v: f64, digits: usize) -> String {
+    if v.is_finite() { format!("{v:.digits$}") } else { "n/a".into() }
+}
+
 /// A Markdown table.
 pub fn markdown_table(headers: &[&str], rows: &[Vec<String>]) -> String {
     let mut out = String::new();

@@ -10,7 +10,7 @@
 //! ([`capacity_errors`]), as mean and worst over seeds.
 
 use super::plot::{self, Scale, Series, XyPlot};
-use super::{Timing, format_seconds, markdown_table, time_runs};
+use super::{Timing, fixed, format_seconds, markdown_table, time_runs};
 use crate::colorimetry::{Colorimetry, xyz_to_lab};
 use crate::design::{self, Solution, SolveOptions, random};
 use crate::palette::{Bounds, Palette};
@@ -158,11 +158,11 @@ impl Report {
                     r.timing.display(),
                     format_seconds(r.per_design),
                     match r.worst_delta_e_ab {
-                        Some(w) => format!("{:.3} (worst {w:.3})", r.mean_delta_e_ab),
-                        None => format!("{:.3}", r.mean_delta_e_ab),
+                        Some(w) => format!("{} (worst {})", fixed(r.mean_delta_e_ab, 3), fixed(w, 3)),
+                        None => fixed(r.mean_delta_e_ab, 3),
                     },
-                    format!("{:.3}", r.mean_delta_e00),
-                    format!("{:.4e}", r.objective),
+                    fixed(r.mean_delta_e00, 3),
+                    if r.objective.is_finite() { format!("{:.4e}", r.objective) } else { "n/a".into() },
                 ]
             })
             .collect();
@@ -192,6 +192,8 @@ impl Report {
                     .collect(),
                 spread: None,
                 line: true,
+                workload: None,
+                point_workloads: vec![],
             })
             .collect();
         let p = XyPlot {
@@ -369,7 +371,10 @@ pub fn joint(cfg: &Config) -> Vec<Row> {
             // fixed sRGB display white.
             for (white, ab) in [(CAPACITY_LIGHT_WHITE, &under), (CAPACITY_DISPLAY_WHITE, &fixed)] {
                 rows.push(Row {
-                    group: format!("joint n×n, positivity ({} seeds, ΔE*ab vs {white})", times.len()),
+                    group: format!(
+                        "joint n×n, positivity ({}, ΔE*ab vs {white})",
+                        seeds_text(times.len(), cfg.joint_seeds)
+                    ),
                     case: format!("{n}×{n}"),
                     designs: 2 * n,
                     timing,
@@ -383,6 +388,16 @@ pub fn joint(cfg: &Config) -> Vec<Row> {
         }
     }
     rows
+}
+
+/// `8 seeds`, `1 seed`, or `7 of 8 seeds` when some solves failed.
+pub fn seeds_text(solved: usize, asked: u64) -> String {
+    let plural = |n: u64| if n == 1 { "seed" } else { "seeds" };
+    if solved as u64 == asked {
+        format!("{solved} {}", plural(asked))
+    } else {
+        format!("{solved} of {asked} {}", plural(asked))
+    }
 }
 
 /// The `metamer` binary to time: this process when it is `metamer`, else one beside it or one level up

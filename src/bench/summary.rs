@@ -22,26 +22,28 @@ use std::path::Path;
 pub fn solve_tradeoff_plot(report: &solve::Report, path: &Path) -> Result<(), PlotError> {
     let mut groups: Vec<&str> = Vec::new();
     for r in &report.rows {
-        if r.mean_delta_e_ab.is_finite() && !groups.contains(&r.group.as_str()) {
+        if !groups.contains(&r.group.as_str()) {
             groups.push(&r.group);
         }
     }
     let series = groups
         .iter()
         .map(|g| {
-            let rows: Vec<&solve::Row> =
-                report.rows.iter().filter(|r| r.group == *g && r.mean_delta_e_ab.is_finite()).collect();
+            let rows: Vec<&solve::Row> = report.rows.iter().filter(|r| r.group == *g).collect();
             Series {
                 label: (*g).to_string(),
-                points: rows.iter().map(|r| (r.timing.median, r.mean_delta_e_ab.max(1e-6))).collect(),
+                points: rows.iter().map(|r| (r.timing.median, r.mean_delta_e_ab)).collect(),
                 spread: Some(rows.iter().map(|r| (r.timing.q1, r.timing.q3)).collect()),
                 line: true,
+                workload: None,
+                // The same case (e.g. "20 designs") is the same work for every solver path.
+                point_workloads: rows.iter().map(|r| r.case.clone()).collect(),
             }
         })
         .collect();
     plot::draw(
         &XyPlot {
-            title: "metamer solve: run time against colour error (bars: IQR; black: Pareto front)".into(),
+            title: "metamer solve: run time against colour error (bars: IQR)".into(),
             x_label: "run time per solve, median (s)".into(),
             y_label: "mean CIELAB ΔE*ab".into(),
             x_scale: Scale::Log,
@@ -142,6 +144,9 @@ pub fn ratios_markdown(ratios: &[Ratio]) -> String {
     markdown_table(&["comparison", "measured (median, IQR)", "baseline", "speed-up", "objective gap"], &rows)
 }
 
+/// The one workload of the basis plot.
+const BASIS_WORKLOAD: &str = "ColorChecker × 7 lights";
+
 /// Relighting cost against factor-model error for each basis dimension and the RGB model, Pareto front
 /// marked (what a renderer pays per pixel-frame for each ΔE00).
 pub fn basis_tradeoff_plot(results: &basis::Results, path: &Path) -> Result<(), PlotError> {
@@ -150,26 +155,36 @@ pub fn basis_tradeoff_plot(results: &basis::Results, path: &Path) -> Result<(), 
         .iter()
         .map(|r| Series {
             label: format!("m = {}", r.dimension),
-            points: vec![(r.relight_ns_per_pixel.max(1e-6), r.full.mean.max(1e-6))],
+            points: vec![(r.relight_ns_per_pixel, r.full.mean)],
             spread: None,
             line: false,
+            workload: Some(BASIS_WORKLOAD.into()),
+            point_workloads: vec![],
         })
         .collect();
     series.truncate(7);
-    let rest: Vec<(f64, f64)> =
-        results.rows.iter().skip(7).map(|r| (r.relight_ns_per_pixel.max(1e-6), r.full.mean.max(1e-6))).collect();
+    let rest: Vec<(f64, f64)> = results.rows.iter().skip(7).map(|r| (r.relight_ns_per_pixel, r.full.mean)).collect();
     if !rest.is_empty() {
-        series.push(Series { label: "m ≥ 10".into(), points: rest, spread: None, line: false });
+        series.push(Series {
+            label: "m ≥ 10".into(),
+            points: rest,
+            spread: None,
+            line: false,
+            workload: Some(BASIS_WORKLOAD.into()),
+            point_workloads: vec![],
+        });
     }
     series.push(Series {
         label: "RGB factor model".into(),
-        points: vec![(results.rgb_relight_ns_per_pixel.max(1e-6), results.rgb.mean.max(1e-6))],
+        points: vec![(results.rgb_relight_ns_per_pixel, results.rgb.mean)],
         spread: None,
         line: false,
+        workload: Some(BASIS_WORKLOAD.into()),
+        point_workloads: vec![],
     });
     plot::draw(
         &XyPlot {
-            title: "factor model: relighting cost against error (black: Pareto front)".into(),
+            title: "factor model: relighting cost against error".into(),
             x_label: "relight ns per pixel-frame".into(),
             y_label: "mean ΔE00 vs full 31-sample (ColorChecker × 7 lights)".into(),
             x_scale: Scale::Linear,
@@ -207,11 +222,13 @@ pub fn render_tradeoff_plot(report: &RenderBenchReport, path: &Path) -> Result<(
     let series = sizes
         .iter()
         .flat_map(|size| {
-            report.relight.iter().filter(move |r| r.size == *size).map(|r| Series {
+            report.relight.iter().filter(move |r| r.size == *size).map(move |r| Series {
                 label: format!("{} (K = {}), {}²", r.mode.as_str(), r.channels, r.size),
                 points: vec![(r.median_s * 1e3, err(r.mode).max(floor))],
                 spread: None,
                 line: false,
+                workload: Some(format!("{size}²")),
+                point_workloads: vec![],
             })
         })
         .collect();

@@ -9,9 +9,12 @@ use std::time::Instant;
 use crate::colorimetry::Colorimetry;
 use crate::render::dial::Timing;
 use crate::render::overlay::DialOverlay;
+use crate::render::raycast::{Gradient, Shading};
 use crate::render::relight::Mode;
 use crate::render::scene::Scene;
-use crate::render::sweep::{SweepOptions, sweep_exposure, write_sweep};
+use crate::render::sweep::{
+    EXPOSURE_PERCENTILE, SweepOptions, downsample, percentile_exposure, sweep_exposure, write_sweep,
+};
 use crate::render::{Acceleration, colour_model, render_views};
 
 /// The dial's formula and scene format, shown by `metamer render --help` (docs/formats/dial.md has more).
@@ -78,6 +81,34 @@ pub struct Args {
     /// Size of the generated volume of the built-in scene (voxels along x and y).
     #[arg(long, default_value_t = 160)]
     pub builtin_volume_size: usize,
+    /// Supersampling: raycast SS× larger in each direction and average down (1 = off; 2 for
+    /// publication frames, about 4× the raycast time, same per-frame cost).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4))]
+    pub ss: u32,
+    /// Display gamma before sRGB encoding (1 = plain sRGB; 1.5–2.2 lifts dark, thin tissue).
+    #[arg(long, default_value_t = 1.0)]
+    pub gamma: f64,
+    /// Title line on the contact sheet.
+    #[arg(long)]
+    pub title: Option<String>,
+    /// Shading: key (a key light above left of the eye, the default), headlight, or unshaded (the
+    /// seed's look). Overrides the scene's `render.shading`.
+    #[arg(long, value_parser = ["key", "headlight", "unshaded"])]
+    pub shading: Option<String>,
+    /// Turn off the per-pixel ray-start jitter (fixed-phase sampling, shows banding).
+    #[arg(long)]
+    pub no_jitter: bool,
+    /// Shade with the faceted gradient of each trilinear cell instead of the smooth central differences.
+    #[arg(long)]
+    pub cell_gradient: bool,
+    /// Every material emits without absorbing (nothing hides what is behind it, so a material that is
+    /// black under the current light vanishes instead of darkening). Still one raycast per view.
+    #[arg(long)]
+    pub emissive_only: bool,
+    /// Expose for the brightest possible material colour (never clips, darker) instead of the 99.5th
+    /// percentile of the brightest frame.
+    #[arg(long)]
+    pub conservative_exposure: bool,
     /// Turn off early ray termination (for benchmarking).
     #[arg(long)]
     pub no_early_termination: bool,
@@ -116,12 +147,29 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         None => 0..args.frames,
     };
     let colorimetry = Colorimetry::default();
+    if !(args.gamma.is_finite() && (0.2..=5.0).contains(&args.gamma)) {
+        bail!("--gamma {} is outside 0.2..=5", args.gamma);
+    }
     let mut scene = match (&args.scene, args.builtin) {
         (Some(p), false) => Scene::load_with_volume(p, args.volume.as_deref())?,
         (Some(_), true) => bail!("give either a scene file or --builtin, not both"),
         (None, _) if args.volume.is_some() => bail!("--volume needs a scene file (it replaces the scene's `volume`)"),
         (None, _) => crate::render::scene::builtin_scene(args.builtin_volume_size)?,
     };
+    if let Some(sh) = &args.shading {
+        scene.settings.shading = match sh.as_str() {
+            "headlight" => Shading::Headlight,
+            "unshaded" => Shading::Unshaded,
+            _ => Shading::Key,
+        };
+    }
+    scene.settings.jitter &= !args.no_jitter;
+    if args.cell_gradient {
+        scene.settings.gradient = Gradient::Cell;
+    }
+    if args.emissive_only {
+        scene.materials.iter_mut().for_each(|m| m.class.absorbs = false);
+    }
     let range = if args.keyframes {
         if args.frame_range.is_some() {
             bail!("give either --keyframes or --frame-range, not both");
@@ -165,11 +213,20 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         empty_space_skipping: !args.no_empty_space_skipping,
     };
     let start = Instant::now();
-    let view = render_views(&scene, vec![model], args.size, args.size, accel, None)
+    let ss = args.ss as usize;
+    let mut view = render_views(&scene, vec![model], args.size * ss, args.size * ss, accel, None)
         .pop()
         .context("the raycast produced no image")?;
+    view.image = downsample(&view.image, ss);
     let reflectances: Vec<_> = scene.materials.iter().map(|m| m.spectrum).collect();
-    let exposure = sweep_exposure(&colorimetry, &reflectances, &scene.dial, args.frames, scene.settings.exposure);
+    let bound = || sweep_exposure(&colorimetry, &reflectances, &scene.dial, args.frames, scene.settings.exposure);
+    let exposure = if args.conservative_exposure {
+        bound()
+    } else {
+        let e = &scene.settings.exposure;
+        percentile_exposure(&view.image, &view.model, &scene.dial, args.frames, EXPOSURE_PERCENTILE, *e)
+            .unwrap_or_else(bound)
+    };
     let bar = if std::io::stderr().is_terminal() {
         let b = ProgressBar::new(range.len() as u64);
         b.set_style(
@@ -181,12 +238,12 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         ProgressBar::hidden()
     };
     let options = SweepOptions {
-        frames: args.frames,
         range: range.clone(),
-        exposure,
-        out_dir: args.output.clone(),
+        gamma: args.gamma,
         contact_sheet: args.contact_sheet.clone(),
         overlay: (!args.no_dial).then(|| DialOverlay::new(&scene.dial, &colorimetry, args.size, args.size)),
+        title: args.title.clone(),
+        ..SweepOptions::new(args.frames, exposure, args.output.clone())
     };
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
     bar.finish_and_clear();
@@ -203,8 +260,9 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         crate::fsio::show(&args.output)
     );
     println!(
-        "raycast {:.1} ms ({} samples, {} skipped), relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms",
+        "raycast {:.1} ms at {}² ({} samples, {} skipped), exposure {exposure:.3}, relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms",
         view.seconds * 1e3,
+        args.size * ss,
         view.stats.samples,
         view.stats.skipped,
         report.seconds * 1e3,

@@ -137,8 +137,18 @@ impl SrgbLut {
     const N: usize = 1 << 16;
 
     pub fn new() -> SrgbLut {
+        SrgbLut::with_gamma(1.0)
+    }
+
+    /// A table with a display gamma: linear `x` is encoded as sRGB of `x^(1/gamma)` (gamma > 1 lifts
+    /// dark values; 1, or anything not positive and finite, is plain sRGB).
+    pub fn with_gamma(gamma: f64) -> SrgbLut {
+        let g = if gamma.is_finite() && gamma > 0.0 { gamma } else { 1.0 };
         let table = (0..Self::N)
-            .map(|i| (srgb_encode(i as f64 / (Self::N - 1) as f64) * 255.0).round().clamp(0.0, 255.0) as u8)
+            .map(|i| {
+                let x = (i as f64 / (Self::N - 1) as f64).powf(1.0 / g);
+                (srgb_encode(x) * 255.0).round().clamp(0.0, 255.0) as u8
+            })
             .collect();
         SrgbLut { table }
     }

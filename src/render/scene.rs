@@ -8,10 +8,12 @@
 //! reflectance = "block"
 //! range = [80, 255]
 //! opacity = 0.6
+//! absorbs = true             # optional; false = emissive only (adds colour, hides nothing behind it)
 //! [camera]
 //! azimuth_deg = 30.0
 //! elevation_deg = 20.0
-//! zoom = 1.0                 # optional
+//! zoom = 1.0                 # optional; 1 fits the framed box with a 4% margin
+//! fit = "materials"          # optional: frame the voxels that belong to a material (default), or "volume"
 //! [dial]
 //! path = ["daylight", "split"]   # optional: default = the palette's lights that have `dial` positions,
 //!                                # in angular order around their centre, else all lights in file order
@@ -23,8 +25,9 @@
 //! #                          # intensity = { name = 0.5 }
 //! [render]                   # optional
 //! step = 1.0                 # voxels between samples
-//! ambient = 0.35             # shading = ambient + (1 − ambient)|n·v|
-//! interpolation = "trilinear"    # or "nearest" for label volumes
+//! ambient = 0.3              # shading = ambient + (1 − ambient)·max(n·l, 0)
+//! shading = "key"            # key light above left of the eye, "headlight", or "unshaded" (the seed's look)
+//! interpolation = "trilinear"    # "labels" for label volumes (pre-classified, smooth), or "nearest"
 //! exposure = 1.0             # multiplies the automatic sweep exposure
 //! generated_size = 160       # size of a generated volume
 //! [raw]                      # only for raw volume files
@@ -36,7 +39,7 @@
 
 use super::RenderError;
 use super::dial::{Dial, DialLight, DialState, default_position};
-use super::raycast::{Camera, Interpolation, MAX_MATERIALS, MaterialClass};
+use super::raycast::{Camera, Gradient, Interpolation, MAX_MATERIALS, MaterialClass, Shading};
 use crate::palette::{Kind, Palette, SpectrumEntry};
 use crate::spectrum::{Normalize, Spectrum};
 use crate::volume::{Endian, ScalarType, Volume, generate, raw};
@@ -57,6 +60,10 @@ pub struct Material {
 pub struct SceneSettings {
     pub step: f64,
     pub ambient: f64,
+    pub shading: Shading,
+    /// Per-pixel ray-start jitter.
+    pub jitter: bool,
+    pub gradient: Gradient,
     pub interpolation: Interpolation,
     /// Multiplies the automatic sweep exposure.
     pub exposure: f64,
@@ -64,7 +71,15 @@ pub struct SceneSettings {
 
 impl Default for SceneSettings {
     fn default() -> Self {
-        SceneSettings { step: 1.0, ambient: 0.35, interpolation: Interpolation::Trilinear, exposure: 1.0 }
+        SceneSettings {
+            step: 1.0,
+            ambient: 0.3,
+            shading: Shading::Key,
+            jitter: true,
+            gradient: Gradient::Smooth,
+            interpolation: Interpolation::Trilinear,
+            exposure: 1.0,
+        }
     }
 }
 
@@ -101,6 +116,7 @@ struct MaterialFile {
     reflectance: String,
     range: [f64; 2],
     opacity: f64,
+    absorbs: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -109,6 +125,7 @@ struct CameraFile {
     azimuth_deg: Option<f64>,
     elevation_deg: Option<f64>,
     zoom: Option<f64>,
+    fit: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -146,6 +163,7 @@ struct KeyframeFile {
 struct RenderFile {
     step: Option<f64>,
     ambient: Option<f64>,
+    shading: Option<String>,
     interpolation: Option<String>,
     exposure: Option<f64>,
     generated_size: Option<usize>,
@@ -276,6 +294,7 @@ impl Scene {
                 reflectance: name.clone(),
                 range: [f64::from(r[0]), f64::from(r[1])],
                 opacity: *o,
+                absorbs: None,
             })
             .collect();
         let materials = materials_of(origin, &palette, &files)?;
@@ -285,7 +304,7 @@ impl Scene {
             palette_path: None,
             volume: generate::engine_like(size),
             materials,
-            camera: Camera { azimuth_deg: 35.0, elevation_deg: 25.0, zoom: 1.3 },
+            camera: Camera { azimuth_deg: 35.0, elevation_deg: 25.0, ..Camera::default() },
             dial,
             settings: SceneSettings::default(),
             palette,
@@ -371,8 +390,27 @@ fn settings_of(path: &Path, r: Option<&RenderFile>) -> Result<SceneSettings, Ren
         s.interpolation = match i.as_str() {
             "trilinear" => Interpolation::Trilinear,
             "nearest" => Interpolation::Nearest,
+            "labels" => Interpolation::Labels,
             o => {
-                return Err(scene_err(path, "render.interpolation", format!("`{o}` is neither trilinear nor nearest")));
+                return Err(scene_err(
+                    path,
+                    "render.interpolation",
+                    format!("`{}` is not trilinear, nearest or labels", o.escape_debug()),
+                ));
+            }
+        };
+    }
+    if let Some(sh) = &r.shading {
+        s.shading = match sh.as_str() {
+            "key" => Shading::Key,
+            "headlight" => Shading::Headlight,
+            "unshaded" => Shading::Unshaded,
+            o => {
+                return Err(scene_err(
+                    path,
+                    "render.shading",
+                    format!("`{}` is not key, headlight or unshaded", o.escape_debug()),
+                ));
             }
         };
     }
@@ -411,6 +449,19 @@ fn camera_of(path: &Path, c: Option<&CameraFile>) -> Result<Camera, RenderError>
     if let Some(a) = c.azimuth_deg {
         cam.azimuth_deg = a;
     }
+    if let Some(f) = &c.fit {
+        cam.fit_materials = match f.as_str() {
+            "materials" => true,
+            "volume" => false,
+            o => {
+                return Err(scene_err(
+                    path,
+                    "camera.fit",
+                    format!("`{}` is neither materials nor volume", o.escape_debug()),
+                ));
+            }
+        };
+    }
     Ok(cam)
 }
 
@@ -444,7 +495,11 @@ fn materials_of(path: &Path, palette: &Palette, files: &[MaterialFile]) -> Resul
             Ok(Material {
                 reflectance: m.reflectance.clone(),
                 spectrum: palette.reflectances[idx].spectrum,
-                class: MaterialClass { range: [lo as f32, hi as f32], opacity: m.opacity as f32 },
+                class: MaterialClass {
+                    range: [lo as f32, hi as f32],
+                    opacity: m.opacity as f32,
+                    absorbs: m.absorbs.unwrap_or(true),
+                },
             })
         })
         .collect()
@@ -658,7 +713,7 @@ pub fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities
         .map(|(r, (range, opacity))| Material {
             reflectance: r.name.clone(),
             spectrum: r.spectrum,
-            class: MaterialClass { range: *range, opacity },
+            class: MaterialClass::new(*range, opacity),
         })
         .collect();
     let dial = dial_of(Path::new("check scene"), &palette, None).unwrap_or_else(|_| Dial::empty());

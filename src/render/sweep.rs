@@ -3,11 +3,24 @@
 //! `DIR/frame_0000.png …`. Frames are relit and encoded in parallel. Frame numbers and positions are
 //! global (frame k of N sits at k/(N−1) whatever range is rendered), and the exposure depends only on
 //! the scene and N, so runs over split frame ranges combine into one sweep.
+//!
+//! - Exposure: [`percentile_exposure`] (what `metamer render` uses) puts a high percentile (99.5 %) of
+//!   the covered pixels of the brightest frame at 1, so a few bright specks do not darken the sweep;
+//!   [`sweep_exposure`] is the conservative bound that never clips (used to compare colour models).
+//! - Tone: an optional display gamma ([`SrgbLut::with_gamma`]): `gamma > 1` lifts dark tissue,
+//!   applied to the linear value before sRGB encoding; 1 is plain sRGB.
+//! - Supersampling: [`downsample`] box-filters a raycast made `ss` times larger. Relighting is linear,
+//!   so averaging the stored channels equals averaging the relit frames: frames stay exact and cost
+//!   the same per frame.
+//! - Contact sheet: every frame is shrunk to its tile as soon as it is encoded, so memory holds only
+//!   thumbnails (never the full frames); tiles are labelled with the frame number, dial position and
+//!   light mix, under an optional title. [`SweepOptions::overlay`] is the hook that draws the dial into
+//!   every frame (and so into its tile).
 
 use super::RenderError;
 use super::dial::Dial;
 use super::raycast::ChannelImage;
-use super::relight::{ColourModel, SrgbLut, relight_srgb8};
+use super::relight::{ColourModel, SrgbLut, relight_linear, relight_srgb8};
 use crate::colorimetry::Colorimetry;
 use crate::spectrum::Spectrum;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
@@ -69,6 +82,97 @@ pub fn encode_png(rgb: &[u8], width: usize, height: usize) -> Result<Vec<u8>, St
     Ok(buf)
 }
 
+/// The fraction of covered pixels of the brightest frame that [`percentile_exposure`] keeps below 1.
+pub const EXPOSURE_PERCENTILE: f64 = 0.995;
+
+/// Frames [`percentile_exposure`] looks at: at most this many, spread evenly over the whole sweep.
+const EXPOSURE_FRAMES: usize = 17;
+
+/// The one exposure of a sweep, from the picture: for up to 17 frames spread evenly over all N frames
+/// (the same frames whatever range is written), the `percentile` (e.g. 0.995) of the brightest linear
+/// channel over the pixels the volume covers (sampled on a grid of at most about 256² pixels); the
+/// brightest frame's value is put at 1, times `scale`. None when no pixel is covered or every covered
+/// pixel is black.
+pub fn percentile_exposure(
+    image: &ChannelImage,
+    model: &ColourModel,
+    dial: &Dial,
+    frames: usize,
+    percentile: f64,
+    scale: f64,
+) -> Option<f64> {
+    let k = image.channels;
+    if k == 0 || image.width == 0 || image.height == 0 {
+        return None;
+    }
+    let stride = (image.width.max(image.height) / 256).max(1);
+    let mut data = Vec::new();
+    for y in (0..image.height).step_by(stride) {
+        for x in (0..image.width).step_by(stride) {
+            let px = &image.data[(y * image.width + x) * k..(y * image.width + x + 1) * k];
+            if px.iter().any(|v| *v != 0.0) {
+                data.extend_from_slice(px);
+            }
+        }
+    }
+    let covered = data.len() / k;
+    if covered == 0 {
+        return None;
+    }
+    let sample = ChannelImage { width: covered, height: 1, channels: k, data };
+    let n = frames.max(1);
+    let looks = n.min(EXPOSURE_FRAMES);
+    let p = percentile.clamp(0.0, 1.0);
+    let brightest = (0..looks)
+        .map(|i| if looks == 1 { 0 } else { (i * (n - 1) + (looks - 1) / 2) / (looks - 1) })
+        .map(|f| {
+            let e = dial.light_at(Dial::position(f, n));
+            let lin = relight_linear(&sample, &model.frame_matrix(&e, 1.0));
+            let mut peak: Vec<f32> =
+                lin.chunks_exact(3).map(|c| c[0].max(c[1]).max(c[2])).filter(|v| v.is_finite()).collect();
+            if peak.is_empty() {
+                return 0.0;
+            }
+            let idx = ((peak.len() - 1) as f64 * p).round() as usize;
+            let (_, v, _) = peak.select_nth_unstable_by(idx, f32::total_cmp);
+            f64::from(*v)
+        })
+        .fold(0.0f64, f64::max);
+    (brightest > 1e-12).then(|| scale / brightest)
+}
+
+/// Box-filter a K-channel image by `factor` in each direction (supersampling: raycast at `factor`
+/// times the size, then this). Relighting is linear, so frames of the result equal the averaged frames
+/// of the large image exactly. A partial last block averages what it has.
+pub fn downsample(image: &ChannelImage, factor: usize) -> ChannelImage {
+    let f = factor.max(1);
+    if f == 1 {
+        return image.clone();
+    }
+    let (w, h, k) = (image.width.div_ceil(f), image.height.div_ceil(f), image.channels);
+    let mut data = vec![0f32; w * h * k];
+    data.par_chunks_mut((w * k).max(1)).enumerate().for_each(|(y, row)| {
+        for x in 0..w {
+            let out = &mut row[x * k..(x + 1) * k];
+            let mut count = 0u32;
+            for sy in y * f..((y + 1) * f).min(image.height) {
+                for sx in x * f..((x + 1) * f).min(image.width) {
+                    let src = &image.data[(sy * image.width + sx) * k..(sy * image.width + sx + 1) * k];
+                    for (o, s) in out.iter_mut().zip(src) {
+                        *o += s;
+                    }
+                    count += 1;
+                }
+            }
+            if count > 0 {
+                let inv = 1.0 / count as f32;
+                out.iter_mut().for_each(|o| *o *= inv);
+            }
+        }
+    });
+    ChannelImage { width: w, height: h, channels: k, data }
+}
+
 /// What to write.
 #[derive(Clone, Debug)]
 pub struct SweepOptions {
@@ -77,11 +181,31 @@ pub struct SweepOptions {
     /// The frames to write (global numbers, a sub-range of `0..frames`).
     pub range: Range<usize>,
     pub exposure: f64,
+    /// Display gamma applied before sRGB encoding (1 = none).
+    pub gamma: f64,
     pub out_dir: PathBuf,
     /// Also write a contact sheet of the written frames here.
     pub contact_sheet: Option<PathBuf>,
-    /// Draw the light dial into every frame (None: `--no-dial`).
+    /// Title line of the contact sheet.
+    pub title: Option<String>,
+    /// Draw the light dial into every frame before it is written, and so into its tile (None: `--no-dial`).
     pub overlay: Option<super::overlay::DialOverlay>,
+}
+
+impl SweepOptions {
+    /// All frames of an N-frame sweep into `out_dir`, no gamma, no sheet, no overlay.
+    pub fn new(frames: usize, exposure: f64, out_dir: PathBuf) -> SweepOptions {
+        SweepOptions {
+            frames,
+            range: 0..frames,
+            exposure,
+            gamma: 1.0,
+            out_dir,
+            contact_sheet: None,
+            title: None,
+            overlay: None,
+        }
+    }
 }
 
 /// What a sweep wrote and how long it took.
@@ -92,7 +216,7 @@ pub struct SweepReport {
 }
 
 /// Relight, encode and write the frames of `options.range` in parallel; `progress` is called once per
-/// frame written.
+/// frame written. With a contact sheet, each frame is shrunk to its tile right after encoding.
 pub fn write_sweep(
     image: &ChannelImage,
     model: &ColourModel,
@@ -106,9 +230,9 @@ pub fn write_sweep(
         path: options.out_dir.clone(),
         reason: format!("cannot create the folder: {e}"),
     })?;
-    let lut = SrgbLut::new();
-    let want_sheet = options.contact_sheet.is_some();
-    type Written = (PathBuf, Option<Vec<u8>>);
+    let lut = SrgbLut::with_gamma(options.gamma);
+    let layout = options.contact_sheet.as_ref().map(|_| SheetLayout::new(range.len(), image.width, image.height));
+    type Written = (PathBuf, Option<RgbImage>);
     let results: Vec<Result<Written, RenderError>> = range
         .clone()
         .into_par_iter()
@@ -118,24 +242,31 @@ pub fn write_sweep(
                 o.draw_frame(&mut rgb, image.width, image.height, dial, k, options.frames);
             }
             let path = options.out_dir.join(frame_name(k));
-            let png = encode_png(&rgb, image.width, image.height)
-                .map_err(|reason| RenderError::Output { path: path.clone(), reason })?;
+            let bad = |reason: String| RenderError::Output { path: path.clone(), reason };
+            let png = encode_png(&rgb, image.width, image.height).map_err(bad)?;
             write_file(&path, &png)?;
+            let thumb = match &layout {
+                Some(l) => {
+                    Some(l.thumbnail(&rgb, image.width, image.height).ok_or_else(|| bad("cannot shrink".into()))?)
+                }
+                None => None,
+            };
+            drop(rgb);
             progress();
-            Ok((path, want_sheet.then_some(rgb)))
+            Ok((path, thumb))
         })
         .collect();
     let mut written = Vec::with_capacity(results.len());
-    let mut frames_rgb = Vec::new();
+    let mut thumbs = Vec::new();
     for r in results {
-        let (p, rgb) = r?;
+        let (p, thumb) = r?;
         written.push(p);
-        if let Some(rgb) = rgb {
-            frames_rgb.push(rgb);
-        }
+        thumbs.extend(thumb);
     }
-    if let Some(sheet) = &options.contact_sheet {
-        write_contact_sheet(sheet, &frames_rgb, image.width, image.height)?;
+    if let (Some(sheet), Some(layout)) = (&options.contact_sheet, &layout) {
+        let labels: Vec<String> = range.clone().map(|k| frame_label(dial, k, options.frames)).collect();
+        let img = layout.assemble(&thumbs, &labels, options.title.as_deref());
+        write_contact_sheet_image(sheet, &img)?;
     }
     Ok(SweepReport { written, seconds: start.elapsed().as_secs_f64() })
 }
@@ -147,12 +278,23 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
         .map_err(|e| RenderError::Output { path: path.to_path_buf(), reason: e.to_string() })
 }
 
-/// A grid of thumbnails (about 1600 pixels wide at most) of the given frames, in order.
-pub fn write_contact_sheet(path: &Path, frames: &[Vec<u8>], width: usize, height: usize) -> Result<(), RenderError> {
-    let sheet = contact_sheet(frames, width, height).ok_or_else(|| RenderError::Output {
-        path: path.to_path_buf(),
-        reason: "no frames for the contact sheet".into(),
-    })?;
+/// The two-line label of frame k of N on a contact sheet: `frame 12 · t 0.26` and the light mix
+/// `hide 48% split 52%` (the lights with a weight of at least 0.5 %).
+pub fn frame_label(dial: &Dial, k: usize, frames: usize) -> String {
+    let t = Dial::position(k, frames);
+    let state = dial.state_at(t);
+    let mix: Vec<String> = state
+        .lights
+        .iter()
+        .zip(state.weights())
+        .filter(|(_, w)| *w >= 0.005)
+        .map(|(l, w)| format!("{} {:.0}%", l.name.escape_debug(), w * 100.0))
+        .collect();
+    format!("frame {k} · t {t:.2}\n{}", mix.join(" "))
+}
+
+/// Write a finished contact sheet as PNG (creating its folder).
+pub fn write_contact_sheet_image(path: &Path, sheet: &RgbImage) -> Result<(), RenderError> {
     let png = encode_png(sheet.as_raw(), sheet.width() as usize, sheet.height() as usize)
         .map_err(|reason| RenderError::Output { path: path.to_path_buf(), reason })?;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -162,22 +304,216 @@ pub fn write_contact_sheet(path: &Path, frames: &[Vec<u8>], width: usize, height
     write_file(path, &png)
 }
 
-/// Build the contact sheet image.
+/// A grid of unlabelled thumbnails (about 1600 pixels wide at most) of the given full-size frames, in
+/// order (kept for callers that hold frames; [`write_sweep`] builds its labelled sheet from thumbnails).
 pub fn contact_sheet(frames: &[Vec<u8>], width: usize, height: usize) -> Option<RgbImage> {
     if frames.is_empty() || width == 0 || height == 0 {
         return None;
     }
-    let cols = (frames.len() as f64).sqrt().ceil() as usize;
-    let rows = frames.len().div_ceil(cols);
-    let tw = (1600 / cols).clamp(16, width.max(16)) as u32;
-    let th = ((tw as usize * height) / width).max(1) as u32;
-    let gap = 4u32;
-    let mut sheet = RgbImage::new(cols as u32 * (tw + gap) + gap, rows as u32 * (th + gap) + gap);
-    for (i, f) in frames.iter().enumerate() {
-        let img = RgbImage::from_raw(width as u32, height as u32, f.clone())?;
-        let thumb = image::imageops::resize(&img, tw, th, image::imageops::FilterType::Triangle);
-        let (c, r) = ((i % cols) as u32, (i / cols) as u32);
-        image::imageops::replace(&mut sheet, &thumb, i64::from(gap + c * (tw + gap)), i64::from(gap + r * (th + gap)));
+    let layout = SheetLayout::new(frames.len(), width, height);
+    let thumbs: Option<Vec<RgbImage>> = frames.iter().map(|f| layout.thumbnail(f, width, height)).collect();
+    Some(layout.assemble(&thumbs?, &[], None))
+}
+
+/// Geometry of a contact sheet: columns, tile size, label band, gaps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SheetLayout {
+    pub count: usize,
+    pub cols: usize,
+    pub rows: usize,
+    pub tile_w: u32,
+    pub tile_h: u32,
+    pub gap: u32,
+    /// Height of the label band under every tile.
+    pub label_h: u32,
+    /// Height of the title band (used when a title is given).
+    pub title_h: u32,
+}
+
+/// Label text size in pixels.
+const LABEL_PX: f64 = 13.0;
+
+impl SheetLayout {
+    /// A near-square grid for `count` frames of `width × height`, about 1600 pixels wide.
+    pub fn new(count: usize, width: usize, height: usize) -> SheetLayout {
+        let count = count.max(1);
+        let cols = (count as f64).sqrt().ceil() as usize;
+        let rows = count.div_ceil(cols);
+        let tile_w = (1600 / cols).clamp(16, width.max(16)) as u32;
+        let tile_h = ((tile_w as usize * height) / width.max(1)).max(1) as u32;
+        SheetLayout { count, cols, rows, tile_w, tile_h, gap: 6, label_h: 36, title_h: 30 }
     }
-    Some(sheet)
+
+    /// Shrink one 8-bit RGB frame to a tile.
+    pub fn thumbnail(&self, rgb: &[u8], width: usize, height: usize) -> Option<RgbImage> {
+        let img = image::ImageBuffer::<image::Rgb<u8>, &[u8]>::from_raw(width as u32, height as u32, rgb)?;
+        Some(image::imageops::resize(&img, self.tile_w, self.tile_h, image::imageops::FilterType::Triangle))
+    }
+
+    /// The sheet: tiles in rows (a short last row centred), each with its label below, and the title
+    /// on top.
+    pub fn assemble(&self, tiles: &[RgbImage], labels: &[String], title: Option<&str>) -> RgbImage {
+        let label_h = if labels.is_empty() { 0 } else { self.label_h };
+        let top = if title.is_some() { self.title_h } else { 0 };
+        let cell_w = self.tile_w + self.gap;
+        let cell_h = self.tile_h + label_h + self.gap;
+        let width = self.cols as u32 * cell_w + self.gap;
+        let height = top + self.rows as u32 * cell_h + self.gap;
+        let mut sheet = RgbImage::from_pixel(width, height, image::Rgb([16, 16, 16]));
+        let origin = |i: usize| {
+            let (c, r) = (i % self.cols, i / self.cols);
+            let in_row = (tiles.len() - r * self.cols).min(self.cols) as u32;
+            let indent = (self.cols as u32 - in_row) * cell_w / 2;
+            (indent + self.gap + c as u32 * cell_w, top + self.gap + r as u32 * cell_h)
+        };
+        for (i, t) in tiles.iter().enumerate() {
+            let (x, y) = origin(i);
+            image::imageops::replace(&mut sheet, t, i64::from(x), i64::from(y));
+        }
+        register_font();
+        let (w, h) = sheet.dimensions();
+        {
+            use plotters::prelude::*;
+            let area = BitMapBackend::with_buffer(&mut sheet, (w, h)).into_drawing_area();
+            let font = |px: f64| ("sans-serif", px).into_font().color(&RGBColor(230, 230, 230));
+            if let Some(t) = title {
+                let _ = area.draw(&Text::new(t.escape_debug().to_string(), (self.gap as i32, 6), font(20.0)));
+            }
+            for (i, label) in labels.iter().enumerate().take(tiles.len()) {
+                let (x, y) = origin(i);
+                for (line, text) in label.lines().enumerate().take(2) {
+                    let pos = (x as i32 + 2, (y + self.tile_h) as i32 + 3 + 16 * line as i32);
+                    let _ = area.draw(&Text::new(fit_text(text, self.tile_w), pos, font(LABEL_PX)));
+                }
+            }
+            let _ = area.present();
+        }
+        sheet
+    }
+}
+
+/// Shorten a label to about the characters that fit in `width` pixels at the label size.
+fn fit_text(label: &str, width: u32) -> String {
+    let max = ((f64::from(width) / (LABEL_PX * 0.55)) as usize).max(4);
+    if label.chars().count() <= max {
+        label.to_string()
+    } else {
+        let mut s: String = label.chars().take(max - 1).collect();
+        s.push('…');
+        s
+    }
+}
+
+/// The font contact-sheet labels and bench plots use, embedded so they render the same on any machine
+/// (DejaVu fonts licence, see data/fonts/DejaVu-LICENSE.txt).
+static FONT: &[u8] = include_bytes!("../../data/fonts/DejaVuSans.ttf");
+static REGISTER: std::sync::Once = std::sync::Once::new();
+
+/// Register the embedded font as plotters' "sans-serif" (once).
+pub fn register_font() {
+    REGISTER.call_once(|| {
+        // A known-good TTF compiled into the binary; if registration failed, text would be missing,
+        // which the label and plot tests catch.
+        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, FONT);
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::dial::{DialLight, DialState};
+
+    fn dial() -> Dial {
+        let lights = vec![
+            DialLight::new("dim", Spectrum::flat(0.5), [0.0, 0.0]),
+            DialLight::new("bright", Spectrum::flat(1.0), [1.0, 0.0]),
+        ];
+        Dial::path(DialState::new(lights).unwrap(), vec![0, 1]).unwrap()
+    }
+
+    fn rgb_model() -> ColourModel {
+        ColourModel::rgb(Colorimetry::default())
+    }
+
+    #[test]
+    fn exposure_follows_a_high_percentile_not_the_brightest_pixel() {
+        // 1000 pixels of reflectance 0.2 and one of 1.0 (a speck); one black (uncovered) pixel.
+        let mut data = vec![0.2f32; 3 * 1002];
+        data[0..3].copy_from_slice(&[1.0, 1.0, 1.0]);
+        data[3 * 1001..].copy_from_slice(&[0.0, 0.0, 0.0]);
+        let img = ChannelImage { width: 1002, height: 1, channels: 3, data };
+        let model = rgb_model();
+        let e = percentile_exposure(&img, &model, &dial(), 5, EXPOSURE_PERCENTILE, 1.0).unwrap();
+        // Under the bright light (the last frame), the 0.2 pixels' brightest channel lands at 1.
+        let m = model.frame_matrix(&Spectrum::flat(1.0), e);
+        let lin = relight_linear(&ChannelImage { width: 1, height: 1, channels: 3, data: vec![0.2; 3] }, &m);
+        let peak = lin.iter().copied().fold(0.0f32, f32::max);
+        assert!((peak - 1.0).abs() < 1e-3, "covered pixels peak at {peak}");
+        // The conservative bound would expose 5× darker.
+        let empty = ChannelImage { width: 2, height: 1, channels: 3, data: vec![0.0; 6] };
+        assert!(percentile_exposure(&empty, &model, &dial(), 5, 0.99, 1.0).is_none());
+    }
+
+    #[test]
+    fn supersampling_averages_channels_so_frames_stay_exact() {
+        let data: Vec<f32> = (0..4 * 4 * 3).map(|i| (i % 7) as f32 * 0.1).collect();
+        let big = ChannelImage { width: 4, height: 4, channels: 3, data };
+        let small = downsample(&big, 2);
+        assert_eq!((small.width, small.height), (2, 2));
+        let m = rgb_model().frame_matrix(&Spectrum::flat(0.8), 1.3);
+        let (lb, ls) = (relight_linear(&big, &m), relight_linear(&small, &m));
+        // Relighting the averaged channels = averaging the relit pixels.
+        for (y, x) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+            for c in 0..3 {
+                let avg: f32 = [(0, 0), (0, 1), (1, 0), (1, 1)]
+                    .iter()
+                    .map(|(dy, dx)| lb[((2 * y + dy) * 4 + 2 * x + dx) * 3 + c])
+                    .sum::<f32>()
+                    / 4.0;
+                assert!((ls[(y * 2 + x) * 3 + c] - avg).abs() < 1e-5);
+            }
+        }
+        assert_eq!(downsample(&big, 1), big);
+    }
+
+    #[test]
+    fn contact_sheet_is_built_from_thumbnails_with_labels_and_a_centred_last_row() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (64usize, 48usize);
+        let img = ChannelImage { width: w, height: h, channels: 3, data: vec![0.5; w * h * 3] };
+        let sheet_path = dir.path().join("sheet.png");
+        let opts = SweepOptions {
+            contact_sheet: Some(sheet_path.clone()),
+            title: Some("a title".into()),
+            ..SweepOptions::new(5, 1.0, dir.path().join("frames"))
+        };
+        let report = write_sweep(&img, &rgb_model(), &dial(), &opts, &|| {}).unwrap();
+        assert_eq!(report.written.len(), 5);
+        let sheet = image::open(&sheet_path).unwrap().to_rgb8();
+        let layout = SheetLayout::new(5, w, h);
+        assert_eq!((layout.cols, layout.rows), (3, 2));
+        let cell_w = layout.tile_w + layout.gap;
+        assert_eq!(sheet.width(), 3 * cell_w + layout.gap);
+        assert_eq!(sheet.height(), layout.title_h + 2 * (layout.tile_h + layout.label_h + layout.gap) + layout.gap);
+        // Labels: light text pixels in the label band under the first tile.
+        let band_y = layout.title_h + layout.gap + layout.tile_h;
+        let text = (band_y..band_y + layout.label_h)
+            .flat_map(|y| (layout.gap..layout.gap + layout.tile_w).map(move |x| (x, y)))
+            .filter(|(x, y)| sheet.get_pixel(*x, *y).0[0] > 120)
+            .count();
+        assert!(text > 30, "label band has {text} text pixels");
+        // The last row holds two tiles, indented by half a cell: its first tile starts at gap + cell/2.
+        let row2_y = layout.title_h + layout.gap + layout.tile_h + layout.label_h + layout.gap + layout.tile_h / 2;
+        let lit = |x: u32| sheet.get_pixel(x, row2_y).0[0] > 60;
+        assert!(!lit(layout.gap + 2) && lit(layout.gap + cell_w / 2 + 2), "last row not centred");
+        assert!(frame_label(&dial(), 2, 5).contains("dim 50% bright 50%"));
+    }
+
+    #[test]
+    fn gamma_lifts_dark_values_only() {
+        let (plain, lifted) = (SrgbLut::new(), SrgbLut::with_gamma(2.0));
+        assert!(lifted.encode(0.05) > plain.encode(0.05));
+        assert_eq!(lifted.encode(1.0), plain.encode(1.0));
+        assert_eq!(lifted.encode(0.0), 0);
+    }
 }

@@ -125,7 +125,7 @@ proptest! {
 #[test]
 fn engine_sweep_factor_mode_tracks_full_mode() {
     use metamer::render::accuracy::compare_models;
-    use metamer::render::dial::{Dial, DialStop};
+    use metamer::render::dial::{Dial, DialLight, DialState, default_position};
     use metamer::render::raycast::{Camera, MaterialClass};
     use metamer::render::scene::{Material, Scene, SceneSettings};
     let Some(volumes) = crate::common::data::volumes_or_skip("basis_policy::engine_sweep_factor_mode_tracks_full_mode")
@@ -143,10 +143,17 @@ fn engine_sweep_factor_mode_tracks_full_mode() {
         .map(|(r, (range, opacity))| Material {
             reflectance: r.name.clone(),
             spectrum: r.spectrum,
-            class: MaterialClass { range, opacity },
+            class: MaterialClass::new(range, opacity),
         })
         .collect();
-    let stops = palette.lights.iter().map(|l| DialStop { name: l.name.clone(), spectrum: l.spectrum }).collect();
+    let n = palette.lights.len();
+    let lights: Vec<DialLight> = palette
+        .lights
+        .iter()
+        .enumerate()
+        .map(|(i, l)| DialLight::new(l.name.clone(), l.spectrum, default_position(i, n)))
+        .collect();
+    let dial = Dial::path(DialState::new(lights).expect("dial"), (0..n).collect()).expect("dial");
     let scene = Scene {
         path: None,
         palette_path: None,
@@ -154,7 +161,7 @@ fn engine_sweep_factor_mode_tracks_full_mode() {
         volume,
         materials,
         camera: Camera::default(),
-        dial: Dial::new(stops).expect("dial"),
+        dial,
         settings: SceneSettings::default(),
     };
     let r = compare_models(&scene, &Colorimetry::default(), 128, 9).expect("renders");

@@ -114,14 +114,8 @@ fn dial_frames_are_deterministic_and_the_dial_stays_lower_right() {
     let run = |name: &str, dial: bool| -> Vec<Vec<u8>> {
         let model = colour_model(&scene, Mode::Factor, &col).unwrap();
         let view = render_views(&scene, vec![model], size, size, Acceleration::default(), None).pop().unwrap();
-        let options = SweepOptions {
-            frames,
-            range: 0..frames,
-            exposure,
-            out_dir: dir.path().join(name),
-            contact_sheet: None,
-            overlay: dial.then(|| DialOverlay::new(&scene.dial, &col, size, size)),
-        };
+        let mut options = SweepOptions::new(frames, exposure, dir.path().join(name));
+        options.overlay = dial.then(|| DialOverlay::new(&scene.dial, &col, size, size));
         let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| {}).unwrap();
         report.written.iter().map(|p| std::fs::read(p).unwrap()).collect()
     };

@@ -435,7 +435,7 @@ fn ray_steps_are_bounded_whatever_the_spacing() {
     let data: Vec<f32> = (0..512).map(|i| (i % 7) as f32).collect();
     for spacing in [[1.0, 1.0, 1e-300], [1e200, 1.0, 1.0], [1e-12, 1e12, 1.0]] {
         let volume = Volume { dims, spacing, data: data.clone(), value_range: [0.0, 6.0] };
-        let materials = vec![MaterialClass { range: [1.0, 6.0], opacity: 0.01 }];
+        let materials = vec![MaterialClass::new([1.0, 6.0], 0.01)];
         let options = RaycastOptions { width: 16, height: 16, ..RaycastOptions::default() };
         let (_, stats) =
             within(Duration::from_secs(20), move || raycast(&volume, &materials, None, &Camera::default(), &options));
