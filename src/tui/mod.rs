@@ -13,6 +13,7 @@ pub mod colour;
 pub mod derived;
 pub mod edits;
 pub mod event_loop;
+pub mod graphics;
 pub mod keymap;
 pub mod preview;
 pub mod replay;

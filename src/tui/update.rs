@@ -213,7 +213,7 @@ fn update_main(state: &mut State, action: Action) -> Effects {
             Effects::NONE
         }
         Action::Dial { forward } => {
-            if state.preview.is_none() {
+            if !state.has_scene() {
                 state.complain("no scene preview: start with --scene SCENE.toml");
             } else {
                 let step = if forward { 0.05 } else { -0.05 };
@@ -224,7 +224,7 @@ fn update_main(state: &mut State, action: Action) -> Effects {
             Effects::NONE
         }
         Action::TogglePreview => {
-            if state.preview.is_none() {
+            if !state.has_scene() {
                 state.complain("no scene preview: start with --scene SCENE.toml");
             } else {
                 state.show_preview = !state.show_preview;

@@ -1,0 +1,100 @@
+//! Live exploration: the preview draws the frames `metamer render` writes (same raycast, colour model,
+//! exposure and relight), and the graphics-protocol path encodes the relit image into the terminal stream.
+
+use crate::tui_support;
+
+use metamer::colorimetry::Colorimetry;
+use metamer::render::dial::Dial;
+use metamer::render::scene::builtin_scene;
+use metamer::tui::colour::ColourMode;
+use metamer::tui::derived::Derived;
+use metamer::tui::graphics::{Graphics, PreviewMode};
+use metamer::tui::preview::{Preview, cast, lut, preview_model};
+use std::process::Command;
+use std::sync::Arc;
+use tui_support::{replay, state};
+
+/// Frame `k` of a `frames`-frame `metamer render` of the built-in scene at `size`², decoded.
+fn rendered(dir: &std::path::Path, size: usize, frames: usize, k: usize) -> Vec<u8> {
+    let out = Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .args(["render", "--builtin", "--builtin-volume-size", "48", "--size", &size.to_string()])
+        .args(["--frames", &frames.to_string(), "--frame-range", &format!("{k}..{}", k + 1), "-o"])
+        .arg(dir)
+        .output()
+        .expect("the binary runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let img = image::open(dir.join(format!("frame_{k:04}.png"))).expect("a PNG").to_rgb8();
+    assert_eq!((img.width() as usize, img.height() as usize), (size, size));
+    img.into_raw()
+}
+
+#[test]
+fn the_preview_shows_the_frames_render_writes() {
+    let scene = builtin_scene(48).expect("built-in scene");
+    let col = Colorimetry::default();
+    let size = 40;
+    let mut preview = Preview::new(Arc::new(scene.clone()), preview_model(&scene, &col), cast(&scene, size, size), &col);
+    let dir = tempfile::tempdir().unwrap();
+    let frames = metamer::tui::preview::EXPOSURE_FRAMES;
+    let mut differ = 0;
+    for k in [0, frames / 3, frames - 1] {
+        let want = rendered(dir.path(), size, frames, k);
+        let got = preview.frame(&scene.palette, &Derived::default(), Dial::position(k, frames), lut());
+        assert_eq!(got.len(), want.len());
+        let worst = got.iter().zip(&want).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(0);
+        assert!(worst <= 1, "frame {k}: the preview differs from `metamer render` by {worst}/255");
+        assert!(want.iter().any(|v| *v > 16), "frame {k} is not black");
+        differ += usize::from(k > 0 && got != preview.frame(&scene.palette, &Derived::default(), 0.0, lut()));
+    }
+    assert_eq!(differ, 2, "frames along the dial differ from the first");
+}
+
+fn live_state(graphics: Graphics) -> metamer::tui::State {
+    let scene = builtin_scene(32).expect("built-in scene");
+    let mut s = state(scene.palette.clone(), ColourMode::TrueColor);
+    s.graphics = graphics;
+    s.set_preview_scene(scene);
+    s
+}
+
+#[test]
+fn the_raycast_follows_the_panel_size() {
+    let mut s = live_state(Graphics::halfblocks());
+    assert!(s.preview.is_none(), "nothing is raycast before the panel is known");
+    replay(&mut s, "", 100, 30);
+    let small = s.preview.as_ref().expect("raycast").size();
+    assert_eq!(small.0, small.1, "square, as `metamer render`");
+    assert_eq!(s.preview_frame.len(), small.0 * small.1 * 3);
+    replay(&mut s, "", 120, 44);
+    let large = s.preview.as_ref().expect("raycast").size();
+    assert!(large.0 > small.0, "a taller panel raycasts more pixels: {small:?} → {large:?}");
+    // Moving the dial relights without a new raycast.
+    let before = s.preview_frame.clone();
+    replay(&mut s, "] *5", 120, 44);
+    assert_eq!(s.preview.as_ref().map(Preview::size), Some(large));
+    assert_ne!(s.preview_frame, before);
+}
+
+#[test]
+fn graphics_protocols_encode_the_relit_frame() {
+    for (mode, marker) in [(PreviewMode::Kitty, "_G"), (PreviewMode::Sixel, "q"), (PreviewMode::Iterm2, "]1337;File=")]
+    {
+        let mut s = live_state(Graphics::forced(mode, (8, 16)));
+        let (_, buf) = replay(&mut s, "", 100, 30);
+        let (w, h) = s.preview.as_ref().expect("raycast").size();
+        // 17 panel rows of 16 pixels, less the width of 8-pixel columns: the square is 17·16 = 272 high.
+        assert_eq!((w, h), (272, 272), "{mode:?}: the raycast is at the panel's real pixels");
+        let escapes: Vec<&str> = buf.content.iter().map(|c| c.symbol()).filter(|t| t.contains('\x1b')).collect();
+        assert!(escapes.iter().any(|t| t.contains(marker)), "{mode:?}: no {marker:?} sequence in {escapes:.80?}");
+        assert_eq!(buf.content.iter().filter(|c| c.symbol() == "▀").count(), 0, "{mode:?}: no half blocks");
+        // A dial move re-encodes: the stream changes.
+        let first: String = escapes.concat();
+        let (_, buf) = replay(&mut s, "] *10", 100, 30);
+        let second: String = buf.content.iter().map(|c| c.symbol()).filter(|t| t.contains('\x1b')).collect();
+        assert_ne!(first, second, "{mode:?}: the relit frame is sent again");
+    }
+    let mut s = live_state(Graphics::halfblocks());
+    let (text, buf) = replay(&mut s, "", 100, 30);
+    assert!(text.contains("half blocks"), "{text}");
+    assert!(buf.content.iter().filter(|c| c.symbol() == "▀").count() > 200);
+}
