@@ -115,7 +115,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
     bar.finish_and_clear();
-    let path: Vec<&str> = scene.dial.stops.iter().map(|s| s.name.as_str()).collect();
+    let path: Vec<&str> = scene.dial.visited().iter().map(|l| l.name.as_str()).collect();
     println!(
         "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}",
         report.written.len(),

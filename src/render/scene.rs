@@ -29,7 +29,7 @@
 //! ```
 
 use super::RenderError;
-use super::dial::{Dial, DialStop};
+use super::dial::{Dial, DialLight, DialState, default_position};
 use super::raycast::{Camera, Interpolation, MAX_MATERIALS, MaterialClass};
 use crate::palette::{Kind, Palette, SpectrumEntry};
 use crate::spectrum::{Normalize, Spectrum};
@@ -351,42 +351,59 @@ fn materials_of(path: &Path, palette: &Palette, files: &[MaterialFile]) -> Resul
         .collect()
 }
 
+/// The dial's lights: every palette light, at its `dial = [x, y]` vertex (lights without one on a regular
+/// polygon of the unit circle), all on with intensity 1.
+fn dial_lights(palette: &Palette) -> Vec<DialLight> {
+    let n = palette.lights.len();
+    palette
+        .lights
+        .iter()
+        .enumerate()
+        .map(|(i, l)| DialLight::new(l.name.clone(), l.spectrum, l.dial.unwrap_or_else(|| default_position(i, n))))
+        .collect()
+}
+
 /// The dial: the named path, else the lights with `dial` positions in angular order, else all lights.
 fn dial_of(path: &Path, palette: &Palette, names: Option<&[String]>) -> Result<Dial, RenderError> {
-    let stop = |e: &SpectrumEntry| DialStop { name: e.name.clone(), spectrum: e.spectrum };
-    let stops: Vec<DialStop> = match names {
+    let base = DialState::new(dial_lights(palette)).map_err(|e| scene_err(path, "dial", e.to_string()))?;
+    let order: Vec<usize> = match names {
         Some(names) => {
             let all = || palette.lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join(", ");
             names
                 .iter()
                 .enumerate()
                 .map(|(i, n)| {
-                    palette.light_index(n).map(|j| stop(&palette.lights[j])).ok_or_else(|| {
+                    palette.light_index(n).ok_or_else(|| {
                         scene_err(
                             path,
                             format!("dial.path[{i}]"),
-                            format!("`{n}` is not a light of the palette ({})", all()),
+                            format!("`{}` is not a light of the palette ({})", escape(n), all()),
                         )
                     })
                 })
                 .collect::<Result<_, _>>()?
         }
         None => {
-            let placed: Vec<(&SpectrumEntry, [f64; 2])> =
-                palette.lights.iter().filter_map(|l| l.dial.map(|d| (l, d))).collect();
+            let placed: Vec<(usize, [f64; 2])> =
+                palette.lights.iter().enumerate().filter_map(|(i, l)| l.dial.map(|d| (i, d))).collect();
             if placed.len() >= 2 {
                 let n = placed.len() as f64;
                 let cx = placed.iter().map(|(_, d)| d[0]).sum::<f64>() / n;
                 let cy = placed.iter().map(|(_, d)| d[1]).sum::<f64>() / n;
                 let mut placed = placed;
                 placed.sort_by(|a, b| (a.1[1] - cy).atan2(a.1[0] - cx).total_cmp(&(b.1[1] - cy).atan2(b.1[0] - cx)));
-                placed.into_iter().map(|(l, _)| stop(l)).collect()
+                placed.into_iter().map(|(i, _)| i).collect()
             } else {
-                palette.lights.iter().map(stop).collect()
+                (0..palette.lights.len()).collect()
             }
         }
     };
-    Dial::new(stops).ok_or_else(|| scene_err(path, "dial.path", "the dial needs at least one light"))
+    Dial::path(base, order).map_err(|e| scene_err(path, "dial.path", e.to_string()))
+}
+
+/// A name as it may appear in a message: control characters escaped.
+fn escape(s: &str) -> String {
+    s.chars().flat_map(|c| if c.is_control() { c.escape_default().collect::<Vec<_>>() } else { vec![c] }).collect()
 }
 
 /// A palette made in code from built-in spectra (no file): fixed lights (luminance-normalised
@@ -463,8 +480,7 @@ pub fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities
             class: MaterialClass { range: *range, opacity },
         })
         .collect();
-    let stops = palette.lights.iter().map(|l| DialStop { name: l.name.clone(), spectrum: l.spectrum }).collect();
-    let dial = Dial::new(stops).unwrap_or(Dial { stops: Vec::new() });
+    let dial = dial_of(Path::new("check scene"), &palette, None).unwrap_or_else(|_| Dial::empty());
     Scene {
         path: None,
         palette_path: None,

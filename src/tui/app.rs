@@ -288,6 +288,14 @@ pub struct State {
     pub preview_loading: Option<String>,
     /// How the preview reaches the terminal: half blocks, or a graphics protocol at real pixels.
     pub graphics: crate::tui::graphics::Graphics,
+    /// The live light dial (lights, vertices, on/off, intensities, slider) the preview is lit by.
+    pub dial_state: Option<crate::render::dial::DialState>,
+    /// The dial panel has the keys ([`crate::tui::keymap::DIAL`]).
+    pub dial_keys: bool,
+    /// What the dial keys move: the slider (`None`) or light i's vertex.
+    pub dial_selected: Option<usize>,
+    /// Keyframes added this session (written into the scene by the dial's save).
+    pub keyframes: Vec<crate::render::dial::DialState>,
 }
 
 impl State {
@@ -321,6 +329,10 @@ impl State {
             preview_scene: None,
             preview_loading: None,
             graphics: crate::tui::graphics::Graphics::default(),
+            dial_state: None,
+            dial_keys: false,
+            dial_selected: None,
+            keyframes: Vec::new(),
         };
         state.clamp_selection();
         state.refresh();
@@ -346,9 +358,9 @@ impl State {
     /// Relight the scene preview with the current spectra at the current dial position.
     pub fn relight(&mut self) {
         let lut = crate::tui::preview::lut();
-        self.preview_frame = match &mut self.preview {
-            Some(p) => p.frame(&self.palette, &self.derived, self.dial, lut),
-            None => Vec::new(),
+        self.preview_frame = match (&mut self.preview, &self.dial_state) {
+            (Some(p), Some(d)) => p.frame(&self.palette, &self.derived, d, lut),
+            _ => Vec::new(),
         };
         let size = self.preview.as_ref().map_or((0, 0), |p| p.size());
         self.graphics.encode(&self.preview_frame, size);
@@ -356,6 +368,9 @@ impl State {
 
     /// Attach a scene preview and show it.
     pub fn set_preview(&mut self, preview: crate::tui::preview::Preview) {
+        if self.dial_state.is_none() {
+            self.dial_state = Some(preview.scene.dial.state_at(self.dial));
+        }
         self.preview = Some(preview);
         self.preview_scene = None;
         self.preview_loading = None;
@@ -365,8 +380,14 @@ impl State {
 
     /// Attach a scene whose raycast runs off the UI thread (the event loop starts it at the panel's size).
     pub fn set_preview_scene(&mut self, scene: crate::render::scene::Scene) {
+        self.dial_state = Some(scene.dial.state_at(self.dial));
         self.preview_scene = Some(Arc::new(scene));
         self.show_preview = true;
+    }
+
+    /// The scene of the preview (attached or on its way).
+    pub fn scene(&self) -> Option<&crate::render::scene::Scene> {
+        self.preview.as_ref().map(|p| p.scene.as_ref()).or(self.preview_scene.as_deref())
     }
 
     /// True when a scene preview is attached or on its way.

@@ -11,6 +11,7 @@ pub mod action;
 pub mod app;
 pub mod colour;
 pub mod derived;
+pub mod dial_keys;
 pub mod edits;
 pub mod event_loop;
 pub mod graphics;

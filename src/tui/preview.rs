@@ -10,7 +10,7 @@
 
 use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
-use crate::render::dial::{Dial, DialStop};
+use crate::render::dial::DialState;
 use crate::render::raycast::{ChannelImage, MaterialWeights, raycast};
 use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
 use crate::render::scene::Scene;
@@ -45,8 +45,7 @@ pub struct Preview {
     /// Each material's reflectance name, and the scene's own spectrum for it (used when the palette being
     /// designed has no reflectance of that name).
     pub materials: Vec<(String, Spectrum)>,
-    /// The dial's lights by name, with the scene's own spectra as fallback.
-    pub dial: Vec<(String, Spectrum)>,
+
     /// The exposure of `metamer render` for this scene (sweep of [`EXPOSURE_FRAMES`] frames).
     pub exposure: f64,
 }
@@ -93,13 +92,12 @@ impl Preview {
     pub fn new(scene: Arc<Scene>, model: ColourModel, weights: MaterialWeights, colorimetry: &Colorimetry) -> Preview {
         let materials: Vec<(String, Spectrum)> =
             scene.materials.iter().map(|m| (m.reflectance.clone(), m.spectrum)).collect();
-        let dial = scene.dial.stops.iter().map(|s| (s.name.clone(), s.spectrum)).collect();
         let reflectances: Vec<Spectrum> = materials.iter().map(|m| m.1).collect();
         let exposure =
             sweep_exposure(colorimetry, &reflectances, &scene.dial, EXPOSURE_FRAMES, scene.settings.exposure);
         let image = ChannelImage { width: 0, height: 0, channels: model.channels(), data: Vec::new() };
         let mut preview =
-            Preview { scene, model, weights, image, projected: Vec::new(), materials, dial, exposure };
+            Preview { scene, model, weights, image, projected: Vec::new(), materials, exposure };
         preview.project(&reflectances);
         preview
     }
@@ -135,39 +133,18 @@ impl Preview {
             .collect()
     }
 
-    /// The scene's dial with the designer's current light spectra.
-    pub fn current_dial(&self, palette: &Palette, derived: &Derived) -> Dial {
-        let stops = self
-            .dial
-            .iter()
-            .map(|(name, fallback)| DialStop {
-                name: name.clone(),
-                spectrum: current(&palette.lights, &derived.light_spectra, name, fallback),
-            })
-            .collect();
-        Dial { stops }
+    /// `dial` with the designer's current light spectra (lights the palette lacks keep theirs).
+    pub fn current_dial(&self, palette: &Palette, derived: &Derived, dial: &DialState) -> DialState {
+        let mut d = dial.clone();
+        for l in &mut d.lights {
+            l.spectrum = current(&palette.lights, &derived.light_spectra, &l.name, &l.spectrum);
+        }
+        d
     }
 
-    /// The dial's light at position `t` in [0, 1] with the current light spectra.
-    pub fn light_at(&self, palette: &Palette, derived: &Derived, t: f64) -> Spectrum {
-        if self.dial.is_empty() {
-            return Spectrum::flat(1.0);
-        }
-        self.current_dial(palette, derived).light_at(t)
-    }
-
-    /// The two dial lights around `t` and the mix, as a caption.
-    pub fn caption(&self, t: f64) -> String {
-        let n = self.dial.len();
-        match n {
-            0 => "flat light".to_string(),
-            1 => self.dial[0].0.clone(),
-            _ => {
-                let u = t.clamp(0.0, 1.0) * (n - 1) as f64;
-                let i = (u.floor() as usize).min(n - 2);
-                format!("{} → {} {:.0}%", self.dial[i].0, self.dial[i + 1].0, (u - i as f64) * 100.0)
-            }
-        }
+    /// The light of `dial` with the designer's current light spectra.
+    pub fn light_at(&self, palette: &Palette, derived: &Derived, dial: &DialState) -> Spectrum {
+        self.current_dial(palette, derived, dial).light()
     }
 
     /// Relight under light `e`: sRGB, 3 bytes per pixel (row-major), with the render's exposure — the
@@ -181,12 +158,12 @@ impl Preview {
         out
     }
 
-    /// Display sRGB of every pixel under the dial's light at `t` with the designer's current spectra
+    /// Display sRGB of every pixel under the light of `dial` with the designer's current spectra
     /// (re-projecting first when a reflectance changed).
-    pub fn frame(&mut self, palette: &Palette, derived: &Derived, t: f64, lut: &SrgbLut) -> Vec<u8> {
+    pub fn frame(&mut self, palette: &Palette, derived: &Derived, dial: &DialState, lut: &SrgbLut) -> Vec<u8> {
         let spectra = self.current_reflectances(palette, derived);
         self.project(&spectra);
-        let e = self.light_at(palette, derived, t);
+        let e = self.light_at(palette, derived, dial);
         self.relight(&e, lut)
     }
 }

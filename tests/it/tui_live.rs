@@ -4,7 +4,6 @@
 use crate::tui_support;
 
 use metamer::colorimetry::Colorimetry;
-use metamer::render::dial::Dial;
 use metamer::render::scene::builtin_scene;
 use metamer::tui::colour::ColourMode;
 use metamer::tui::derived::Derived;
@@ -39,12 +38,13 @@ fn the_preview_shows_the_frames_render_writes() {
     let mut differ = 0;
     for k in [0, frames / 3, frames - 1] {
         let want = rendered(dir.path(), size, frames, k);
-        let got = preview.frame(&scene.palette, &Derived::default(), Dial::position(k, frames), lut());
+        let got = preview.frame(&scene.palette, &Derived::default(), &scene.dial.frame_state(k, frames), lut());
         assert_eq!(got.len(), want.len());
         let worst = got.iter().zip(&want).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(0);
         assert!(worst <= 1, "frame {k}: the preview differs from `metamer render` by {worst}/255");
         assert!(want.iter().any(|v| *v > 16), "frame {k} is not black");
-        differ += usize::from(k > 0 && got != preview.frame(&scene.palette, &Derived::default(), 0.0, lut()));
+        let first = preview.frame(&scene.palette, &Derived::default(), &scene.dial.state_at(0.0), lut());
+        differ += usize::from(k > 0 && got != first);
     }
     assert_eq!(differ, 2, "frames along the dial differ from the first");
 }
