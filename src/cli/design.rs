@@ -3,9 +3,9 @@
 
 use crate::basis::store::sidecar_path;
 use crate::palette::file::PaletteFile;
+use crate::render::scene::{Scene, builtin_scene};
 use crate::tui::colour::ColourMode;
 use crate::tui::event_loop::{self, FileSaver, Io};
-use crate::render::scene::{Scene, builtin_scene};
 use crate::tui::graphics::{Graphics, PreviewMode};
 use crate::tui::terminal::{TerminalEvents, TerminalGuard};
 use crate::tui::worker::{BasisMode, WorkerConfig};

@@ -83,20 +83,17 @@ pub fn update(state: &mut State, action: Action) {
                 Ok(())
             }
         }
-        Action::DialSaveScene => {
-            match scene_path {
-                None => Err("the built-in scene has no file: open a scene file with --scene to save keyframes"
-                    .to_string()),
-                Some(_) if state.keyframes.is_empty() => Err("no keyframes yet: `a` adds one".to_string()),
-                Some(path) => match save_keyframes(&path, &state.keyframes) {
-                    Ok(text) => {
-                        state.say(text);
-                        Ok(())
-                    }
-                    Err(e) => Err(format!("scene not saved: {e}")),
-                },
-            }
-        }
+        Action::DialSaveScene => match scene_path {
+            None => Err("the built-in scene has no file: open a scene file with --scene to save keyframes".to_string()),
+            Some(_) if state.keyframes.is_empty() => Err("no keyframes yet: `a` adds one".to_string()),
+            Some(path) => match save_keyframes(&path, &state.keyframes) {
+                Ok(text) => {
+                    state.say(text);
+                    Ok(())
+                }
+                Err(e) => Err(format!("scene not saved: {e}")),
+            },
+        },
         _ => Ok(()),
     };
     if let Err(e) = result {

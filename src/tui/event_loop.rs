@@ -13,8 +13,8 @@ use crate::tui::{keymap, ui};
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::buffer::Buffer;
-use ratatui::layout::Rect;
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use ratatui::layout::Rect;
 use std::io;
 use std::time::{Duration, Instant};
 

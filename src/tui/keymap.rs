@@ -75,7 +75,7 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch(']')], A::Dial { forward: true }, "scene preview: light dial forward"),
     bind(&[ch('[')], A::Dial { forward: false }, "scene preview: light dial back"),
     bind(&[ch('v')], A::TogglePreview, "scene preview / spectra plot"),
-    bind(&[ch('g')], A::DialKeys, "scene preview: keys to the light dial"),
+    bind(&[ch('g')], A::DialKeys, "preview: keys to the light dial"),
     bind(&[ch('?'), plain(K::F(1))], A::Help, "this help"),
     bind(&[ch('q'), ctrl('c')], A::Quit, "quit (asks if unsaved)"),
 ];
@@ -237,11 +237,20 @@ pub fn key_label(key: &Key) -> String {
         K::F(n) => format!("F{n}"),
         other => format!("{other:?}"),
     };
-    if key.modifiers.contains(KeyModifiers::CONTROL) { format!("Ctrl-{base}") } else { base }
+    if key.modifiers.contains(KeyModifiers::CONTROL) {
+        format!("Ctrl-{base}")
+    } else if key.modifiers.contains(KeyModifiers::SHIFT) {
+        format!("Shift-{base}")
+    } else {
+        base
+    }
 }
 
 /// All keys of a binding, as the help shows them.
 pub fn keys_label(binding: &Binding) -> String {
+    if let Action::DialToggle(_) = binding.action {
+        return "1…9".to_string();
+    }
     binding.keys.iter().map(key_label).collect::<Vec<_>>().join(" ")
 }
 

@@ -96,8 +96,7 @@ impl Preview {
         let exposure =
             sweep_exposure(colorimetry, &reflectances, &scene.dial, EXPOSURE_FRAMES, scene.settings.exposure);
         let image = ChannelImage { width: 0, height: 0, channels: model.channels(), data: Vec::new() };
-        let mut preview =
-            Preview { scene, model, weights, image, projected: Vec::new(), materials, exposure };
+        let mut preview = Preview { scene, model, weights, image, projected: Vec::new(), materials, exposure };
         preview.project(&reflectances);
         preview
     }
@@ -207,8 +206,7 @@ impl PreviewLoader {
                 let start = Instant::now();
                 let model = request.model.unwrap_or_else(|| preview_model(&request.scene, &request.colorimetry));
                 let weights = cast(&request.scene, request.width, request.height);
-                let loaded =
-                    Loaded { scene: request.scene, model, weights, seconds: start.elapsed().as_secs_f64() };
+                let loaded = Loaded { scene: request.scene, model, weights, seconds: start.elapsed().as_secs_f64() };
                 if tx.send(loaded).is_err() {
                     return;
                 }

@@ -91,8 +91,7 @@ pub fn preview_areas(state: &State, screen: Rect) -> Option<PreviewAreas> {
     }
     let panel = Block::new().borders(Borders::TOP).inner(spectra);
     let dial_cols = if panel.width >= DIAL_COLS + 24 { DIAL_COLS } else { 0 };
-    let [image, dial] =
-        Layout::horizontal([Constraint::Min(1), Constraint::Length(dial_cols)]).areas(panel);
+    let [image, dial] = Layout::horizontal([Constraint::Min(1), Constraint::Length(dial_cols)]).areas(panel);
     Some(PreviewAreas { image, dial })
 }
 

@@ -123,37 +123,44 @@ impl Widget for DialPanel<'_> {
         // Cells are about twice as high as wide: widen the x range so the dial is not squashed.
         let aspect = f64::from(canvas_area.width.max(1)) / (2.0 * f64::from(canvas_area.height.max(1)));
         let (hx, hy) = if aspect >= 1.0 { (half * aspect, half) } else { (half, half / aspect) };
+        let cell_w = 2.0 * hx / f64::from(canvas_area.width.max(1));
         let colours: Vec<Color> = dial.lights.iter().map(|l| light_colour(state, &l.spectrum)).collect();
         let selected = if state.dial_keys { state.dial_selected } else { None };
         let keys = state.dial_keys;
-        let canvas = Canvas::default()
-            .marker(Marker::Braille)
-            .x_bounds([cx - hx, cx + hx])
-            .y_bounds([cy - hy, cy + hy])
-            .paint(|ctx| {
-                for i in 0..n {
-                    let (a, b) = (dial.lights[i].position, dial.lights[(i + 1) % n].position);
-                    if n > 1 && (n > 2 || i == 0) {
-                        ctx.draw(&CanvasLine::new(a[0], a[1], b[0], b[1], Color::DarkGray));
+        let canvas =
+            Canvas::default().marker(Marker::Braille).x_bounds([cx - hx, cx + hx]).y_bounds([cy - hy, cy + hy]).paint(
+                |ctx| {
+                    for i in 0..n {
+                        let (a, b) = (dial.lights[i].position, dial.lights[(i + 1) % n].position);
+                        if n > 1 && (n > 2 || i == 0) {
+                            ctx.draw(&CanvasLine::new(a[0], a[1], b[0], b[1], Color::DarkGray));
+                        }
                     }
-                }
-                ctx.layer();
-                for (i, l) in dial.lights.iter().enumerate() {
-                    let mark = if l.on { "●" } else { "○" };
-                    let mut style = Style::new().fg(colours[i]);
-                    if selected == Some(i) {
-                        style = style.add_modifier(Modifier::REVERSED);
+                    ctx.layer();
+                    for (i, l) in dial.lights.iter().enumerate() {
+                        let mark = if l.on { "●" } else { "○" };
+                        let mut style = Style::new().fg(colours[i]);
+                        if selected == Some(i) {
+                            style = style.add_modifier(Modifier::REVERSED);
+                        }
+                        // Labels run away from the centre so the right-hand ones are not cut off.
+                        let (label, x) = if l.position[0] > cx + 1e-9 {
+                            let label = format!("{} {}{mark}", l.name, i + 1);
+                            let x = l.position[0] - (label.chars().count() - 1) as f64 * cell_w;
+                            (label, x)
+                        } else {
+                            (format!("{mark}{} {}", i + 1, l.name), l.position[0])
+                        };
+                        ctx.print(x, l.position[1], Line::from(Span::styled(label, style)));
                     }
-                    let label = format!("{mark}{} {}", i + 1, l.name);
-                    ctx.print(l.position[0], l.position[1], Line::from(Span::styled(label, style)));
-                }
-                let style = if keys && selected.is_none() {
-                    Style::new().fg(Color::White).add_modifier(Modifier::REVERSED | Modifier::BOLD)
-                } else {
-                    Style::new().fg(Color::White).add_modifier(Modifier::BOLD)
-                };
-                ctx.print(dial.slider[0], dial.slider[1], Line::from(Span::styled("◆", style)));
-            });
+                    let style = if keys && selected.is_none() {
+                        Style::new().fg(Color::White).add_modifier(Modifier::REVERSED | Modifier::BOLD)
+                    } else {
+                        Style::new().fg(Color::White).add_modifier(Modifier::BOLD)
+                    };
+                    ctx.print(dial.slider[0], dial.slider[1], Line::from(Span::styled("◆", style)));
+                },
+            );
         canvas.render(canvas_area, buf);
         // Intensity sliders: number, on/off, name, bar, value (0 … 2).
         let weights = dial.weights();
