@@ -15,6 +15,7 @@ use super::plot::{Scale, Series, XyPlot, draw};
 use super::{format_seconds, markdown_table, time_runs};
 use crate::colorimetry::Colorimetry;
 use crate::render::accuracy::{AccuracyReport, ModelError, compare_models};
+use crate::render::overlay::DialOverlay;
 use crate::render::raycast::{BrickMap, ChannelImage};
 use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
 use crate::render::scene::{Scene, engine_check_scene, generated_check_scene};
@@ -224,6 +225,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
             exposure,
             out_dir: tmp.path().join(format!("sweep{frames}")),
             contact_sheet: None,
+            overlay: Some(DialOverlay::new(&scene.dial, &col, size, size)),
         };
         write_sweep(&view.image, &view.model, &scene.dial, &opts, &|| {})?;
         Ok(start.elapsed().as_secs_f64())

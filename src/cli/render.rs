@@ -7,12 +7,33 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::colorimetry::Colorimetry;
+use crate::render::dial::Timing;
+use crate::render::overlay::DialOverlay;
 use crate::render::relight::Mode;
 use crate::render::scene::Scene;
 use crate::render::sweep::{SweepOptions, sweep_exposure, write_sweep};
 use crate::render::{Acceleration, colour_model, render_views};
 
+/// The dial's formula and scene format, shown by `metamer render --help` (docs/formats/dial.md has more).
+const DIAL_HELP: &str = "\
+The light dial (seed §5.1): every palette light is a vertex v_i at its `dial = [x, y]` (or the scene's
+[dial] vertices), on or off, with an intensity a_i. The light at the slider point p mixes the lights
+that are on with Shepard inverse-distance weights, exponent 2:
+    u_i = 1/|p - v_i|^2,   w_i = u_i / sum_j u_j,   E(p) = sum_i w_i a_i E_i
+(exactly light i at its own vertex; a far light still contributes a little; lights off weigh 0).
+Scene [dial] keys:
+    path = [\"a\", \"b\"]                    frames mix two neighbouring lights linearly (as before)
+    vertices = { a = [0.0, 1.0] }        move vertices for the whole scene
+    [[dial.keyframes]]                   or keyframes, the slider moving at constant speed:
+    at = \"a\"  or  at = [0.3, 0.2]        slider at a light's vertex or a point
+    off = [\"b\"]  on = [\"b\"]              lights switched off / on from this keyframe on
+    move = { c = [0.5, 0.9] }            vertices moved from this keyframe on
+    intensity = { a = 0.5 }              intensities from this keyframe on
+The dial is drawn in the lower right of every frame (--no-dial turns it off); --keyframes renders
+exactly one frame per keyframe.";
+
 #[derive(Debug, clap::Args)]
+#[command(after_help = DIAL_HELP)]
 pub struct Args {
     /// Scene file (DESIGN_SPEC §4). Without it (or with --builtin) the embedded default renders: a
     /// generated engine-like volume with a built-in palette, no data files needed.
@@ -20,9 +41,16 @@ pub struct Args {
     /// Render the embedded default scene.
     #[arg(long)]
     pub builtin: bool,
-    /// Frames in the whole sweep (N): frame k sits at t = k/(N−1) along the dial path.
+    /// Frames in the whole sweep (N): frame k sits at t = k/(N−1) along the dial's path or keyframes
+    /// (keyframes: the slider moves at constant speed).
     #[arg(long, default_value_t = 48)]
     pub frames: usize,
+    /// Render exactly one frame per dial keyframe (or path light), ignoring --frames.
+    #[arg(long)]
+    pub keyframes: bool,
+    /// Do not draw the light dial into the frames.
+    #[arg(long)]
+    pub no_dial: bool,
     /// Image width and height in pixels.
     #[arg(long, default_value_t = 384)]
     pub size: usize,
@@ -67,7 +95,7 @@ fn parse_range(s: &str, frames: usize) -> anyhow::Result<std::ops::Range<usize>>
     Ok(a..b)
 }
 
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(mut args: Args) -> anyhow::Result<()> {
     if !(1..=100_000).contains(&args.frames) {
         bail!("--frames {} is outside 1..=100000", args.frames);
     }
@@ -80,10 +108,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => 0..args.frames,
     };
     let colorimetry = Colorimetry::default();
-    let scene = match (&args.scene, args.builtin) {
+    let mut scene = match (&args.scene, args.builtin) {
         (Some(p), false) => Scene::load(p)?,
         (Some(_), true) => bail!("give either a scene file or --builtin, not both"),
         (None, _) => crate::render::scene::builtin_scene(args.builtin_volume_size)?,
+    };
+    let range = if args.keyframes {
+        if args.frame_range.is_some() {
+            bail!("give either --keyframes or --frame-range, not both");
+        }
+        scene.dial.timing = Timing::PerKeyframe;
+        args.frames = scene.dial.keyframe_count().max(1);
+        0..args.frames
+    } else {
+        range
     };
     let model = colour_model(&scene, mode, &colorimetry)?;
     let accel = Acceleration {
@@ -112,6 +150,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         exposure,
         out_dir: args.output.clone(),
         contact_sheet: args.contact_sheet.clone(),
+        overlay: (!args.no_dial).then(|| DialOverlay::new(&scene.dial, &colorimetry, args.size, args.size)),
     };
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
     bar.finish_and_clear();

@@ -5,12 +5,14 @@
 //! - [`scene`]: scene files (DESIGN_SPEC §4) and the built-in default scene;
 //! - [`raycast`]: the raycaster (material weights per pixel → K-channel image);
 //! - [`relight`]: the factor / full / RGB colour models and the per-frame matrix;
-//! - [`dial`]: the light dial path;
+//! - [`dial`]: the light dial (2D vertices, slider, Shepard weights, keyframes);
+//! - [`overlay`]: the dial drawn into the frames;
 //! - [`sweep`]: frames to PNG, exposure, contact sheet;
 //! - [`accuracy`]: factor and RGB model frames against the full-spectrum reference (ΔE00).
 
 pub mod accuracy;
 pub mod dial;
+pub mod overlay;
 pub mod raycast;
 pub mod relight;
 pub mod scene;

@@ -109,6 +109,30 @@ struct CameraFile {
 #[serde(deny_unknown_fields)]
 struct DialFile {
     path: Option<Vec<String>>,
+    /// Vertex overrides by light name (else the palette's `dial = [x, y]`).
+    vertices: Option<std::collections::BTreeMap<String, [f64; 2]>>,
+    keyframes: Option<Vec<KeyframeFile>>,
+}
+
+/// Where a keyframe puts the slider: a light's vertex (by name) or a point.
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum AtFile {
+    Light(String),
+    Point([f64; 2]),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct KeyframeFile {
+    at: AtFile,
+    #[serde(default)]
+    off: Vec<String>,
+    #[serde(default)]
+    on: Vec<String>,
+    #[serde(rename = "move")]
+    moves: Option<std::collections::BTreeMap<String, [f64; 2]>>,
+    intensity: Option<std::collections::BTreeMap<String, f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -190,7 +214,10 @@ impl Scene {
         let settings = settings_of(path, render)?;
         let camera = camera_of(path, file.camera.as_ref())?;
         let materials = materials_of(path, &palette, &file.materials)?;
-        let dial = dial_of(path, &palette, file.dial.as_ref().and_then(|d| d.path.as_deref()))?;
+        let dial = match &file.dial {
+            Some(d) => dial_of_file(path, &palette, d)?,
+            None => dial_of(path, &palette, None)?,
+        };
         Ok(Scene {
             path: Some(path.to_path_buf()),
             palette_path: Some(palette_path),
@@ -366,6 +393,11 @@ fn dial_lights(palette: &Palette) -> Vec<DialLight> {
 /// The dial: the named path, else the lights with `dial` positions in angular order, else all lights.
 fn dial_of(path: &Path, palette: &Palette, names: Option<&[String]>) -> Result<Dial, RenderError> {
     let base = DialState::new(dial_lights(palette)).map_err(|e| scene_err(path, "dial", e.to_string()))?;
+    path_dial(path, palette, base, names)
+}
+
+/// A path dial over `base`'s lights (indices as in the palette).
+fn path_dial(path: &Path, palette: &Palette, base: DialState, names: Option<&[String]>) -> Result<Dial, RenderError> {
     let order: Vec<usize> = match names {
         Some(names) => {
             let all = || palette.lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join(", ");
@@ -399,6 +431,83 @@ fn dial_of(path: &Path, palette: &Palette, names: Option<&[String]>) -> Result<D
         }
     };
     Dial::path(base, order).map_err(|e| scene_err(path, "dial.path", e.to_string()))
+}
+
+/// The dial of a scene's `[dial]` table: vertex overrides, then either `path` (today's meaning) or
+/// `keyframes` (DESIGN_SPEC §4, docs/formats/dial.md).
+fn dial_of_file(path: &Path, palette: &Palette, d: &DialFile) -> Result<Dial, RenderError> {
+    let all = || palette.lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join(", ");
+    let light = |key: String, name: &str| {
+        palette.light_index(name).ok_or_else(|| {
+            scene_err(path, key, format!("`{}` is not a light of the palette ({})", escape(name), all()))
+        })
+    };
+    let point = |key: String, p: [f64; 2]| {
+        if p[0].is_finite() && p[1].is_finite() {
+            Ok(p)
+        } else {
+            Err(scene_err(path, key, format!("[{}, {}] is not a pair of finite numbers", p[0], p[1])))
+        }
+    };
+    let mut lights = dial_lights(palette);
+    for (name, p) in d.vertices.iter().flatten() {
+        let i = light(format!("dial.vertices.{}", escape(name)), name)?;
+        lights[i].position = point(format!("dial.vertices.{}", escape(name)), *p)?;
+    }
+    let base = DialState::new(lights).map_err(|e| scene_err(path, "dial", e.to_string()))?;
+    let Some(frames) = &d.keyframes else {
+        return path_dial(path, palette, base, d.path.as_deref());
+    };
+    if d.path.is_some() {
+        return Err(scene_err(path, "dial", "give either `path` or `keyframes`, not both"));
+    }
+    if frames.is_empty() {
+        return Err(scene_err(path, "dial.keyframes", "the list is empty (give at least one keyframe)"));
+    }
+    let mut state = base.clone();
+    let mut states = Vec::with_capacity(frames.len());
+    for (k, f) in frames.iter().enumerate() {
+        let key = |rest: &str| format!("dial.keyframes[{k}].{rest}");
+        for (name, p) in f.moves.iter().flatten() {
+            let i = light(key(&format!("move.{}", escape(name))), name)?;
+            let p = point(key(&format!("move.{}", escape(name))), *p)?;
+            state.lights[i].position = p;
+        }
+        for (j, name) in f.off.iter().enumerate() {
+            let i = light(key(&format!("off[{j}]")), name)?;
+            state.lights[i].on = false;
+        }
+        for (j, name) in f.on.iter().enumerate() {
+            let i = light(key(&format!("on[{j}]")), name)?;
+            state.lights[i].on = true;
+        }
+        for (name, v) in f.intensity.iter().flatten() {
+            let i = light(key(&format!("intensity.{}", escape(name))), name)?;
+            if !(v.is_finite() && *v >= 0.0) {
+                return Err(scene_err(
+                    path,
+                    key(&format!("intensity.{}", escape(name))),
+                    format!("{v} is not a finite number ≥ 0"),
+                ));
+            }
+            state.lights[i].intensity = *v;
+        }
+        if state.lights.iter().all(|l| !l.on) {
+            return Err(scene_err(
+                path,
+                key("off"),
+                "this keyframe switches every light off (the frames would be black)",
+            ));
+        }
+        let at = match &f.at {
+            AtFile::Light(name) => state.lights[light(key("at"), name)?].position,
+            AtFile::Point(p) => point(key("at"), *p)?,
+        };
+        state.slider = at;
+        state.fixed_weights = None;
+        states.push(state.clone());
+    }
+    Dial::keyframes(base, states).map_err(|e| scene_err(path, "dial.keyframes", e.to_string()))
 }
 
 /// A name as it may appear in a message: control characters escaped.

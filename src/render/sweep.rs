@@ -80,6 +80,8 @@ pub struct SweepOptions {
     pub out_dir: PathBuf,
     /// Also write a contact sheet of the written frames here.
     pub contact_sheet: Option<PathBuf>,
+    /// Draw the light dial into every frame (None: `--no-dial`).
+    pub overlay: Option<super::overlay::DialOverlay>,
 }
 
 /// What a sweep wrote and how long it took.
@@ -111,7 +113,10 @@ pub fn write_sweep(
         .clone()
         .into_par_iter()
         .map(|k| {
-            let rgb = frame_srgb8(image, model, dial, k, options.frames, options.exposure, &lut);
+            let mut rgb = frame_srgb8(image, model, dial, k, options.frames, options.exposure, &lut);
+            if let Some(o) = &options.overlay {
+                o.draw_frame(&mut rgb, image.width, image.height, dial, k, options.frames);
+            }
             let path = options.out_dir.join(frame_name(k));
             let png = encode_png(&rgb, image.width, image.height)
                 .map_err(|reason| RenderError::Output { path: path.clone(), reason })?;

@@ -13,6 +13,7 @@ mod cli_design;
 mod colour_reference;
 mod design_cases;
 mod design_oracle;
+mod dial_scene;
 mod fuzz_regressions;
 mod palette_file;
 mod render_accuracy;
