@@ -88,7 +88,19 @@ pub fn update(state: &mut State, action: Action) {
             Some(_) if state.keyframes.is_empty() => Err("no keyframes yet: `a` adds one".to_string()),
             Some(path) => match save_keyframes(&path, &state.keyframes) {
                 Ok(text) => {
-                    state.say(text);
+                    // The saved sweep sets render's exposure: take it, so the preview stays what
+                    // `metamer render` writes.
+                    match crate::render::scene::Scene::load(&path) {
+                        Ok(saved) => {
+                            let colorimetry = state.colorimetry.clone();
+                            if let Some(p) = state.preview.as_mut() {
+                                p.rescene(std::sync::Arc::new(saved), &colorimetry);
+                            }
+                            state.keyframes.clear();
+                            state.say(text);
+                        }
+                        Err(e) => state.complain(format!("{text}, but it does not load again: {e}")),
+                    }
                     Ok(())
                 }
                 Err(e) => Err(format!("scene not saved: {e}")),

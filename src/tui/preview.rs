@@ -101,6 +101,15 @@ impl Preview {
         preview
     }
 
+    /// The scene as saved (same volume, materials and camera: the raycast stays), with the exposure
+    /// `metamer render` now uses for its sweep.
+    pub fn rescene(&mut self, scene: Arc<Scene>, colorimetry: &Colorimetry) {
+        let reflectances: Vec<Spectrum> = self.materials.iter().map(|m| m.1).collect();
+        self.exposure =
+            sweep_exposure(colorimetry, &reflectances, &scene.dial, EXPOSURE_FRAMES, scene.settings.exposure);
+        self.scene = scene;
+    }
+
     /// Pixel size of the raycast.
     pub fn size(&self) -> (usize, usize) {
         (self.weights.width, self.weights.height)
