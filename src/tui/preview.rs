@@ -20,7 +20,7 @@ use crate::spectrum::Spectrum;
 use crate::tui::derived::Derived;
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::mpsc::{self, Receiver, Sender, TryRecvError};
+use std::sync::mpsc::{self, Receiver, Sender};
 use std::time::{Duration, Instant};
 
 /// Pixels of the raycast before the panel's size is known (and of [`Preview::from_scene`]).
@@ -240,14 +240,7 @@ impl PreviewLoader {
 
     /// A finished raycast, if one is ready (waiting at most `wait`).
     pub fn reply(&mut self, wait: Duration) -> Option<Loaded> {
-        let got = if wait.is_zero() {
-            match self.replies.try_recv() {
-                Ok(l) => Some(l),
-                Err(TryRecvError::Empty | TryRecvError::Disconnected) => None,
-            }
-        } else {
-            self.replies.recv_timeout(wait).ok()
-        };
+        let got = if wait.is_zero() { self.replies.try_recv().ok() } else { self.replies.recv_timeout(wait).ok() };
         if let Some(l) = &got
             && self.pending.is_some_and(|(size, _)| size == (l.weights.width, l.weights.height))
         {

@@ -55,14 +55,14 @@ impl Widget for PreviewPanel<'_> {
         }
         let first = if state.preview_loading.is_some() { 1 } else { 0 };
         let area = Rect { y: area.y + first, height: area.height - first, ..area };
-        if !state.graphics.is_halfblocks() {
-            if let Some(cells) = state.graphics.encoded_cells() {
-                let x = area.x + area.width.saturating_sub(cells.width) / 2;
-                let y = area.y + area.height.saturating_sub(cells.height) / 2;
-                let at = Rect { x, y, width: area.width - (x - area.x), height: area.height - (y - area.y) };
-                if state.graphics.render(at, buf) {
-                    return;
-                }
+        if !state.graphics.is_halfblocks()
+            && let Some(cells) = state.graphics.encoded_cells()
+        {
+            let x = area.x + area.width.saturating_sub(cells.width) / 2;
+            let y = area.y + area.height.saturating_sub(cells.height) / 2;
+            let at = Rect { x, y, width: area.width - (x - area.x), height: area.height - (y - area.y) };
+            if state.graphics.render(at, buf) {
+                return;
             }
         }
         // Fit pw × ph into width × 2·height pixels, keeping the aspect ratio.
