@@ -3,9 +3,10 @@
 
 use crate::basis::store::sidecar_path;
 use crate::palette::file::PaletteFile;
+use crate::render::scene::{Scene, builtin_scene};
 use crate::tui::colour::ColourMode;
 use crate::tui::event_loop::{self, FileSaver, Io};
-use crate::tui::preview::Preview;
+use crate::tui::graphics::{Graphics, PreviewMode};
 use crate::tui::terminal::{TerminalEvents, TerminalGuard};
 use crate::tui::worker::{BasisMode, WorkerConfig};
 use crate::tui::{State, replay};
@@ -59,10 +60,19 @@ pub struct Args {
     /// Train the basis without reading or writing its sidecar cache (PALETTE.basis.json).
     #[arg(long, conflicts_with = "no_basis")]
     pub no_basis_cache: bool,
-    /// Show a half-block preview of this scene (docs/formats/scene.md), relit live with the designed spectra as
-    /// `[` and `]` move along its light dial (`v` switches between preview and spectra).
+    /// Show a preview of this scene (docs/formats/scene.md; `builtin` = the embedded generated engine), raycast
+    /// once at the panel's size and relit live with the designed spectra as the light dial moves (`v`
+    /// switches between preview and spectra).
     #[arg(long, value_name = "SCENE.toml")]
     pub scene: Option<PathBuf>,
+    /// How the preview is drawn: `auto` (ask the terminal for kitty / sixel / iTerm2 graphics, else half
+    /// blocks), `halfblocks`, `kitty`, `sixel` or `iterm2`. Replays draw half blocks unless told otherwise.
+    #[arg(long, value_name = "MODE", default_value = "auto", value_parser = parse_preview)]
+    pub preview: PreviewMode,
+}
+
+fn parse_preview(text: &str) -> Result<PreviewMode, String> {
+    PreviewMode::parse(text).ok_or(format!("'{text}' is not auto, halfblocks, kitty, sixel or iterm2"))
 }
 
 fn parse_size(text: &str) -> Result<(u16, u16), String> {
@@ -103,8 +113,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ));
     }
     if let Some(scene) = &args.scene {
-        let preview = Preview::load(scene, &state.colorimetry).context("--scene")?;
-        state.set_preview(preview);
+        // The scene and its volume are read here; the raycast runs off the UI thread at the panel's size.
+        let scene = if scene.as_os_str() == "builtin" { builtin_scene(160) } else { Scene::load(scene) };
+        state.set_preview_scene(scene.context("--scene")?);
     }
     let mut saver = FileSaver::new(file);
     let worker = WorkerConfig {
@@ -129,6 +140,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             let text = crate::fsio::read_to_string(script_path, crate::fsio::Kind::KeyScript)?;
             let steps = replay::parse_script(&text).with_context(|| format!("{}", script_path.display()))?;
+            if args.preview != PreviewMode::Auto {
+                state.graphics = Graphics::forced(args.preview, (10, 20));
+            }
             let (w, h) = args.size;
             let (frames, _) = replay::run(&mut state, steps, w, h, args.every_frame, &mut saver, worker)
                 .with_context(|| format!("replaying {}", script_path.display()))?;
@@ -146,6 +160,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => {
             let mut guard = TerminalGuard::enter()
                 .context("metamer design needs a terminal (use --replay KEYS.txt for headless runs)")?;
+            if state.has_scene() {
+                let (graphics, warning) = Graphics::for_terminal(args.preview);
+                state.graphics = graphics;
+                if let Some(w) = warning {
+                    state.complain(w);
+                }
+            }
             let mut events = TerminalEvents::new().context("cannot listen for SIGTERM and SIGHUP")?;
             event_loop::run_main_loop(
                 &mut guard.terminal,

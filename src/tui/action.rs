@@ -58,6 +58,30 @@ pub enum Action {
     TogglePreview,
     /// Show or hide the selected cell's metamer mismatch region.
     Feasibility,
+    /// Give the keys to the light dial beside the preview.
+    DialKeys,
+    /// Dial keys: move the slider (or the selected vertex) by (dx, dy) steps, small or large.
+    DialSlide {
+        dx: i8,
+        dy: i8,
+        big: bool,
+    },
+    /// Dial keys: switch light N (1-based) on or off.
+    DialToggle(u8),
+    /// Dial keys: select the next (or previous) of slider, vertex 1, vertex 2, …
+    DialSelect {
+        forward: bool,
+    },
+    /// Dial keys: the selected light's intensity up or down.
+    DialIntensity {
+        up: bool,
+    },
+    /// Dial keys: add the dial as it stands as a keyframe.
+    DialKeyframe,
+    /// Dial keys: write the keyframes into the scene file.
+    DialSaveScene,
+    /// Leave the dial keys.
+    DialLeave,
     Quit,
     // Inside popups.
     /// Type a character into the prompt.

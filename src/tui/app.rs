@@ -282,11 +282,26 @@ pub struct State {
     /// Frames drawn so far (spinner phase).
     pub ticks: u64,
     /// The scene preview (`--scene`), its dial position in [0, 1], whether it is shown, and its pixels
-    /// under the current spectra (recomputed with the derived colours).
+    /// under the current spectra (sRGB, 3 bytes per pixel at the preview's size; recomputed with the
+    /// derived colours and on every dial change).
     pub preview: Option<crate::tui::preview::Preview>,
     pub dial: f64,
     pub show_preview: bool,
-    pub preview_frame: Vec<[u8; 3]>,
+    pub preview_frame: Vec<u8>,
+    /// A scene waiting for its first raycast (off the UI thread); the progress line says so.
+    pub preview_scene: Option<Arc<crate::render::scene::Scene>>,
+    /// What the preview is being raycast at, for the progress line.
+    pub preview_loading: Option<String>,
+    /// How the preview reaches the terminal: half blocks, or a graphics protocol at real pixels.
+    pub graphics: crate::tui::graphics::Graphics,
+    /// The live light dial (lights, vertices, on/off, intensities, slider) the preview is lit by.
+    pub dial_state: Option<crate::render::dial::DialState>,
+    /// The dial panel has the keys ([`crate::tui::keymap::DIAL`]).
+    pub dial_keys: bool,
+    /// What the dial keys move: the slider (`None`) or light i's vertex.
+    pub dial_selected: Option<usize>,
+    /// Keyframes added this session (written into the scene by the dial's save).
+    pub keyframes: Vec<crate::render::dial::DialState>,
     /// The mismatch-region overlay of the selected cell is shown (`m`).
     pub show_feasibility: bool,
     /// The latest region computed by the worker for the overlay.
@@ -333,6 +348,13 @@ impl State {
             preview_frame: Vec::new(),
             show_feasibility: false,
             feasibility: None,
+            preview_scene: None,
+            preview_loading: None,
+            graphics: crate::tui::graphics::Graphics::default(),
+            dial_state: None,
+            dial_keys: false,
+            dial_selected: None,
+            keyframes: Vec::new(),
         };
         state.clamp_selection();
         state.refresh();
@@ -357,17 +379,42 @@ impl State {
 
     /// Relight the scene preview with the current spectra at the current dial position.
     pub fn relight(&mut self) {
-        self.preview_frame = match &self.preview {
-            Some(p) => p.frame(&self.palette, &self.derived, &self.colorimetry, self.dial),
-            None => Vec::new(),
+        let lut = crate::tui::preview::lut();
+        self.preview_frame = match (&mut self.preview, &self.dial_state) {
+            (Some(p), Some(d)) => p.frame(&self.palette, &self.derived, d, lut),
+            _ => Vec::new(),
         };
+        let size = self.preview.as_ref().map_or((0, 0), |p| p.size());
+        self.graphics.encode(&self.preview_frame, size);
     }
 
     /// Attach a scene preview and show it.
     pub fn set_preview(&mut self, preview: crate::tui::preview::Preview) {
+        if self.dial_state.is_none() {
+            self.dial_state = Some(preview.scene.dial.state_at(self.dial));
+        }
         self.preview = Some(preview);
+        self.preview_scene = None;
+        self.preview_loading = None;
         self.show_preview = true;
         self.relight();
+    }
+
+    /// Attach a scene whose raycast runs off the UI thread (the event loop starts it at the panel's size).
+    pub fn set_preview_scene(&mut self, scene: crate::render::scene::Scene) {
+        self.dial_state = Some(scene.dial.state_at(self.dial));
+        self.preview_scene = Some(Arc::new(scene));
+        self.show_preview = true;
+    }
+
+    /// The scene of the preview (attached or on its way).
+    pub fn scene(&self) -> Option<&crate::render::scene::Scene> {
+        self.preview.as_ref().map(|p| p.scene.as_ref()).or(self.preview_scene.as_deref())
+    }
+
+    /// True when a scene preview is attached or on its way.
+    pub fn has_scene(&self) -> bool {
+        self.preview.is_some() || self.preview_scene.is_some()
     }
 
     /// What the selection points at.

@@ -6,6 +6,7 @@
 use crate::palette::Palette;
 use crate::palette::file::PaletteFile;
 use crate::tui::app::State;
+use crate::tui::preview::{Loaded, MAX_PREVIEW_EDGE, Preview, PreviewLoader};
 use crate::tui::update::{self, Effects};
 use crate::tui::worker::{Reply, Worker, WorkerConfig};
 use crate::tui::{keymap, ui};
@@ -13,6 +14,7 @@ use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::buffer::Buffer;
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use ratatui::layout::Rect;
 use std::io;
 use std::time::{Duration, Instant};
 
@@ -308,6 +310,75 @@ fn run_effects(state: &mut State, effects: Effects, worker: &mut Worker, saver: 
     }
 }
 
+/// Take a finished preview raycast into the state.
+fn apply_loaded(state: &mut State, loaded: Loaded, loader: &PreviewLoader) {
+    let same_scene = state.preview.as_ref().is_some_and(|p| std::sync::Arc::ptr_eq(&p.scene, &loaded.scene));
+    match &mut state.preview {
+        Some(p) if same_scene => {
+            p.set_weights(loaded.weights);
+            state.relight();
+        }
+        _ => {
+            let preview = Preview::new(loaded.scene, loaded.model, loaded.weights, &state.colorimetry);
+            let show = state.show_preview;
+            state.set_preview(preview);
+            state.show_preview = show;
+        }
+    }
+    state.preview_loading = loader.pending.map(|((w, h), _)| format!("raycasting {w}×{h} pixels…"));
+}
+
+/// Keep the scene preview at the panel's pixel size: take finished raycasts and start one when the scene
+/// is new or the panel changed size (synchronous inputs wait for it). True when the screen changed.
+fn sync_preview<B: Backend>(
+    terminal: &Terminal<B>,
+    state: &mut State,
+    loader: &mut Option<PreviewLoader>,
+    synchronous: bool,
+) -> io::Result<bool> {
+    if !state.has_scene() {
+        return Ok(false);
+    }
+    let mut changed = false;
+    if let Some(l) = loader.as_mut() {
+        while let Some(done) = l.reply(Duration::ZERO) {
+            apply_loaded(state, done, l);
+            changed = true;
+        }
+    }
+    let size = terminal.size().map_err(backend_error)?;
+    let Some(areas) = ui::preview_areas(state, Rect::new(0, 0, size.width, size.height)) else {
+        return Ok(changed);
+    };
+    let side = state.graphics.pixels_for(areas.image, MAX_PREVIEW_EDGE).max(2);
+    let want = (side, side);
+    let have = state.preview.as_ref().map(Preview::size);
+    let pending = loader.as_ref().and_then(|l| l.pending.map(|p| p.0));
+    if have != Some(want) && pending != Some(want) {
+        let scene = state.preview.as_ref().map(|p| p.scene.clone()).or_else(|| state.preview_scene.clone());
+        if let Some(scene) = scene {
+            if loader.is_none() {
+                *loader = Some(PreviewLoader::start()?);
+            }
+            if let Some(l) = loader.as_mut() {
+                let model = state.preview.as_ref().map(|p| p.model.clone());
+                l.submit(scene, model, want, &state.colorimetry);
+                state.preview_loading = Some(format!("raycasting {side}×{side} pixels…"));
+                changed = true;
+            }
+        }
+    }
+    if synchronous && let Some(l) = loader.as_mut() {
+        while l.pending.is_some() {
+            match l.reply(Duration::from_secs(3600)) {
+                Some(done) => apply_loaded(state, done, l),
+                None => break,
+            }
+        }
+    }
+    Ok(changed)
+}
+
 /// Run the designer until it quits or the input ends.
 pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, io: Io<'_>) -> io::Result<()> {
     let Io { events, saver, mut on_frame, worker } = io;
@@ -315,7 +386,9 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
     submit(state, &mut worker);
     let mut solve_started = Instant::now();
     let mut redraw = true;
+    let mut loader: Option<PreviewLoader> = None;
     loop {
+        redraw |= sync_preview(terminal, state, &mut loader, events.synchronous())?;
         if events.synchronous() {
             while worker.busy() {
                 match worker.wait_reply(Duration::from_secs(3600)) {
@@ -341,10 +414,11 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
         if state.quit {
             return Ok(());
         }
-        let timeout = if worker.busy() { Duration::from_millis(80) } else { Duration::from_millis(500) };
+        let loading = loader.as_ref().is_some_and(|l| l.pending.is_some());
+        let timeout = if worker.busy() || loading { Duration::from_millis(80) } else { Duration::from_millis(500) };
         match events.next(timeout)? {
             None => {
-                if worker.busy() {
+                if worker.busy() || loading {
                     state.ticks += 1;
                     redraw = true;
                 }

@@ -77,6 +77,39 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch(']')], A::Dial { forward: true }, "scene preview: light dial forward"),
     bind(&[ch('[')], A::Dial { forward: false }, "scene preview: light dial back"),
     bind(&[ch('v')], A::TogglePreview, "scene preview / spectra plot"),
+    bind(&[ch('g')], A::DialKeys, "preview: keys to the light dial"),
+    bind(&[ch('?'), plain(K::F(1))], A::Help, "this help"),
+    bind(&[ch('q'), ctrl('c')], A::Quit, "quit (asks if unsaved)"),
+];
+
+const fn shift(code: KeyCode) -> Key {
+    Key { code, modifiers: KeyModifiers::SHIFT }
+}
+
+/// The light dial beside the scene preview (after `g`).
+pub const DIAL: &[Binding] = &[
+    bind(&[plain(K::Left), ch('h')], A::DialSlide { dx: -1, dy: 0, big: false }, "slider / vertex left"),
+    bind(&[plain(K::Right), ch('l')], A::DialSlide { dx: 1, dy: 0, big: false }, "slider / vertex right"),
+    bind(&[plain(K::Up), ch('k')], A::DialSlide { dx: 0, dy: 1, big: false }, "slider / vertex up"),
+    bind(&[plain(K::Down), ch('j')], A::DialSlide { dx: 0, dy: -1, big: false }, "slider / vertex down"),
+    bind(&[shift(K::Left), ch('H')], A::DialSlide { dx: -1, dy: 0, big: true }, "large step left"),
+    bind(&[shift(K::Right), ch('L')], A::DialSlide { dx: 1, dy: 0, big: true }, "large step right"),
+    bind(&[shift(K::Up), ch('K')], A::DialSlide { dx: 0, dy: 1, big: true }, "large step up"),
+    bind(&[shift(K::Down), ch('J')], A::DialSlide { dx: 0, dy: -1, big: true }, "large step down"),
+    bind(
+        &[ch('1'), ch('2'), ch('3'), ch('4'), ch('5'), ch('6'), ch('7'), ch('8'), ch('9')],
+        A::DialToggle(0),
+        "switch light N on/off",
+    ),
+    bind(&[plain(K::Tab)], A::DialSelect { forward: true }, "select: slider, vertex 1, 2, …"),
+    bind(&[plain(K::BackTab)], A::DialSelect { forward: false }, "select the previous"),
+    bind(&[ch('+'), plain(K::PageUp)], A::DialIntensity { up: true }, "selected light brighter"),
+    bind(&[ch('-'), plain(K::PageDown)], A::DialIntensity { up: false }, "selected light dimmer"),
+    bind(&[ch('a')], A::DialKeyframe, "add the dial as a keyframe"),
+    bind(&[ctrl('s')], A::DialSaveScene, "write the keyframes into the scene"),
+    bind(&[ch(']')], A::Dial { forward: true }, "along the scene's sweep forward"),
+    bind(&[ch('[')], A::Dial { forward: false }, "along the scene's sweep back"),
+    bind(&[plain(K::Esc), ch('g')], A::DialLeave, "leave the dial"),
     bind(&[ch('?'), plain(K::F(1))], A::Help, "this help"),
     bind(&[ch('q'), ctrl('c')], A::Quit, "quit (asks if unsaved)"),
 ];
@@ -130,6 +163,7 @@ pub const DIAGNOSTICS: &[Binding] = &[
 /// Every table with its title, in the order the help shows them.
 pub const TABLES: &[(&str, &[Binding])] = &[
     ("main screen", MAIN),
+    ("light dial (g)", DIAL),
     ("prompts", PROMPT),
     ("add lists", PICK),
     ("light or reflectance?", CHOOSE),
@@ -141,6 +175,7 @@ pub const TABLES: &[(&str, &[Binding])] = &[
 /// The table in force for the state's popup.
 pub fn table_for(state: &State) -> &'static [Binding] {
     match state.popup {
+        None if state.dial_keys => DIAL,
         None => MAIN,
         Some(Popup::Help { .. }) => HELP,
         Some(Popup::Diagnostics { .. }) => DIAGNOSTICS,
@@ -168,7 +203,11 @@ pub fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
     let key = normalise(event)?;
     let table = table_for(state);
     if let Some(b) = table.iter().find(|b| b.keys.contains(&key)) {
-        return Some(b.action);
+        // One binding for the number keys: the action carries the number pressed.
+        return Some(match (b.action, key.code) {
+            (Action::DialToggle(_), KeyCode::Char(c)) => Action::DialToggle(c.to_digit(10).unwrap_or(0) as u8),
+            (a, _) => a,
+        });
     }
     match (&state.popup, key.code) {
         (Some(Popup::Prompt(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => Some(Action::Input(c)),
@@ -200,11 +239,20 @@ pub fn key_label(key: &Key) -> String {
         K::F(n) => format!("F{n}"),
         other => format!("{other:?}"),
     };
-    if key.modifiers.contains(KeyModifiers::CONTROL) { format!("Ctrl-{base}") } else { base }
+    if key.modifiers.contains(KeyModifiers::CONTROL) {
+        format!("Ctrl-{base}")
+    } else if key.modifiers.contains(KeyModifiers::SHIFT) {
+        format!("Shift-{base}")
+    } else {
+        base
+    }
 }
 
 /// All keys of a binding, as the help shows them.
 pub fn keys_label(binding: &Binding) -> String {
+    if let Action::DialToggle(_) = binding.action {
+        return "1…9".to_string();
+    }
     binding.keys.iter().map(key_label).collect::<Vec<_>>().join(" ")
 }
 

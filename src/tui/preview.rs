@@ -1,32 +1,52 @@
-//! The light-dial preview (`--scene SCENE.toml`): the scene's volume is raycast once into per-pixel
-//! material weights (post-illumination, seed §2.2); every frame then only relights that image with the
-//! designer's current spectra — the materials' reflectances and the dial's lights as they stand (solved
-//! where solved) — at the dial position the user moves with `[` and `]`.
+//! The light-dial preview (`--scene SCENE.toml`), drawn with the renderer's own code: the scene's volume
+//! is raycast once into per-pixel material weights at the panel's pixel size (off the UI thread, see
+//! [`PreviewLoader`]); the weights are projected onto the scene's colour model (the factor model of
+//! `metamer render`) with the designer's current reflectances; every dial change then only builds one
+//! frame matrix and relights ([`crate::render::relight::relight_srgb8`], post-illumination, seed §2.2),
+//! with the exposure `metamer render` uses. So the preview at a dial position shows the colours
+//! `metamer render` writes for it.
+//!
+//! The raycast is redone only for a new scene or a new panel size.
 
-use crate::colorimetry::{Colorimetry, linear_to_srgb8};
+use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
-use crate::render::raycast::{MaterialWeights, raycast};
+use crate::render::dial::DialState;
+use crate::render::raycast::{ChannelImage, MaterialWeights, raycast};
+use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
 use crate::render::scene::Scene;
-use crate::render::{Acceleration, RenderError, raycast_options};
+use crate::render::sweep::sweep_exposure;
+use crate::render::{Acceleration, RenderError, colour_model, raycast_options};
 use crate::spectrum::Spectrum;
 use crate::tui::derived::Derived;
-use nalgebra::Vector3;
 use std::path::Path;
+use std::sync::Arc;
+use std::sync::mpsc::{self, Receiver, Sender};
+use std::time::{Duration, Instant};
 
-/// Pixels of the one raycast (the panel samples it to its own size).
+/// Pixels of the raycast before the panel's size is known (and of [`Preview::from_scene`]).
 pub const PREVIEW_WIDTH: usize = 120;
 pub const PREVIEW_HEIGHT: usize = 72;
+/// Largest raycast edge for the preview (graphics protocols on very large panels).
+pub const MAX_PREVIEW_EDGE: usize = 1024;
+/// The exposure is the one `metamer render` uses for a sweep of this many frames (its default).
+pub const EXPOSURE_FRAMES: usize = 48;
 
 /// A raycast scene ready for relighting.
 #[derive(Clone, Debug)]
 pub struct Preview {
+    pub scene: Arc<Scene>,
+    /// The colour model of `metamer render` for this scene (factor model over the scene's basis).
+    pub model: ColourModel,
     pub weights: MaterialWeights,
+    /// `weights` projected onto the model with the current reflectances.
+    pub image: ChannelImage,
+    /// The reflectance spectra `image` was projected with (to re-project only when they change).
+    projected: Vec<Spectrum>,
     /// Each material's reflectance name, and the scene's own spectrum for it (used when the palette being
     /// designed has no reflectance of that name).
     pub materials: Vec<(String, Spectrum)>,
-    /// The dial's lights by name, with the scene's own spectra as fallback.
-    pub dial: Vec<(String, Spectrum)>,
-    /// Multiplies linear colours so the brightest channel anywhere along the dial is 1.
+
+    /// The exposure of `metamer render` for this scene (sweep of [`EXPOSURE_FRAMES`] frames).
     pub exposure: f64,
 }
 
@@ -35,85 +55,197 @@ fn current(names: &[crate::palette::SpectrumEntry], spectra: &[Spectrum], name: 
     names.iter().position(|e| e.name == name).and_then(|i| spectra.get(i).copied()).unwrap_or(*fallback)
 }
 
+/// The sRGB encoding table of the relight (built once).
+pub fn lut() -> &'static SrgbLut {
+    static LUT: std::sync::OnceLock<SrgbLut> = std::sync::OnceLock::new();
+    LUT.get_or_init(SrgbLut::new)
+}
+
+/// The colour model the preview draws with: `metamer render`'s default (factor), falling back to the
+/// full 31-sample model when no basis can be had.
+pub fn preview_model(scene: &Scene, colorimetry: &Colorimetry) -> ColourModel {
+    colour_model(scene, Mode::Factor, colorimetry).unwrap_or_else(|_| ColourModel::full(colorimetry.clone()))
+}
+
+/// Raycast `scene` at `width × height` into material weights (the one expensive step).
+pub fn cast(scene: &Scene, width: usize, height: usize) -> MaterialWeights {
+    let classes: Vec<_> = scene.materials.iter().map(|m| m.class.clone()).collect();
+    let options = raycast_options(scene, width.max(1), height.max(1), Acceleration::default());
+    raycast(&scene.volume, &classes, None, &scene.camera, &options).0
+}
+
 impl Preview {
-    /// Load a scene and raycast it once.
+    /// Load a scene and raycast it once (on this thread).
     pub fn load(path: &Path, colorimetry: &Colorimetry) -> Result<Preview, RenderError> {
         let scene = Scene::load(path)?;
         Ok(Preview::from_scene(&scene, colorimetry))
     }
 
-    /// Raycast a loaded scene once.
+    /// Raycast a loaded scene once at [`PREVIEW_WIDTH`] × [`PREVIEW_HEIGHT`] (on this thread).
     pub fn from_scene(scene: &Scene, colorimetry: &Colorimetry) -> Preview {
-        let classes: Vec<_> = scene.materials.iter().map(|m| m.class.clone()).collect();
-        let options = raycast_options(scene, PREVIEW_WIDTH, PREVIEW_HEIGHT, Acceleration::default());
-        let (weights, _) = raycast(&scene.volume, &classes, None, &scene.camera, &options);
-        let materials = scene.materials.iter().map(|m| (m.reflectance.clone(), m.spectrum)).collect();
-        let dial = scene.dial.visited().iter().map(|l| (l.name.clone(), l.spectrum)).collect();
-        let mut preview = Preview { weights, materials, dial, exposure: 1.0 };
-        // One exposure for the whole dial (as the renderer's sweep): the brightest channel over five dial
-        // positions with the scene's own spectra maps to 1.
-        let brightest = [0.0, 0.25, 0.5, 0.75, 1.0]
-            .iter()
-            .flat_map(|t| preview.linear(&scene.palette, &Derived::default(), colorimetry, *t))
-            .flat_map(|c| [c[0], c[1], c[2]])
-            .fold(0.0f64, f64::max);
-        preview.exposure = if brightest > 1e-12 { 1.0 / brightest } else { 1.0 };
+        let model = preview_model(scene, colorimetry);
+        let weights = cast(scene, PREVIEW_WIDTH, PREVIEW_HEIGHT);
+        Preview::new(Arc::new(scene.clone()), model, weights, colorimetry)
+    }
+
+    /// A preview of `scene` from a finished raycast.
+    pub fn new(scene: Arc<Scene>, model: ColourModel, weights: MaterialWeights, colorimetry: &Colorimetry) -> Preview {
+        let materials: Vec<(String, Spectrum)> =
+            scene.materials.iter().map(|m| (m.reflectance.clone(), m.spectrum)).collect();
+        let reflectances: Vec<Spectrum> = materials.iter().map(|m| m.1).collect();
+        let exposure =
+            sweep_exposure(colorimetry, &reflectances, &scene.dial, EXPOSURE_FRAMES, scene.settings.exposure);
+        let image = ChannelImage { width: 0, height: 0, channels: model.channels(), data: Vec::new() };
+        let mut preview = Preview { scene, model, weights, image, projected: Vec::new(), materials, exposure };
+        preview.project(&reflectances);
         preview
     }
 
-    /// The dial's light at position `t` in [0, 1] with the current light spectra (linear mix of neighbours).
-    pub fn light_at(&self, palette: &Palette, derived: &Derived, t: f64) -> Spectrum {
-        let n = self.dial.len();
-        if n == 0 {
-            return Spectrum::flat(1.0);
-        }
-        let spectrum = |k: usize| {
-            let (name, fallback) = &self.dial[k];
-            current(&palette.lights, &derived.light_spectra, name, fallback)
-        };
-        if n == 1 {
-            return spectrum(0);
-        }
-        let u = t.clamp(0.0, 1.0) * (n - 1) as f64;
-        let i = (u.floor() as usize).min(n - 2);
-        let f = u - i as f64;
-        Spectrum(spectrum(i).0 * (1.0 - f) + spectrum(i + 1).0 * f)
+    /// The scene as saved (same volume, materials and camera: the raycast stays), with the exposure
+    /// `metamer render` now uses for its sweep.
+    pub fn rescene(&mut self, scene: Arc<Scene>, colorimetry: &Colorimetry) {
+        let reflectances: Vec<Spectrum> = self.materials.iter().map(|m| m.1).collect();
+        self.exposure =
+            sweep_exposure(colorimetry, &reflectances, &scene.dial, EXPOSURE_FRAMES, scene.settings.exposure);
+        self.scene = scene;
     }
 
-    /// The two dial lights around `t` and the mix, as a caption.
-    pub fn caption(&self, t: f64) -> String {
-        let n = self.dial.len();
-        match n {
-            0 => "flat light".to_string(),
-            1 => self.dial[0].0.clone(),
-            _ => {
-                let u = t.clamp(0.0, 1.0) * (n - 1) as f64;
-                let i = (u.floor() as usize).min(n - 2);
-                format!("{} → {} {:.0}%", self.dial[i].0, self.dial[i + 1].0, (u - i as f64) * 100.0)
-            }
-        }
+    /// Pixel size of the raycast.
+    pub fn size(&self) -> (usize, usize) {
+        (self.weights.width, self.weights.height)
     }
 
-    /// Linear sRGB of every pixel (row-major) under the dial's light at `t` (before exposure).
-    fn linear(&self, palette: &Palette, derived: &Derived, colorimetry: &Colorimetry, t: f64) -> Vec<Vector3<f64>> {
-        let light = self.light_at(palette, derived, t);
-        let colours: Vec<Vector3<f64>> = self
-            .materials
+    /// Replace the raycast (after a resize).
+    pub fn set_weights(&mut self, weights: MaterialWeights) {
+        self.weights = weights;
+        let spectra = std::mem::take(&mut self.projected);
+        self.project(&spectra);
+    }
+
+    /// Project the weights with these material reflectances (skipped when they are unchanged).
+    fn project(&mut self, spectra: &[Spectrum]) {
+        let same_size = self.image.width == self.weights.width && self.image.height == self.weights.height;
+        if same_size && self.projected == spectra && !self.image.data.is_empty() {
+            return;
+        }
+        let colours: Vec<Vec<f32>> = spectra.iter().map(|s| self.model.material_vector(s)).collect();
+        self.image = self.weights.project(&colours);
+        self.projected = spectra.to_vec();
+    }
+
+    /// The designer's current reflectance of every material.
+    fn current_reflectances(&self, palette: &Palette, derived: &Derived) -> Vec<Spectrum> {
+        self.materials
             .iter()
-            .map(|(name, fallback)| {
-                colorimetry.rgb(&light, &current(&palette.reflectances, &derived.reflectance_spectra, name, fallback))
-            })
-            .collect();
-        let k = self.weights.materials;
-        self.weights
-            .data
-            .chunks_exact(k.max(1))
-            .map(|w| w.iter().zip(&colours).map(|(wi, c)| c * f64::from(*wi)).sum())
+            .map(|(name, fallback)| current(&palette.reflectances, &derived.reflectance_spectra, name, fallback))
             .collect()
     }
 
-    /// Display sRGB of every pixel under the dial's light at `t`, with the preview's exposure.
-    pub fn frame(&self, palette: &Palette, derived: &Derived, colorimetry: &Colorimetry, t: f64) -> Vec<[u8; 3]> {
-        self.linear(palette, derived, colorimetry, t).iter().map(|c| linear_to_srgb8(&(c * self.exposure))).collect()
+    /// `dial` with the designer's current light spectra (lights the palette lacks keep theirs).
+    pub fn current_dial(&self, palette: &Palette, derived: &Derived, dial: &DialState) -> DialState {
+        let mut d = dial.clone();
+        for l in &mut d.lights {
+            l.spectrum = current(&palette.lights, &derived.light_spectra, &l.name, &l.spectrum);
+        }
+        d
+    }
+
+    /// The light of `dial` with the designer's current light spectra.
+    pub fn light_at(&self, palette: &Palette, derived: &Derived, dial: &DialState) -> Spectrum {
+        self.current_dial(palette, derived, dial).light()
+    }
+
+    /// Relight under light `e`: sRGB, 3 bytes per pixel (row-major), with the render's exposure — the
+    /// renderer's frame matrix and relight kernel.
+    pub fn relight(&self, e: &Spectrum, lut: &SrgbLut) -> Vec<u8> {
+        let matrix = self.model.frame_matrix(e, self.exposure);
+        let mut out = vec![0u8; self.image.width * self.image.height * 3];
+        if self.image.channels == matrix.channels {
+            relight_srgb8(&self.image, &matrix, lut, &mut out);
+        }
+        out
+    }
+
+    /// Display sRGB of every pixel under the light of `dial` with the designer's current spectra
+    /// (re-projecting first when a reflectance changed).
+    pub fn frame(&mut self, palette: &Palette, derived: &Derived, dial: &DialState, lut: &SrgbLut) -> Vec<u8> {
+        let spectra = self.current_reflectances(palette, derived);
+        self.project(&spectra);
+        let e = self.light_at(palette, derived, dial);
+        self.relight(&e, lut)
+    }
+}
+
+/// What the loader thread is asked to do.
+struct LoadRequest {
+    scene: Arc<Scene>,
+    /// `None` the first time: the colour model (basis) is built on the thread too.
+    model: Option<ColourModel>,
+    width: usize,
+    height: usize,
+    colorimetry: Colorimetry,
+}
+
+/// A finished raycast.
+pub struct Loaded {
+    pub scene: Arc<Scene>,
+    pub model: ColourModel,
+    pub weights: MaterialWeights,
+    pub seconds: f64,
+}
+
+/// Raycasts the preview off the UI thread: one request at a time, always the newest.
+pub struct PreviewLoader {
+    requests: Sender<LoadRequest>,
+    replies: Receiver<Loaded>,
+    /// The size being raycast, and since when.
+    pub pending: Option<((usize, usize), Instant)>,
+}
+
+impl PreviewLoader {
+    pub fn start() -> std::io::Result<PreviewLoader> {
+        let (requests, rx) = mpsc::channel::<LoadRequest>();
+        let (tx, replies) = mpsc::channel();
+        std::thread::Builder::new().name("metamer-preview".into()).spawn(move || {
+            while let Ok(mut request) = rx.recv() {
+                // Only the newest request counts.
+                while let Ok(newer) = rx.try_recv() {
+                    request = newer;
+                }
+                let start = Instant::now();
+                let model = request.model.unwrap_or_else(|| preview_model(&request.scene, &request.colorimetry));
+                let weights = cast(&request.scene, request.width, request.height);
+                let loaded = Loaded { scene: request.scene, model, weights, seconds: start.elapsed().as_secs_f64() };
+                if tx.send(loaded).is_err() {
+                    return;
+                }
+            }
+        })?;
+        Ok(PreviewLoader { requests, replies, pending: None })
+    }
+
+    /// Ask for a raycast of `scene` at `size` (`model` when already built).
+    pub fn submit(
+        &mut self,
+        scene: Arc<Scene>,
+        model: Option<ColourModel>,
+        size: (usize, usize),
+        colorimetry: &Colorimetry,
+    ) {
+        let request = LoadRequest { scene, model, width: size.0, height: size.1, colorimetry: colorimetry.clone() };
+        if self.requests.send(request).is_ok() {
+            self.pending = Some((size, Instant::now()));
+        }
+    }
+
+    /// A finished raycast, if one is ready (waiting at most `wait`).
+    pub fn reply(&mut self, wait: Duration) -> Option<Loaded> {
+        let got = if wait.is_zero() { self.replies.try_recv().ok() } else { self.replies.recv_timeout(wait).ok() };
+        if let Some(l) = &got
+            && self.pending.is_some_and(|(size, _)| size == (l.weights.width, l.weights.height))
+        {
+            self.pending = None;
+        }
+        got
     }
 }

@@ -230,18 +230,38 @@ fn update_main(state: &mut State, action: Action) -> Effects {
             Effects::NONE
         }
         Action::Dial { forward } => {
-            if state.preview.is_none() {
+            if !state.has_scene() {
                 state.complain("no scene preview: start with --scene SCENE.toml");
             } else {
                 let step = if forward { 0.05 } else { -0.05 };
                 state.dial = ((state.dial + step) * 20.0).round().clamp(0.0, 20.0) / 20.0;
                 state.show_preview = true;
+                state.dial_state = state.scene().map(|s| s.dial.state_at(state.dial));
                 state.relight();
             }
             Effects::NONE
         }
+        Action::DialKeys => {
+            if !state.has_scene() {
+                state.complain("no scene preview: start with --scene SCENE.toml");
+            } else {
+                state.show_preview = true;
+                state.dial_keys = true;
+            }
+            Effects::NONE
+        }
+        Action::DialSlide { .. }
+        | Action::DialToggle(_)
+        | Action::DialSelect { .. }
+        | Action::DialIntensity { .. }
+        | Action::DialKeyframe
+        | Action::DialSaveScene
+        | Action::DialLeave => {
+            crate::tui::dial_keys::update(state, action);
+            Effects::NONE
+        }
         Action::TogglePreview => {
-            if state.preview.is_none() {
+            if !state.has_scene() {
                 state.complain("no scene preview: start with --scene SCENE.toml");
             } else {
                 state.show_preview = !state.show_preview;

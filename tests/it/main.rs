@@ -27,6 +27,7 @@ mod robustness;
 mod spec_objective;
 mod stress;
 mod tui_edits;
+mod tui_live;
 mod tui_preview;
 mod tui_robust;
 mod tui_save;

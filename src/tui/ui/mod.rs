@@ -69,6 +69,33 @@ pub fn areas(state: &State, inner: Rect) -> Areas {
     Areas { matrix, sliders, sliders_compact: compact, settings, spectra: spectra_area }
 }
 
+/// Columns of the dial panel beside the preview image (when the panel is wide enough).
+pub const DIAL_COLS: u16 = 34;
+
+/// The preview panel's parts: the image and, to its right, the dial.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PreviewAreas {
+    pub image: Rect,
+    pub dial: Rect,
+}
+
+/// Where the scene preview goes on a screen of `screen`, when it is shown (the event loop raycasts at
+/// this size).
+pub fn preview_areas(state: &State, screen: Rect) -> Option<PreviewAreas> {
+    if !(state.show_preview && state.has_scene()) {
+        return None;
+    }
+    let inner = Block::bordered().inner(screen);
+    let spectra = areas(state, inner).spectra;
+    if spectra.height < 3 {
+        return None;
+    }
+    let panel = Block::new().borders(Borders::TOP).inner(spectra);
+    let dial_cols = if panel.width >= DIAL_COLS + 24 { DIAL_COLS } else { 0 };
+    let [image, dial] = Layout::horizontal([Constraint::Min(1), Constraint::Length(dial_cols)]).areas(panel);
+    Some(PreviewAreas { image, dial })
+}
+
 impl Widget for &State {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let outer = Block::bordered().title_bottom(status::bottom_line(self, area.width.saturating_sub(4)));
@@ -90,15 +117,16 @@ impl Widget for &State {
         block.render(a.settings, buf);
         settings::SettingsRow(self).render(inner, buf);
         if a.spectra.height >= 3 {
-            match &self.preview {
-                Some(p) if self.show_preview => {
-                    let title = format!(" light dial: {} · [ ] move · v spectra ", p.caption(self.dial));
-                    let block = Block::new().borders(Borders::TOP).title(title);
-                    let inner = block.inner(a.spectra);
+            match preview_areas(self, area) {
+                Some(p) => {
+                    let block = Block::new().borders(Borders::TOP).title(preview::title(self));
                     block.render(a.spectra, buf);
-                    preview::PreviewPanel(self).render(inner, buf);
+                    preview::PreviewPanel(self).render(p.image, buf);
+                    if p.dial.width > 0 {
+                        preview::DialPanel(self).render(p.dial, buf);
+                    }
                 }
-                _ => {
+                None => {
                     let block = Block::new().borders(Borders::TOP).title(" spectra ");
                     let inner = block.inner(a.spectra);
                     block.render(a.spectra, buf);

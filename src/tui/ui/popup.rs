@@ -43,15 +43,19 @@ pub enum HelpRow {
 /// The help's rows for a popup `width` wide: every binding of the main screen (two columns when wide),
 /// then each popup's keys on one line (`TABLES[0]` is the main screen's).
 pub fn help_rows(width: u16) -> Vec<HelpRow> {
-    let main: Vec<(String, &'static str)> = keymap::MAIN.iter().map(|b| (keymap::keys_label(b), b.help)).collect();
     let columns = if width >= 90 { 2 } else { 1 };
-    let per_column = main.len().div_ceil(columns);
-    let mut rows = vec![HelpRow::Heading("main screen")];
-    for r in 0..per_column {
-        rows.push(HelpRow::Keys((0..columns).filter_map(|c| main.get(c * per_column + r).cloned()).collect()));
+    let mut rows = Vec::new();
+    // The main screen's and the light dial's keys in columns; `TABLES[0..2]` are these two.
+    for (title, table) in [("main screen", keymap::MAIN), ("light dial (g; Esc leaves)", keymap::DIAL)] {
+        let keys: Vec<(String, &'static str)> = table.iter().map(|b| (keymap::keys_label(b), b.help)).collect();
+        let per_column = keys.len().div_ceil(columns);
+        rows.push(HelpRow::Heading(title));
+        for r in 0..per_column {
+            rows.push(HelpRow::Keys((0..columns).filter_map(|c| keys.get(c * per_column + r).cloned()).collect()));
+        }
     }
     rows.push(HelpRow::Heading("popups and prompts"));
-    for (title, table) in TABLES.iter().skip(1) {
+    for (title, table) in TABLES.iter().skip(2) {
         let keys: Vec<String> = table.iter().map(|b| format!("{} {}", keymap::keys_label(b), b.help)).collect();
         rows.push(HelpRow::Popup(title, keys.join(" · ")));
     }

@@ -1,34 +1,85 @@
-//! The scene preview panel: the relit raycast image in half blocks (two square-ish pixels per character),
-//! fitted to the panel with its aspect ratio kept.
+//! The scene preview panel: the relit raycast image — at real pixels through a terminal graphics
+//! protocol ([`crate::tui::graphics`]) or in half blocks (two square pixels per character) — centred in
+//! the panel, and a progress line while the raycast runs.
 
+use crate::render::dial::DialState;
+use crate::spectrum::Spectrum;
 use crate::tui::app::State;
-use crate::tui::preview::{PREVIEW_HEIGHT, PREVIEW_WIDTH};
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
-use ratatui::style::Style;
+use ratatui::style::{Color, Modifier, Style};
+use ratatui::symbols::Marker;
+use ratatui::text::{Line, Span};
 use ratatui::widgets::Widget;
+use ratatui::widgets::canvas::{Canvas, Line as CanvasLine};
 
-/// The preview of a state (draws nothing without one).
+/// The lights that light the dial now, strongest first, as `name 70% · name 30%`.
+pub fn caption(dial: &DialState) -> String {
+    let w = dial.weights();
+    let mut lit: Vec<(usize, f64)> = w.iter().copied().enumerate().filter(|(_, v)| *v >= 0.005).collect();
+    lit.sort_by(|a, b| b.1.total_cmp(&a.1));
+    if lit.is_empty() {
+        return "every light off".to_string();
+    }
+    lit.iter()
+        .take(3)
+        .map(|(i, v)| format!("{} {:.0}%", dial.lights[*i].name, v * 100.0))
+        .collect::<Vec<_>>()
+        .join(" · ")
+}
+/// The panel's title: where the dial is, the keys, the protocol.
+pub fn title(state: &State) -> String {
+    let caption = state.dial_state.as_ref().map_or_else(|| "no lights".to_string(), caption);
+    let keys = if state.dial_keys { "Esc leave" } else { "g dial keys" };
+    format!(" light dial: {caption} · {keys} · {} ", state.graphics.name())
+}
+
+/// The preview image of a state (a progress line while it is raycast).
 pub struct PreviewPanel<'a>(pub &'a State);
 
 impl Widget for PreviewPanel<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let state = self.0;
-        let pixels = &state.preview_frame;
-        if pixels.len() != PREVIEW_WIDTH * PREVIEW_HEIGHT || area.width == 0 || area.height == 0 {
+        if area.width == 0 || area.height == 0 {
             return;
         }
-        // Fit PREVIEW_WIDTH × PREVIEW_HEIGHT into width × 2·height pixels, keeping the aspect ratio.
+        if let Some(text) = &state.preview_loading {
+            let style = Style::new().fg(Color::Yellow);
+            buf.set_stringn(area.x, area.y, text, usize::from(area.width), style);
+        }
+        let Some(preview) = &state.preview else { return };
+        let (pw, ph) = preview.size();
+        let pixels = &state.preview_frame;
+        if pw == 0 || ph == 0 || pixels.len() != pw * ph * 3 {
+            return;
+        }
+        let first = if state.preview_loading.is_some() { 1 } else { 0 };
+        let area = Rect { y: area.y + first, height: area.height - first, ..area };
+        if !state.graphics.is_halfblocks()
+            && let Some(cells) = state.graphics.encoded_cells()
+        {
+            let x = area.x + area.width.saturating_sub(cells.width) / 2;
+            let y = area.y + area.height.saturating_sub(cells.height) / 2;
+            let at = Rect { x, y, width: area.width - (x - area.x), height: area.height - (y - area.y) };
+            if state.graphics.render(at, buf) {
+                return;
+            }
+        }
+        // Fit pw × ph into width × 2·height pixels, keeping the aspect ratio.
         let (aw, ah) = (usize::from(area.width), 2 * usize::from(area.height));
-        let scale = (aw as f64 / PREVIEW_WIDTH as f64).min(ah as f64 / PREVIEW_HEIGHT as f64);
-        let w = ((PREVIEW_WIDTH as f64 * scale).floor() as usize).clamp(1, aw);
-        let h = ((PREVIEW_HEIGHT as f64 * scale).floor() as usize).clamp(2, ah) & !1;
+        if ah < 2 {
+            return;
+        }
+        let scale = (aw as f64 / pw as f64).min(ah as f64 / ph as f64);
+        let w = ((pw as f64 * scale).round() as usize).clamp(1, aw);
+        let h = ((ph as f64 * scale).round() as usize).clamp(2, ah) & !1;
         let x0 = area.x + ((aw - w) / 2) as u16;
         let y0 = area.y + ((ah - h) / 4) as u16;
         let sample = |x: usize, y: usize| {
-            let sx = (x * PREVIEW_WIDTH / w).min(PREVIEW_WIDTH - 1);
-            let sy = (y * PREVIEW_HEIGHT / h).min(PREVIEW_HEIGHT - 1);
-            pixels[sy * PREVIEW_WIDTH + sx]
+            let sx = (x * pw / w).min(pw - 1);
+            let sy = (y * ph / h).min(ph - 1);
+            let i = 3 * (sy * pw + sx);
+            [pixels[i], pixels[i + 1], pixels[i + 2]]
         };
         for cy in 0..h / 2 {
             for x in 0..w {
@@ -38,6 +89,104 @@ impl Widget for PreviewPanel<'_> {
                     cell.set_symbol("▀").set_style(Style::new().fg(top).bg(bottom));
                 }
             }
+        }
+    }
+}
+
+/// A light's colour on the dial: its colour on a white reflectance, brightest channel 1.
+fn light_colour(state: &State, e: &Spectrum) -> Color {
+    let rgb = state.colorimetry.rgb(e, &Spectrum::flat(1.0));
+    let peak = rgb.max();
+    let rgb = if peak > 1e-12 { rgb / peak } else { rgb };
+    state.colour_mode.linear(&rgb)
+}
+
+/// The light dial beside the preview image (seed §5.1's 2D dial): each light's vertex in its colour with
+/// its number and name (hollow when off), the outline through the vertices, the slider point; under it
+/// one intensity slider per light.
+pub struct DialPanel<'a>(pub &'a State);
+
+impl Widget for DialPanel<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let state = self.0;
+        let (Some(dial), Some(preview)) = (&state.dial_state, &state.preview) else { return };
+        // The designer's current spectra colour the vertices.
+        let dial = preview.current_dial(&state.palette, &state.derived, dial);
+        let n = dial.lights.len();
+        let list_rows = (n as u16 + 1).min(area.height.saturating_sub(3));
+        let canvas_area = Rect { height: area.height - list_rows, ..area };
+        let list_area = Rect { y: area.y + canvas_area.height, height: list_rows, ..area };
+        let [[x0, y0], [x1, y1]] = dial.bounds();
+        let pad = 0.25 * (x1 - x0).max(y1 - y0).max(0.5);
+        let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+        let half = 0.5 * (x1 - x0).max(y1 - y0) + pad;
+        // Cells are about twice as high as wide: widen the x range so the dial is not squashed.
+        let aspect = f64::from(canvas_area.width.max(1)) / (2.0 * f64::from(canvas_area.height.max(1)));
+        let (hx, hy) = if aspect >= 1.0 { (half * aspect, half) } else { (half, half / aspect) };
+        let cell_w = 2.0 * hx / f64::from(canvas_area.width.max(1));
+        let colours: Vec<Color> = dial.lights.iter().map(|l| light_colour(state, &l.spectrum)).collect();
+        let selected = if state.dial_keys { state.dial_selected } else { None };
+        let keys = state.dial_keys;
+        let canvas =
+            Canvas::default().marker(Marker::Braille).x_bounds([cx - hx, cx + hx]).y_bounds([cy - hy, cy + hy]).paint(
+                |ctx| {
+                    for i in 0..n {
+                        let (a, b) = (dial.lights[i].position, dial.lights[(i + 1) % n].position);
+                        if n > 1 && (n > 2 || i == 0) {
+                            ctx.draw(&CanvasLine::new(a[0], a[1], b[0], b[1], Color::DarkGray));
+                        }
+                    }
+                    ctx.layer();
+                    for (i, l) in dial.lights.iter().enumerate() {
+                        let mark = if l.on { "●" } else { "○" };
+                        let mut style = Style::new().fg(colours[i]);
+                        if selected == Some(i) {
+                            style = style.add_modifier(Modifier::REVERSED);
+                        }
+                        // Labels run away from the centre so the right-hand ones are not cut off.
+                        let (label, x) = if l.position[0] > cx + 1e-9 {
+                            let label = format!("{} {}{mark}", l.name, i + 1);
+                            let x = l.position[0] - (label.chars().count() - 1) as f64 * cell_w;
+                            (label, x)
+                        } else {
+                            (format!("{mark}{} {}", i + 1, l.name), l.position[0])
+                        };
+                        ctx.print(x, l.position[1], Line::from(Span::styled(label, style)));
+                    }
+                    let style = if keys && selected.is_none() {
+                        Style::new().fg(Color::White).add_modifier(Modifier::REVERSED | Modifier::BOLD)
+                    } else {
+                        Style::new().fg(Color::White).add_modifier(Modifier::BOLD)
+                    };
+                    ctx.print(dial.slider[0], dial.slider[1], Line::from(Span::styled("◆", style)));
+                },
+            );
+        canvas.render(canvas_area, buf);
+        // Intensity sliders: number, on/off, name, bar, value (0 … 2).
+        let weights = dial.weights();
+        for (i, l) in dial.lights.iter().enumerate().take(usize::from(list_rows)) {
+            let y = list_area.y + i as u16;
+            let mark = if l.on { "●" } else { "○" };
+            let name: String = l.name.chars().take(9).collect();
+            let head = format!("{}{mark} {name:<9} ", i + 1);
+            let bar_w = usize::from(area.width).saturating_sub(head.chars().count() + 10).max(1);
+            let filled = ((l.intensity / 2.0).clamp(0.0, 1.0) * bar_w as f64).round() as usize;
+            let bar: String = "█".repeat(filled) + &"·".repeat(bar_w - filled);
+            let mut style = Style::new().fg(colours[i]);
+            if selected == Some(i) {
+                style = style.add_modifier(Modifier::REVERSED);
+            }
+            let line = Line::from(vec![
+                Span::styled(head, style),
+                Span::styled(bar, Style::new().fg(colours[i])),
+                Span::raw(format!(" {:.2} {:>3.0}%", l.intensity, weights.get(i).copied().unwrap_or(0.0) * 100.0)),
+            ]);
+            buf.set_line(area.x, y, &line, area.width);
+        }
+        if usize::from(list_rows) > n {
+            let y = list_area.y + n as u16;
+            let text = format!("keyframes {} new", state.keyframes.len());
+            buf.set_stringn(area.x, y, text, usize::from(area.width), Style::new().fg(Color::DarkGray));
         }
     }
 }

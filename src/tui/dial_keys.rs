@@ -1,0 +1,167 @@
+//! The light dial's keys (after `g`): the slider and the vertices move in small and large steps, number
+//! keys switch lights, `+`/`-` change the selected light's intensity, `a` adds the dial as a keyframe
+//! and Ctrl-s writes the keyframes into the scene file, which `metamer render` then sweeps
+//! (the `[[dial.keyframes]]` format of `docs/formats/dial.md`). Every change relights the preview.
+
+use crate::render::dial::DialState;
+use crate::tui::action::Action;
+use crate::tui::app::State;
+use std::path::Path;
+use toml_edit::{Array, ArrayOfTables, DocumentMut, InlineTable, Item, Table, value};
+
+/// A small step of the slider or a vertex, as a fraction of the dial's extent; a large step is ten.
+pub const SMALL_STEP: f64 = 0.02;
+pub const LARGE_STEP: f64 = 0.2;
+/// Intensity change per `+`/`-`, and its range.
+pub const INTENSITY_STEP: f64 = 0.1;
+pub const MAX_INTENSITY: f64 = 10.0;
+
+/// Carry out a dial action (the caller routes only dial actions here).
+pub fn update(state: &mut State, action: Action) {
+    let Some(scene) = state.scene() else {
+        state.complain("no scene preview: start with --scene SCENE.toml");
+        return;
+    };
+    let [[x0, y0], [x1, y1]] = scene.dial.base.bounds();
+    let extent = (x1 - x0).max(y1 - y0).max(1e-3);
+    let scene_path = scene.path.clone();
+    let Some(dial) = state.dial_state.as_mut() else { return };
+    let n = dial.lights.len();
+    let result: Result<(), String> = match action {
+        Action::DialLeave => {
+            state.dial_keys = false;
+            return;
+        }
+        Action::DialSlide { dx, dy, big } => {
+            let step = extent * if big { LARGE_STEP } else { SMALL_STEP };
+            let (dx, dy) = (f64::from(dx) * step, f64::from(dy) * step);
+            match state.dial_selected {
+                None => dial.set_slider([dial.slider[0] + dx, dial.slider[1] + dy]),
+                Some(i) => {
+                    let p = dial.lights.get(i).map_or([0.0; 2], |l| l.position);
+                    dial.move_vertex(i, [p[0] + dx, p[1] + dy])
+                }
+            }
+            .map_err(|e| e.to_string())
+        }
+        Action::DialToggle(k) => {
+            let i = usize::from(k).wrapping_sub(1);
+            match dial.toggle(i) {
+                Ok(on) => {
+                    let name = dial.lights[i].name.clone();
+                    state.say(format!("light {k} {name} {}", if on { "on" } else { "off" }));
+                    Ok(())
+                }
+                Err(_) => Err(format!("there is no light {k} (the dial has {n})")),
+            }
+        }
+        Action::DialSelect { forward } => {
+            // Cycle: slider, vertex 1, …, vertex n.
+            let at = state.dial_selected.map_or(0, |i| i + 1);
+            let next = if forward { (at + 1) % (n + 1) } else { (at + n) % (n + 1) };
+            state.dial_selected = next.checked_sub(1);
+            Ok(())
+        }
+        Action::DialIntensity { up } => match state.dial_selected {
+            None => Err("select a light with Tab first (the slider has no intensity)".to_string()),
+            Some(i) => {
+                let v = dial.lights.get(i).map_or(1.0, |l| l.intensity);
+                let step = if up { INTENSITY_STEP } else { -INTENSITY_STEP };
+                let next = ((v + step) * 10.0).round() / 10.0;
+                dial.set_intensity(i, next.clamp(0.0, MAX_INTENSITY)).map_err(|e| e.to_string())
+            }
+        },
+        Action::DialKeyframe => {
+            if dial.lights.iter().all(|l| !l.on) {
+                Err("every light is off: switch one on before adding a keyframe".to_string())
+            } else {
+                let mut k = dial.clone();
+                k.fixed_weights = None;
+                state.keyframes.push(k);
+                let count = state.keyframes.len();
+                state.say(format!("keyframe {count} added (Ctrl-s writes the keyframes into the scene)"));
+                Ok(())
+            }
+        }
+        Action::DialSaveScene => match scene_path {
+            None => Err("the built-in scene has no file: open a scene file with --scene to save keyframes".to_string()),
+            Some(_) if state.keyframes.is_empty() => Err("no keyframes yet: `a` adds one".to_string()),
+            Some(path) => match save_keyframes(&path, &state.keyframes) {
+                Ok(text) => {
+                    // The saved sweep sets render's exposure: take it, so the preview stays what
+                    // `metamer render` writes.
+                    match crate::render::scene::Scene::load(&path) {
+                        Ok(saved) => {
+                            let colorimetry = state.colorimetry.clone();
+                            if let Some(p) = state.preview.as_mut() {
+                                p.rescene(std::sync::Arc::new(saved), &colorimetry);
+                            }
+                            state.keyframes.clear();
+                            state.say(text);
+                        }
+                        Err(e) => state.complain(format!("{text}, but it does not load again: {e}")),
+                    }
+                    Ok(())
+                }
+                Err(e) => Err(format!("scene not saved: {e}")),
+            },
+        },
+        _ => Ok(()),
+    };
+    if let Err(e) = result {
+        state.complain(e);
+    }
+    state.relight();
+}
+
+/// One keyframe as a TOML table: the slider point and, explicitly, every light's state (so it does not
+/// depend on the keyframes before it).
+fn keyframe_table(k: &DialState) -> Table {
+    let names = |on: bool| -> Array { k.lights.iter().filter(|l| l.on == on).map(|l| l.name.as_str()).collect() };
+    let point = |p: [f64; 2]| -> Array { [round(p[0]), round(p[1])].into_iter().collect() };
+    let mut t = Table::new();
+    t["at"] = value(point(k.slider));
+    t["off"] = value(names(false));
+    t["on"] = value(names(true));
+    let mut moves = InlineTable::new();
+    let mut intensity = InlineTable::new();
+    for l in &k.lights {
+        moves.insert(&l.name, point(l.position).into());
+        intensity.insert(&l.name, round(l.intensity).into());
+    }
+    t["move"] = value(moves);
+    t["intensity"] = value(intensity);
+    t
+}
+
+/// Six decimals: what a user would type, and stable across saves.
+fn round(v: f64) -> f64 {
+    (v * 1e6).round() / 1e6
+}
+
+/// Append `keyframes` to the scene file's `[[dial.keyframes]]` (a `path` there is replaced: a dial has
+/// either), keeping everything else of the file; atomic (a temporary file renamed over the old one).
+pub fn save_keyframes(path: &Path, keyframes: &[DialState]) -> Result<String, String> {
+    let show = path.display();
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{show}: cannot read: {e}"))?;
+    let mut doc: DocumentMut = text.parse().map_err(|e| format!("{show}: not TOML: {e}"))?;
+    let dial = doc.entry("dial").or_insert(Item::Table(Table::new()));
+    let Some(dial) = dial.as_table_mut() else {
+        return Err(format!("{show}: dial: is not a table"));
+    };
+    let had_path = dial.remove("path").is_some();
+    let frames = dial.entry("keyframes").or_insert(Item::ArrayOfTables(ArrayOfTables::new()));
+    let Some(frames) = frames.as_array_of_tables_mut() else {
+        return Err(format!("{show}: dial.keyframes: is not an array of tables"));
+    };
+    for k in keyframes {
+        frames.push(keyframe_table(k));
+    }
+    let total = frames.len();
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| format!("{show}: cannot write: {e}"))?;
+    std::io::Write::write_all(&mut tmp, doc.to_string().as_bytes()).map_err(|e| format!("{show}: {e}"))?;
+    tmp.persist(path).map_err(|e| format!("{show}: cannot replace: {e}"))?;
+    let note = if had_path { " (its dial path is now these keyframes)" } else { "" };
+    Ok(format!("saved {} keyframes into {show}: {total} in all{note}", keyframes.len()))
+}
