@@ -468,8 +468,8 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         .map(|q| vec![q.what.clone(), format_seconds(q.median_s), format!("{:.2}×", q.median_s / base_q.max(1e-12))])
         .collect();
     s += &markdown_table(&["configuration", "median raycast", "against no quality steps"], &qrows);
-    s += "\nJitter moves sample positions only (no extra work); the smooth gradient reads six interpolated values \
-          per shaded sample instead of the cell's eight voxels; label interpolation classifies eight voxels per \
+    s += "\nJitter moves sample positions only (no extra work); the smooth gradient interpolates a per-voxel gradient grid \
+          (i16, 6 bytes a voxel, built once per raycast) at shaded samples only; label interpolation classifies eight voxels per \
           sample; supersampling multiplies the rays by ss². None of them changes the per-frame cost.\n";
     let a = &r.accuracy;
     s += &format!(
