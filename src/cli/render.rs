@@ -12,9 +12,7 @@ use crate::render::overlay::DialOverlay;
 use crate::render::raycast::{Gradient, Shading};
 use crate::render::relight::Mode;
 use crate::render::scene::Scene;
-use crate::render::sweep::{
-    EXPOSURE_PERCENTILE, SweepOptions, downsample, percentile_exposure, sweep_exposure, write_sweep,
-};
+use crate::render::sweep::{SweepOptions, downsample, render_exposure, write_sweep};
 use crate::render::{Acceleration, colour_model, render_views};
 
 /// The dial's formula and scene format, shown by `metamer render --help` (docs/formats/dial.md has more).
@@ -219,14 +217,16 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         .context("the raycast produced no image")?;
     view.image = downsample(&view.image, ss);
     let reflectances: Vec<_> = scene.materials.iter().map(|m| m.spectrum).collect();
-    let bound = || sweep_exposure(&colorimetry, &reflectances, &scene.dial, args.frames, scene.settings.exposure);
-    let exposure = if args.conservative_exposure {
-        bound()
-    } else {
-        let e = &scene.settings.exposure;
-        percentile_exposure(&view.image, &view.model, &scene.dial, args.frames, EXPOSURE_PERCENTILE, *e)
-            .unwrap_or_else(bound)
-    };
+    let exposure = render_exposure(
+        &view.image,
+        &view.model,
+        &scene.dial,
+        &colorimetry,
+        &reflectances,
+        args.frames,
+        scene.settings.exposure,
+        args.conservative_exposure,
+    );
     let bar = if std::io::stderr().is_terminal() {
         let b = ProgressBar::new(range.len() as u64);
         b.set_style(

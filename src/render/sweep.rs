@@ -85,6 +85,28 @@ pub fn encode_png(rgb: &[u8], width: usize, height: usize) -> Result<Vec<u8>, St
 /// The fraction of covered pixels of the brightest frame that [`percentile_exposure`] keeps below 1.
 pub const EXPOSURE_PERCENTILE: f64 = 0.995;
 
+/// The exposure `metamer render` gives a sweep of `frames` frames of this picture — the one rule the
+/// renderer and the designer's live preview share: the percentile exposure ([`percentile_exposure`] at
+/// [`EXPOSURE_PERCENTILE`], times `scale`), or, with `conservative` or when no pixel is covered, the
+/// never-clipping bound of the materials' colours ([`sweep_exposure`]).
+#[allow(clippy::too_many_arguments)]
+pub fn render_exposure(
+    image: &ChannelImage,
+    model: &ColourModel,
+    dial: &Dial,
+    colorimetry: &Colorimetry,
+    reflectances: &[Spectrum],
+    frames: usize,
+    scale: f64,
+    conservative: bool,
+) -> f64 {
+    let bound = || sweep_exposure(colorimetry, reflectances, dial, frames, scale);
+    if conservative {
+        return bound();
+    }
+    percentile_exposure(image, model, dial, frames, EXPOSURE_PERCENTILE, scale).unwrap_or_else(bound)
+}
+
 /// Frames [`percentile_exposure`] looks at: at most this many, spread evenly over the whole sweep.
 const EXPOSURE_FRAMES: usize = 17;
 

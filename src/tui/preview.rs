@@ -14,7 +14,7 @@ use crate::render::dial::DialState;
 use crate::render::raycast::{ChannelImage, MaterialWeights, raycast};
 use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
 use crate::render::scene::Scene;
-use crate::render::sweep::sweep_exposure;
+use crate::render::sweep::render_exposure;
 use crate::render::{Acceleration, RenderError, colour_model, raycast_options};
 use crate::spectrum::Spectrum;
 use crate::tui::derived::Derived;
@@ -93,21 +93,36 @@ impl Preview {
         let materials: Vec<(String, Spectrum)> =
             scene.materials.iter().map(|m| (m.reflectance.clone(), m.spectrum)).collect();
         let reflectances: Vec<Spectrum> = materials.iter().map(|m| m.1).collect();
-        let exposure =
-            sweep_exposure(colorimetry, &reflectances, &scene.dial, EXPOSURE_FRAMES, scene.settings.exposure);
         let image = ChannelImage { width: 0, height: 0, channels: model.channels(), data: Vec::new() };
-        let mut preview = Preview { scene, model, weights, image, projected: Vec::new(), materials, exposure };
+        let mut preview = Preview { scene, model, weights, image, projected: Vec::new(), materials, exposure: 1.0 };
         preview.project(&reflectances);
+        preview.exposure = preview.render_exposure(&preview.scene, colorimetry);
         preview
     }
 
     /// The scene as saved (same volume, materials and camera: the raycast stays), with the exposure
     /// `metamer render` now uses for its sweep.
     pub fn rescene(&mut self, scene: Arc<Scene>, colorimetry: &Colorimetry) {
-        let reflectances: Vec<Spectrum> = self.materials.iter().map(|m| m.1).collect();
-        self.exposure =
-            sweep_exposure(colorimetry, &reflectances, &scene.dial, EXPOSURE_FRAMES, scene.settings.exposure);
+        self.exposure = self.render_exposure(&scene, colorimetry);
         self.scene = scene;
+    }
+
+    /// The exposure `metamer render` uses for a sweep of [`EXPOSURE_FRAMES`] frames of `scene`, from this
+    /// raycast projected with the scene's own reflectances (as render projects them).
+    fn render_exposure(&self, scene: &Scene, colorimetry: &Colorimetry) -> f64 {
+        let reflectances: Vec<Spectrum> = scene.materials.iter().map(|m| m.spectrum).collect();
+        let colours: Vec<Vec<f32>> = reflectances.iter().map(|s| self.model.material_vector(s)).collect();
+        let image = self.weights.project(&colours);
+        render_exposure(
+            &image,
+            &self.model,
+            &scene.dial,
+            colorimetry,
+            &reflectances,
+            EXPOSURE_FRAMES,
+            scene.settings.exposure,
+            false,
+        )
     }
 
     /// Pixel size of the raycast.
