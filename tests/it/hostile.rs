@@ -308,6 +308,47 @@ fn render_refuses_a_contact_sheet_onto_a_frame() {
     assert_eq!(std::fs::read(d.join("frames/frame_0001.png")).unwrap(), b"keep");
 }
 
+#[test]
+fn render_refuses_outputs_onto_the_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let palette = concat!(env!("CARGO_MANIFEST_DIR"), "/volumes/engine_palette.toml");
+    std::fs::copy(palette, d.join("engine_palette.toml")).unwrap();
+    let scene = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/volumes/engine.toml")).unwrap();
+    let scene = scene.replace(
+        "\"../../shared/volumes/engine.nhdr\"",
+        "\"frame_0000.png\"\n[raw]\ndims = [4, 4, 4]\ntype = \"uint8\"",
+    );
+    std::fs::write(d.join("s.toml"), scene).unwrap();
+    let volume: Vec<u8> = (0..64u8).map(|i| i * 4).collect();
+    std::fs::write(d.join("frame_0000.png"), &volume).unwrap();
+    // The volume is named by the first frame, then by the contact sheet (through another spelling).
+    let frames = metamer(d, &["render", "s.toml", "--frames", "2", "--size", "8", "-o", "."]);
+    let sheet = metamer(
+        d,
+        &[
+            "render",
+            "s.toml",
+            "--frames",
+            "2",
+            "--size",
+            "8",
+            "-o",
+            "out",
+            "--contact-sheet",
+            "./out/../frame_0000.png",
+        ],
+    );
+    for o in [frames, sheet] {
+        assert!(!o.status.success(), "{} {}", stderr(&o), String::from_utf8_lossy(&o.stdout));
+        assert!(stderr(&o).contains("same file as the volume"), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(d.join("frame_0000.png")).unwrap(), volume, "the volume is untouched");
+    // The same scene renders when nothing names the volume (the refusal is not a broken scene).
+    let ok = metamer(d, &["render", "s.toml", "--frames", "2", "--size", "8", "-o", "out", "--contact-sheet", "c.png"]);
+    assert!(ok.status.success(), "{}", stderr(&ok));
+}
+
 // ----------------------------------------------------------------------------------------- designer
 
 fn replay_with(path: &Path, saver: &mut FileSaver, script: &str) -> (State, Vec<String>) {
