@@ -328,6 +328,14 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
             apply_reply(state, reply, &mut worker);
             redraw = true;
         }
+        if state.import.is_some() {
+            let effects = update::poll_import(state, Duration::ZERO);
+            if effects.solve {
+                solve_started = Instant::now();
+            }
+            run_effects(state, effects, &mut worker, saver);
+            redraw |= state.import.is_none();
+        }
         if state.solve.running.is_some() || state.solve.training {
             state.solve.running_for = solve_started.elapsed();
         }
@@ -341,10 +349,14 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
         if state.quit {
             return Ok(());
         }
-        let timeout = if worker.busy() { Duration::from_millis(80) } else { Duration::from_millis(500) };
+        let timeout = if worker.busy() || state.import.is_some() {
+            Duration::from_millis(80)
+        } else {
+            Duration::from_millis(500)
+        };
         match events.next(timeout)? {
             None => {
-                if worker.busy() {
+                if worker.busy() || state.import.is_some() {
                     state.ticks += 1;
                     redraw = true;
                 }
@@ -362,6 +374,11 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
                 redraw = true;
             }
             Some(Input::WaitSolve) => {
+                // A running import ends (its read is bounded); its solve is then waited for too.
+                if state.import.is_some() {
+                    let effects = update::poll_import(state, Duration::from_secs(60));
+                    run_effects(state, effects, &mut worker, saver);
+                }
                 while worker.busy() {
                     match worker.wait_reply(Duration::from_secs(3600)) {
                         Some(reply) => apply_reply(state, reply, &mut worker),

@@ -395,6 +395,47 @@ fn reload_reads_the_outside_change() {
 }
 
 #[test]
+fn csv_import_runs_off_the_ui_thread_and_esc_cancels_it() {
+    use metamer::palette::Kind as SpectrumKind;
+    use metamer::tui::action::Action;
+    use metamer::tui::update;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_path_buf();
+    let path = d.join("p.toml");
+    std::fs::write(&path, SMALL).unwrap();
+    mkfifo(&d.join("slow.csv"));
+    let rows: String = (0..=30).map(|i| format!("{},{}\n", 400 + 10 * i, 0.25)).collect();
+    std::fs::write(d.join("grey.csv"), rows).unwrap();
+    let palette = PaletteFile::load(&path).unwrap().palette;
+    within(Duration::from_secs(10), move || {
+        let mut state = State::new(path, palette.clone(), ColourMode::TrueColor);
+        // Started, the UI thread returns at once: the status says what is read and how to cancel.
+        update::start_import(&mut state, SpectrumKind::Reflectance, "slow.csv");
+        assert!(state.import.is_some());
+        let text = state.message.as_ref().map(|m| m.text.clone()).unwrap_or_default();
+        assert!(text.contains("reading slow.csv") && text.contains("Esc cancels"), "{text}");
+        // Esc cancels: the reply is dropped, the palette is unchanged.
+        update::update(&mut state, Action::Back);
+        assert!(state.import.is_none());
+        assert!(state.message.as_ref().is_some_and(|m| m.text.contains("cancelled")));
+        assert_eq!(update::poll_import(&mut state, Duration::from_millis(200)), update::Effects::default());
+        assert_eq!(state.palette, palette);
+        // Not cancelled, the FIFO's refusal arrives as an error naming it.
+        update::start_import(&mut state, SpectrumKind::Reflectance, "slow.csv");
+        update::poll_import(&mut state, Duration::from_secs(5));
+        let m = state.message.clone().expect("a message");
+        assert!(m.is_error && m.text.contains("slow.csv") && m.text.contains("FIFO"), "{}", m.text);
+        assert_eq!(state.palette, palette);
+        // A regular CSV is added when its reply arrives (and asks for a solve).
+        update::start_import(&mut state, SpectrumKind::Reflectance, "grey.csv");
+        let effects = update::poll_import(&mut state, Duration::from_secs(5));
+        assert!(effects.solve);
+        assert_eq!(state.palette.reflectances.len(), palette.reflectances.len() + 1);
+        assert!(state.palette.reflectances.iter().any(|r| r.name == "grey"));
+    });
+}
+
+#[test]
 fn a_recovery_copy_is_written_beside_the_palette() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.toml");
