@@ -329,7 +329,9 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
             redraw = true;
         }
         if state.import.is_some() {
-            let effects = update::poll_import(state, Duration::ZERO);
+            // A replay (synchronous input) waits for the import as it waits for solves; its read is bounded.
+            let wait = if events.synchronous() { Duration::from_secs(60) } else { Duration::ZERO };
+            let effects = update::poll_import(state, wait);
             if effects.solve {
                 solve_started = Instant::now();
             }
