@@ -285,12 +285,37 @@ pub fn identity(path: &Path) -> Option<Identity> {
     if let Ok(c) = std::fs::canonicalize(path) {
         return Some(Identity::Path(c));
     }
-    let name = path.file_name()?;
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
+    // Folders that do not exist yet (an output folder created later): the nearest existing ancestor,
+    // canonical, then the rest of the path spelt out (`..` over a folder still to be created is its parent,
+    // as it will be once the folder exists), so `out/../p.toml` is still `p.toml`.
+    let relative;
+    let path = if path.is_relative() {
+        relative = Path::new(".").join(path);
+        relative.as_path()
+    } else {
+        path
     };
-    Some(Identity::Path(std::fs::canonicalize(parent).ok()?.join(name)))
+    let (base, rest) = path.ancestors().skip(1).find_map(|a| {
+        let a = if a.as_os_str().is_empty() { Path::new(".") } else { a };
+        let c = std::fs::canonicalize(a).ok()?;
+        Some((c, path.strip_prefix(a).ok()?.to_path_buf()))
+    })?;
+    let mut full = base;
+    for part in rest.components() {
+        match part {
+            std::path::Component::ParentDir => {
+                full.pop();
+            }
+            std::path::Component::Normal(n) => full.push(n),
+            _ => {}
+        }
+    }
+    if let Ok(meta) = std::fs::metadata(&full)
+        && let Some((dev, ino)) = inode(&meta)
+    {
+        return Some(Identity::Inode(dev, ino));
+    }
+    Some(Identity::Path(full))
 }
 
 /// The files one command reads and writes, checked so no output is an input or another output.

@@ -184,7 +184,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
             eprintln!("warning: palette `{}`: {w}", scene.palette.name.escape_debug());
         }
     }
-    // No output may be the scene, its palette or the palette's basis sidecar, nor one another.
+    // No output may be the scene, its volume, its palette or the palette's basis sidecar, nor one another.
     let mut files = crate::fsio::Outputs::new();
     if let Some(p) = &scene.path {
         files.input("scene", p);
@@ -192,6 +192,9 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     if let Some(p) = &scene.palette_path {
         files.input("palette", p);
         files.input("basis sidecar", &crate::basis::store::sidecar_path(p));
+    }
+    if let Some(p) = &scene.volume_path {
+        files.input("volume", p);
     }
     for k in range.clone() {
         files.check("frame", &args.output.join(crate::render::sweep::frame_name(k)))?;

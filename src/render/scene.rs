@@ -90,6 +90,8 @@ pub struct Scene {
     pub path: Option<PathBuf>,
     /// The palette file, if any (its folder holds the trained basis sidecar).
     pub palette_path: Option<PathBuf>,
+    /// The volume file read, if any (an input no output may overwrite).
+    pub volume_path: Option<PathBuf>,
     pub palette: Palette,
     pub volume: Volume,
     pub materials: Vec<Material>,
@@ -227,6 +229,7 @@ impl Scene {
         let palette = load_palette(&palette_path).map_err(|e| scene_err(path, "palette", e))?;
         let render = file.render.as_ref();
         let generated = file.volume.strip_prefix("generated:").filter(|_| volume_override.is_none());
+        let mut volume_path = None;
         let volume = if let Some(kind) = generated {
             match kind {
                 "engine_like" => generate::engine_like(render.and_then(|r| r.generated_size).unwrap_or(160)),
@@ -236,6 +239,7 @@ impl Scene {
             }
         } else {
             let vpath = resolve_volume_path(path, &file.volume, volume_override)?;
+            volume_path = Some(vpath.clone());
             match &file.raw {
                 Some(r) => {
                     let ty = ScalarType::parse(&r.ty)
@@ -262,6 +266,7 @@ impl Scene {
         Ok(Scene {
             path: Some(path.to_path_buf()),
             palette_path: Some(palette_path),
+            volume_path,
             palette,
             volume,
             materials,
@@ -302,6 +307,7 @@ impl Scene {
         Ok(Scene {
             path: None,
             palette_path: None,
+            volume_path: None,
             volume: generate::engine_like(size),
             materials,
             camera: Camera { azimuth_deg: 35.0, elevation_deg: 25.0, ..Camera::default() },
@@ -720,6 +726,7 @@ pub fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities
     Scene {
         path: None,
         palette_path: None,
+        volume_path: None,
         palette,
         volume,
         materials,

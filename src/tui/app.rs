@@ -248,6 +248,18 @@ impl SolveStatus {
     }
 }
 
+/// A CSV import running off the UI thread (the read is bounded by `crate::fsio`, so the thread ends).
+#[derive(Debug)]
+pub struct Import {
+    /// The path as typed.
+    pub path: String,
+    pub kind: Kind,
+    /// The palette the import was started from (a reply for another palette is dropped).
+    pub before: Palette,
+    /// The palette with the spectrum added, or why it was not.
+    pub reply: std::sync::mpsc::Receiver<Result<Palette, String>>,
+}
+
 /// The whole model of the designer.
 #[derive(Debug)]
 pub struct State {
@@ -257,6 +269,8 @@ pub struct State {
     /// The palette as last loaded or saved (the `●` marker shows when they differ).
     pub saved: Palette,
     pub colorimetry: Colorimetry,
+    /// The CSV import being read, if any (Esc cancels it).
+    pub import: Option<Import>,
     /// The spectral factor basis for subspace colours and the key of the spectra it is for (the derived
     /// colours use it only while the shown spectra have that key).
     pub basis: Option<(String, crate::basis::policy::Resolved)>,
@@ -326,6 +340,7 @@ impl State {
             saved: palette.clone(),
             palette,
             colorimetry,
+            import: None,
             basis: None,
             selection: Selection { col: 1, row: 1 },
             focus: Focus::Matrix,

@@ -401,6 +401,16 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
             apply_reply(state, reply, &mut worker);
             redraw = true;
         }
+        if state.import.is_some() {
+            // A replay (synchronous input) waits for the import as it waits for solves; its read is bounded.
+            let wait = if events.synchronous() { Duration::from_secs(60) } else { Duration::ZERO };
+            let effects = update::poll_import(state, wait);
+            if effects.solve {
+                solve_started = Instant::now();
+            }
+            run_effects(state, effects, &mut worker, saver);
+            redraw |= state.import.is_none();
+        }
         if state.solve.running.is_some() || state.solve.training {
             state.solve.running_for = solve_started.elapsed();
         }
@@ -415,10 +425,11 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
             return Ok(());
         }
         let loading = loader.as_ref().is_some_and(|l| l.pending.is_some());
-        let timeout = if worker.busy() || loading { Duration::from_millis(80) } else { Duration::from_millis(500) };
+        let waiting = worker.busy() || loading || state.import.is_some();
+        let timeout = if waiting { Duration::from_millis(80) } else { Duration::from_millis(500) };
         match events.next(timeout)? {
             None => {
-                if worker.busy() || loading {
+                if waiting {
                     state.ticks += 1;
                     redraw = true;
                 }
@@ -436,6 +447,11 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
                 redraw = true;
             }
             Some(Input::WaitSolve) => {
+                // A running import ends (its read is bounded); its solve is then waited for too.
+                if state.import.is_some() {
+                    let effects = update::poll_import(state, Duration::from_secs(60));
+                    run_effects(state, effects, &mut worker, saver);
+                }
                 while worker.busy() {
                     match worker.wait_reply(Duration::from_secs(3600)) {
                         Some(reply) => apply_reply(state, reply, &mut worker),

@@ -93,6 +93,10 @@ fn update_main(state: &mut State, action: Action) -> Effects {
         }
         Action::Activate => activate(state),
         Action::Back => {
+            if let Some(import) = state.import.take() {
+                state.say(format!("import of {} cancelled", crate::fsio::escape(&import.path)));
+                return Effects::NONE;
+            }
             state.focus = Focus::Matrix;
             Effects::NONE
         }
@@ -670,6 +674,74 @@ fn add_spectrum(state: &mut State, kind: Kind, base: &str, source: Source) -> Ef
     effects
 }
 
+/// Start importing the CSV file `path` as a new spectrum of `kind` on a thread of its own: the UI stays
+/// responsive, Esc cancels (the reply is dropped), [`poll_import`] applies the reply.
+pub fn start_import(state: &mut State, kind: Kind, path: &str) -> Effects {
+    let base = std::path::Path::new(path)
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| "imported".into());
+    let name = edits::unique_name(&state.palette, kind, &base);
+    let base_dir = state.base_dir();
+    let mut next = state.palette.clone();
+    let colorimetry = state.colorimetry.clone();
+    let source = Source::Csv(path.to_string());
+    let (tx, rx) = std::sync::mpsc::channel();
+    let spawned = std::thread::Builder::new().name("csv import".into()).spawn(move || {
+        let result = edits::add(&mut next, kind, &name, source, &base_dir, &colorimetry).map(|()| next);
+        let _ = tx.send(result);
+    });
+    if let Err(e) = spawned {
+        state.complain(format!("not imported: cannot start the reader: {e}"));
+        return Effects::NONE;
+    }
+    state.say(format!("reading {}… (Esc cancels)", crate::fsio::escape(path)));
+    state.import =
+        Some(crate::tui::app::Import { path: path.to_string(), kind, before: state.palette.clone(), reply: rx });
+    Effects::NONE
+}
+
+/// Apply the reply of the running CSV import, if it came (waiting up to `wait` for it).
+pub fn poll_import(state: &mut State, wait: std::time::Duration) -> Effects {
+    let Some(import) = state.import.as_ref() else { return Effects::NONE };
+    let reply = match import.reply.recv_timeout(wait) {
+        Ok(reply) => reply,
+        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => return Effects::NONE,
+        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => Err("the reader stopped without a reply".into()),
+    };
+    let Some(import) = state.import.take() else { return Effects::NONE };
+    let shown = crate::fsio::escape(&import.path).into_owned();
+    match reply {
+        Err(reason) => {
+            state.complain(format!("not imported: {shown}: {reason}"));
+            Effects::NONE
+        }
+        Ok(_) if state.palette != import.before => {
+            state.complain(format!("not imported: the palette changed while {shown} was read; import it again"));
+            Effects::NONE
+        }
+        Ok(next) => {
+            let effects = edit(state, EditKey::Other, |p, _| {
+                *p = next;
+                Ok(())
+            });
+            if effects.solve {
+                state.say(format!("added {} from {shown}", import.kind.as_str()));
+                match import.kind {
+                    Kind::Light => {
+                        state.selection = crate::tui::app::Selection { col: state.palette.lights.len(), row: 0 }
+                    }
+                    Kind::Reflectance => {
+                        state.selection = crate::tui::app::Selection { col: 0, row: state.palette.reflectances.len() }
+                    }
+                }
+                state.clamp_selection();
+            }
+            effects
+        }
+    }
+}
+
 /// A number as prompts prefill it (shortest round-trip form).
 fn num_text(v: f64) -> String {
     format!("{v}")
@@ -741,15 +813,7 @@ fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Effects {
                 if input.is_empty() {
                     return Err("give a path".into());
                 }
-                let base = std::path::Path::new(&input)
-                    .file_stem()
-                    .map(|s| s.to_string_lossy().to_string())
-                    .unwrap_or_else(|| "imported".into());
-                let effects = add_spectrum(state, kind, &base, Source::Csv(input.clone()));
-                if let Some(m) = state.message.as_ref().filter(|m| m.is_error) {
-                    return Err(m.text.clone());
-                }
-                effects
+                start_import(state, kind, &input)
             }
             PromptPurpose::Setting(field) => {
                 let v = parse_number(&input)?;

@@ -157,6 +157,7 @@ fn engine_sweep_factor_mode_tracks_full_mode() {
     let scene = Scene {
         path: None,
         palette_path: None,
+        volume_path: None,
         palette,
         volume,
         materials,

@@ -308,6 +308,47 @@ fn render_refuses_a_contact_sheet_onto_a_frame() {
     assert_eq!(std::fs::read(d.join("frames/frame_0001.png")).unwrap(), b"keep");
 }
 
+#[test]
+fn render_refuses_outputs_onto_the_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let palette = concat!(env!("CARGO_MANIFEST_DIR"), "/volumes/engine_palette.toml");
+    std::fs::copy(palette, d.join("engine_palette.toml")).unwrap();
+    let scene = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/volumes/engine.toml")).unwrap();
+    let scene = scene.replace(
+        "\"../../shared/volumes/engine.nhdr\"",
+        "\"frame_0000.png\"\n[raw]\ndims = [4, 4, 4]\ntype = \"uint8\"",
+    );
+    std::fs::write(d.join("s.toml"), scene).unwrap();
+    let volume: Vec<u8> = (0..64u8).map(|i| i * 4).collect();
+    std::fs::write(d.join("frame_0000.png"), &volume).unwrap();
+    // The volume is named by the first frame, then by the contact sheet (through another spelling).
+    let frames = metamer(d, &["render", "s.toml", "--frames", "2", "--size", "8", "-o", "."]);
+    let sheet = metamer(
+        d,
+        &[
+            "render",
+            "s.toml",
+            "--frames",
+            "2",
+            "--size",
+            "8",
+            "-o",
+            "out",
+            "--contact-sheet",
+            "./out/../frame_0000.png",
+        ],
+    );
+    for o in [frames, sheet] {
+        assert!(!o.status.success(), "{} {}", stderr(&o), String::from_utf8_lossy(&o.stdout));
+        assert!(stderr(&o).contains("same file as the volume"), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(d.join("frame_0000.png")).unwrap(), volume, "the volume is untouched");
+    // The same scene renders when nothing names the volume (the refusal is not a broken scene).
+    let ok = metamer(d, &["render", "s.toml", "--frames", "2", "--size", "8", "-o", "out", "--contact-sheet", "c.png"]);
+    assert!(ok.status.success(), "{}", stderr(&ok));
+}
+
 // ----------------------------------------------------------------------------------------- designer
 
 fn replay_with(path: &Path, saver: &mut FileSaver, script: &str) -> (State, Vec<String>) {
@@ -351,6 +392,47 @@ fn reload_reads_the_outside_change() {
     let expected = PaletteFile::parse(&outside, &path).unwrap().palette;
     assert_eq!(state.palette, expected);
     assert_eq!(state.history.undo.len(), 1, "the reload can be undone");
+}
+
+#[test]
+fn csv_import_runs_off_the_ui_thread_and_esc_cancels_it() {
+    use metamer::palette::Kind as SpectrumKind;
+    use metamer::tui::action::Action;
+    use metamer::tui::update;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_path_buf();
+    let path = d.join("p.toml");
+    std::fs::write(&path, SMALL).unwrap();
+    mkfifo(&d.join("slow.csv"));
+    let rows: String = (0..=30).map(|i| format!("{},{}\n", 400 + 10 * i, 0.25)).collect();
+    std::fs::write(d.join("grey.csv"), rows).unwrap();
+    let palette = PaletteFile::load(&path).unwrap().palette;
+    within(Duration::from_secs(10), move || {
+        let mut state = State::new(path, palette.clone(), ColourMode::TrueColor);
+        // Started, the UI thread returns at once: the status says what is read and how to cancel.
+        update::start_import(&mut state, SpectrumKind::Reflectance, "slow.csv");
+        assert!(state.import.is_some());
+        let text = state.message.as_ref().map(|m| m.text.clone()).unwrap_or_default();
+        assert!(text.contains("reading slow.csv") && text.contains("Esc cancels"), "{text}");
+        // Esc cancels: the reply is dropped, the palette is unchanged.
+        update::update(&mut state, Action::Back);
+        assert!(state.import.is_none());
+        assert!(state.message.as_ref().is_some_and(|m| m.text.contains("cancelled")));
+        assert_eq!(update::poll_import(&mut state, Duration::from_millis(200)), update::Effects::default());
+        assert_eq!(state.palette, palette);
+        // Not cancelled, the FIFO's refusal arrives as an error naming it.
+        update::start_import(&mut state, SpectrumKind::Reflectance, "slow.csv");
+        update::poll_import(&mut state, Duration::from_secs(5));
+        let m = state.message.clone().expect("a message");
+        assert!(m.is_error && m.text.contains("slow.csv") && m.text.contains("FIFO"), "{}", m.text);
+        assert_eq!(state.palette, palette);
+        // A regular CSV is added when its reply arrives (and asks for a solve).
+        update::start_import(&mut state, SpectrumKind::Reflectance, "grey.csv");
+        let effects = update::poll_import(&mut state, Duration::from_secs(5));
+        assert!(effects.solve);
+        assert_eq!(state.palette.reflectances.len(), palette.reflectances.len() + 1);
+        assert!(state.palette.reflectances.iter().any(|r| r.name == "grey"));
+    });
 }
 
 #[test]
