@@ -155,6 +155,13 @@ pub struct Partner {
     pub colour: Vector3<f64>,
     /// CIELAB Jacobian at that colour under its light.
     pub lab: Matrix3<f64>,
+    /// Its target (what the solve's "met" criterion compares it with).
+    pub target: Vector3<f64>,
+    /// CIELAB Jacobian at the target under its light.
+    pub target_lab: Matrix3<f64>,
+    /// Half-width of its outer box around the target, per CIELAB component: `c·τ` with `c` the
+    /// [`box_factor`] at the target.
+    pub outer_half: f64,
 }
 
 /// The feasibility problem of one cell: its operator, the bounds of the designed spectrum and the
@@ -194,6 +201,69 @@ enum Outcome {
     Optimal(Vec<f64>),
     Unbounded,
     Infeasible,
+}
+
+/// How the partner cells are held.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Hold {
+    /// In the box of half-width τ/√3 around the current colour (inscribed in the ΔE*ab ball of radius τ):
+    /// what this region reaches is reached with every partner kept near where it is.
+    Inner,
+    /// In the box of half-width `c·τ` around the partner's target ([`box_factor`]): contains every
+    /// colour the solve's "met" criterion (ΔE00 ≤ τ) accepts for that partner.
+    Outer,
+}
+
+/// Safety factor on the sampled ratio of [`box_factor`].
+pub const BOX_FACTOR_MARGIN: f64 = 1.1;
+
+/// Rays sampled by [`box_factor`].
+const BOX_FACTOR_RAYS: usize = 240;
+
+/// The factor `c` such that the box `|J (y − centre)|∞ ≤ c·τ` (J the CIELAB Jacobian at `centre`, y
+/// linear sRGB) contains every colour within ΔE00 τ of `centre`. Along each of [`BOX_FACTOR_RAYS`]
+/// directions u (unit in linearised CIELAB) the first s with ΔE00(centre, centre + J⁻¹ u s) = τ is
+/// found by bracketing and bisection; `c` is the largest `s·|u|∞ / τ` times [`BOX_FACTOR_MARGIN`]. The
+/// ΔE00 ball of radius τ is star-shaped about its centre at these radii, so the sampled rays bound it up
+/// to the sampling gap, which the margin covers; `tests/it/feasibility.rs` checks the containment on
+/// random colours with points drawn independently of the rays. Returns 1 for τ = 0 (unused: the boxes
+/// are then equalities) or a singular Jacobian (black).
+pub fn box_factor(rgb_to_xyz: &Matrix3<f64>, white: &Vector3<f64>, centre: &Vector3<f64>, tau: f64) -> f64 {
+    if tau <= 0.0 {
+        return 1.0;
+    }
+    let j = lab_jacobian(rgb_to_xyz, white, centre);
+    let Some(jinv) = j.try_inverse() else { return 1.0 };
+    let lab = |c: &Vector3<f64>| xyz_to_lab(&(rgb_to_xyz * c), white);
+    let l0 = lab(centre);
+    let de = |u: &Vector3<f64>, s: f64| delta_e00(l0, lab(&(centre + jinv * (u * s))));
+    let mut worst: f64 = 0.0;
+    for u in sphere_directions(BOX_FACTOR_RAYS) {
+        // Bracket the first crossing in steps of τ/4 (ΔE00 is ~linear in s at these radii).
+        let (mut lo, mut hi) = (0.0, tau / 4.0);
+        let mut found = false;
+        for _ in 0..400 {
+            let v = de(&u, hi);
+            if !v.is_finite() {
+                break;
+            }
+            if v >= tau {
+                found = true;
+                break;
+            }
+            lo = hi;
+            hi += tau / 4.0;
+        }
+        if !found {
+            continue;
+        }
+        for _ in 0..50 {
+            let mid = 0.5 * (lo + hi);
+            if de(&u, mid) >= tau { hi = mid } else { lo = mid }
+        }
+        worst = worst.max(hi * u.amax() / tau);
+    }
+    if worst > 0.0 { worst * BOX_FACTOR_MARGIN } else { 1.0 }
 }
 
 /// The constraint part of the LPs, assembled once per problem: `A x + s = b`, `s` in the cones.
@@ -259,7 +329,11 @@ impl Problem {
             let colour = opj * current.0;
             let white = colorimetry.reference_white(&values.lights[cj.light]);
             let lab = lab_jacobian(&colorimetry.rgb_to_xyz, &white, &colour);
-            partners.push(Partner { cell: j, op: opj, colour, lab });
+            let target = cj.free.map(|g| values.free[g]).unwrap_or(cj.target);
+            let target_lab = lab_jacobian(&colorimetry.rgb_to_xyz, &white, &target);
+            let outer_half =
+                box_factor(&colorimetry.rgb_to_xyz, &white, &target, tolerance.max(0.0)) * tolerance.max(0.0);
+            partners.push(Partner { cell: j, op: opj, colour, lab, target, target_lab, outer_half });
         }
         let target = c.free.map(|g| values.free[g]).unwrap_or(c.target);
         Ok(Problem {
@@ -332,14 +406,19 @@ impl Problem {
         k.extend(self.achieved.iter().map(|v| v.to_bits()));
         for p in &self.partners {
             k.push(p.cell as u64);
-            k.extend(p.op.iter().chain(p.colour.iter()).map(|v| v.to_bits()));
+            k.extend(p.op.iter().chain(p.colour.iter()).chain(p.target.iter()).map(|v| v.to_bits()));
         }
         k
     }
 
     /// The constraints: bounds, partner boxes (or equalities when τ = 0) and optional extra equalities.
     fn lp(&self, extra: &[(RowVector3<f64>, f64)]) -> Lp {
-        let half = self.half_width();
+        self.lp_held(Hold::Inner, extra, &[])
+    }
+
+    /// The constraints with the partners held by `hold`, extra equalities on the cell's colour and extra
+    /// inequalities `row · (A_k x) ≤ rhs`.
+    fn lp_held(&self, hold: Hold, extra: &[(RowVector3<f64>, f64)], extra_le: &[(RowVector3<f64>, f64)]) -> Lp {
         // Rows as dense 31-vectors with their right-hand sides: equalities first, then inequalities.
         let mut eq: Vec<([f64; SAMPLES], f64)> = Vec::new();
         let mut le: Vec<([f64; SAMPLES], f64)> = Vec::new();
@@ -347,14 +426,22 @@ impl Problem {
             let r = row * self.op;
             eq.push((std::array::from_fn(|i| r[i]), *rhs));
         }
+        for (row, rhs) in extra_le {
+            let r = row * self.op;
+            le.push((std::array::from_fn(|i| r[i]), *rhs));
+        }
         for p in &self.partners {
+            let (half, colour, lab) = match hold {
+                Hold::Inner => (self.half_width(), p.colour, p.lab),
+                Hold::Outer => (p.outer_half, p.target, p.target_lab),
+            };
             if half == 0.0 {
                 for ch in 0..3 {
-                    eq.push((std::array::from_fn(|i| p.op[(ch, i)]), p.colour[ch]));
+                    eq.push((std::array::from_fn(|i| p.op[(ch, i)]), colour[ch]));
                 }
             } else {
-                let m = p.lab * p.op;
-                let centre = p.lab * p.colour;
+                let m = lab * p.op;
+                let centre = lab * colour;
                 for ch in 0..3 {
                     let row: [f64; SAMPLES] = std::array::from_fn(|i| m[(ch, i)]);
                     le.push((row, centre[ch] + half));
@@ -440,6 +527,49 @@ impl Problem {
         }
     }
 
+    /// Like [`Problem::support_with`], with infeasibility as `None` instead of an error.
+    fn support_outcome(&self, lp: &Lp, d: &Vector3<f64>) -> Result<Option<Option<Support>>, FeasibilityError> {
+        match self.support_with(lp, d) {
+            Ok(s) => Ok(Some(s)),
+            Err(FeasibilityError::Infeasible { .. }) => Ok(None),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The outer region's support value in direction `d`: `None` when unbounded that way, an
+    /// [`FeasibilityError::Infeasible`] error when the outer region is empty.
+    pub fn outer_support(&self, d: &Vector3<f64>) -> Result<Option<Support>, FeasibilityError> {
+        self.support_with(&self.lp_held(Hold::Outer, &[], &[]), d)
+    }
+
+    /// Could the solve's "met" criterion accept `target` at all? True when some x within the bounds
+    /// puts the cell in the box `|J_t (A_k x − t)|∞ ≤ c_t·τ` ([`box_factor`] at the target, so the box
+    /// contains every colour within ΔE00 τ of it) and every partner in its outer box. False is a
+    /// guarantee: no solution has this cell and every partner within ΔE00 τ of their targets.
+    pub fn may_meet(&self, target: &Vector3<f64>) -> Result<bool, FeasibilityError> {
+        let tau = self.tolerance;
+        let j = self.jacobian(target);
+        let half = box_factor(&self.rgb_to_xyz, &self.white, target, tau) * tau;
+        let centre = j * target;
+        let mut le = Vec::with_capacity(6);
+        for ch in 0..3 {
+            let row = j.row(ch).into_owned();
+            le.push((row, centre[ch] + half));
+            le.push((-row, -centre[ch] + half));
+        }
+        let lp = if half == 0.0 {
+            let eq: Vec<(RowVector3<f64>, f64)> = (0..3).map(|ch| (j.row(ch).into_owned(), centre[ch])).collect();
+            self.lp_held(Hold::Outer, &eq, &[])
+        } else {
+            self.lp_held(Hold::Outer, &[], &le)
+        };
+        let zero = vec![0.0; SAMPLES];
+        match self.run(&lp, &CscMatrix::zeros((SAMPLES, SAMPLES)), &zero)? {
+            Outcome::Infeasible => Ok(false),
+            Outcome::Optimal(_) | Outcome::Unbounded => Ok(true),
+        }
+    }
+
     /// The support value in direction `d` (linear sRGB): `None` when the region is unbounded that way.
     pub fn support(&self, d: &Vector3<f64>) -> Result<Option<Support>, FeasibilityError> {
         self.support_with(&self.lp(&[]), d)
@@ -506,6 +636,13 @@ pub struct Region {
     pub support: Vec<f64>,
     /// The support points (one per bounded direction).
     pub points: Vec<Vector3<f64>>,
+    /// Support values of the outer region ([`Hold::Outer`]) in the same directions (`+∞` where
+    /// unbounded, `−∞` everywhere when it is empty).
+    pub outer_support: Vec<f64>,
+    /// The outer region's support points.
+    pub outer_points: Vec<Vector3<f64>>,
+    /// The outer region is empty: no partner colours the met criterion accepts are reachable together.
+    pub outer_empty: bool,
     /// True when every direction is bounded.
     pub bounded: bool,
     /// Convex-hull volume of the support points in linear sRGB (∞ when unbounded).
@@ -548,6 +685,31 @@ pub fn region(problem: &Problem, n: usize) -> Result<Region, FeasibilityError> {
     let directions: Vec<Vector3<f64>> = unit_dirs.iter().map(|u| j.transpose() * u).collect();
     let results: Vec<Result<Option<Support>, FeasibilityError>> =
         directions.par_iter().map(|d| problem.support_with(&lp, d)).collect();
+    // The outer region in the same directions; empty when the partners' targets cannot all be met
+    // within their outer boxes.
+    let outer_lp = problem.lp_held(Hold::Outer, &[], &[]);
+    let outer: Vec<Result<Option<Option<Support>>, FeasibilityError>> =
+        directions.par_iter().map(|d| problem.support_outcome(&outer_lp, d)).collect();
+    let mut outer_support = Vec::with_capacity(directions.len());
+    let mut outer_points = Vec::with_capacity(directions.len());
+    let mut outer_empty = false;
+    for r in outer {
+        match r? {
+            Some(Some((h, c))) => {
+                outer_support.push(h);
+                outer_points.push(c);
+            }
+            Some(None) => outer_support.push(f64::INFINITY),
+            None => {
+                outer_empty = true;
+                outer_support.push(f64::NEG_INFINITY);
+            }
+        }
+    }
+    if outer_empty {
+        outer_points.clear();
+        outer_support.iter_mut().for_each(|h| *h = f64::NEG_INFINITY);
+    }
     let mut support = Vec::with_capacity(directions.len());
     let mut points = Vec::with_capacity(directions.len());
     for r in results {
@@ -580,6 +742,9 @@ pub fn region(problem: &Problem, n: usize) -> Result<Region, FeasibilityError> {
         directions,
         support,
         points,
+        outer_support,
+        outer_points,
+        outer_empty,
         bounded,
         volume_rgb,
         volume_lab,
@@ -599,8 +764,13 @@ impl Region {
 /// Where a target lies relative to a region.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Placement {
+    /// In the inner region: reachable with every partner kept within its inscribed box.
     Inside,
+    /// Within [`ON_BAND`] of the inner region's boundary (either side), and not outside.
     On,
+    /// Outside the inner region but not provably unmeetable: the met criterion may still accept it.
+    Undecided,
+    /// Outside the outer region: no solution meets this cell and every partner within ΔE00 τ.
     Outside,
 }
 
@@ -609,6 +779,7 @@ impl Placement {
         match self {
             Placement::Inside => "inside",
             Placement::On => "on",
+            Placement::Undecided => "undecided",
             Placement::Outside => "outside",
         }
     }
@@ -630,10 +801,27 @@ pub struct Verdict {
 /// Place `target` against the region of `problem`.
 pub fn place(problem: &Problem, region: &Region, target: &Vector3<f64>) -> Result<Verdict, FeasibilityError> {
     let (closest, dist) = problem.closest(target)?;
+    let may_meet = region.outer_empty.then_some(false).map_or_else(|| problem.may_meet(target), Ok)?;
     if dist > REACH_EPS {
         let de = problem.delta_e(target, &closest);
-        let placement = if de <= ON_BAND { Placement::On } else { Placement::Outside };
+        let placement = if !may_meet {
+            Placement::Outside
+        } else if de <= ON_BAND {
+            Placement::On
+        } else {
+            Placement::Undecided
+        };
         return Ok(Verdict { placement, signed_delta_e: de, closest, boundary: closest });
+    }
+    if !may_meet {
+        // Reached with the partners in their inscribed boxes yet not with them near their targets: a
+        // partner is far from its target (unmet). Neither promise holds.
+        return Ok(Verdict {
+            placement: Placement::Undecided,
+            signed_delta_e: 0.0,
+            closest: *target,
+            boundary: *target,
+        });
     }
     // Inside: the nearest supporting plane in CIELAB linearised at the target.
     let j = problem.jacobian(target);
@@ -686,9 +874,20 @@ pub fn slice(
     centre: &Vector3<f64>,
     n: usize,
 ) -> Result<Option<Slice>, FeasibilityError> {
+    slice_held(problem, Hold::Inner, l_star, centre, n)
+}
+
+/// [`slice`] of the inner or the outer region.
+pub fn slice_held(
+    problem: &Problem,
+    hold: Hold,
+    l_star: f64,
+    centre: &Vector3<f64>,
+    n: usize,
+) -> Result<Option<Slice>, FeasibilityError> {
     let y = y_of_l(l_star, problem.white[1]);
     let yrow = problem.rgb_to_xyz.row(1).into_owned();
-    let lp = problem.lp(&[(yrow, y)]);
+    let lp = problem.lp_held(hold, &[(yrow, y)], &[]);
     let j = problem.jacobian(centre);
     let mut out = Vec::with_capacity(n);
     for k in 0..n {
@@ -765,21 +964,22 @@ pub struct CellFeasibility {
 pub fn analyse(problem: &Problem, cache: &RegionCache, directions: usize) -> Result<CellFeasibility, FeasibilityError> {
     let region = cache.get(problem, directions)?;
     let verdict = place(problem, &region, &problem.target)?;
-    let (reachable_alone, blockers, together) = if verdict.placement == Placement::Outside {
-        let alone = problem.alone().reaches(&problem.target)?;
-        let mut blockers = Vec::new();
-        if alone {
-            for i in 0..problem.partners.len() {
-                if problem.without(i).reaches(&problem.target)? {
-                    blockers.push(problem.partners[i].cell);
+    let (reachable_alone, blockers, together) =
+        if matches!(verdict.placement, Placement::Outside | Placement::Undecided) {
+            let alone = problem.alone().reaches(&problem.target)?;
+            let mut blockers = Vec::new();
+            if alone {
+                for i in 0..problem.partners.len() {
+                    if problem.without(i).reaches(&problem.target)? {
+                        blockers.push(problem.partners[i].cell);
+                    }
                 }
             }
-        }
-        let together = alone && blockers.is_empty();
-        (alone, blockers, together)
-    } else {
-        (true, Vec::new(), false)
-    };
+            let together = alone && blockers.is_empty();
+            (alone, blockers, together)
+        } else {
+            (true, Vec::new(), false)
+        };
     Ok(CellFeasibility {
         cell: problem.cell,
         target: problem.target,
@@ -809,6 +1009,21 @@ pub fn describe(palette: &Palette, f: &CellFeasibility, tolerance: f64) -> Strin
             Fixed(-f.verdict.signed_delta_e, 2)
         ),
         Placement::On => format!("cell {label}: target on the boundary of what is reachable with {held}"),
+        Placement::Undecided => {
+            let mut s = format!(
+                "cell {label}: target undecided: ΔE00 {} outside what is reachable with {held}, closest such colour {}, \
+                 but not provably out of reach of the solve's ΔE00 {tolerance} criterion",
+                Fixed(f.verdict.signed_delta_e, 2),
+                fmt_rgb(&f.verdict.closest)
+            );
+            if !f.reachable_alone {
+                s += "; out of reach of the bounds even alone";
+            } else if !f.blockers.is_empty() {
+                let names: Vec<String> = f.blockers.iter().map(|&b| cell_label(palette, b)).collect();
+                s += &format!("; reachable only if {} moves", names.join(" or "));
+            }
+            s
+        }
         Placement::Outside => {
             let mut s = format!(
                 "cell {label}: target not reachable with {held}: ΔE00 {} outside, closest reachable colour {}",
@@ -849,6 +1064,8 @@ pub struct Panel {
     pub tolerance: f64,
     /// The slice at the target's L* (`None` when the region does not reach it).
     pub slice: Option<Slice>,
+    /// The outer region's slice at the same L* (`None` when it does not reach it or is empty).
+    pub outer_slice: Option<Slice>,
     pub target_lab: [f64; 3],
     pub achieved_lab: [f64; 3],
     pub l_range: (f64, f64),
@@ -874,11 +1091,17 @@ pub fn panel(
     let verdict = place(&problem, &region, &problem.target)?;
     let target_lab = problem.lab(&problem.target);
     let slice = slice(&problem, target_lab[0], &problem.target, SLICE_DIRECTIONS)?;
+    let outer_slice = if region.outer_empty {
+        None
+    } else {
+        slice_held(&problem, Hold::Outer, target_lab[0], &problem.target, SLICE_DIRECTIONS)?
+    };
     Ok(Panel {
         cell,
         label: problem.label().to_string(),
         tolerance,
         slice,
+        outer_slice,
         target_lab,
         achieved_lab: problem.lab(&problem.achieved),
         l_range: region.l_range,
