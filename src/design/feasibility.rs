@@ -157,11 +157,8 @@ pub struct Partner {
     pub lab: Matrix3<f64>,
     /// Its target (what the solve's "met" criterion compares it with).
     pub target: Vector3<f64>,
-    /// CIELAB Jacobian at the target under its light.
-    pub target_lab: Matrix3<f64>,
-    /// Half-width of its outer box around the target, per CIELAB component: `c·τ` with `c` the
-    /// [`box_factor`] at the target.
-    pub outer_half: f64,
+    /// Its outer box around the target ([`met_box`]): contains every colour within ΔE00 τ of it.
+    pub outer: MetBox,
 }
 
 /// The feasibility problem of one cell: its operator, the bounds of the designed spectrum and the
@@ -209,37 +206,55 @@ pub enum Hold {
     /// In the box of half-width τ/√3 around the current colour (inscribed in the ΔE*ab ball of radius τ):
     /// what this region reaches is reached with every partner kept near where it is.
     Inner,
-    /// In the box of half-width `c·τ` around the partner's target ([`box_factor`]): contains every
-    /// colour the solve's "met" criterion (ΔE00 ≤ τ) accepts for that partner.
+    /// In the box [`met_box`] around the partner's target: contains every colour the solve's "met"
+    /// criterion (ΔE00 ≤ τ) accepts for that partner.
     Outer,
 }
 
-/// Safety factor on the sampled ratio of [`box_factor`].
-pub const BOX_FACTOR_MARGIN: f64 = 1.1;
+/// Safety factor on the sampled half-widths of [`met_box`].
+pub const MET_BOX_MARGIN: f64 = 1.1;
 
-/// Rays sampled by [`box_factor`].
-const BOX_FACTOR_RAYS: usize = 240;
+/// Rays sampled by [`met_box`].
+const MET_BOX_RAYS: usize = 240;
 
-/// The factor `c` such that the box `|J (y − centre)|∞ ≤ c·τ` (J the CIELAB Jacobian at `centre`, y
-/// linear sRGB) contains every colour within ΔE00 τ of `centre`. Along each of [`BOX_FACTOR_RAYS`]
-/// directions u (unit in linearised CIELAB) the first s with ΔE00(centre, centre + J⁻¹ u s) = τ is
-/// found by bracketing and bisection; `c` is the largest `s·|u|∞ / τ` times [`BOX_FACTOR_MARGIN`]. The
-/// ΔE00 ball of radius τ is star-shaped about its centre at these radii, so the sampled rays bound it up
-/// to the sampling gap, which the margin covers; `tests/it/feasibility.rs` checks the containment on
-/// random colours with points drawn independently of the rays. Returns 1 for τ = 0 (unused: the boxes
-/// are then equalities) or a singular Jacobian (black).
-pub fn box_factor(rgb_to_xyz: &Matrix3<f64>, white: &Vector3<f64>, centre: &Vector3<f64>, tau: f64) -> f64 {
-    if tau <= 0.0 {
-        return 1.0;
-    }
+/// A box `|rows · (y − centre)|ᵢ ≤ halfᵢ` (y linear sRGB) around a colour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MetBox {
+    /// CIELAB linearised at the centre, rotated to the centre's lightness, chroma and hue directions:
+    /// rows L*, radial a*b* (chroma), tangential a*b* (hue).
+    pub rows: Matrix3<f64>,
+    /// Half-widths along those rows (CIELAB units); zero when τ = 0.
+    pub half: Vector3<f64>,
+}
+
+/// A box containing every colour within ΔE00 τ of `centre` (the set the solve's "met" criterion accepts,
+/// [`crate::design::report`] deciding "met" by ΔE00 of the full colour). Its axes are CIELAB linearised
+/// at the centre and turned to the centre's L*, chroma and hue directions, along which CIEDE2000 weighs
+/// differences (S_L, S_C, S_H; only the blue-region rotation term R_T couples chroma and hue), so the
+/// box is close to the ΔE00 ball's bounding box. **The bound**: along each of [`MET_BOX_RAYS`] unit
+/// directions u in that frame the first s with ΔE00(centre, centre + F⁻¹ u s) = τ is found by
+/// stepping (τ/4) and bisection; the half-width along axis i is the largest `s·|uᵢ|` times
+/// [`MET_BOX_MARGIN`]. At these radii the ΔE00 ball is star-shaped about its centre and smooth, so the
+/// rays bound it up to the sampling gap, which the margin covers; `tests/it/feasibility.rs` checks the
+/// containment on random colours with points drawn independently of the rays. τ = 0 gives zero
+/// half-widths (the box is the point); a singular Jacobian (black) gives an unbounded box.
+pub fn met_box(rgb_to_xyz: &Matrix3<f64>, white: &Vector3<f64>, centre: &Vector3<f64>, tau: f64) -> MetBox {
     let j = lab_jacobian(rgb_to_xyz, white, centre);
-    let Some(jinv) = j.try_inverse() else { return 1.0 };
     let lab = |c: &Vector3<f64>| xyz_to_lab(&(rgb_to_xyz * c), white);
     let l0 = lab(centre);
-    let de = |u: &Vector3<f64>, s: f64| delta_e00(l0, lab(&(centre + jinv * (u * s))));
-    let mut worst: f64 = 0.0;
-    for u in sphere_directions(BOX_FACTOR_RAYS) {
-        // Bracket the first crossing in steps of τ/4 (ΔE00 is ~linear in s at these radii).
+    let hue = l0[2].atan2(l0[1]);
+    let (sn, cs) = if l0[1].hypot(l0[2]) > 1e-9 { hue.sin_cos() } else { (0.0, 1.0) };
+    let turn = Matrix3::new(1.0, 0.0, 0.0, 0.0, cs, sn, 0.0, -sn, cs);
+    let rows = turn * j;
+    if tau <= 0.0 {
+        return MetBox { rows, half: Vector3::zeros() };
+    }
+    let Some(inv) = rows.try_inverse() else {
+        return MetBox { rows, half: Vector3::repeat(f64::INFINITY) };
+    };
+    let de = |u: &Vector3<f64>, s: f64| delta_e00(l0, lab(&(centre + inv * (u * s))));
+    let mut half: Vector3<f64> = Vector3::zeros();
+    for u in sphere_directions(MET_BOX_RAYS) {
         let (mut lo, mut hi) = (0.0, tau / 4.0);
         let mut found = false;
         for _ in 0..400 {
@@ -255,15 +270,18 @@ pub fn box_factor(rgb_to_xyz: &Matrix3<f64>, white: &Vector3<f64>, centre: &Vect
             hi += tau / 4.0;
         }
         if !found {
-            continue;
+            // No crossing within 100τ: leave that way open.
+            return MetBox { rows, half: Vector3::repeat(f64::INFINITY) };
         }
         for _ in 0..50 {
             let mid = 0.5 * (lo + hi);
             if de(&u, mid) >= tau { hi = mid } else { lo = mid }
         }
-        worst = worst.max(hi * u.amax() / tau);
+        for i in 0..3 {
+            half[i] = half[i].max(hi * u[i].abs());
+        }
     }
-    if worst > 0.0 { worst * BOX_FACTOR_MARGIN } else { 1.0 }
+    MetBox { rows, half: half * MET_BOX_MARGIN }
 }
 
 /// The constraint part of the LPs, assembled once per problem: `A x + s = b`, `s` in the cones.
@@ -330,10 +348,8 @@ impl Problem {
             let white = colorimetry.reference_white(&values.lights[cj.light]);
             let lab = lab_jacobian(&colorimetry.rgb_to_xyz, &white, &colour);
             let target = cj.free.map(|g| values.free[g]).unwrap_or(cj.target);
-            let target_lab = lab_jacobian(&colorimetry.rgb_to_xyz, &white, &target);
-            let outer_half =
-                box_factor(&colorimetry.rgb_to_xyz, &white, &target, tolerance.max(0.0)) * tolerance.max(0.0);
-            partners.push(Partner { cell: j, op: opj, colour, lab, target, target_lab, outer_half });
+            let outer = met_box(&colorimetry.rgb_to_xyz, &white, &target, tolerance.max(0.0));
+            partners.push(Partner { cell: j, op: opj, colour, lab, target, outer });
         }
         let target = c.free.map(|g| values.free[g]).unwrap_or(c.target);
         Ok(Problem {
@@ -432,10 +448,10 @@ impl Problem {
         }
         for p in &self.partners {
             let (half, colour, lab) = match hold {
-                Hold::Inner => (self.half_width(), p.colour, p.lab),
-                Hold::Outer => (p.outer_half, p.target, p.target_lab),
+                Hold::Inner => (Vector3::repeat(self.half_width()), p.colour, p.lab),
+                Hold::Outer => (p.outer.half, p.target, p.outer.rows),
             };
-            if half == 0.0 {
+            if half == Vector3::zeros() {
                 for ch in 0..3 {
                     eq.push((std::array::from_fn(|i| p.op[(ch, i)]), colour[ch]));
                 }
@@ -443,9 +459,12 @@ impl Problem {
                 let m = lab * p.op;
                 let centre = lab * colour;
                 for ch in 0..3 {
+                    if !half[ch].is_finite() {
+                        continue;
+                    }
                     let row: [f64; SAMPLES] = std::array::from_fn(|i| m[(ch, i)]);
-                    le.push((row, centre[ch] + half));
-                    le.push((row.map(|v| -v), -centre[ch] + half));
+                    le.push((row, centre[ch] + half[ch]));
+                    le.push((row.map(|v| -v), -centre[ch] + half[ch]));
                 }
             }
         }
@@ -543,24 +562,24 @@ impl Problem {
     }
 
     /// Could the solve's "met" criterion accept `target` at all? True when some x within the bounds
-    /// puts the cell in the box `|J_t (A_k x − t)|∞ ≤ c_t·τ` ([`box_factor`] at the target, so the box
-    /// contains every colour within ΔE00 τ of it) and every partner in its outer box. False is a
+    /// puts the cell in the [`met_box`] of the target (which contains every colour within ΔE00 τ
+    /// of it) and every partner in its outer box. False is a
     /// guarantee: no solution has this cell and every partner within ΔE00 τ of their targets.
     pub fn may_meet(&self, target: &Vector3<f64>) -> Result<bool, FeasibilityError> {
-        let tau = self.tolerance;
-        let j = self.jacobian(target);
-        let half = box_factor(&self.rgb_to_xyz, &self.white, target, tau) * tau;
-        let centre = j * target;
-        let mut le = Vec::with_capacity(6);
-        for ch in 0..3 {
-            let row = j.row(ch).into_owned();
-            le.push((row, centre[ch] + half));
-            le.push((-row, -centre[ch] + half));
-        }
-        let lp = if half == 0.0 {
-            let eq: Vec<(RowVector3<f64>, f64)> = (0..3).map(|ch| (j.row(ch).into_owned(), centre[ch])).collect();
+        let b = met_box(&self.rgb_to_xyz, &self.white, target, self.tolerance);
+        let centre = b.rows * target;
+        let lp = if b.half == Vector3::zeros() {
+            let eq: Vec<(RowVector3<f64>, f64)> = (0..3).map(|ch| (b.rows.row(ch).into_owned(), centre[ch])).collect();
             self.lp_held(Hold::Outer, &eq, &[])
         } else {
+            let mut le = Vec::with_capacity(6);
+            for ch in 0..3 {
+                if b.half[ch].is_finite() {
+                    let row = b.rows.row(ch).into_owned();
+                    le.push((row, centre[ch] + b.half[ch]));
+                    le.push((-row, -centre[ch] + b.half[ch]));
+                }
+            }
             self.lp_held(Hold::Outer, &[], &le)
         };
         let zero = vec![0.0; SAMPLES];
