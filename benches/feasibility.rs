@@ -1,6 +1,7 @@
 //! Time per feasibility region (metamer mismatch region): one designed reflectance under D65, A and F11,
 //! the F11 cell's region with the other two cells held within ΔE 0.5, at several numbers of support
-//! directions (one LP each), plus placing a target (one QP) and one a*–b* slice.
+//! directions (each direction one LP for the inner region and one for the outer region), plus placing a
+//! target (one QP and one feasibility LP), one outer support LP and one a*–b* slice.
 //! Run: `cargo bench --bench feasibility`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -35,6 +36,9 @@ fn regions(c: &mut Criterion) {
     group.bench_function("place the target (one QP)", |b| {
         b.iter(|| feasibility::place(black_box(&p), &region, &p.target).map(|v| v.signed_delta_e))
     });
+    let d = p.jacobian(&p.achieved).transpose() * nalgebra::Vector3::new(0.0, 1.0, 0.0);
+    group.bench_function("one inner support LP", |b| b.iter(|| black_box(&p).support(&d).map(|s| s.is_some())));
+    group.bench_function("one outer support LP", |b| b.iter(|| black_box(&p).outer_support(&d).map(|s| s.is_some())));
     let l = p.lab(&p.target)[0];
     group.bench_function("a*-b* slice at the target's L*", |b| {
         b.iter(|| feasibility::slice(black_box(&p), l, &p.target, feasibility::SLICE_DIRECTIONS).map(|s| s.is_some()))

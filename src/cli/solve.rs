@@ -438,9 +438,11 @@ pub struct Report<'a> {
 pub struct FeasibilityJson {
     light: String,
     reflectance: String,
-    /// "inside", "on", "outside", or null when the region cannot be computed (see `line`).
+    /// "inside" (in the inner region: reachable with the other cells held), "on" (within 0.05 ΔE00 of
+    /// its boundary), "undecided" (between the inner and the outer region), "outside" (outside the
+    /// outer region: not met by any solution), or null when the region cannot be computed (see `line`).
     placement: Option<&'static str>,
-    /// ΔE00 to the region's boundary: negative inside, positive outside.
+    /// ΔE00 to the inner region's boundary: negative inside, positive outside it.
     signed_delta_e: Option<f64>,
     /// The closest reachable colour (linear sRGB).
     closest: Option<[f64; 3]>,

@@ -8,11 +8,24 @@
 //! fixed — held near its current colour `c_j = A_j x₀`, the colours the cell can take form a convex set
 //! (a polytope): the image under `A_k` of a polytope of spectra.
 //!
-//! **Tolerance.** A partner is held by a box in CIELAB linearised at its current colour (under its own
-//! light): `|J_j (A_j x − c_j)|∞ ≤ τ/√3` per component of (L*, a*, b*), with `J_j` the Jacobian of
-//! linear sRGB → CIELAB at `c_j`. The box is inscribed in the ΔE*ab ball of radius τ, so to first order
-//! every partner stays within ΔE*ab τ of its colour (default τ = [`DEFAULT_TOLERANCE`] = 0.5). With τ = 0
-//! the partners are held exactly (`A_j x = c_j`), the classic metamer mismatch region.
+//! **Tolerance, two regions.** Each region holds every partner in a box; they differ in the box.
+//! - The *inner* region ([`Hold::Inner`]) holds a partner in CIELAB linearised at its current colour
+//!   (under its own light): `|J_j (A_j x − c_j)|∞ ≤ τ/√3` per component of (L*, a*, b*), `J_j` the
+//!   Jacobian of linear sRGB → CIELAB at `c_j`. The box is inscribed in the ΔE*ab ball of radius τ, so to
+//!   first order every partner stays within τ of its colour: what lies inside is reachable without
+//!   moving the others noticeably.
+//! - The *outer* region ([`Hold::Outer`]) holds a partner in its [`met_box`] around its *target*: a box
+//!   containing every colour within ΔE00 τ of the target, the solve's notion of "met" at tolerance τ
+//!   ([`crate::design::report`]: ΔE00 of the full colour against the target; `MET_DELTA_E` is that
+//!   notion at τ = 1). The box bound and how it is verified are stated at [`met_box`].
+//!
+//! A target is **inside** when the inner region holds it, **outside** when no colour of the cell's own
+//! met box is in the outer region (one feasibility LP, [`Problem::may_meet`]: then no solution has this
+//! cell and every partner within ΔE00 τ of their targets — a guarantee, up to the LP's accuracy and the
+//! box bound), **on** within [`ON_BAND`] of the inner boundary, and **undecided** otherwise (between the
+//! two regions; also, rarely, when the inner region holds it but a partner is far from its target).
+//! With τ = 0 the partners are held exactly (`A_j x = c_j`, or `= t_j` for the outer region), the
+//! classic metamer mismatch region.
 //!
 //! **Boundary.** The region is described by its support function `h(d) = max d·A_k x` over the
 //! constraints, one linear program per direction (clarabel's interior-point solver, already used by the
@@ -27,23 +40,29 @@
 //! point by point, in CIELAB (ΔE*ab³; the CIELAB image is not exactly convex, so that figure is the hull
 //! of the mapped points).
 //!
-//! **Signed distance** of a target t: outside, the exact distance by a QP (`min ‖J_t (A_k x − t)‖²` over
+//! **Signed distance** of a target t to the inner region: outside it, the exact distance by a QP (`min ‖J_t (A_k x − t)‖²` over
 //! the same constraints, `J_t` the CIELAB Jacobian at t), reported as the ΔE00 between t and the closest
-//! reachable colour; inside, minus the ΔE00 from t to the nearest supporting plane (the outer
+//! reachable colour; inside, minus the ΔE00 from t to the nearest supporting plane (the half-space
 //! approximation, measured in CIELAB linearised at t). Within [`ON_BAND`] ΔE00 of the boundary a target
 //! is "on" it.
 //!
 //! **What inside and outside promise** (measured by `tests/it/feasibility.rs` on 30 random single-reflectance
-//! designs under two or three lights, all cells first met, then one cell's target moved; τ = 0.5): every
-//! target placed inside was met by the next solve with every cell within ΔE00 τ (116 of 116, worst cell
-//! 0.27); every target placed outside by more than 2τ left some cell beyond τ (83 of 83). Between 0 and 2τ
-//! outside, the least-squares solve may trade the gap against the held cells (which may then move up to
-//! about τ each) and bring every cell within τ (9 of 37 such targets). Designs with smoothness, weights
-//! other than 1 or unmet partner cells trade differently; the geometry itself (what x can do) is exact.
+//! designs under two or three lights, all cells first met, then one cell's target moved inside or up to
+//! 6 CIELAB units beyond the inner boundary; τ = 0.5): every target placed inside was met by the next
+//! solve with every cell within ΔE00 τ (116 of 116, worst cell 0.27); every target placed outside left
+//! some cell beyond τ (42 of 42, the least worst cell 1.07); 78 targets were undecided, of which the solve
+//! met 20 (it may trade the gap against the held cells), and 4 were on the boundary. Inside relies on the
+//! solve finding the reachable solution (a least-squares solve does on these designs; designs with
+//! smoothness, weights other than 1 or unmet partners trade differently); outside relies only on the
+//! geometry and the box bound. Under `fit_in_subspace` the regions are of the factor-model colour while
+//! "met" is judged on the full colour, so neither promise carries over exactly.
+//!
+//! **Cost.** The outer region reuses the inner one's directions: a region is 2·(n + 2) + 2 LPs; placing a
+//! target adds one QP and one feasibility LP.
 //!
 //! **Cache.** [`RegionCache`] keys a region by everything it depends on: the designed unit, the cell, its
-//! operator (the fixed partner spectrum), the bounds, the tolerance, every partner's operator and colour,
-//! and the number of directions.
+//! operator (the fixed partner spectrum), the bounds, the tolerance, every partner's operator, colour and
+//! target, and the number of directions.
 
 use super::DesignError;
 use super::system::{Design, Form, Unit, Values};
@@ -155,6 +174,10 @@ pub struct Partner {
     pub colour: Vector3<f64>,
     /// CIELAB Jacobian at that colour under its light.
     pub lab: Matrix3<f64>,
+    /// Its target (what the solve's "met" criterion compares it with).
+    pub target: Vector3<f64>,
+    /// Its outer box around the target ([`met_box`]): contains every colour within ΔE00 τ of it.
+    pub outer: MetBox,
 }
 
 /// The feasibility problem of one cell: its operator, the bounds of the designed spectrum and the
@@ -194,6 +217,90 @@ enum Outcome {
     Optimal(Vec<f64>),
     Unbounded,
     Infeasible,
+}
+
+/// How the partner cells are held.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Hold {
+    /// In the box of half-width τ/√3 around the current colour (inscribed in the ΔE*ab ball of radius τ):
+    /// what this region reaches is reached with every partner kept near where it is.
+    Inner,
+    /// In the box [`met_box`] around the partner's target: contains every colour the solve's "met"
+    /// criterion (ΔE00 ≤ τ) accepts for that partner.
+    Outer,
+}
+
+/// Safety factor on the sampled half-widths of [`met_box`].
+pub const MET_BOX_MARGIN: f64 = 1.1;
+
+/// Rays sampled by [`met_box`].
+const MET_BOX_RAYS: usize = 240;
+
+/// A box `|rows · (y − centre)|ᵢ ≤ halfᵢ` (y linear sRGB) around a colour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MetBox {
+    /// CIELAB linearised at the centre, rotated to the centre's lightness, chroma and hue directions:
+    /// rows L*, radial a*b* (chroma), tangential a*b* (hue).
+    pub rows: Matrix3<f64>,
+    /// Half-widths along those rows (CIELAB units); zero when τ = 0.
+    pub half: Vector3<f64>,
+}
+
+/// A box containing every colour within ΔE00 τ of `centre` (the set the solve's "met" criterion accepts,
+/// [`crate::design::report`] deciding "met" by ΔE00 of the full colour). Its axes are CIELAB linearised
+/// at the centre and turned to the centre's L*, chroma and hue directions, along which CIEDE2000 weighs
+/// differences (S_L, S_C, S_H; only the blue-region rotation term R_T couples chroma and hue), so the
+/// box is close to the ΔE00 ball's bounding box. **The bound**: along each of [`MET_BOX_RAYS`] unit
+/// directions u in that frame the first s with ΔE00(centre, centre + F⁻¹ u s) = τ is found by
+/// stepping (τ/4) and bisection; the half-width along axis i is the largest `s·|uᵢ|` times
+/// [`MET_BOX_MARGIN`]. At these radii the ΔE00 ball is star-shaped about its centre and smooth, so the
+/// rays bound it up to the sampling gap, which the margin covers; `tests/it/feasibility.rs` checks the
+/// containment on random colours with points drawn independently of the rays. τ = 0 gives zero
+/// half-widths (the box is the point); a singular Jacobian (black) gives an unbounded box.
+pub fn met_box(rgb_to_xyz: &Matrix3<f64>, white: &Vector3<f64>, centre: &Vector3<f64>, tau: f64) -> MetBox {
+    let j = lab_jacobian(rgb_to_xyz, white, centre);
+    let lab = |c: &Vector3<f64>| xyz_to_lab(&(rgb_to_xyz * c), white);
+    let l0 = lab(centre);
+    let hue = l0[2].atan2(l0[1]);
+    let (sn, cs) = if l0[1].hypot(l0[2]) > 1e-9 { hue.sin_cos() } else { (0.0, 1.0) };
+    let turn = Matrix3::new(1.0, 0.0, 0.0, 0.0, cs, sn, 0.0, -sn, cs);
+    let rows = turn * j;
+    if tau <= 0.0 {
+        return MetBox { rows, half: Vector3::zeros() };
+    }
+    let Some(inv) = rows.try_inverse() else {
+        return MetBox { rows, half: Vector3::repeat(f64::INFINITY) };
+    };
+    let de = |u: &Vector3<f64>, s: f64| delta_e00(l0, lab(&(centre + inv * (u * s))));
+    let mut half: Vector3<f64> = Vector3::zeros();
+    for u in sphere_directions(MET_BOX_RAYS) {
+        let (mut lo, mut hi) = (0.0, tau / 4.0);
+        let mut found = false;
+        for _ in 0..400 {
+            let v = de(&u, hi);
+            if !v.is_finite() {
+                break;
+            }
+            if v >= tau {
+                found = true;
+                break;
+            }
+            lo = hi;
+            hi += tau / 4.0;
+        }
+        if !found {
+            // No crossing within 100τ: leave that way open.
+            return MetBox { rows, half: Vector3::repeat(f64::INFINITY) };
+        }
+        for _ in 0..50 {
+            let mid = 0.5 * (lo + hi);
+            if de(&u, mid) >= tau { hi = mid } else { lo = mid }
+        }
+        for i in 0..3 {
+            half[i] = half[i].max(hi * u[i].abs());
+        }
+    }
+    MetBox { rows, half: half * MET_BOX_MARGIN }
 }
 
 /// The constraint part of the LPs, assembled once per problem: `A x + s = b`, `s` in the cones.
@@ -259,7 +366,9 @@ impl Problem {
             let colour = opj * current.0;
             let white = colorimetry.reference_white(&values.lights[cj.light]);
             let lab = lab_jacobian(&colorimetry.rgb_to_xyz, &white, &colour);
-            partners.push(Partner { cell: j, op: opj, colour, lab });
+            let target = cj.free.map(|g| values.free[g]).unwrap_or(cj.target);
+            let outer = met_box(&colorimetry.rgb_to_xyz, &white, &target, tolerance.max(0.0));
+            partners.push(Partner { cell: j, op: opj, colour, lab, target, outer });
         }
         let target = c.free.map(|g| values.free[g]).unwrap_or(c.target);
         Ok(Problem {
@@ -332,14 +441,19 @@ impl Problem {
         k.extend(self.achieved.iter().map(|v| v.to_bits()));
         for p in &self.partners {
             k.push(p.cell as u64);
-            k.extend(p.op.iter().chain(p.colour.iter()).map(|v| v.to_bits()));
+            k.extend(p.op.iter().chain(p.colour.iter()).chain(p.target.iter()).map(|v| v.to_bits()));
         }
         k
     }
 
     /// The constraints: bounds, partner boxes (or equalities when τ = 0) and optional extra equalities.
     fn lp(&self, extra: &[(RowVector3<f64>, f64)]) -> Lp {
-        let half = self.half_width();
+        self.lp_held(Hold::Inner, extra, &[])
+    }
+
+    /// The constraints with the partners held by `hold`, extra equalities on the cell's colour and extra
+    /// inequalities `row · (A_k x) ≤ rhs`.
+    fn lp_held(&self, hold: Hold, extra: &[(RowVector3<f64>, f64)], extra_le: &[(RowVector3<f64>, f64)]) -> Lp {
         // Rows as dense 31-vectors with their right-hand sides: equalities first, then inequalities.
         let mut eq: Vec<([f64; SAMPLES], f64)> = Vec::new();
         let mut le: Vec<([f64; SAMPLES], f64)> = Vec::new();
@@ -347,18 +461,29 @@ impl Problem {
             let r = row * self.op;
             eq.push((std::array::from_fn(|i| r[i]), *rhs));
         }
+        for (row, rhs) in extra_le {
+            let r = row * self.op;
+            le.push((std::array::from_fn(|i| r[i]), *rhs));
+        }
         for p in &self.partners {
-            if half == 0.0 {
+            let (half, colour, lab) = match hold {
+                Hold::Inner => (Vector3::repeat(self.half_width()), p.colour, p.lab),
+                Hold::Outer => (p.outer.half, p.target, p.outer.rows),
+            };
+            if half == Vector3::zeros() {
                 for ch in 0..3 {
-                    eq.push((std::array::from_fn(|i| p.op[(ch, i)]), p.colour[ch]));
+                    eq.push((std::array::from_fn(|i| p.op[(ch, i)]), colour[ch]));
                 }
             } else {
-                let m = p.lab * p.op;
-                let centre = p.lab * p.colour;
+                let m = lab * p.op;
+                let centre = lab * colour;
                 for ch in 0..3 {
+                    if !half[ch].is_finite() {
+                        continue;
+                    }
                     let row: [f64; SAMPLES] = std::array::from_fn(|i| m[(ch, i)]);
-                    le.push((row, centre[ch] + half));
-                    le.push((row.map(|v| -v), -centre[ch] + half));
+                    le.push((row, centre[ch] + half[ch]));
+                    le.push((row.map(|v| -v), -centre[ch] + half[ch]));
                 }
             }
         }
@@ -440,6 +565,49 @@ impl Problem {
         }
     }
 
+    /// Like [`Problem::support_with`], with infeasibility as `None` instead of an error.
+    fn support_outcome(&self, lp: &Lp, d: &Vector3<f64>) -> Result<Option<Option<Support>>, FeasibilityError> {
+        match self.support_with(lp, d) {
+            Ok(s) => Ok(Some(s)),
+            Err(FeasibilityError::Infeasible { .. }) => Ok(None),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The outer region's support value in direction `d`: `None` when unbounded that way, an
+    /// [`FeasibilityError::Infeasible`] error when the outer region is empty.
+    pub fn outer_support(&self, d: &Vector3<f64>) -> Result<Option<Support>, FeasibilityError> {
+        self.support_with(&self.lp_held(Hold::Outer, &[], &[]), d)
+    }
+
+    /// Could the solve's "met" criterion accept `target` at all? True when some x within the bounds
+    /// puts the cell in the [`met_box`] of the target (which contains every colour within ΔE00 τ
+    /// of it) and every partner in its outer box. False is a
+    /// guarantee: no solution has this cell and every partner within ΔE00 τ of their targets.
+    pub fn may_meet(&self, target: &Vector3<f64>) -> Result<bool, FeasibilityError> {
+        let b = met_box(&self.rgb_to_xyz, &self.white, target, self.tolerance);
+        let centre = b.rows * target;
+        let lp = if b.half == Vector3::zeros() {
+            let eq: Vec<(RowVector3<f64>, f64)> = (0..3).map(|ch| (b.rows.row(ch).into_owned(), centre[ch])).collect();
+            self.lp_held(Hold::Outer, &eq, &[])
+        } else {
+            let mut le = Vec::with_capacity(6);
+            for ch in 0..3 {
+                if b.half[ch].is_finite() {
+                    let row = b.rows.row(ch).into_owned();
+                    le.push((row, centre[ch] + b.half[ch]));
+                    le.push((-row, -centre[ch] + b.half[ch]));
+                }
+            }
+            self.lp_held(Hold::Outer, &[], &le)
+        };
+        let zero = vec![0.0; SAMPLES];
+        match self.run(&lp, &CscMatrix::zeros((SAMPLES, SAMPLES)), &zero)? {
+            Outcome::Infeasible => Ok(false),
+            Outcome::Optimal(_) | Outcome::Unbounded => Ok(true),
+        }
+    }
+
     /// The support value in direction `d` (linear sRGB): `None` when the region is unbounded that way.
     pub fn support(&self, d: &Vector3<f64>) -> Result<Option<Support>, FeasibilityError> {
         self.support_with(&self.lp(&[]), d)
@@ -506,6 +674,13 @@ pub struct Region {
     pub support: Vec<f64>,
     /// The support points (one per bounded direction).
     pub points: Vec<Vector3<f64>>,
+    /// Support values of the outer region ([`Hold::Outer`]) in the same directions (`+∞` where
+    /// unbounded, `−∞` everywhere when it is empty).
+    pub outer_support: Vec<f64>,
+    /// The outer region's support points.
+    pub outer_points: Vec<Vector3<f64>>,
+    /// The outer region is empty: no partner colours the met criterion accepts are reachable together.
+    pub outer_empty: bool,
     /// True when every direction is bounded.
     pub bounded: bool,
     /// Convex-hull volume of the support points in linear sRGB (∞ when unbounded).
@@ -548,6 +723,31 @@ pub fn region(problem: &Problem, n: usize) -> Result<Region, FeasibilityError> {
     let directions: Vec<Vector3<f64>> = unit_dirs.iter().map(|u| j.transpose() * u).collect();
     let results: Vec<Result<Option<Support>, FeasibilityError>> =
         directions.par_iter().map(|d| problem.support_with(&lp, d)).collect();
+    // The outer region in the same directions; empty when the partners' targets cannot all be met
+    // within their outer boxes.
+    let outer_lp = problem.lp_held(Hold::Outer, &[], &[]);
+    let outer: Vec<Result<Option<Option<Support>>, FeasibilityError>> =
+        directions.par_iter().map(|d| problem.support_outcome(&outer_lp, d)).collect();
+    let mut outer_support = Vec::with_capacity(directions.len());
+    let mut outer_points = Vec::with_capacity(directions.len());
+    let mut outer_empty = false;
+    for r in outer {
+        match r? {
+            Some(Some((h, c))) => {
+                outer_support.push(h);
+                outer_points.push(c);
+            }
+            Some(None) => outer_support.push(f64::INFINITY),
+            None => {
+                outer_empty = true;
+                outer_support.push(f64::NEG_INFINITY);
+            }
+        }
+    }
+    if outer_empty {
+        outer_points.clear();
+        outer_support.iter_mut().for_each(|h| *h = f64::NEG_INFINITY);
+    }
     let mut support = Vec::with_capacity(directions.len());
     let mut points = Vec::with_capacity(directions.len());
     for r in results {
@@ -580,6 +780,9 @@ pub fn region(problem: &Problem, n: usize) -> Result<Region, FeasibilityError> {
         directions,
         support,
         points,
+        outer_support,
+        outer_points,
+        outer_empty,
         bounded,
         volume_rgb,
         volume_lab,
@@ -599,8 +802,13 @@ impl Region {
 /// Where a target lies relative to a region.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Placement {
+    /// In the inner region: reachable with every partner kept within its inscribed box.
     Inside,
+    /// Within [`ON_BAND`] of the inner region's boundary (either side), and not outside.
     On,
+    /// Outside the inner region but not provably unmeetable: the met criterion may still accept it.
+    Undecided,
+    /// Outside the outer region: no solution meets this cell and every partner within ΔE00 τ.
     Outside,
 }
 
@@ -609,6 +817,7 @@ impl Placement {
         match self {
             Placement::Inside => "inside",
             Placement::On => "on",
+            Placement::Undecided => "undecided",
             Placement::Outside => "outside",
         }
     }
@@ -630,10 +839,27 @@ pub struct Verdict {
 /// Place `target` against the region of `problem`.
 pub fn place(problem: &Problem, region: &Region, target: &Vector3<f64>) -> Result<Verdict, FeasibilityError> {
     let (closest, dist) = problem.closest(target)?;
+    let may_meet = region.outer_empty.then_some(false).map_or_else(|| problem.may_meet(target), Ok)?;
     if dist > REACH_EPS {
         let de = problem.delta_e(target, &closest);
-        let placement = if de <= ON_BAND { Placement::On } else { Placement::Outside };
+        let placement = if !may_meet {
+            Placement::Outside
+        } else if de <= ON_BAND {
+            Placement::On
+        } else {
+            Placement::Undecided
+        };
         return Ok(Verdict { placement, signed_delta_e: de, closest, boundary: closest });
+    }
+    if !may_meet {
+        // Reached with the partners in their inscribed boxes yet not with them near their targets: a
+        // partner is far from its target (unmet). Neither promise holds.
+        return Ok(Verdict {
+            placement: Placement::Undecided,
+            signed_delta_e: 0.0,
+            closest: *target,
+            boundary: *target,
+        });
     }
     // Inside: the nearest supporting plane in CIELAB linearised at the target.
     let j = problem.jacobian(target);
@@ -686,9 +912,20 @@ pub fn slice(
     centre: &Vector3<f64>,
     n: usize,
 ) -> Result<Option<Slice>, FeasibilityError> {
+    slice_held(problem, Hold::Inner, l_star, centre, n)
+}
+
+/// [`slice`] of the inner or the outer region.
+pub fn slice_held(
+    problem: &Problem,
+    hold: Hold,
+    l_star: f64,
+    centre: &Vector3<f64>,
+    n: usize,
+) -> Result<Option<Slice>, FeasibilityError> {
     let y = y_of_l(l_star, problem.white[1]);
     let yrow = problem.rgb_to_xyz.row(1).into_owned();
-    let lp = problem.lp(&[(yrow, y)]);
+    let lp = problem.lp_held(hold, &[(yrow, y)], &[]);
     let j = problem.jacobian(centre);
     let mut out = Vec::with_capacity(n);
     for k in 0..n {
@@ -765,21 +1002,22 @@ pub struct CellFeasibility {
 pub fn analyse(problem: &Problem, cache: &RegionCache, directions: usize) -> Result<CellFeasibility, FeasibilityError> {
     let region = cache.get(problem, directions)?;
     let verdict = place(problem, &region, &problem.target)?;
-    let (reachable_alone, blockers, together) = if verdict.placement == Placement::Outside {
-        let alone = problem.alone().reaches(&problem.target)?;
-        let mut blockers = Vec::new();
-        if alone {
-            for i in 0..problem.partners.len() {
-                if problem.without(i).reaches(&problem.target)? {
-                    blockers.push(problem.partners[i].cell);
+    let (reachable_alone, blockers, together) =
+        if matches!(verdict.placement, Placement::Outside | Placement::Undecided) {
+            let alone = problem.alone().reaches(&problem.target)?;
+            let mut blockers = Vec::new();
+            if alone {
+                for i in 0..problem.partners.len() {
+                    if problem.without(i).reaches(&problem.target)? {
+                        blockers.push(problem.partners[i].cell);
+                    }
                 }
             }
-        }
-        let together = alone && blockers.is_empty();
-        (alone, blockers, together)
-    } else {
-        (true, Vec::new(), false)
-    };
+            let together = alone && blockers.is_empty();
+            (alone, blockers, together)
+        } else {
+            (true, Vec::new(), false)
+        };
     Ok(CellFeasibility {
         cell: problem.cell,
         target: problem.target,
@@ -809,6 +1047,21 @@ pub fn describe(palette: &Palette, f: &CellFeasibility, tolerance: f64) -> Strin
             Fixed(-f.verdict.signed_delta_e, 2)
         ),
         Placement::On => format!("cell {label}: target on the boundary of what is reachable with {held}"),
+        Placement::Undecided => {
+            let mut s = format!(
+                "cell {label}: target undecided: ΔE00 {} outside what is reachable with {held}, closest such colour {}, \
+                 but not provably out of reach of the solve's ΔE00 {tolerance} criterion",
+                Fixed(f.verdict.signed_delta_e, 2),
+                fmt_rgb(&f.verdict.closest)
+            );
+            if !f.reachable_alone {
+                s += "; out of reach of the bounds even alone";
+            } else if !f.blockers.is_empty() {
+                let names: Vec<String> = f.blockers.iter().map(|&b| cell_label(palette, b)).collect();
+                s += &format!("; reachable only if {} moves", names.join(" or "));
+            }
+            s
+        }
         Placement::Outside => {
             let mut s = format!(
                 "cell {label}: target not reachable with {held}: ΔE00 {} outside, closest reachable colour {}",
@@ -849,6 +1102,8 @@ pub struct Panel {
     pub tolerance: f64,
     /// The slice at the target's L* (`None` when the region does not reach it).
     pub slice: Option<Slice>,
+    /// The outer region's slice at the same L* (`None` when it does not reach it or is empty).
+    pub outer_slice: Option<Slice>,
     pub target_lab: [f64; 3],
     pub achieved_lab: [f64; 3],
     pub l_range: (f64, f64),
@@ -874,11 +1129,17 @@ pub fn panel(
     let verdict = place(&problem, &region, &problem.target)?;
     let target_lab = problem.lab(&problem.target);
     let slice = slice(&problem, target_lab[0], &problem.target, SLICE_DIRECTIONS)?;
+    let outer_slice = if region.outer_empty {
+        None
+    } else {
+        slice_held(&problem, Hold::Outer, target_lab[0], &problem.target, SLICE_DIRECTIONS)?
+    };
     Ok(Panel {
         cell,
         label: problem.label().to_string(),
         tolerance,
         slice,
+        outer_slice,
         target_lab,
         achieved_lab: problem.lab(&problem.achieved),
         l_range: region.l_range,

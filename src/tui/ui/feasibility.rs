@@ -1,6 +1,7 @@
 //! The mismatch-region overlay (`m`): the selected cell's region of reachable colours, sliced through
 //! CIELAB at the target's L* (a*–b* plane, braille canvas) with the target (`×`) and the colour now (`○`)
-//! marked, and its L* range. The region is computed by the worker after each solve
+//! marked, and its L* range: the inner region (reachable with the other cells held, cyan) inside the outer one
+//! (what the ΔE00 τ criterion could accept at most, grey). The region is computed by the worker after each solve
 //! ([`crate::design::feasibility::panel`]); this only draws it.
 
 use crate::design::feasibility::{Panel, Placement};
@@ -76,6 +77,7 @@ pub fn summary(panel: &Panel, stale: bool) -> Vec<String> {
     let place = match panel.placement {
         Placement::Inside => format!("× inside: ΔE00 {:.2} from the edge", -panel.signed_delta_e),
         Placement::On => "× on the edge".to_string(),
+        Placement::Undecided => format!("× undecided: ΔE00 {:.2} past the inner edge", panel.signed_delta_e),
         Placement::Outside => format!("× outside: ΔE00 {:.2} away", panel.signed_delta_e),
     };
     let held = format!(
@@ -95,8 +97,10 @@ fn draw_slice(panel: &Panel, area: Rect, buf: &mut Buffer) {
     }
     let poly: Vec<[f64; 2]> =
         panel.slice.as_ref().map(|s| s.lab.iter().map(|l| [l[1], l[2]]).collect()).unwrap_or_default();
+    let outer: Vec<[f64; 2]> =
+        panel.outer_slice.as_ref().map(|s| s.lab.iter().map(|l| [l[1], l[2]]).collect()).unwrap_or_default();
     let marks = [[panel.target_lab[1], panel.target_lab[2]], [panel.achieved_lab[1], panel.achieved_lab[2]]];
-    let all = poly.iter().chain(&marks);
+    let all = poly.iter().chain(&outer).chain(&marks);
     let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
     for p in all.filter(|p| p[0].is_finite() && p[1].is_finite()) {
         x0 = x0.min(p[0]);
@@ -114,6 +118,11 @@ fn draw_slice(panel: &Panel, area: Rect, buf: &mut Buffer) {
     let canvas =
         Canvas::default().marker(Marker::Braille).x_bounds([x0 - px, x1 + px]).y_bounds([y0 - py, y1 + py]).paint(
             |ctx| {
+                // The outer boundary first (dimmer), the inner one over it.
+                for (k, a) in outer.iter().enumerate() {
+                    let b = outer[(k + 1) % outer.len()];
+                    ctx.draw(&CanvasLine { x1: a[0], y1: a[1], x2: b[0], y2: b[1], color: Color::DarkGray });
+                }
                 for (k, a) in poly.iter().enumerate() {
                     let b = poly[(k + 1) % poly.len()];
                     ctx.draw(&CanvasLine { x1: a[0], y1: a[1], x2: b[0], y2: b[1], color: region });
