@@ -199,9 +199,11 @@ fn saved_keyframes_render_as_previewed() {
         }
         let want = image::open(out.join(format!("frame_{k:04}.png"))).expect("a frame").to_rgb8().into_raw();
         let got = preview.frame(&saved.palette, &Derived::default(), key, lut());
-        // The designer's preview itself, after the save, has render's exposure for the saved sweep.
+        // The designer's preview itself, after the save, has render's exposure for the saved sweep of its own
+        // raycast (the exposure comes from the picture, so it is compared at the live preview's size).
         let live = s.preview.as_ref().expect("a preview");
-        assert!((live.exposure - preview.exposure).abs() < 1e-12 * preview.exposure);
+        let fresh = Preview::new(Arc::new(saved.clone()), preview_model(&saved, &col), live.weights.clone(), &col);
+        assert!((live.exposure - fresh.exposure).abs() < 1e-12 * fresh.exposure);
         let worst = got.iter().zip(&want).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(255);
         assert!(worst <= 1, "keyframe {k}: the render differs from the preview by {worst}/255");
     }
