@@ -666,9 +666,11 @@ impl RayContext<'_> {
         self.volume.data[x + d[0] * (y + d[1] * z)]
     }
 
-    /// The trilinear cell around index-space point p (clamped into [0, dims−1]).
+    /// Where index-space point p (clamped into [0, dims−1]) falls: the index of its trilinear cell's first
+    /// voxel, the strides to the next voxel along x, y and z (0 along an axis of one voxel) and the
+    /// fractions along each axis.
     #[inline(always)]
-    fn cell(&self, p: [f64; 3]) -> Cell {
+    fn locate(&self, p: [f64; 3]) -> (usize, [usize; 3], [f32; 3]) {
         let d = self.volume.dims;
         let mut i = [0usize; 3];
         let mut f = [0f32; 3];
@@ -682,6 +684,13 @@ impl RayContext<'_> {
         let sy = if d[1] > 1 { d[0] } else { 0 };
         let sz = if d[2] > 1 { d[0] * d[1] } else { 0 };
         let b = i[0] + d[0] * (i[1] + d[1] * i[2]);
+        (b, [sx, sy, sz], f)
+    }
+
+    /// The trilinear cell around index-space point p (clamped into [0, dims−1]).
+    #[inline(always)]
+    fn cell(&self, p: [f64; 3]) -> Cell {
+        let (b, [sx, sy, sz], f) = self.locate(p);
         let v = &self.volume.data;
         Cell {
             v: [
@@ -720,22 +729,11 @@ impl RayContext<'_> {
     }
 
     /// The smooth gradient at p: the trilinear interpolation of the precomputed per-voxel central
-    /// differences (the cell is found as in [`RayContext::cell`]).
+    /// differences (the cell found by [`RayContext::locate`], as for [`RayContext::cell`]).
     #[inline(always)]
     fn grid_gradient(&self, p: [f64; 3]) -> [f32; 3] {
         let Some(grid) = self.grid else { return [0.0; 3] };
-        let d = self.volume.dims;
-        let mut i = [0usize; 3];
-        let mut f = [0f32; 3];
-        for a in 0..3 {
-            let q = p[a].clamp(0.0, (d[a] - 1) as f64);
-            i[a] = (q as usize).min(d[a].saturating_sub(2));
-            f[a] = (q - i[a] as f64) as f32;
-        }
-        let sx = usize::from(d[0] > 1);
-        let sy = if d[1] > 1 { d[0] } else { 0 };
-        let sz = if d[2] > 1 { d[0] * d[1] } else { 0 };
-        let b = i[0] + d[0] * (i[1] + d[1] * i[2]);
+        let (b, [sx, sy, sz], f) = self.locate(p);
         let g = &grid.data;
         let corners = [b, b + sx, b + sy, b + sy + sx, b + sz, b + sz + sx, b + sz + sy, b + sz + sy + sx];
         let [fx, fy, fz] = f;
