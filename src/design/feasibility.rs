@@ -1041,6 +1041,20 @@ pub fn describe(palette: &Palette, f: &CellFeasibility, tolerance: f64) -> Strin
     use super::report::Fixed;
     let label = cell_label(palette, f.cell);
     let held = format!("the other cells of its spectrum held within ΔE {tolerance}");
+    // What keeps an unmet target out of reach (undecided and outside targets); `together` also names the
+    // case where only several cells moving at once would help.
+    let why_not = |together: bool| -> String {
+        if !f.reachable_alone {
+            "; out of reach of the bounds even alone".into()
+        } else if !f.blockers.is_empty() {
+            let names: Vec<String> = f.blockers.iter().map(|&b| cell_label(palette, b)).collect();
+            format!("; reachable only if {} moves", names.join(" or "))
+        } else if together && f.together {
+            "; reachable only if several of the other cells move together".into()
+        } else {
+            String::new()
+        }
+    };
     let mut s = match f.verdict.placement {
         Placement::Inside => format!(
             "cell {label}: target reachable with {held} (inside the region, ΔE00 {} from its boundary)",
@@ -1048,35 +1062,21 @@ pub fn describe(palette: &Palette, f: &CellFeasibility, tolerance: f64) -> Strin
         ),
         Placement::On => format!("cell {label}: target on the boundary of what is reachable with {held}"),
         Placement::Undecided => {
-            let mut s = format!(
+            let s = format!(
                 "cell {label}: target undecided: ΔE00 {} outside what is reachable with {held}, closest such colour {}, \
                  but not provably out of reach of the solve's ΔE00 {tolerance} criterion",
                 Fixed(f.verdict.signed_delta_e, 2),
                 fmt_rgb(&f.verdict.closest)
             );
-            if !f.reachable_alone {
-                s += "; out of reach of the bounds even alone";
-            } else if !f.blockers.is_empty() {
-                let names: Vec<String> = f.blockers.iter().map(|&b| cell_label(palette, b)).collect();
-                s += &format!("; reachable only if {} moves", names.join(" or "));
-            }
-            s
+            s + &why_not(false)
         }
         Placement::Outside => {
-            let mut s = format!(
+            let s = format!(
                 "cell {label}: target not reachable with {held}: ΔE00 {} outside, closest reachable colour {}",
                 Fixed(f.verdict.signed_delta_e, 2),
                 fmt_rgb(&f.verdict.closest)
             );
-            if !f.reachable_alone {
-                s += "; out of reach of the bounds even alone";
-            } else if !f.blockers.is_empty() {
-                let names: Vec<String> = f.blockers.iter().map(|&b| cell_label(palette, b)).collect();
-                s += &format!("; reachable only if {} moves", names.join(" or "));
-            } else if f.together {
-                s += "; reachable only if several of the other cells move together";
-            }
-            s
+            s + &why_not(true)
         }
     };
     let r = &f.region;
