@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generate src/spectrum/tables.rs from the CSV tables in data/spectra/.
+"""Generate crates/metamer-core/src/spectrum/tables.rs from the CSV tables in data/spectra/.
 
 Run from the repository root:  python3 data/generate_tables.py
 The CSVs are copies of ../shared/spectra/ (CIE 015 and BabelColor published data); their own
@@ -58,7 +58,7 @@ for r in mat:
     out.append("    " + arr([float(x) for x in r]) + ",")
 out.append("];")
 (root / "src" / "spectrum").mkdir(parents=True, exist_ok=True)
-(root / "src" / "spectrum" / "tables.rs").write_text("\n".join(out) + "\n")
-print("wrote src/spectrum/tables.rs")
+(root / "crates" / "metamer-core" / "src" / "spectrum" / "tables.rs").write_text("\n".join(out) + "\n")
+print("wrote crates/metamer-core/src/spectrum/tables.rs")
 import subprocess
-subprocess.run(["rustfmt", "--edition", "2024", "--config-path", str(root / "rustfmt.toml"), str(root / "src" / "spectrum" / "tables.rs")], check=False)
+subprocess.run(["rustfmt", "--edition", "2024", "--config-path", str(root / "rustfmt.toml"), str(root / "crates" / "metamer-core" / "src" / "spectrum" / "tables.rs")], check=False)

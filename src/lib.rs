@@ -1,18 +1,12 @@
-//! metamer: design palettes of light spectra and surface reflectances that produce chosen colours in
-//! chosen light/surface combinations, and render spectral volumes relit in real time.
+//! metamer, the application: the command line (`cli`), the terminal designer (`tui`) and the benchmark
+//! suite (`bench`) over the domain crate `metamer-core` (crates/metamer-core).
 //!
-//! After Bergner, Möller & Drew, "A Spectral Engine for Visualization" (SFU TR 2004-06).
-//! Domain modules (`spectrum`, `colorimetry`, `palette`, `basis`, `design`, `volume`, `render`) know
-//! nothing of the command line or the terminal UI.
+//! After Bergner, Möller & Drew, "A Spectral Engine for Visualization" (SFU TR 2004-06). The domain
+//! modules are re-exported under their own names so `metamer::palette::…` and `crate::palette::…` name
+//! the same items; the domain crate cannot see anything here (see docs/ARCHITECTURE.md).
 
-pub mod basis;
+pub use metamer_core::{basis, colorimetry, design, fsio, palette, render, spectrum, volume};
+
 pub mod bench;
 pub mod cli;
-pub mod colorimetry;
-pub mod design;
-pub mod fsio;
-pub mod palette;
-pub mod render;
-pub mod spectrum;
 pub mod tui;
-pub mod volume;

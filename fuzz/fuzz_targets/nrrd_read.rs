@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use metamer::volume::nrrd;
+use metamer_core::volume::nrrd;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {

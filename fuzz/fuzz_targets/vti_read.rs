@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use metamer::volume::vti;
+use metamer_core::volume::vti;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {

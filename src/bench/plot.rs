@@ -2,8 +2,20 @@
 
 use plotters::prelude::*;
 // The embedded DejaVu Sans, shared with the contact sheets' labels.
-use crate::render::sweep::register_font;
 use std::path::Path;
+
+static REGISTER: std::sync::Once = std::sync::Once::new();
+
+/// Register the font the project ships (embedded in the domain crate, `render::text::FONT`) as
+/// plotters' "sans-serif", once, so plots render the same on every machine.
+fn register_font() {
+    REGISTER.call_once(|| {
+        // A known-good TTF compiled into the binary; if registration failed, text would be missing,
+        // which the plot tests catch.
+        let _ =
+            plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, crate::render::text::FONT);
+    });
+}
 
 /// One series of points; `spread` optionally gives an x-interval (e.g. interquartile range of a timing)
 /// drawn as a horizontal bar through each point.

@@ -319,7 +319,8 @@ mod tests {
 
     /// The texts the tests splice into: the example palettes, the fuzz findings and some awkward layouts.
     fn texts() -> Vec<(PathBuf, String)> {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        // The repository root: this crate lives in crates/metamer-core.
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
         let mut out = Vec::new();
         for dir in [root.join("palettes"), root.join("tests/data/fuzz")] {
             for entry in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
@@ -329,6 +330,7 @@ mod tests {
                 }
             }
         }
+        assert!(out.len() >= 3, "the example palettes were not found under {}", root.display());
         let samples = (0..SAMPLES).map(|i| format!("{}", 0.5 + i as f64 / 100.0)).collect::<Vec<_>>().join(", ");
         let awkward = [
             // Comments after values, a quoted source key, scale and normalize keys, CRLF and a BOM.

@@ -17,6 +17,7 @@ pub mod raycast;
 pub mod relight;
 pub mod scene;
 pub mod sweep;
+pub mod text;
 
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;

@@ -7,24 +7,13 @@
 //! the same bytes.
 
 use super::dial::{Dial, DialState, Sweep};
+use super::text::{self, Label};
 use crate::colorimetry::Colorimetry;
 use crate::spectrum::Spectrum;
-use ab_glyph::{Font, FontRef, PxScale, ScaleFont};
 use tiny_skia::{Color, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Stroke, Transform};
-
-/// The font the names are drawn with.
-static FONT: &[u8] = include_bytes!("../../data/fonts/DejaVuSans.ttf");
 
 /// Frames smaller than this (pixels, the shorter side) get no dial: it would not be legible.
 pub const MIN_FRAME: usize = 96;
-
-/// A name rasterised once: coverage in 0..=255, row-major.
-#[derive(Clone, Debug)]
-struct Label {
-    width: usize,
-    height: usize,
-    coverage: Vec<u8>,
-}
 
 /// Everything about a sweep's dial drawing that does not change between frames.
 #[derive(Clone, Debug)]
@@ -53,39 +42,6 @@ pub fn light_colour(colorimetry: &Colorimetry, light: &Spectrum) -> [u8; 3] {
     [enc(rgb[0]), enc(rgb[1]), enc(rgb[2])]
 }
 
-fn rasterise(font: &FontRef<'_>, text: &str, px: f32) -> Label {
-    let scaled = font.as_scaled(PxScale::from(px));
-    let ascent = scaled.ascent();
-    let height = (scaled.ascent() - scaled.descent()).ceil().max(1.0) as usize + 1;
-    let mut glyphs = Vec::new();
-    let mut x = 0.0f32;
-    let mut prev = None;
-    for c in text.chars().filter(|c| !c.is_control()) {
-        let id = scaled.glyph_id(c);
-        if let Some(p) = prev {
-            x += scaled.kern(p, id);
-        }
-        glyphs.push(id.with_scale_and_position(PxScale::from(px), ab_glyph::point(x, ascent)));
-        x += scaled.h_advance(id);
-        prev = Some(id);
-    }
-    let width = x.ceil().max(1.0) as usize + 1;
-    let mut coverage = vec![0u8; width * height];
-    for g in glyphs {
-        if let Some(o) = font.outline_glyph(g) {
-            let b = o.px_bounds();
-            o.draw(|gx, gy, c| {
-                let (px_, py_) = (b.min.x as i64 + gx as i64, b.min.y as i64 + gy as i64);
-                if px_ >= 0 && py_ >= 0 && (px_ as usize) < width && (py_ as usize) < height {
-                    let i = py_ as usize * width + px_ as usize;
-                    coverage[i] = coverage[i].max((c.clamp(0.0, 1.0) * 255.0).round() as u8);
-                }
-            });
-        }
-    }
-    Label { width, height, coverage }
-}
-
 fn union(a: [[f64; 2]; 2], b: [[f64; 2]; 2]) -> [[f64; 2]; 2] {
     [[a[0][0].min(b[0][0]), a[0][1].min(b[0][1])], [a[1][0].max(b[1][0]), a[1][1].max(b[1][1])]]
 }
@@ -98,14 +54,14 @@ impl DialOverlay {
     /// The overlay of `dial` for frames of `width × height` pixels.
     pub fn new(dial: &Dial, colorimetry: &Colorimetry, width: usize, height: usize) -> DialOverlay {
         let side = (width.min(height) as f64 * 0.3).round() as usize;
-        let font = FontRef::try_from_slice(FONT).ok();
+        let font = text::font();
         let px = (side as f32 / 10.0).clamp(9.0, 28.0);
         let lights = &dial.base.lights;
         let colours = lights.iter().map(|l| light_colour(colorimetry, &l.spectrum)).collect();
         let labels = lights
             .iter()
             .map(|l| match &font {
-                Some(f) => rasterise(f, &l.name, px),
+                Some(f) => text::rasterise(f, &l.name, px),
                 None => Label { width: 0, height: 0, coverage: Vec::new() },
             })
             .collect();
@@ -239,39 +195,15 @@ impl DialOverlay {
             let lx = lx.clamp(3.0, (s - label.width as f32 - 3.0).max(3.0)).round() as i64;
             let ly = ly.clamp(3.0, (s - label.height as f32 - 3.0).max(3.0)).round() as i64;
             let alpha = if l.on { 1.0 } else { 0.6 };
-            blit_text(&mut pm, label, lx + 1, ly + 1, [0, 0, 0], alpha * 0.8);
-            blit_text(&mut pm, label, lx, ly, [255, 255, 255], alpha);
+            let (pw, ph) = (pm.width() as usize, pm.height() as usize);
+            text::blit(pm.data_mut(), 4, pw, ph, label, (lx + 1, ly + 1), [0, 0, 0], alpha * 0.8);
+            text::blit(pm.data_mut(), 4, pw, ph, label, (lx, ly), [255, 255, 255], alpha);
         }
         // Back into the frame.
         for (row, chunk) in pm.data().chunks_exact(side * 4).enumerate() {
             let dst = &mut rgb[((y0 + row) * width + x0) * 3..((y0 + row) * width + x0 + side) * 3];
             for (d, s) in dst.chunks_exact_mut(3).zip(chunk.chunks_exact(4)) {
                 d.copy_from_slice(&s[..3]);
-            }
-        }
-    }
-}
-
-/// Blend a rasterised label into an opaque pixmap.
-fn blit_text(pm: &mut Pixmap, label: &Label, x0: i64, y0: i64, colour: [u8; 3], alpha: f32) {
-    let (w, h) = (i64::from(pm.width()), i64::from(pm.height()));
-    let data = pm.data_mut();
-    for ly in 0..label.height {
-        let y = y0 + ly as i64;
-        if !(0..h).contains(&y) {
-            continue;
-        }
-        for lx in 0..label.width {
-            let x = x0 + lx as i64;
-            let c = label.coverage[ly * label.width + lx];
-            if c == 0 || !(0..w).contains(&x) {
-                continue;
-            }
-            let a = f32::from(c) / 255.0 * alpha;
-            let i = ((y * w + x) * 4) as usize;
-            for ch in 0..3 {
-                let v = f32::from(data[i + ch]) * (1.0 - a) + f32::from(colour[ch]) * a;
-                data[i + ch] = v.round().clamp(0.0, 255.0) as u8;
             }
         }
     }

@@ -689,7 +689,7 @@ fn entry(name: &str, kind: Kind, source: crate::palette::Source, spectrum: Spect
 }
 
 /// The designed engine palette (`volumes/engine_palette.toml`), embedded for the default scene.
-pub const BUILTIN_PALETTE_TOML: &str = include_str!("../../volumes/engine_palette.toml");
+pub const BUILTIN_PALETTE_TOML: &str = include_str!("../../../../volumes/engine_palette.toml");
 
 /// The built-in palette of the embedded default scene: the designed engine palette (smoke, block, inner;
 /// lights hide, split, glow).

@@ -21,6 +21,7 @@ use super::RenderError;
 use super::dial::Dial;
 use super::raycast::ChannelImage;
 use super::relight::{ColourModel, SrgbLut, relight_linear, relight_srgb8};
+use super::text;
 use crate::colorimetry::Colorimetry;
 use crate::spectrum::Spectrum;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
@@ -392,23 +393,21 @@ impl SheetLayout {
             let (x, y) = origin(i);
             image::imageops::replace(&mut sheet, t, i64::from(x), i64::from(y));
         }
-        register_font();
-        let (w, h) = sheet.dimensions();
-        {
-            use plotters::prelude::*;
-            let area = BitMapBackend::with_buffer(&mut sheet, (w, h)).into_drawing_area();
-            let font = |px: f64| ("sans-serif", px).into_font().color(&RGBColor(230, 230, 230));
+        if let Some(font) = text::font() {
+            let (w, h) = (sheet.width() as usize, sheet.height() as usize);
+            let grey = [230, 230, 230];
             if let Some(t) = title {
-                let _ = area.draw(&Text::new(t.escape_debug().to_string(), (self.gap as i32, 6), font(20.0)));
+                let l = text::rasterise(&font, &t.escape_debug().to_string(), 20.0);
+                text::blit(&mut sheet, 3, w, h, &l, (i64::from(self.gap), 6), grey, 1.0);
             }
             for (i, label) in labels.iter().enumerate().take(tiles.len()) {
                 let (x, y) = origin(i);
-                for (line, text) in label.lines().enumerate().take(2) {
-                    let pos = (x as i32 + 2, (y + self.tile_h) as i32 + 3 + 16 * line as i32);
-                    let _ = area.draw(&Text::new(fit_text(text, self.tile_w), pos, font(LABEL_PX)));
+                for (line, t) in label.lines().enumerate().take(2) {
+                    let l = text::rasterise(&font, &fit_text(t, self.tile_w), LABEL_PX as f32);
+                    let pos = (i64::from(x) + 2, i64::from(y + self.tile_h) + 3 + 16 * line as i64);
+                    text::blit(&mut sheet, 3, w, h, &l, pos, grey, 1.0);
                 }
             }
-            let _ = area.present();
         }
         sheet
     }
@@ -424,20 +423,6 @@ fn fit_text(label: &str, width: u32) -> String {
         s.push('…');
         s
     }
-}
-
-/// The font contact-sheet labels and bench plots use, embedded so they render the same on any machine
-/// (DejaVu fonts licence, see data/fonts/DejaVu-LICENSE.txt).
-static FONT: &[u8] = include_bytes!("../../data/fonts/DejaVuSans.ttf");
-static REGISTER: std::sync::Once = std::sync::Once::new();
-
-/// Register the embedded font as plotters' "sans-serif" (once).
-pub fn register_font() {
-    REGISTER.call_once(|| {
-        // A known-good TTF compiled into the binary; if registration failed, text would be missing,
-        // which the label and plot tests catch.
-        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, FONT);
-    });
 }
 
 #[cfg(test)]
