@@ -48,6 +48,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::Render => vec![Suite::Render],
         Which::All => Suite::ALL.to_vec(),
     };
+    check_outputs(&args, &suites)?;
     let options =
         ReportOptions { out_dir: args.output.clone(), quick: args.quick, runs: args.runs, volume: args.volume };
     let report =
@@ -70,6 +71,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             tracked.len(),
             tracked.join(", ")
         );
+    }
+    Ok(())
+}
+
+/// Refuse, before anything runs or is written, a run whose outputs (the report files in `-o DIR`, the
+/// `--readme` to update) are one another or an input: the renderer suite's volume (header and detached
+/// data file, found by reading it) or the README itself as a report file.
+fn check_outputs(args: &Args, suites: &[Suite]) -> anyhow::Result<()> {
+    let mut files = crate::fsio::Outputs::new();
+    if suites.contains(&Suite::Render) {
+        let volume = args.volume.clone().or_else(crate::bench::render::find_shared_engine);
+        if let Some(v) = &volume {
+            let (opened, read) = crate::fsio::record_reads(|| crate::volume::Volume::open(v));
+            opened.with_context(|| format!("renderer benchmark volume {}", crate::fsio::show(v)))?;
+            files.inputs_read(&read);
+        }
+    }
+    files.output("benchmark report", &args.output.join(crate::bench::REPORT_FILE))?;
+    for suite in suites {
+        for name in crate::bench::output_files(*suite) {
+            files.output("benchmark report", &args.output.join(name))?;
+        }
+    }
+    if let Some(readme) = &args.readme {
+        files.output("README to update", readme)?;
     }
     Ok(())
 }

@@ -199,7 +199,8 @@ impl Scene {
     /// Read a scene file with its volume taken from `volume` instead of the scene's `volume` key (the
     /// command line's `--volume PATH`); `None` resolves the key as [`Scene::load`] does.
     pub fn load_with_volume(path: &Path, volume: Option<&Path>) -> Result<Scene, RenderError> {
-        let bytes = std::fs::read(path).map_err(|e| scene_err(path, "file", format!("cannot read: {e}")))?;
+        let bytes =
+            crate::fsio::read(path, crate::fsio::Kind::Scene).map_err(|e| scene_err(path, "file", e.to_string()))?;
         let text =
             std::str::from_utf8(&bytes).map_err(|_| scene_err(path, "file", "not a text file (invalid UTF-8)"))?;
         Scene::parse_with_volume(text, path, volume)
