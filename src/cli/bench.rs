@@ -51,20 +51,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     check_outputs(&args, &suites)?;
     let options =
         ReportOptions { out_dir: args.output.clone(), quick: args.quick, runs: args.runs, volume: args.volume };
-    let report =
-        report::run(&suites, &options).with_context(|| format!("benchmark report into {}", args.output.display()))?;
+    let report = report::run(&suites, &options)
+        .with_context(|| format!("benchmark report into {}", crate::fsio::show(&args.output)))?;
     if let Some(readme) = &args.readme {
         report::splice_readme(readme, &report, &args.output)?;
-        println!("updated {}", readme.display());
+        println!("updated {}", crate::fsio::show(readme));
     }
-    println!("{}", report.markdown);
+    // Paths from the command line reach the terminal with their control characters escaped.
+    println!("{}", crate::fsio::escape_lines(&report.markdown));
     for f in &report.files {
-        println!("wrote {}", f.display());
+        println!("wrote {}", crate::fsio::show(f));
     }
     // Say plainly when the run replaced files that git tracks (e.g. `-o docs/bench --readme README.md` in a
     // checkout), so a user does not commit regenerated figures by accident.
     let written: Vec<&PathBuf> = report.files.iter().chain(args.readme.as_ref()).collect();
-    let tracked: Vec<String> = written.iter().filter(|f| tracked_by_git(f)).map(|f| f.display().to_string()).collect();
+    let tracked: Vec<String> = written.iter().filter(|f| tracked_by_git(f)).map(|f| crate::fsio::show(f)).collect();
     if !tracked.is_empty() {
         println!(
             "rewrote {} file(s) tracked by git (review with `git diff --stat`, undo with `git checkout -- FILE`): {}",
