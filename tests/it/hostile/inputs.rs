@@ -227,3 +227,74 @@ fn keyframe_saves_keep_the_scene_mode_and_refuse_a_fifo() {
     let e = within(Duration::from_secs(5), move || metamer::tui::dial_keys::save_keyframes(&fifo, &[])).unwrap_err();
     assert!(e.contains("FIFO"), "{e}");
 }
+
+/// A file of `len` bytes (sparse past `start`) beginning with `start`.
+fn sparse(path: &Path, start: &[u8], len: u64) {
+    std::fs::write(path, start).unwrap();
+    std::fs::OpenOptions::new().write(true).open(path).unwrap().set_len(len).unwrap();
+}
+
+#[test]
+fn huge_sparse_volume_files_are_refused_from_their_size() {
+    const GIB: u64 = 1 << 30;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let attached = format!("{}\n", nrrd_header("x").replace("data file: x\n", ""));
+    let cases: Vec<(&str, Box<dyn Fn(&Path)>, &str)> = vec![
+        // A detached header with no end: only its first MiB is read.
+        ("h.nhdr", Box::new(|p: &Path| sparse(p, nrrd_header("v.raw").as_bytes(), GIB)), "does not end"),
+        // An attached NRRD whose data are far more than its sizes need.
+        ("a.nrrd", Box::new(move |p: &Path| sparse(p, attached.as_bytes(), GIB)), "header's sizes, type and encoding allow"),
+        // A detached data file far larger than the header's sizes need.
+        (
+            "d.nhdr",
+            Box::new(|p: &Path| {
+                std::fs::write(p, nrrd_header("d.raw")).unwrap();
+                sparse(&p.with_file_name("d.raw"), b"", GIB);
+            }),
+            "header's sizes, type and encoding allow",
+        ),
+    ];
+    for (name, make, reason) in cases {
+        let path = d.join(name);
+        make(&path);
+        let start = Instant::now();
+        let e = within(Duration::from_secs(10), move || metamer::volume::Volume::open(&path)).unwrap_err().to_string();
+        assert!(e.contains(reason), "{name}: {e}");
+        assert!(start.elapsed() < Duration::from_secs(2), "{name}: refused after {:?}", start.elapsed());
+    }
+    // A raw volume named by a scene: refused from its size too.
+    let raw = d.join("r.raw");
+    sparse(&raw, b"", GIB);
+    let start = Instant::now();
+    let e = metamer::volume::raw::read(
+        &raw,
+        [4, 4, 4],
+        metamer::volume::ScalarType::U8,
+        metamer::volume::Endian::Little,
+        [1.0; 3],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("not read"), "{e}");
+    assert!(start.elapsed() < Duration::from_secs(2));
+    // The normal files still read.
+    std::fs::write(d.join("ok.nhdr"), nrrd_header("ok.raw")).unwrap();
+    std::fs::write(d.join("ok.raw"), voxels()).unwrap();
+    assert_eq!(metamer::volume::Volume::open(&d.join("ok.nhdr")).unwrap().data[1], 4.0);
+    let mut attached = format!("{}\n", nrrd_header("x").replace("data file: x\n", "")).into_bytes();
+    attached.extend(voxels());
+    std::fs::write(d.join("ok.nrrd"), attached).unwrap();
+    assert_eq!(metamer::volume::Volume::open(&d.join("ok.nrrd")).unwrap().data[2], 8.0);
+}
+
+#[test]
+fn header_text_in_errors_is_short_and_escaped() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.nhdr");
+    let junk = format!("NRRD0004\ntype: \u{1b}]0;PWN\u{7}{}\n", "y".repeat(500_000));
+    std::fs::write(&path, junk).unwrap();
+    let e = metamer::volume::Volume::open(&path).unwrap_err().to_string();
+    assert!(e.contains("type") && e.contains("\\u{1b}"), "{e}");
+    assert!(!e.contains('\u{1b}') && e.len() < 400, "{} bytes: {}", e.len(), &e[..e.len().min(400)]);
+}
