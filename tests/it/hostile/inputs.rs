@@ -244,7 +244,11 @@ fn huge_sparse_volume_files_are_refused_from_their_size() {
         // A detached header with no end: only its first MiB is read.
         ("h.nhdr", Box::new(|p: &Path| sparse(p, nrrd_header("v.raw").as_bytes(), GIB)), "does not end"),
         // An attached NRRD whose data are far more than its sizes need.
-        ("a.nrrd", Box::new(move |p: &Path| sparse(p, attached.as_bytes(), GIB)), "header's sizes, type and encoding allow"),
+        (
+            "a.nrrd",
+            Box::new(move |p: &Path| sparse(p, attached.as_bytes(), GIB)),
+            "header's sizes, type and encoding allow",
+        ),
         // A detached data file far larger than the header's sizes need.
         (
             "d.nhdr",

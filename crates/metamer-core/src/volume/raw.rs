@@ -19,7 +19,7 @@ pub fn read(
     let expected = count * ty.size();
     // Never more than the volume needs (plus what gzip may add): a huge or sparse file is refused from its
     // size, not read whole.
-    let cap = (expected as u64).saturating_add(expected as u64 / 64).saturating_add(64 << 10);
+    let cap = (expected as u64).saturating_add(expected as u64 / 64).saturating_add(1 << 20);
     let stored = match crate::fsio::read_capped(path, crate::fsio::Kind::Volume, cap) {
         Err(crate::fsio::FsError::TooLarge { size, .. }) => {
             return Err(VolumeError::invalid(
