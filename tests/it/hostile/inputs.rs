@@ -240,7 +240,8 @@ fn huge_sparse_volume_files_are_refused_from_their_size() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let attached = format!("{}\n", nrrd_header("x").replace("data file: x\n", ""));
-    let cases: Vec<(&str, Box<dyn Fn(&Path)>, &str)> = vec![
+    type Make = Box<dyn Fn(&Path)>;
+    let cases: Vec<(&str, Make, &str)> = vec![
         // A detached header with no end: only its first MiB is read.
         ("h.nhdr", Box::new(|p: &Path| sparse(p, nrrd_header("v.raw").as_bytes(), GIB)), "does not end"),
         // An attached NRRD whose data are far more than its sizes need.
