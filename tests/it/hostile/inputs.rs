@@ -303,3 +303,16 @@ fn header_text_in_errors_is_short_and_escaped() {
     assert!(e.contains("type") && e.contains("\\u{1b}"), "{e}");
     assert!(!e.contains('\u{1b}') && e.len() < 400, "{} bytes: {}", e.len(), &e[..e.len().min(400)]);
 }
+
+#[test]
+fn bench_output_list_names_every_file_a_suite_writes() {
+    // The up-front check is only as complete as the list: a quick basis run writes nothing else.
+    let dir = tempfile::tempdir().unwrap();
+    let o = metamer(dir.path(), &["bench", "basis", "--quick", "--runs", "1", "-o", "b"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let listed = metamer::bench::output_files(metamer::bench::report::Suite::Basis);
+    for entry in std::fs::read_dir(dir.path().join("b")).unwrap() {
+        let name = entry.unwrap().file_name().into_string().unwrap();
+        assert!(name == metamer::bench::REPORT_FILE || listed.contains(&name.as_str()), "{name} is not listed");
+    }
+}
