@@ -41,7 +41,15 @@ pub struct Args {
     pub volume: Option<PathBuf>,
 }
 
+/// The most timed repetitions `--runs` asks for (a huge count would run for ever).
+pub const MAX_RUNS: usize = 1000;
+
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(r) = args.runs
+        && !(1..=MAX_RUNS).contains(&r)
+    {
+        anyhow::bail!("--runs {r} is outside 1..={MAX_RUNS}");
+    }
     let suites: Vec<Suite> = match args.which {
         Which::Solve => vec![Suite::Solve],
         Which::Basis => vec![Suite::Basis],

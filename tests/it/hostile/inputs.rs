@@ -146,6 +146,13 @@ fn bench_checks_its_outputs_before_it_runs() {
     }
     assert_eq!(std::fs::read_to_string(d.join("b/README.md")).unwrap(), "mine\n");
     assert_eq!(std::fs::read(d.join("b/render.md")).unwrap(), voxels());
+    // A repetition count that would never finish is refused at once.
+    for runs in ["0", "18446744073709551615"] {
+        let start = Instant::now();
+        let o = metamer(d, &["bench", "solve", "--quick", "-o", "c", "--runs", runs]);
+        assert!(!o.status.success() && stderr(&o).contains("--runs"), "{}", stderr(&o));
+        assert!(start.elapsed() < Duration::from_secs(5));
+    }
 }
 
 #[test]
