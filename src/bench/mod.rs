@@ -10,6 +10,19 @@ pub mod summary;
 
 use std::time::Instant;
 
+/// Every file a suite may write into the output folder (`README.md` is the whole report's), so a run
+/// can check before it writes anything that none of them is an input.
+pub fn output_files(suite: report::Suite) -> &'static [&'static str] {
+    match suite {
+        report::Suite::Solve => &["solve.md", "solve_time_error.png", "solve_pareto.png"],
+        report::Suite::Basis => &["basis.md", "basis_error.png", "basis_cost.png", "basis_pareto.png"],
+        report::Suite::Render => &["render.md", "render_pareto.png", "render_raycast.png", "render_relight.png"],
+    }
+}
+
+/// The whole report's own file in the output folder.
+pub const REPORT_FILE: &str = "README.md";
+
 /// Summary of repeated timings (seconds): the median with the spread around it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Timing {

@@ -44,7 +44,7 @@ pub struct ReportOptions {
 /// Why the report could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
-    #[error("cannot write {}: {source}", path.display())]
+    #[error("cannot write {}: {source}", crate::fsio::show(path))]
     Io { path: PathBuf, source: std::io::Error },
     #[error("{0}")]
     File(crate::fsio::FsError),
@@ -54,7 +54,7 @@ pub enum ReportError {
     Render(#[from] crate::render::RenderError),
     #[error("plot: {0}")]
     Plot(#[from] super::plot::PlotError),
-    #[error("{}: no `{README_BEGIN}` … `{README_END}` block to replace", path.display())]
+    #[error("{}: no `{README_BEGIN}` … `{README_END}` block to replace", crate::fsio::show(path))]
     Readme { path: PathBuf },
 }
 

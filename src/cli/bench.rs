@@ -41,35 +41,70 @@ pub struct Args {
     pub volume: Option<PathBuf>,
 }
 
+/// The most timed repetitions `--runs` asks for (a huge count would run for ever).
+pub const MAX_RUNS: usize = 1000;
+
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(r) = args.runs
+        && !(1..=MAX_RUNS).contains(&r)
+    {
+        anyhow::bail!("--runs {r} is outside 1..={MAX_RUNS}");
+    }
     let suites: Vec<Suite> = match args.which {
         Which::Solve => vec![Suite::Solve],
         Which::Basis => vec![Suite::Basis],
         Which::Render => vec![Suite::Render],
         Which::All => Suite::ALL.to_vec(),
     };
+    check_outputs(&args, &suites)?;
     let options =
         ReportOptions { out_dir: args.output.clone(), quick: args.quick, runs: args.runs, volume: args.volume };
-    let report =
-        report::run(&suites, &options).with_context(|| format!("benchmark report into {}", args.output.display()))?;
+    let report = report::run(&suites, &options)
+        .with_context(|| format!("benchmark report into {}", crate::fsio::show(&args.output)))?;
     if let Some(readme) = &args.readme {
         report::splice_readme(readme, &report, &args.output)?;
-        println!("updated {}", readme.display());
+        println!("updated {}", crate::fsio::show(readme));
     }
-    println!("{}", report.markdown);
+    // Paths from the command line reach the terminal with their control characters escaped.
+    println!("{}", crate::fsio::escape_lines(&report.markdown));
     for f in &report.files {
-        println!("wrote {}", f.display());
+        println!("wrote {}", crate::fsio::show(f));
     }
     // Say plainly when the run replaced files that git tracks (e.g. `-o docs/bench --readme README.md` in a
     // checkout), so a user does not commit regenerated figures by accident.
     let written: Vec<&PathBuf> = report.files.iter().chain(args.readme.as_ref()).collect();
-    let tracked: Vec<String> = written.iter().filter(|f| tracked_by_git(f)).map(|f| f.display().to_string()).collect();
+    let tracked: Vec<String> = written.iter().filter(|f| tracked_by_git(f)).map(|f| crate::fsio::show(f)).collect();
     if !tracked.is_empty() {
         println!(
             "rewrote {} file(s) tracked by git (review with `git diff --stat`, undo with `git checkout -- FILE`): {}",
             tracked.len(),
             tracked.join(", ")
         );
+    }
+    Ok(())
+}
+
+/// Refuse, before anything runs or is written, a run whose outputs (the report files in `-o DIR`, the
+/// `--readme` to update) are one another or an input: the renderer suite's volume (header and detached
+/// data file, found by reading it) or the README itself as a report file.
+fn check_outputs(args: &Args, suites: &[Suite]) -> anyhow::Result<()> {
+    let mut files = crate::fsio::Outputs::new();
+    if suites.contains(&Suite::Render) {
+        let volume = args.volume.clone().or_else(crate::bench::render::find_shared_engine);
+        if let Some(v) = &volume {
+            let (opened, read) = crate::fsio::record_reads(|| crate::volume::Volume::open(v));
+            opened.with_context(|| format!("renderer benchmark volume {}", crate::fsio::show(v)))?;
+            files.inputs_read(&read);
+        }
+    }
+    files.output("benchmark report", &args.output.join(crate::bench::REPORT_FILE))?;
+    for suite in suites {
+        for name in crate::bench::output_files(*suite) {
+            files.output("benchmark report", &args.output.join(name))?;
+        }
+    }
+    if let Some(readme) = &args.readme {
+        files.output("README to update", readme)?;
     }
     Ok(())
 }

@@ -112,9 +112,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             recovery.display()
         ));
     }
+    // Every file the scene reads (its palette, CSV sources, volume and the volume's data file) is an input.
+    let mut scene_reads = Vec::new();
     if let Some(scene) = &args.scene {
         // The scene and its volume are read here; the raycast runs off the UI thread at the panel's size.
-        let scene = if scene.as_os_str() == "builtin" { builtin_scene(160) } else { Scene::load(scene) };
+        let scene = if scene.as_os_str() == "builtin" {
+            builtin_scene(160)
+        } else {
+            let (scene, read) = crate::fsio::record_reads(|| Scene::load(scene));
+            scene_reads = read;
+            scene
+        };
         state.set_preview_scene(scene.context("--scene")?);
     }
     let mut saver = FileSaver::new(file);
@@ -135,6 +143,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             if let Some(scene) = &args.scene {
                 files.input("scene", scene);
             }
+            files.inputs_read(&scene_reads);
             if let Some(screen) = &args.screen {
                 files.output("screen", screen)?;
             }

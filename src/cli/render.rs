@@ -148,8 +148,15 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     if !(args.gamma.is_finite() && (0.2..=5.0).contains(&args.gamma)) {
         bail!("--gamma {} is outside 0.2..=5", args.gamma);
     }
+    // Every file the scene reads (scene, palette, CSV sources, volume header and its detached data file)
+    // is recorded, so no output can be one of them.
+    let mut read = Vec::new();
     let mut scene = match (&args.scene, args.builtin) {
-        (Some(p), false) => Scene::load_with_volume(p, args.volume.as_deref())?,
+        (Some(p), false) => {
+            let (scene, files) = crate::fsio::record_reads(|| Scene::load_with_volume(p, args.volume.as_deref()));
+            read = files;
+            scene?
+        }
         (Some(_), true) => bail!("give either a scene file or --builtin, not both"),
         (None, _) if args.volume.is_some() => bail!("--volume needs a scene file (it replaces the scene's `volume`)"),
         (None, _) => crate::render::scene::builtin_scene(args.builtin_volume_size)?,
@@ -184,7 +191,8 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
             eprintln!("warning: palette `{}`: {w}", scene.palette.name.escape_debug());
         }
     }
-    // No output may be the scene, its volume, its palette or the palette's basis sidecar, nor one another.
+    // No output may be the scene, its volume (header or data file), its palette, the palette's CSV sources
+    // or its basis sidecar, nor one another.
     let mut files = crate::fsio::Outputs::new();
     if let Some(p) = &scene.path {
         files.input("scene", p);
@@ -196,6 +204,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     if let Some(p) = &scene.volume_path {
         files.input("volume", p);
     }
+    files.inputs_read(&read);
     for k in range.clone() {
         files.check("frame", &args.output.join(crate::render::sweep::frame_name(k)))?;
     }

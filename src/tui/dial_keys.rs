@@ -142,8 +142,8 @@ fn round(v: f64) -> f64 {
 /// Append `keyframes` to the scene file's `[[dial.keyframes]]` (a `path` there is replaced: a dial has
 /// either), keeping everything else of the file; atomic (a temporary file renamed over the old one).
 pub fn save_keyframes(path: &Path, keyframes: &[DialState]) -> Result<String, String> {
-    let show = path.display();
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{show}: cannot read: {e}"))?;
+    let show = crate::fsio::show(path);
+    let text = crate::fsio::read_to_string(path, crate::fsio::Kind::Scene).map_err(|e| e.to_string())?;
     let mut doc: DocumentMut = text.parse().map_err(|e| format!("{show}: not TOML: {e}"))?;
     let dial = doc.entry("dial").or_insert(Item::Table(Table::new()));
     let Some(dial) = dial.as_table_mut() else {
@@ -158,10 +158,8 @@ pub fn save_keyframes(path: &Path, keyframes: &[DialState]) -> Result<String, St
         frames.push(keyframe_table(k));
     }
     let total = frames.len();
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| format!("{show}: cannot write: {e}"))?;
-    std::io::Write::write_all(&mut tmp, doc.to_string().as_bytes()).map_err(|e| format!("{show}: {e}"))?;
-    tmp.persist(path).map_err(|e| format!("{show}: cannot replace: {e}"))?;
+    // The one atomic writer: the scene keeps its mode (and owner where permitted); a FIFO is refused.
+    crate::fsio::write_atomic(path, doc.to_string().as_bytes()).map_err(|e| e.to_string())?;
     let note = if had_path { " (its dial path is now these keyframes)" } else { "" };
     Ok(format!("saved {} keyframes into {show}: {total} in all{note}", keyframes.len()))
 }

@@ -568,3 +568,5 @@ fn the_next_open_offers_the_recovery_copy() {
     let s = screen(d);
     assert!(s.contains("unsaved work from an interrupted session is in p.recovery.toml"), "{s}");
 }
+
+mod inputs;

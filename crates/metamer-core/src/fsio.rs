@@ -15,7 +15,9 @@
 //!
 //! **Same file** ([`Outputs`]): an output must not be any input nor another output. Files are compared by
 //! identity (device and inode when they exist, the canonical folder plus name when they do not), so
-//! `p.toml`, `./p.toml` and a link to it are one file.
+//! `p.toml`, `./p.toml` and a link to it are one file. [`record_reads`] lists every file a piece of work
+//! read through this module (a scene's palette, its CSV sources, a NRRD header's detached data file…), so a
+//! command registers all its inputs at once ([`Outputs::inputs_read`]) instead of naming each one.
 
 use std::borrow::Cow;
 use std::fs::{File, Metadata};
@@ -194,6 +196,67 @@ fn open_nonblocking(path: &Path) -> std::io::Result<File> {
     options.open(path)
 }
 
+/// Every read while a [`record_reads`] is running, from any thread (readers work on rayon's threads too).
+struct ReadLog {
+    recorders: usize,
+    reads: Vec<(PathBuf, Kind)>,
+}
+
+static READ_LOG: std::sync::Mutex<ReadLog> = std::sync::Mutex::new(ReadLog { recorders: 0, reads: Vec::new() });
+/// The number of running recorders, read without the lock (reads pay nothing when none runs).
+static RECORDERS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+fn read_log() -> std::sync::MutexGuard<'static, ReadLog> {
+    READ_LOG.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+fn note_read(path: &Path, kind: Kind) {
+    if RECORDERS.load(std::sync::atomic::Ordering::Acquire) > 0 {
+        let mut log = read_log();
+        if log.recorders > 0 {
+            log.reads.push((path.to_path_buf(), kind));
+        }
+    }
+}
+
+/// Ends a recording, also when the work panics.
+struct Recording {
+    start: usize,
+}
+
+impl Recording {
+    fn start() -> Recording {
+        let mut log = read_log();
+        log.recorders += 1;
+        RECORDERS.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
+        Recording { start: log.reads.len() }
+    }
+}
+
+impl Drop for Recording {
+    fn drop(&mut self) {
+        let mut log = read_log();
+        log.recorders = log.recorders.saturating_sub(1);
+        RECORDERS.fetch_sub(1, std::sync::atomic::Ordering::AcqRel);
+        if log.recorders == 0 {
+            log.reads = Vec::new();
+        }
+    }
+}
+
+/// Run `work` and return its result with every file it read (or tried to read) through [`read`] or
+/// [`read_to_string`], in order, with its kind: the files readers find on their own (a scene's palette and
+/// volume, a palette's CSV sources, a NRRD header's `data file`) included. Reads on every thread are
+/// recorded, so work that runs while another thread reads too lists that thread's files as well (never
+/// fewer than its own).
+pub fn record_reads<T>(work: impl FnOnce() -> T) -> (T, Vec<(PathBuf, Kind)>) {
+    let recording = Recording::start();
+    let out = work();
+    let reads = read_log().reads.get(recording.start..).map(<[_]>::to_vec).unwrap_or_default();
+    drop(recording);
+    (out, reads)
+}
+
 /// Read the whole of a regular file of kind `kind`, at most its cap.
 pub fn read(path: &Path, kind: Kind) -> Result<Vec<u8>, FsError> {
     read_capped(path, kind, kind.cap())
@@ -202,6 +265,7 @@ pub fn read(path: &Path, kind: Kind) -> Result<Vec<u8>, FsError> {
 /// As [`read`], with an explicit cap (bytes).
 pub fn read_capped(path: &Path, kind: Kind, cap: u64) -> Result<Vec<u8>, FsError> {
     let io = |source| FsError::Read { path: path.to_path_buf(), kind, source };
+    note_read(path, kind);
     // Look before opening: a device is never opened (opening some has side effects).
     let before = std::fs::metadata(path).map_err(io)?;
     check_input(path, kind, cap, &before)?;
@@ -215,6 +279,22 @@ pub fn read_capped(path: &Path, kind: Kind, cap: u64) -> Result<Vec<u8>, FsError
         return Err(FsError::TooLarge { path: path.to_path_buf(), kind, size: bytes.len() as u64, cap });
     }
     Ok(bytes)
+}
+
+/// The first `max` bytes (at most) of a regular file of kind `kind` and the file's size: for formats whose
+/// header says how much more may be read (a NRRD file), so a huge file is never read whole to find that
+/// out. The size must be within the kind's cap.
+pub fn read_head(path: &Path, kind: Kind, max: u64) -> Result<(Vec<u8>, u64), FsError> {
+    let io = |source| FsError::Read { path: path.to_path_buf(), kind, source };
+    note_read(path, kind);
+    let before = std::fs::metadata(path).map_err(io)?;
+    check_input(path, kind, kind.cap(), &before)?;
+    let file = open_nonblocking(path).map_err(io)?;
+    let meta = file.metadata().map_err(io)?;
+    check_input(path, kind, kind.cap(), &meta)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(meta.len().min(max)).unwrap_or(0));
+    file.take(max).read_to_end(&mut bytes).map_err(io)?;
+    Ok((bytes, meta.len()))
 }
 
 fn check_input(path: &Path, kind: Kind, cap: u64, meta: &Metadata) -> Result<(), FsError> {
@@ -333,6 +413,14 @@ impl Outputs {
     pub fn input(&mut self, role: &str, path: &Path) -> &mut Self {
         if let Some(id) = identity(path) {
             self.known.push((id, path.to_path_buf(), role.to_string()));
+        }
+        self
+    }
+
+    /// Record every file of `reads` (from [`record_reads`]) as an input, each named by its kind.
+    pub fn inputs_read(&mut self, reads: &[(PathBuf, Kind)]) -> &mut Self {
+        for (path, kind) in reads {
+            self.input(kind.label(), path);
         }
         self
     }

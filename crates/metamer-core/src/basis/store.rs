@@ -205,9 +205,9 @@ pub fn for_set(
     let key = cache_key(set, m);
     let mut notes = Vec::new();
     let mut stored = false;
-    let mut sidecar = match cache {
+    let (mut sidecar, replaceable) = match cache {
         Some(path) => read_sidecar(path, &mut notes),
-        None => Sidecar { format: FORMAT.into(), entries: Vec::new() },
+        None => (Sidecar { format: FORMAT.into(), entries: Vec::new() }, true),
     };
     if let Some((basis, entry)) =
         sidecar.entries.iter().find(|e| e.key == key).and_then(|e| entry_basis(e, m, &colorimetry))
@@ -239,7 +239,15 @@ pub fn for_set(
     let pca = Basis::from_matrix(trained.pca.clone(), &colorimetry)?;
     let pca_span = Basis::from_matrix(trained.transform_only.clone(), &colorimetry).ok();
     let accuracy = AccuracyReport::measure(set, &trained.basis, pca_span.as_ref(), &pca, &colorimetry);
-    if let Some(path) = cache {
+    if let Some(path) = cache.filter(|p| {
+        replaceable || {
+            notes.push(format!(
+                "did not store the basis: {} is a symbolic link to a file that is not a basis sidecar (left as it is)",
+                crate::fsio::show(p)
+            ));
+            false
+        }
+    }) {
         sidecar.entries.retain(|e| e.key != key);
         sidecar.entries.push(Entry {
             key: key.clone(),
@@ -304,28 +312,32 @@ fn entry_basis<'a>(entry: &'a Entry, m: usize, colorimetry: &Colorimetry) -> Opt
     columns_basis(&entry.basis, m, colorimetry).map(|b| (b, entry))
 }
 
-fn read_sidecar(path: &Path, notes: &mut Vec<String>) -> Sidecar {
+/// The sidecar at `path` and whether storing may replace what is there: a corrupt sidecar file is
+/// replaced, but a symbolic link whose target is not a sidecar (`p.basis.json -> p.toml`) is never written
+/// through, since the write would land on that other file.
+fn read_sidecar(path: &Path, notes: &mut Vec<String>) -> (Sidecar, bool) {
     let empty = Sidecar { format: FORMAT.into(), entries: Vec::new() };
+    let replaceable = || !std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
     // Through the one bounded reader: a FIFO or a device as the sidecar is ignored, never waited on.
     let text = match crate::fsio::read_to_string(path, crate::fsio::Kind::Sidecar) {
         Ok(t) => t,
         Err(crate::fsio::FsError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
-            return empty;
+            return (empty, true);
         }
         Err(e) => {
             notes.push(format!("ignored the basis cache: {e}"));
-            return empty;
+            return (empty, replaceable());
         }
     };
     match serde_json::from_str::<Sidecar>(&text) {
-        Ok(s) if s.format == FORMAT => s,
+        Ok(s) if s.format == FORMAT => (s, true),
         Ok(s) => {
             notes.push(format!("ignored the basis cache {}: unknown format {:?}", crate::fsio::show(path), s.format));
-            empty
+            (empty, replaceable())
         }
         Err(e) => {
             notes.push(format!("ignored the basis cache {}: {e}", crate::fsio::show(path)));
-            empty
+            (empty, replaceable())
         }
     }
 }

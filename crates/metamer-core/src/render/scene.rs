@@ -199,7 +199,8 @@ impl Scene {
     /// Read a scene file with its volume taken from `volume` instead of the scene's `volume` key (the
     /// command line's `--volume PATH`); `None` resolves the key as [`Scene::load`] does.
     pub fn load_with_volume(path: &Path, volume: Option<&Path>) -> Result<Scene, RenderError> {
-        let bytes = std::fs::read(path).map_err(|e| scene_err(path, "file", format!("cannot read: {e}")))?;
+        let bytes =
+            crate::fsio::read(path, crate::fsio::Kind::Scene).map_err(|e| scene_err(path, "file", e.to_string()))?;
         let text =
             std::str::from_utf8(&bytes).map_err(|_| scene_err(path, "file", "not a text file (invalid UTF-8)"))?;
         Scene::parse_with_volume(text, path, volume)
@@ -228,6 +229,8 @@ impl Scene {
         let palette_path = dir.join(&file.palette);
         let palette = load_palette(&palette_path).map_err(|e| scene_err(path, "palette", e))?;
         let render = file.render.as_ref();
+        // Settings first: a bad `render` key is refused before a volume is read or generated.
+        let settings = settings_of(path, render)?;
         let generated = file.volume.strip_prefix("generated:").filter(|_| volume_override.is_none());
         let mut volume_path = None;
         let volume = if let Some(kind) = generated {
@@ -256,7 +259,6 @@ impl Scene {
                 None => Volume::open(&vpath)?,
             }
         };
-        let settings = settings_of(path, render)?;
         let camera = camera_of(path, file.camera.as_ref())?;
         let materials = materials_of(path, &palette, &file.materials)?;
         let dial = match &file.dial {
@@ -387,8 +389,9 @@ fn settings_of(path: &Path, r: Option<&RenderFile>) -> Result<SceneSettings, Ren
         s.ambient = a;
     }
     if let Some(e) = r.exposure {
-        if !(e.is_finite() && e > 0.0) {
-            return Err(scene_err(path, "render.exposure", format!("{e} is not a positive number")));
+        // Bounded both ways: the factor multiplies the automatic exposure, and 1e308 made it infinite.
+        if !(e.is_finite() && (1e-6..=1e6).contains(&e)) {
+            return Err(scene_err(path, "render.exposure", format!("{e:e} is outside 1e-6..=1e6")));
         }
         s.exposure = e;
     }

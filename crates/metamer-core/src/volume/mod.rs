@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 pub enum VolumeError {
     #[error("{0}")]
     File(crate::fsio::FsError),
-    #[error("{}: {reason}", path.display())]
+    #[error("{}: {reason}", crate::fsio::show(path))]
     Invalid { path: PathBuf, reason: String },
 }
 

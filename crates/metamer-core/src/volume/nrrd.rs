@@ -29,12 +29,98 @@ struct Header {
     line_skip: usize,
 }
 
-/// Read a `.nhdr` or `.nrrd` file.
+/// The longest header read: real NRRD headers are a few hundred bytes. Only this much of a file is read
+/// before its header says how many data bytes may follow.
+pub const HEADER_CAP: u64 = 1 << 20;
+
+/// Read a `.nhdr` or `.nrrd` file. Reads are bounded by what the header says: first at most
+/// [`HEADER_CAP`] bytes (the header must end within them), then the data (attached, or the detached `data
+/// file`) only when its size fits the header's sizes and type ([`data_cap`]), so a huge or sparse file is
+/// refused from its size, never read whole.
 pub fn read(path: &Path) -> Result<Volume, VolumeError> {
-    let bytes = super::read_file(path)?;
-    // The detached data file goes through the same bounded reader: only regular files (a header naming
-    // `/dev/zero` or a FIFO is refused, never read), at most the volume cap.
-    parse(path, &bytes, super::read_file)
+    let (head, size) =
+        crate::fsio::read_head(path, crate::fsio::Kind::Volume, HEADER_CAP).map_err(VolumeError::File)?;
+    let complete = head.len() as u64 >= size;
+    if !complete && !head.windows(2).any(|w| w == b"\n\n") && !head.windows(3).any(|w| w == b"\n\r\n") {
+        return Err(VolumeError::invalid(
+            path,
+            format!("the header does not end (with a blank line) within its first {HEADER_CAP} bytes"),
+        ));
+    }
+    let (header_text, data_start) = split_header(path, &head)?;
+    let header = parse_header(path, header_text)?;
+    let count = voxel_count(path, header.dims)?;
+    let cap = data_cap(&header, count);
+    let (data_path, file_bytes) = match &header.data_file {
+        Some(f) => {
+            // The detached data file goes through the same bounded reader: only regular files (a header
+            // naming `/dev/zero` or a FIFO is refused, never read), at most what the header allows.
+            let p = data_file_path(path, f);
+            let b = read_data(&p, cap)?;
+            (p, b)
+        }
+        None => {
+            let allowed = (data_start as u64).saturating_add(cap);
+            if size > allowed {
+                return Err(oversized(path, size, allowed));
+            }
+            let mut bytes = if complete { head } else { read_data(path, allowed)? };
+            bytes.drain(..data_start.min(bytes.len()));
+            (path.to_path_buf(), bytes)
+        }
+    };
+    let values = decode_payload(&data_path, &header, &file_bytes, count)?;
+    Volume::new(path, header.dims, header.spacing, values)
+}
+
+/// Where a header's `data file` is: relative to the header's folder.
+fn data_file_path(header: &Path, file: &Path) -> PathBuf {
+    header.parent().unwrap_or(Path::new(".")).join(file)
+}
+
+/// The most bytes the stored data of `h` (after the header, or in its data file) may take: the data
+/// itself, the byte and line skips, and for gzip and text the most their encodings can need. A raw file
+/// whose data sits at its end (`byte skip: -1`) may hold anything before it: the volume cap.
+fn data_cap(h: &Header, count: usize) -> u64 {
+    let cap = crate::fsio::Kind::Volume.cap();
+    let expected = (count as u64).saturating_mul(h.ty.size() as u64);
+    let skip = u64::try_from(h.byte_skip.max(0)).unwrap_or(0);
+    // Skipped lines (a comment block before the data): up to 64 KiB each.
+    let lines = (h.line_skip as u64).saturating_mul(64 << 10);
+    let stored = match h.encoding {
+        Encoding::Raw if h.byte_skip == -1 => return cap,
+        Encoding::Raw => skip.saturating_add(expected),
+        // Deflate grows incompressible data by well under 1/64; gzip's headers are a few bytes.
+        Encoding::Gzip => {
+            let inflated = skip.saturating_add(expected);
+            inflated.saturating_add(inflated / 64).saturating_add(64 << 10)
+        }
+        // A value as text: a number of up to 40 characters and a separator.
+        Encoding::Text => skip.saturating_add((count as u64).saturating_mul(48)).saturating_add(64 << 10),
+    };
+    // Plus 1 MiB: a file a little too long is read and told exactly how many bytes are too many.
+    stored.saturating_add(lines).saturating_add(HEADER_CAP).min(cap)
+}
+
+fn read_data(path: &Path, cap: u64) -> Result<Vec<u8>, VolumeError> {
+    match crate::fsio::read_capped(path, crate::fsio::Kind::Volume, cap) {
+        Err(crate::fsio::FsError::TooLarge { size, cap, .. }) => Err(oversized(path, size, cap)),
+        other => other.map_err(VolumeError::File),
+    }
+}
+
+fn oversized(path: &Path, size: u64, allowed: u64) -> VolumeError {
+    VolumeError::invalid(
+        path,
+        format!("is {size} bytes, more than the {allowed} the header's sizes, type and encoding allow (not read)"),
+    )
+}
+
+/// At most 80 characters of `text`, control characters escaped: how header text is quoted in errors.
+fn excerpt(text: &str) -> String {
+    let short: String = text.chars().take(80).collect();
+    let more = if short.len() < text.len() { "…" } else { "" };
+    format!("{}{more}", crate::fsio::escape(&short))
 }
 
 /// Read an attached NRRD held in memory (`origin` names it in errors). A header that names a detached
@@ -56,7 +142,7 @@ fn parse(
     let count = voxel_count(path, header.dims)?;
     let (data_path, file_bytes): (PathBuf, Vec<u8>) = match &header.data_file {
         Some(f) => {
-            let p = path.parent().unwrap_or(Path::new(".")).join(f);
+            let p = data_file_path(path, f);
             let b = load(&p)?;
             (p, b)
         }
@@ -108,7 +194,7 @@ fn parse_header(path: &Path, text: &str) -> Result<Header, VolumeError> {
         let line = line.trim_end_matches('\r');
         if i == 0 {
             if !line.starts_with("NRRD000") {
-                return Err(VolumeError::invalid(path, format!("unknown magic `{line}`")));
+                return Err(VolumeError::invalid(path, format!("unknown magic `{}`", excerpt(line))));
             }
             continue;
         }
@@ -116,21 +202,25 @@ fn parse_header(path: &Path, text: &str) -> Result<Header, VolumeError> {
             continue;
         }
         let Some((key, value)) = line.split_once(": ") else {
-            return Err(VolumeError::invalid(path, format!("header line {} is not `field: value`: `{line}`", i + 1)));
+            return Err(VolumeError::invalid(
+                path,
+                format!("header line {} is not `field: value`: `{}`", i + 1, excerpt(line)),
+            ));
         };
         let key = key.trim().to_ascii_lowercase();
         let value = value.trim();
+        let shown = excerpt(value);
         match key.as_str() {
             "type" => {
-                ty = Some(ScalarType::parse(value).ok_or_else(|| bad("type", format!("unsupported type `{value}`")))?)
+                ty = Some(ScalarType::parse(value).ok_or_else(|| bad("type", format!("unsupported type `{shown}`")))?)
             }
             "dimension" => {
                 dimension =
-                    Some(value.parse::<usize>().map_err(|_| bad("dimension", format!("`{value}` is no number")))?)
+                    Some(value.parse::<usize>().map_err(|_| bad("dimension", format!("`{shown}` is no number")))?)
             }
             "sizes" => {
                 let v: Result<Vec<usize>, _> = value.split_whitespace().map(str::parse).collect();
-                sizes = Some(v.map_err(|_| bad("sizes", format!("`{value}` are not whole numbers")))?);
+                sizes = Some(v.map_err(|_| bad("sizes", format!("`{shown}` are not whole numbers")))?);
             }
             "spacings" => {
                 let v: Vec<f64> = value.split_whitespace().map(|s| s.parse::<f64>().unwrap_or(f64::NAN)).collect();
@@ -144,7 +234,8 @@ fn parse_header(path: &Path, text: &str) -> Result<Header, VolumeError> {
                     }
                     let inner = part.trim_start_matches('(').trim_end_matches(')');
                     let comps: Result<Vec<f64>, _> = inner.split(',').map(|c| c.trim().parse::<f64>()).collect();
-                    let comps = comps.map_err(|_| bad("space directions", format!("`{part}` is not a vector")))?;
+                    let comps =
+                        comps.map_err(|_| bad("space directions", format!("`{}` is not a vector", excerpt(part))))?;
                     norms.push(comps.iter().map(|c| c * c).sum::<f64>().sqrt());
                 }
                 directions = Some(norms);
@@ -154,14 +245,19 @@ fn parse_header(path: &Path, text: &str) -> Result<Header, VolumeError> {
                     "raw" => Encoding::Raw,
                     "gzip" | "gz" => Encoding::Gzip,
                     "text" | "txt" | "ascii" => Encoding::Text,
-                    other => return Err(bad("encoding", format!("unsupported encoding `{other}` (raw, gzip, text)"))),
+                    other => {
+                        return Err(bad(
+                            "encoding",
+                            format!("unsupported encoding `{}` (raw, gzip, text)", excerpt(other)),
+                        ));
+                    }
                 })
             }
             "endian" => {
                 endian = Some(match value.to_ascii_lowercase().as_str() {
                     "little" => Endian::Little,
                     "big" => Endian::Big,
-                    other => return Err(bad("endian", format!("`{other}` is neither little nor big"))),
+                    other => return Err(bad("endian", format!("`{}` is neither little nor big", excerpt(other)))),
                 })
             }
             "data file" | "datafile" => {
@@ -171,13 +267,13 @@ fn parse_header(path: &Path, text: &str) -> Result<Header, VolumeError> {
                 data_file = Some(PathBuf::from(value));
             }
             "byte skip" => {
-                byte_skip = value.parse().map_err(|_| bad("byte skip", format!("`{value}` is no whole number")))?;
+                byte_skip = value.parse().map_err(|_| bad("byte skip", format!("`{shown}` is no whole number")))?;
                 if byte_skip < -1 {
                     return Err(bad("byte skip", format!("{byte_skip} is below -1")));
                 }
             }
             "line skip" => {
-                line_skip = value.parse().map_err(|_| bad("line skip", format!("`{value}` is no whole number")))?
+                line_skip = value.parse().map_err(|_| bad("line skip", format!("`{shown}` is no whole number")))?
             }
             _ => {}
         }

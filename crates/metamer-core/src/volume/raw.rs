@@ -16,8 +16,19 @@ pub fn read(
     spacing: [f64; 3],
 ) -> Result<Volume, VolumeError> {
     let count = voxel_count(path, dims)?;
-    let stored = super::read_file(path)?;
     let expected = count * ty.size();
+    // Never more than the volume needs (plus what gzip may add): a huge or sparse file is refused from its
+    // size, not read whole.
+    let cap = (expected as u64).saturating_add(expected as u64 / 64).saturating_add(1 << 20);
+    let stored = match crate::fsio::read_capped(path, crate::fsio::Kind::Volume, cap) {
+        Err(crate::fsio::FsError::TooLarge { size, .. }) => {
+            return Err(VolumeError::invalid(
+                path,
+                format!("is {size} bytes, more than {dims:?} values of {ty:?} can take ({expected} bytes; not read)"),
+            ));
+        }
+        other => other.map_err(VolumeError::File)?,
+    };
     let bytes = if stored.starts_with(&[0x1f, 0x8b]) {
         let mut out = Vec::new();
         // Inflate at most one byte more than the volume needs: a small gzip bomb stays small.
