@@ -171,9 +171,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             event_loop::run_main_loop(
                 &mut guard.terminal,
                 &mut state,
-                Io { events: &mut events, saver: &mut saver, on_frame: None, worker },
+                Io {
+                    events: &mut events,
+                    saver: &mut saver,
+                    on_frame: None,
+                    on_msg: None,
+                    worker,
+                    tick: Some(Duration::from_millis(80)),
+                },
             )
             .context("the terminal failed")?;
+            // The input thread stops before the terminal is restored (it reads no key meant for the shell).
+            drop(events);
             drop(guard);
             match &state.terminated {
                 Some(Some(copy)) => bail!("ended by a signal; unsaved work was written to {}", copy.display()),

@@ -396,9 +396,9 @@ fn reload_reads_the_outside_change() {
 
 #[test]
 fn csv_import_runs_off_the_ui_thread_and_esc_cancels_it() {
-    use metamer::palette::Kind as SpectrumKind;
-    use metamer::tui::action::Action;
-    use metamer::tui::update;
+    use crate::tui_support;
+    use metamer::tui::msg::Msg;
+    use metamer::tui::replay::MemorySaver;
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().to_path_buf();
     let path = d.join("p.toml");
@@ -407,29 +407,30 @@ fn csv_import_runs_off_the_ui_thread_and_esc_cancels_it() {
     let rows: String = (0..=30).map(|i| format!("{},{}\n", 400 + 10 * i, 0.25)).collect();
     std::fs::write(d.join("grey.csv"), rows).unwrap();
     let palette = PaletteFile::load(&path).unwrap().palette;
-    within(Duration::from_secs(10), move || {
-        let mut state = State::new(path, palette.clone(), ColourMode::TrueColor);
-        // Started, the UI thread returns at once: the status says what is read and how to cancel.
-        update::start_import(&mut state, SpectrumKind::Reflectance, "slow.csv");
-        assert!(state.import.is_some());
-        let text = state.message.as_ref().map(|m| m.text.clone()).unwrap_or_default();
-        assert!(text.contains("reading slow.csv") && text.contains("Esc cancels"), "{text}");
-        // Esc cancels: the reply is dropped, the palette is unchanged.
-        update::update(&mut state, Action::Back);
+    // R, the last entry of the list (import CSV…), the path, Enter.
+    let import = |file: &str| format!("R\nPageDown *3\nEnter\n\"{file}\"\nEnter\n");
+    within(Duration::from_secs(20), move || {
+        // Live: the import starts and the loop takes the next key at once (Esc, queued behind it), which
+        // cancels it; the reply, whenever it comes, is dropped.
+        let mut state = State::new(path.clone(), palette.clone(), ColourMode::TrueColor);
+        let mut msgs = tui_support::keys(&format!("{}Esc\n", import("slow.csv")));
+        msgs.push(Msg::End);
+        let taken = tui_support::run_live(&mut state, msgs, &mut MemorySaver::default());
+        assert!(taken.iter().rev().nth(1).is_some_and(|l| l == "key Esc"), "{taken:?}");
         assert!(state.import.is_none());
-        assert!(state.message.as_ref().is_some_and(|m| m.text.contains("cancelled")));
-        assert_eq!(update::poll_import(&mut state, Duration::from_millis(200)), update::Effects::default());
+        assert!(state.message.as_ref().is_some_and(|m| m.text.contains("import of slow.csv cancelled")));
         assert_eq!(state.palette, palette);
-        // Not cancelled, the FIFO's refusal arrives as an error naming it.
-        update::start_import(&mut state, SpectrumKind::Reflectance, "slow.csv");
-        update::poll_import(&mut state, Duration::from_secs(5));
+        // Not cancelled (a replay waits for the import), the FIFO's refusal arrives as an error naming it.
+        let mut state = State::new(path.clone(), palette.clone(), ColourMode::TrueColor);
+        let steps = replay::parse_script(&import("slow.csv")).unwrap();
+        let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
+        replay::run(&mut state, steps, 100, 30, false, &mut MemorySaver::default(), worker.clone()).unwrap();
         let m = state.message.clone().expect("a message");
         assert!(m.is_error && m.text.contains("slow.csv") && m.text.contains("FIFO"), "{}", m.text);
         assert_eq!(state.palette, palette);
-        // A regular CSV is added when its reply arrives (and asks for a solve).
-        update::start_import(&mut state, SpectrumKind::Reflectance, "grey.csv");
-        let effects = update::poll_import(&mut state, Duration::from_secs(5));
-        assert!(effects.solve);
+        // A regular CSV is added when its reply arrives.
+        let steps = replay::parse_script(&import("grey.csv")).unwrap();
+        replay::run(&mut state, steps, 100, 30, false, &mut MemorySaver::default(), worker).unwrap();
         assert_eq!(state.palette.reflectances.len(), palette.reflectances.len() + 1);
         assert!(state.palette.reflectances.iter().any(|r| r.name == "grey"));
     });
