@@ -48,11 +48,13 @@ fn a_worker_reply_is_a_message_and_only_update_applies_it() {
     assert_eq!(s.solve.running, Some(generation));
     assert!(s.busy() && s.solve.current().is_none());
     // A reply to an older request (a ticket a newer one replaced) changes nothing.
-    let effects = update(&mut s, solved(ticket - 1, generation, &s));
+    let reply = solved(ticket - 1, generation, &s);
+    let effects = update(&mut s, reply);
     assert!(effects.is_empty());
     assert!(s.solve.current().is_none() && s.solve.running.is_some());
     // The newest request's reply is applied: the solution is shown, nothing is under way.
-    update(&mut s, solved(ticket, generation, &s));
+    let reply = solved(ticket, generation, &s);
+    update(&mut s, reply);
     assert!(s.solve.current().is_some(), "the solution is the current palette's");
     assert_eq!(s.solve.running, None);
     assert!(!s.busy());
@@ -64,7 +66,8 @@ fn a_worker_reply_is_a_message_and_only_update_applies_it() {
     });
     let (t2, g2) = newer.expect("the edit asks for a solve");
     assert!(t2 > ticket && g2 > generation);
-    update(&mut s, solved(t2, generation, &s));
+    let reply = solved(t2, generation, &s);
+    update(&mut s, reply);
     assert!(s.solve.current().is_none(), "a reply for an older palette is not the current solution");
 }
 

@@ -318,7 +318,7 @@ pub(super) fn file(state: &mut State, outcome: FileOutcome, effects: &mut Vec<Ef
 pub(super) fn save_as_prompt(input: String, error: Option<EditError>) -> Prompt {
     Prompt {
         title: "save as".into(),
-        hint: "a path (relative to the folder the designer started in); Enter saves, Esc cancels".into(),
+        hint: "a path, relative to the folder the designer started in".into(),
         input,
         purpose: PromptPurpose::SaveAs,
         error: error.map(Into::into),
