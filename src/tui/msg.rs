@@ -51,8 +51,10 @@ pub struct Saved {
     pub path: Option<PathBuf>,
 }
 
-/// Which file operation a [`Msg::File`] answers.
+/// Which file operation a [`Msg::File`] answers. (One per file operation, moved once: the size of the
+/// save's variant does not matter.)
 #[derive(Clone, Debug, PartialEq)]
+#[allow(clippy::large_enum_variant)]
 pub enum FileOutcome {
     /// `Effect::Save` or `Effect::SaveAs` (`save_as`: the path typed): the palette that was written, and
     /// whether to quit now.
@@ -70,7 +72,9 @@ pub enum FileOutcome {
     Recovered(Result<PathBuf, FileError>),
 }
 
-/// One message to the designer.
+/// One message to the designer. (A few per key or reply, each moved once through the channel: the
+/// variants' sizes do not matter, so the large ones are not boxed.)
+#[allow(clippy::large_enum_variant)]
 pub enum Msg {
     /// The loop starts on a terminal of this size (columns, rows); `trains_bases`: the worker trains bases.
     Start { width: u16, height: u16, trains_bases: bool },
@@ -120,6 +124,7 @@ impl Msg {
 }
 
 /// A side effect [`crate::tui::update::update`] asks the loop to run; its result comes back as a [`Msg`].
+#[allow(clippy::large_enum_variant)]
 pub enum Effect {
     /// Solve `palette` (cancelling the running solve); the reply is a `Reply::Solved` with `ticket`.
     Solve { ticket: u64, generation: u64, palette: Palette, feasibility: Option<usize> },
