@@ -192,3 +192,24 @@ fn after_save_as_the_designer_works_on_the_new_file() {
     assert_ne!(std::fs::read_to_string(&copy).unwrap(), before, "the edit went to the new file");
     assert!(PaletteFile::load(&copy).is_ok());
 }
+
+#[test]
+fn the_outside_change_popup_offers_save_as() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, _) = setup(dir.path());
+    let file = PaletteFile::load(&path).unwrap();
+    let mut s = State::new(path.clone(), file.palette.clone(), ColourMode::TrueColor);
+    let mut saver = FileSaver::new(file);
+    let outside = WITH_CSV.replace("#806040", "#204080");
+    std::fs::write(&path, &outside).unwrap();
+    let screen = replay_file(&mut s, &mut saver, "wait-solve\nCtrl-s");
+    assert!(matches!(s.popup, Some(Popup::Conflict { .. })), "{screen}");
+    assert!(screen.contains("changed on disk") && screen.contains("save as"), "{screen}");
+    // `a` in the popup opens the save-as prompt; the designer's version goes to the typed path.
+    let mine = dir.path().join("mine.toml");
+    let screen = replay_file(&mut s, &mut saver, &format!("a\nCtrl-u\n\"{}\"\nEnter", mine.display()));
+    assert!(screen.contains("saved as"), "{screen}");
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), outside, "the outside change is kept");
+    assert_eq!(s.path, mine);
+    assert_eq!(PaletteFile::load(&mine).unwrap().palette.colours[0].target, s.palette.colours[0].target);
+}
