@@ -3,10 +3,11 @@
 
 use crate::colorimetry::Colorimetry;
 use crate::design::{DesignError, Solution};
+use crate::palette::file::PaletteFile;
 use crate::palette::{Bounds, Kind, Palette};
 use crate::tui::colour::ColourMode;
 use crate::tui::derived::Derived;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -278,11 +279,14 @@ pub struct Import {
 /// The whole model of the designer.
 #[derive(Debug)]
 pub struct State {
-    /// The palette file (shown in the title; saved to).
-    pub path: PathBuf,
+    /// The palette file as last loaded or saved: its path (shown in the title; saved to), its palette (the
+    /// `●` marker shows when `palette` differs) and its document (comments, key order, unknown keys, which a
+    /// save keeps). The one owner of these: a save hands a copy to the loop and gets the new file back.
+    pub file: PaletteFile,
+    /// The palette being edited.
     pub palette: Palette,
-    /// The palette as last loaded or saved (the `●` marker shows when they differ).
-    pub saved: Palette,
+    /// The outside change was shown and the user may now overwrite it (the next save does).
+    pub overwrite_armed: bool,
     pub colorimetry: Colorimetry,
     /// The CSV import being read, if any (Esc cancels it).
     pub import: Option<Import>,
@@ -357,13 +361,21 @@ pub struct FeasibilityView {
 }
 
 impl State {
-    /// A designer on `palette`, read from `path`.
+    /// A designer on `palette`, as if read from `path` (tests; the file's document is built from the
+    /// palette).
     pub fn new(path: PathBuf, palette: Palette, colour_mode: ColourMode) -> State {
+        let mut file = PaletteFile::from_palette(&palette);
+        file.path = Some(path);
+        State::with_file(file, colour_mode)
+    }
+
+    /// A designer on the palette of `file`.
+    pub fn with_file(file: PaletteFile, colour_mode: ColourMode) -> State {
         let colorimetry = Colorimetry::default();
         let mut state = State {
-            path,
-            saved: palette.clone(),
-            palette,
+            palette: file.palette.clone(),
+            file,
+            overwrite_armed: false,
             colorimetry,
             import: None,
             imports: 0,
@@ -416,9 +428,14 @@ impl State {
             || self.file_busy
     }
 
+    /// The palette file's path.
+    pub fn path(&self) -> &Path {
+        self.file.path.as_deref().unwrap_or(Path::new("palette.toml"))
+    }
+
     /// True when the palette differs from the file.
     pub fn is_dirty(&self) -> bool {
-        self.palette != self.saved
+        self.palette != self.file.palette
     }
 
     /// Recompute the derived colours (after any change of palette or solution).
@@ -536,7 +553,7 @@ impl State {
 
     /// The palette file's folder (CSV paths are relative to it).
     pub fn base_dir(&self) -> PathBuf {
-        match self.path.parent() {
+        match self.path().parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         }

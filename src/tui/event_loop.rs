@@ -55,21 +55,22 @@ impl Events for ChannelEvents {
     }
 }
 
-/// Writes the palette to its file. Every outcome is typed; the update step says what it means.
+/// Writes the palette to its file. The state owns the file (path, palette, document); each call gets a copy
+/// and a save returns the file as written. Every outcome is typed; the update step says what it means.
 pub trait Saver {
-    /// Save `palette` to the palette file.
-    fn save(&mut self, palette: &Palette) -> Result<Saved, FileError>;
-    /// Save `palette` to `path`, which becomes the palette file.
-    fn save_as(&mut self, _palette: &Palette, _path: &Path) -> Result<Saved, FileError> {
+    /// Save `palette` into `file` (`overwrite`: even when another program changed it on disk).
+    fn save(&mut self, file: &PaletteFile, palette: &Palette, overwrite: bool) -> Result<Saved, FileError>;
+    /// Save `palette` into `file` at `path`, which becomes the palette file.
+    fn save_as(&mut self, _file: &PaletteFile, _palette: &Palette, _path: &Path) -> Result<Saved, FileError> {
         Err(FileError::NoFile)
     }
-    /// Write `palette` as a recovery copy beside the file (on SIGTERM/SIGHUP with unsaved changes);
-    /// returns where it went.
-    fn recover(&mut self, _palette: &Palette) -> Result<PathBuf, FileError> {
+    /// Write `palette` as a recovery copy beside `file` (on SIGTERM/SIGHUP with unsaved changes); returns
+    /// where it went.
+    fn recover(&mut self, _file: &PaletteFile, _palette: &Palette) -> Result<PathBuf, FileError> {
         Err(FileError::NoFile)
     }
-    /// Read the file again; returns its palette.
-    fn reload(&mut self) -> Result<Palette, FileError> {
+    /// Read `file` again.
+    fn reload(&mut self, _file: &PaletteFile) -> Result<PaletteFile, FileError> {
         Err(FileError::NoFile)
     }
 }
@@ -89,72 +90,58 @@ pub fn recovery_path(palette_path: &std::path::Path) -> std::path::PathBuf {
 /// Saves to the palette file through its document, so comments, key order and unknown keys survive
 /// (atomically: a temporary file renamed over the old one; see [`PaletteFile::save`]).
 ///
-/// When another program changed the file since it was opened or last saved, a save does not overwrite it:
-/// the designer's version is saved as `NAME.mine.toml` beside it, and the user chooses: Ctrl-s again
-/// overwrites the file, Ctrl-r reloads it.
-#[derive(Debug)]
-pub struct FileSaver {
-    pub file: PaletteFile,
-    /// The outside change was shown and the user may now overwrite it (the next save does).
-    overwrite_armed: bool,
-}
-
-impl FileSaver {
-    pub fn new(file: PaletteFile) -> FileSaver {
-        FileSaver { file, overwrite_armed: false }
-    }
-}
+/// When another program changed the file since it was opened or last saved, a save does not overwrite it
+/// (unless told to): the designer's version is saved as `NAME.mine.toml` beside it, and the user chooses
+/// (the update step opens the conflict popup): overwrite, reload, or save as another file.
+#[derive(Debug, Default)]
+pub struct FileSaver;
 
 fn failed(e: impl std::fmt::Display) -> FileError {
     FileError::Failed(e.to_string())
 }
 
 impl Saver for FileSaver {
-    fn save(&mut self, palette: &Palette) -> Result<Saved, FileError> {
-        let path = self.file.path.clone().ok_or(FileError::NoFile)?;
-        if !std::mem::take(&mut self.overwrite_armed) && self.file.changed_on_disk() {
+    fn save(&mut self, file: &PaletteFile, palette: &Palette, overwrite: bool) -> Result<Saved, FileError> {
+        let path = file.path.clone().ok_or(FileError::NoFile)?;
+        if !overwrite && file.changed_on_disk() {
             let mine = mine_path(&path);
-            let mut copy = self.file.clone();
-            let aside = copy.save_as(palette, &mine).map(|()| mine).map_err(|e| e.to_string());
-            self.overwrite_armed = true;
+            let aside = file.clone().save_as(palette, &mine).map(|()| mine).map_err(|e| e.to_string());
             return Err(FileError::Conflict { path, aside });
         }
-        self.file.save(palette).map_err(failed)?;
-        Ok(Saved { text: format!("saved {}", path.display()), path: None })
+        let mut file = file.clone();
+        file.save(palette).map_err(failed)?;
+        Ok(Saved { text: format!("saved {}", path.display()), file })
     }
 
-    fn save_as(&mut self, palette: &Palette, path: &Path) -> Result<Saved, FileError> {
+    fn save_as(&mut self, file: &PaletteFile, palette: &Palette, path: &Path) -> Result<Saved, FileError> {
         if path.as_os_str().is_empty() {
             return Err(FileError::NoPath);
         }
         // Never onto what the palette reads (its CSV spectra); onto the palette file itself it is a save.
         let mut files = crate::fsio::Outputs::new();
-        self.file.record_inputs("palette", &mut files);
-        match self.file.path.clone() {
+        file.record_inputs("palette", &mut files);
+        match file.path.clone() {
             Some(own) => files.output_except("palette", path, &own).map(|_| ()),
             None => files.output("palette", path).map(|_| ()),
         }
         .map_err(failed)?;
-        self.file.save_as(palette, path).map_err(failed)?;
-        self.overwrite_armed = false;
-        Ok(Saved { text: format!("saved as {}", crate::fsio::show(path)), path: Some(path.to_path_buf()) })
+        let mut file = file.clone();
+        file.save_as(palette, path).map_err(failed)?;
+        Ok(Saved { text: format!("saved as {}", crate::fsio::show(path)), file })
     }
 
-    fn recover(&mut self, palette: &Palette) -> Result<PathBuf, FileError> {
-        let path = self.file.path.as_deref().ok_or(FileError::NoFile)?;
+    fn recover(&mut self, file: &PaletteFile, palette: &Palette) -> Result<PathBuf, FileError> {
+        let path = file.path.as_deref().ok_or(FileError::NoFile)?;
         let target = recovery_path(path);
         // A copy of the file's document, so comments and unknown keys are in the recovery copy too; the
         // palette file itself is not touched.
-        let mut copy = self.file.clone();
-        copy.save_as(palette, &target).map_err(failed)?;
+        file.clone().save_as(palette, &target).map_err(failed)?;
         Ok(target)
     }
 
-    fn reload(&mut self) -> Result<Palette, FileError> {
-        let path = self.file.path.clone().ok_or(FileError::NoFile)?;
-        self.file = PaletteFile::load(&path).map_err(failed)?;
-        self.overwrite_armed = false;
-        Ok(self.file.palette.clone())
+    fn reload(&mut self, file: &PaletteFile) -> Result<PaletteFile, FileError> {
+        let path = file.path.clone().ok_or(FileError::NoFile)?;
+        PaletteFile::load(&path).map_err(failed)
     }
 }
 
@@ -269,21 +256,21 @@ impl Runner<'_> {
                     self.send(Msg::Imported { id, result: Err(reason) });
                 }
             }
-            Effect::Save { palette, before, quit_after } => {
-                let result = self.saver.save(&palette);
-                self.send(Msg::File(FileOutcome::Saved { palette, before, result, quit_after, save_as: None }));
+            Effect::Save { file, palette, before, quit_after, overwrite } => {
+                let result = self.saver.save(&file, &palette, overwrite);
+                self.send(Msg::File(FileOutcome::Saved { before, result, quit_after, save_as: None }));
             }
-            Effect::SaveAs { palette, before, path } => {
-                let result = self.saver.save_as(&palette, &path);
-                let outcome = FileOutcome::Saved { palette, before, result, quit_after: false, save_as: Some(path) };
+            Effect::SaveAs { file, palette, before, path } => {
+                let result = self.saver.save_as(&file, &palette, &path);
+                let outcome = FileOutcome::Saved { before, result, quit_after: false, save_as: Some(path) };
                 self.send(Msg::File(outcome));
             }
-            Effect::Reload => {
-                let result = self.saver.reload();
+            Effect::Reload { file } => {
+                let result = self.saver.reload(&file);
                 self.send(Msg::File(FileOutcome::Reloaded(result)));
             }
-            Effect::Recover { palette } => {
-                let result = self.saver.recover(&palette);
+            Effect::Recover { file, palette } => {
+                let result = self.saver.recover(&file, &palette);
                 self.send(Msg::File(FileOutcome::Recovered(result)));
             }
         }

@@ -8,6 +8,7 @@
 
 use crate::basis::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
+use crate::palette::file::PaletteFile;
 use crate::palette::{Kind, Palette};
 use crate::render::relight::ColourModel;
 use crate::render::scene::Scene;
@@ -43,31 +44,30 @@ pub enum FileError {
 }
 
 /// A save that went through.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Saved {
     /// What the status line says (where it went).
     pub text: String,
-    /// The new palette file, after a save-as.
-    pub path: Option<PathBuf>,
+    /// The palette file as written (its path: the new one after a save-as).
+    pub file: PaletteFile,
 }
 
 /// Which file operation a [`Msg::File`] answers. (One per file operation, moved once: the size of the
 /// save's variant does not matter.)
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)]
 pub enum FileOutcome {
-    /// `Effect::Save` or `Effect::SaveAs` (`save_as`: the path typed): the palette that was written, and
+    /// `Effect::Save` or `Effect::SaveAs` (`save_as`: the path typed): the file as written (or why not), and
     /// whether to quit now.
     Saved {
-        palette: Palette,
         /// The palette on screen when the save was asked for.
         before: Palette,
         result: Result<Saved, FileError>,
         quit_after: bool,
         save_as: Option<PathBuf>,
     },
-    /// `Effect::Reload`: the palette read from the file.
-    Reloaded(Result<Palette, FileError>),
+    /// `Effect::Reload`: the file read again.
+    Reloaded(Result<PaletteFile, FileError>),
     /// `Effect::Recover`: where the recovery copy went.
     Recovered(Result<PathBuf, FileError>),
 }
@@ -142,12 +142,13 @@ pub enum Effect {
         palette: Palette,
         colorimetry: Colorimetry,
     },
-    /// Save `palette` to the palette file (`before`: the palette on screen, handed back with the outcome).
-    Save { palette: Palette, before: Palette, quit_after: bool },
-    /// Save `palette` to `path`, which becomes the palette file.
-    SaveAs { palette: Palette, before: Palette, path: PathBuf },
+    /// Save `palette` into `file` (`before`: the palette on screen, handed back with the outcome;
+    /// `overwrite`: even when the file changed on disk).
+    Save { file: PaletteFile, palette: Palette, before: Palette, quit_after: bool, overwrite: bool },
+    /// Save `palette` into `file` at `path`, which becomes the palette file.
+    SaveAs { file: PaletteFile, palette: Palette, before: Palette, path: PathBuf },
     /// Read the palette file again.
-    Reload,
-    /// Write a recovery copy of `palette` beside the file.
-    Recover { palette: Palette },
+    Reload { file: PaletteFile },
+    /// Write a recovery copy of `palette` beside `file`.
+    Recover { file: PaletteFile, palette: Palette },
 }

@@ -15,6 +15,7 @@
 //! ```
 
 use crate::palette::Palette;
+use crate::palette::file::PaletteFile;
 use crate::tui::app::State;
 use crate::tui::event_loop::{self, Events, Io, Saver};
 use crate::tui::msg::{FileError, Msg, Saved};
@@ -191,9 +192,11 @@ pub struct MemorySaver {
 }
 
 impl Saver for MemorySaver {
-    fn save(&mut self, palette: &Palette) -> Result<Saved, FileError> {
+    fn save(&mut self, file: &PaletteFile, palette: &Palette, _overwrite: bool) -> Result<Saved, FileError> {
         self.saved.push(palette.clone());
-        Ok(Saved { text: "saved (in memory)".into(), path: None })
+        let mut file = file.clone();
+        file.palette = palette.clone();
+        Ok(Saved { text: "saved (in memory)".into(), file })
     }
 }
 

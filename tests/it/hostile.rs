@@ -351,12 +351,11 @@ fn render_refuses_outputs_onto_the_volume() {
 
 // ----------------------------------------------------------------------------------------- designer
 
-fn replay_with(path: &Path, saver: &mut FileSaver, script: &str) -> (State, Vec<String>) {
-    let mut state = State::new(path.to_path_buf(), saver.file.palette.clone(), ColourMode::TrueColor);
+fn replay_with(state: &mut State, script: &str) -> Vec<String> {
     let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
     let steps = replay::parse_script(script).expect("valid script");
-    let (frames, _) = replay::run(&mut state, steps, 100, 30, true, saver, worker).expect("replay runs");
-    (state, frames)
+    let (frames, _) = replay::run(state, steps, 100, 30, true, &mut FileSaver, worker).expect("replay runs");
+    frames
 }
 
 #[test]
@@ -364,18 +363,18 @@ fn an_outside_change_is_not_overwritten_silently() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.toml");
     std::fs::write(&path, SMALL).unwrap();
-    let mut saver = FileSaver::new(PaletteFile::load(&path).unwrap());
+    let mut state = State::with_file(PaletteFile::load(&path).unwrap(), ColourMode::TrueColor);
     // Another program rewrites the file while it is open.
     let outside = SMALL.replace("#806040", "#204080");
     std::fs::write(&path, &outside).unwrap();
-    let (_, frames) = replay_with(&path, &mut saver, "wait-solve\nCtrl-s");
+    let frames = replay_with(&mut state, "wait-solve\nCtrl-s");
     let last = frames.last().unwrap();
     assert!(last.contains("changed on disk"), "{last}");
     assert_eq!(std::fs::read_to_string(&path).unwrap(), outside, "the outside change is kept");
     let mine = PaletteFile::load(&mine_path(&path)).expect("the designer's version is saved aside");
-    assert_eq!(mine.palette.colours[0].target, saver.file.palette.colours[0].target);
+    assert_eq!(mine.palette.colours[0].target, state.palette.colours[0].target);
     // Ctrl-s again overwrites (the user chose to).
-    let (_, frames) = replay_with(&path, &mut saver, "Ctrl-s");
+    let frames = replay_with(&mut state, "Ctrl-s");
     assert!(frames.last().unwrap().contains("saved"), "{}", frames.last().unwrap());
     assert_ne!(std::fs::read_to_string(&path).unwrap(), outside);
 }
@@ -385,13 +384,14 @@ fn reload_reads_the_outside_change() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.toml");
     std::fs::write(&path, SMALL).unwrap();
-    let mut saver = FileSaver::new(PaletteFile::load(&path).unwrap());
+    let mut state = State::with_file(PaletteFile::load(&path).unwrap(), ColourMode::TrueColor);
     let outside = SMALL.replace("#806040", "#204080");
     std::fs::write(&path, &outside).unwrap();
-    let (state, _) = replay_with(&path, &mut saver, "Ctrl-r\nwait-solve");
+    replay_with(&mut state, "Ctrl-r\nwait-solve");
     let expected = PaletteFile::parse(&outside, &path).unwrap().palette;
     assert_eq!(state.palette, expected);
     assert_eq!(state.history.undo.len(), 1, "the reload can be undone");
+    assert!(!state.is_dirty(), "the reloaded file is the one on screen");
 }
 
 #[test]
@@ -441,10 +441,10 @@ fn a_recovery_copy_is_written_beside_the_palette() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.toml");
     std::fs::write(&path, SMALL).unwrap();
-    let mut saver = FileSaver::new(PaletteFile::load(&path).unwrap());
-    let mut edited = saver.file.palette.clone();
+    let file = PaletteFile::load(&path).unwrap();
+    let mut edited = file.palette.clone();
     edited.reflectances[0].name = "renamed".into();
-    let at = saver.recover(&edited).expect("recovery copy written");
+    let at = FileSaver.recover(&file, &edited).expect("recovery copy written");
     assert_eq!(at, recovery_path(&path));
     assert_eq!(PaletteFile::load(&at).unwrap().palette.reflectances[0].name, "renamed");
     assert_eq!(std::fs::read_to_string(&path).unwrap(), SMALL, "the palette itself is untouched");

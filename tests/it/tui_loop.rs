@@ -146,8 +146,8 @@ fn save_as_onto_an_input_or_a_folder_is_refused_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let (path, csv) = setup(dir.path());
     let file = PaletteFile::load(&path).unwrap();
-    let mut s = State::new(path.clone(), file.palette.clone(), ColourMode::TrueColor);
-    let mut saver = FileSaver::new(file);
+    let mut s = State::with_file(file, ColourMode::TrueColor);
+    let mut saver = FileSaver;
     let files = listing(dir.path());
     for (target, reason) in [("grey.csv", "same file as the CSV spectrum"), ("sub", "not a regular file")] {
         let typed = dir.path().join(target);
@@ -162,7 +162,7 @@ fn save_as_onto_an_input_or_a_folder_is_refused_and_writes_nothing() {
         assert!(screen.contains(reason) || screen.contains("refusing"), "{screen}");
         replay_file(&mut s, &mut saver, "Esc");
         assert!(s.popup.is_none(), "Esc cancels");
-        assert_eq!(s.path, path, "the designer still works on its file");
+        assert_eq!(s.path(), path, "the designer still works on its file");
         assert_eq!(std::fs::read_to_string(dir.path().join("grey.csv")).unwrap(), csv, "the CSV is untouched");
         assert_eq!(std::fs::read_to_string(&path).unwrap(), WITH_CSV, "the palette is untouched");
         assert_eq!(listing(dir.path()), files, "nothing written");
@@ -175,12 +175,12 @@ fn after_save_as_the_designer_works_on_the_new_file() {
     let dir = tempfile::tempdir().unwrap();
     let (path, _) = setup(dir.path());
     let file = PaletteFile::load(&path).unwrap();
-    let mut s = State::new(path.clone(), file.palette.clone(), ColourMode::TrueColor);
-    let mut saver = FileSaver::new(file);
+    let mut s = State::with_file(file, ColourMode::TrueColor);
+    let mut saver = FileSaver;
     let copy = dir.path().join("sub").join("copy.toml");
     let screen = replay_file(&mut s, &mut saver, &format!("wait-solve\nCtrl-w\nCtrl-u\n\"{}\"\nEnter", copy.display()));
     assert!(screen.contains("saved as"), "{screen}");
-    assert_eq!(s.path, copy);
+    assert_eq!(s.path(), copy);
     assert!(!s.is_dirty());
     assert_eq!(std::fs::read_to_string(&path).unwrap(), WITH_CSV, "the old file is untouched");
     let saved = PaletteFile::load(&copy).expect("the copy reads back");
@@ -198,8 +198,8 @@ fn the_outside_change_popup_offers_save_as() {
     let dir = tempfile::tempdir().unwrap();
     let (path, _) = setup(dir.path());
     let file = PaletteFile::load(&path).unwrap();
-    let mut s = State::new(path.clone(), file.palette.clone(), ColourMode::TrueColor);
-    let mut saver = FileSaver::new(file);
+    let mut s = State::with_file(file, ColourMode::TrueColor);
+    let mut saver = FileSaver;
     let outside = WITH_CSV.replace("#806040", "#204080");
     std::fs::write(&path, &outside).unwrap();
     let screen = replay_file(&mut s, &mut saver, "wait-solve\nCtrl-s");
@@ -210,6 +210,6 @@ fn the_outside_change_popup_offers_save_as() {
     let screen = replay_file(&mut s, &mut saver, &format!("a\nCtrl-u\n\"{}\"\nEnter", mine.display()));
     assert!(screen.contains("saved as"), "{screen}");
     assert_eq!(std::fs::read_to_string(&path).unwrap(), outside, "the outside change is kept");
-    assert_eq!(s.path, mine);
+    assert_eq!(s.path(), mine);
     assert_eq!(PaletteFile::load(&mine).unwrap().palette.colours[0].target, s.palette.colours[0].target);
 }

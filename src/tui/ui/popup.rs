@@ -189,7 +189,7 @@ impl Widget for PopupView<'_> {
             Popup::ConfirmQuit => {
                 let r = centred(area, 56, 6);
                 let inner = frame(r, buf, "unsaved changes");
-                let name = state.path.display().to_string();
+                let name = state.path().display().to_string();
                 put(buf, inner, 1, 0, &fit(&format!("{name} has unsaved changes."), 52), bold);
                 put(buf, inner, 1, 1, "s  save, then quit", Style::new());
                 put(buf, inner, 1, 2, "y  quit without saving", Style::new());

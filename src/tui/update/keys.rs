@@ -285,7 +285,7 @@ fn on_palette(state: &mut State, action: Action) -> Wants {
         }
         Action::Save => Wants { save: true, ..Wants::NONE },
         Action::SaveAs => {
-            let now = state.path.display().to_string();
+            let now = state.path().display().to_string();
             state.popup = Some(Popup::Prompt(super::replies::save_as_prompt(now, None)));
             Wants::NONE
         }

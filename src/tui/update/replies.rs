@@ -33,19 +33,22 @@ pub(super) fn run(state: &mut State, wants: Wants, effects: &mut Vec<Effect>) {
     }
     if wants.reload {
         state.file_busy = true;
-        effects.push(Effect::Reload);
+        effects.push(Effect::Reload { file: state.file.clone() });
     }
     if wants.save {
         state.file_busy = true;
         effects.push(Effect::Save {
+            file: state.file.clone(),
             palette: palette_to_save(state),
             before: state.palette.clone(),
             quit_after: wants.quit_after_save,
+            overwrite: std::mem::take(&mut state.overwrite_armed),
         });
     }
     if let Some(path) = wants.save_as {
         state.file_busy = true;
-        effects.push(Effect::SaveAs { palette: palette_to_save(state), before: state.palette.clone(), path });
+        let (palette, before) = (palette_to_save(state), state.palette.clone());
+        effects.push(Effect::SaveAs { file: state.file.clone(), palette, before, path });
     }
 }
 
@@ -250,17 +253,17 @@ pub(super) fn imported(state: &mut State, id: u64, result: Result<Palette, EditE
 pub(super) fn file(state: &mut State, outcome: FileOutcome, effects: &mut Vec<Effect>) {
     state.file_busy = false;
     match outcome {
-        FileOutcome::Saved { palette, before, result, quit_after, save_as } => match result {
+        FileOutcome::Saved { before, result, quit_after, save_as } => match result {
             Ok(saved) => {
                 let solved = state.solve.current().is_some();
-                if let Some(path) = saved.path {
-                    state.path = path;
-                }
-                state.saved = palette.clone();
-                // Keys that came while the file was written are kept: the palette is replaced by the one
-                // saved only when it is still the one the save started from.
-                if state.palette == before && palette != state.palette {
-                    state.palette = palette;
+                state.file = saved.file;
+                state.overwrite_armed = false;
+                // The palette on screen becomes the file's as written (read back), so the `●` marker compares
+                // with what is on disk. Keys that came while the file was written are kept: the palette is
+                // replaced only when it is still the one the save started from.
+                let written = &state.file.palette;
+                if state.palette == before && *written != state.palette {
+                    state.palette = written.clone();
                     // The palette now starts from its solution. Solve it again so the title shows exactly
                     // what the saved file solves to (the same optimum for designs with one side designed;
                     // a joint design may improve a little from its new start). The last solution stays on
@@ -281,6 +284,8 @@ pub(super) fn file(state: &mut State, outcome: FileOutcome, effects: &mut Vec<Ef
                 }
             }
             Err(e @ FileError::Conflict { .. }) => {
+                // The user has seen it: the next save overwrites.
+                state.overwrite_armed = true;
                 state.complain("not saved: the file changed on disk");
                 state.popup = Some(Popup::Conflict { text: e.to_string() });
             }
@@ -293,13 +298,14 @@ pub(super) fn file(state: &mut State, outcome: FileOutcome, effects: &mut Vec<Ef
                 None => state.complain(format!("not saved: {e}")),
             },
         },
-        FileOutcome::Reloaded(Ok(palette)) => {
+        FileOutcome::Reloaded(Ok(file)) => {
             // The palette on screen is kept in the undo history: `z` brings it back.
-            let mine = std::mem::replace(&mut state.palette, palette.clone());
+            let mine = std::mem::replace(&mut state.palette, file.palette.clone());
             state.history.undo.push(mine);
             state.history.redo.clear();
             state.history.last_edit = None;
-            state.saved = palette;
+            state.file = file;
+            state.overwrite_armed = false;
             state.solve.generation += 1;
             state.clamp_selection();
             state.refresh();
@@ -329,7 +335,7 @@ pub(super) fn save_as_prompt(input: String, error: Option<EditError>) -> Prompt 
 pub(super) fn terminated(state: &mut State, effects: &mut Vec<Effect>) {
     if state.is_dirty() {
         state.file_busy = true;
-        effects.push(Effect::Recover { palette: palette_to_save(state) });
+        effects.push(Effect::Recover { file: state.file.clone(), palette: palette_to_save(state) });
     } else {
         state.terminated = Some(None);
         state.quit = true;
