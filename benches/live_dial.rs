@@ -15,6 +15,7 @@ use metamer::render::scene::builtin_scene;
 use metamer::tui::action::Action;
 use metamer::tui::colour::ColourMode;
 use metamer::tui::graphics::{Graphics, PreviewMode};
+use metamer::tui::msg::Msg;
 use metamer::tui::preview::{MAX_PREVIEW_EDGE, Preview, cast, preview_model};
 use metamer::tui::ui::preview_areas;
 use metamer::tui::update::update;
@@ -50,7 +51,7 @@ fn dial_move(c: &mut Criterion) {
         c.bench_function(&format!("live/dial_move_{label}_{side}px"), |b| {
             b.iter(|| {
                 dx = -dx;
-                update(&mut state, Action::DialSlide { dx, dy: 0, big: false });
+                update(&mut state, Msg::Action(Action::DialSlide { dx, dy: 0, big: false }));
                 terminal.draw(|f| f.render_widget(&state, f.area())).expect("draw");
             })
         });

@@ -15,6 +15,7 @@ use metamer::palette::Bounds;
 use metamer::tui::action::{Action, Direction};
 use metamer::tui::app::Focus;
 use metamer::tui::colour::ColourMode;
+use metamer::tui::msg::Msg;
 use metamer::tui::update::update;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
@@ -27,8 +28,8 @@ fn frame(c: &mut Criterion) {
     let mut terminal = Terminal::new(TestBackend::new(100, 30)).expect("test backend");
     c.bench_function("design/edit_and_redraw_8x8", |b| {
         b.iter(|| {
-            update(&mut state, Action::Move(Direction::Right));
-            update(&mut state, Action::Move(Direction::Left));
+            update(&mut state, Msg::Action(Action::Move(Direction::Right)));
+            update(&mut state, Msg::Action(Action::Move(Direction::Left)));
             terminal.draw(|f| f.render_widget(&state, f.area())).expect("draw");
         })
     });
@@ -43,7 +44,7 @@ fn frame(c: &mut Criterion) {
         state.palette.settings.light_bounds = l;
         c.bench_function(&format!("design/{label}"), |b| {
             b.iter(|| {
-                update(&mut state, Action::Move(Direction::Right));
+                update(&mut state, Msg::Action(Action::Move(Direction::Right)));
                 let solved = design::solve(
                     &state.palette,
                     state.basis.as_ref().map(|(_, r)| &r.0),
@@ -57,7 +58,7 @@ fn frame(c: &mut Criterion) {
                 state.refresh();
                 terminal.draw(|f| f.render_widget(&state, f.area())).expect("draw");
                 black_box(&state.derived);
-                update(&mut state, Action::Move(Direction::Left));
+                update(&mut state, Msg::Action(Action::Move(Direction::Left)));
             })
         });
     }

@@ -99,9 +99,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let file = PaletteFile::load(&args.input)?;
     let colours = args.colours.unwrap_or_else(ColourMode::detect);
-    let mut state = State::new(args.input.clone(), file.palette.clone(), colours);
-    if !file.warnings.is_empty() {
-        state.say(file.warnings.join("; "));
+    let warnings = file.warnings.join("; ");
+    let mut state = State::with_file(file, colours);
+    if !warnings.is_empty() {
+        state.say(warnings);
     }
     let recovery = crate::tui::event_loop::recovery_path(&args.input);
     if recovery.is_file() {
@@ -125,7 +126,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         };
         state.set_preview_scene(scene.context("--scene")?);
     }
-    let mut saver = FileSaver::new(file);
+    let mut saver = FileSaver;
     let worker = WorkerConfig {
         time_limit: Duration::try_from_secs_f64(args.time_limit).unwrap_or(Duration::MAX),
         basis: if args.no_basis {
@@ -138,7 +139,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(script_path) => {
             // The screen must not be the palette, its CSV sources, its sidecar, the scene or the script.
             let mut files = crate::fsio::Outputs::new();
-            saver.file.record_inputs("palette", &mut files);
+            state.file.record_inputs("palette", &mut files);
             files.input("basis sidecar", &sidecar_path(&args.input)).input("key script", script_path);
             if let Some(scene) = &args.scene {
                 files.input("scene", scene);
@@ -180,9 +181,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             event_loop::run_main_loop(
                 &mut guard.terminal,
                 &mut state,
-                Io { events: &mut events, saver: &mut saver, on_frame: None, worker },
+                Io {
+                    events: &mut events,
+                    saver: &mut saver,
+                    on_frame: None,
+                    on_msg: None,
+                    worker,
+                    tick: Some(Duration::from_millis(80)),
+                },
             )
             .context("the terminal failed")?;
+            // The input thread stops before the terminal is restored (it reads no key meant for the shell).
+            drop(events);
             drop(guard);
             match &state.terminated {
                 Some(Some(copy)) => bail!("ended by a signal; unsaved work was written to {}", copy.display()),

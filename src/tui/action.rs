@@ -45,6 +45,8 @@ pub enum Action {
     Undo,
     Redo,
     Save,
+    /// Save the palette to a path typed in a prompt; that file becomes the palette file.
+    SaveAs,
     /// Read the palette file again (another program changed it), dropping unsaved changes (undo keeps them).
     Reload,
     Help,

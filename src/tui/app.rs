@@ -3,10 +3,11 @@
 
 use crate::colorimetry::Colorimetry;
 use crate::design::{DesignError, Solution};
+use crate::palette::file::PaletteFile;
 use crate::palette::{Bounds, Kind, Palette};
 use crate::tui::colour::ColourMode;
 use crate::tui::derived::Derived;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -125,6 +126,8 @@ pub enum PromptPurpose {
     CsvPath(Kind),
     /// Temperature of a new Planck light.
     NewPlanck,
+    /// The path to save the palette to (save as).
+    SaveAs,
 }
 
 /// A one-line text prompt.
@@ -134,8 +137,8 @@ pub struct Prompt {
     pub hint: String,
     pub input: String,
     pub purpose: PromptPurpose,
-    /// Why the last answer was refused.
-    pub error: Option<String>,
+    /// Why the last answer was refused (rendered by the view).
+    pub error: Option<crate::tui::edits::Refusal>,
 }
 
 /// One entry of an "add" list.
@@ -186,6 +189,11 @@ pub enum Popup {
     },
     /// `q` with unsaved changes.
     ConfirmQuit,
+    /// Another program changed the palette file: overwrite it, reload it or save as another file. `text`
+    /// says what happened (and where the designer's version was saved aside).
+    Conflict {
+        text: String,
+    },
 }
 
 /// A short message in the bottom line until the next key.
@@ -222,6 +230,12 @@ pub struct SolveStatus {
     pub generation: u64,
     /// The generation now being solved, if any.
     pub running: Option<u64>,
+    /// Solve requests sent so far (the ticket of the newest); only the newest one's reply counts.
+    pub tickets: u64,
+    /// When the newest solve was asked for (the progress line's clock).
+    pub started: Option<std::time::Instant>,
+    /// The key of the newest basis asked for (the same spectra are not asked for twice).
+    pub basis_asked: Option<String>,
     /// How long the running solve has been going (updated on ticks; shown as progress).
     pub running_for: Duration,
     /// The latest solution and the generation it belongs to.
@@ -249,28 +263,43 @@ impl SolveStatus {
 }
 
 /// A CSV import running off the UI thread (the read is bounded by `crate::fsio`, so the thread ends).
-#[derive(Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Import {
+    /// Which import this is (a reply to an older, cancelled one is dropped).
+    pub id: u64,
     /// The path as typed.
     pub path: String,
     pub kind: Kind,
+    /// The name the new spectrum gets.
+    pub name: String,
     /// The palette the import was started from (a reply for another palette is dropped).
     pub before: Palette,
-    /// The palette with the spectrum added, or why it was not.
-    pub reply: std::sync::mpsc::Receiver<Result<Palette, String>>,
 }
 
 /// The whole model of the designer.
 #[derive(Debug)]
 pub struct State {
-    /// The palette file (shown in the title; saved to).
-    pub path: PathBuf,
+    /// The palette file as last loaded or saved: its path (shown in the title; saved to), its palette (the
+    /// `●` marker shows when `palette` differs) and its document (comments, key order, unknown keys, which a
+    /// save keeps). The one owner of these: a save hands a copy to the loop and gets the new file back.
+    pub file: PaletteFile,
+    /// The palette being edited.
     pub palette: Palette,
-    /// The palette as last loaded or saved (the `●` marker shows when they differ).
-    pub saved: Palette,
+    /// The outside change was shown and the user may now overwrite it (the next save does).
+    pub overwrite_armed: bool,
     pub colorimetry: Colorimetry,
     /// The CSV import being read, if any (Esc cancels it).
     pub import: Option<Import>,
+    /// The worker trains bases (off: `--no-basis`).
+    pub trains_bases: bool,
+    /// Imports started so far (the id of the newest).
+    pub imports: u64,
+    /// A save, save-as, reload or recovery copy is under way (its outcome comes back as a message).
+    pub file_busy: bool,
+    /// The terminal's size in cells (the preview is raycast at its panel's pixel size).
+    pub screen: (u16, u16),
+    /// The preview size being raycast, if any.
+    pub preview_pending: Option<(usize, usize)>,
     /// The spectral factor basis for subspace colours and the key of the spectra it is for (the derived
     /// colours use it only while the shown spectra have that key).
     pub basis: Option<(String, crate::basis::policy::Resolved)>,
@@ -332,15 +361,28 @@ pub struct FeasibilityView {
 }
 
 impl State {
-    /// A designer on `palette`, read from `path`.
+    /// A designer on `palette`, as if read from `path` (tests; the file's document is built from the
+    /// palette).
     pub fn new(path: PathBuf, palette: Palette, colour_mode: ColourMode) -> State {
+        let mut file = PaletteFile::from_palette(&palette);
+        file.path = Some(path);
+        State::with_file(file, colour_mode)
+    }
+
+    /// A designer on the palette of `file`.
+    pub fn with_file(file: PaletteFile, colour_mode: ColourMode) -> State {
         let colorimetry = Colorimetry::default();
         let mut state = State {
-            path,
-            saved: palette.clone(),
-            palette,
+            palette: file.palette.clone(),
+            file,
+            overwrite_armed: false,
             colorimetry,
             import: None,
+            imports: 0,
+            trains_bases: true,
+            file_busy: false,
+            screen: (0, 0),
+            preview_pending: None,
             basis: None,
             selection: Selection { col: 1, row: 1 },
             focus: Focus::Matrix,
@@ -376,9 +418,24 @@ impl State {
         state
     }
 
+    /// True while something runs off the UI thread whose outcome will come back as a message: a solve, a
+    /// basis training, a raycast, a CSV import, a file operation.
+    pub fn busy(&self) -> bool {
+        self.solve.running.is_some()
+            || self.solve.training
+            || self.preview_pending.is_some()
+            || self.import.is_some()
+            || self.file_busy
+    }
+
+    /// The palette file's path.
+    pub fn path(&self) -> &Path {
+        self.file.path.as_deref().unwrap_or(Path::new("palette.toml"))
+    }
+
     /// True when the palette differs from the file.
     pub fn is_dirty(&self) -> bool {
-        self.palette != self.saved
+        self.palette != self.file.palette
     }
 
     /// Recompute the derived colours (after any change of palette or solution).
@@ -496,7 +553,7 @@ impl State {
 
     /// The palette file's folder (CSV paths are relative to it).
     pub fn base_dir(&self) -> PathBuf {
-        match self.path.parent() {
+        match self.path().parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         }

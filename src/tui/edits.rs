@@ -1,6 +1,6 @@
 //! The palette edits the designer performs, as one seam onto the palette model's edit operations
-//! ([`crate::palette::edit`]). Each returns a readable reason when the edit cannot be made; the caller
-//! then keeps the palette unchanged.
+//! ([`crate::palette::edit`]). Each returns a typed [`EditError`] when the edit cannot be made (the view
+//! renders it); the caller then keeps the palette unchanged.
 //!
 //! Two small operations the model does not offer live here: setting a free group's bounds (validated like
 //! `Palette::add_free_group`) and adding a CSV spectrum relative to the palette file's folder.
@@ -11,11 +11,65 @@ use crate::spectrum::Normalize;
 use nalgebra::Vector3;
 use std::path::Path;
 
-/// Why an edit was refused (shown in the message line).
-pub type EditResult = Result<(), String>;
+/// Why an edit or a prompt's answer was refused; the view shows it (message line or prompt).
+#[derive(Debug, thiserror::Error)]
+pub enum EditError {
+    /// The palette model refused the edit.
+    #[error(transparent)]
+    Palette(#[from] crate::palette::edit::EditError),
+    #[error("'{0}' is not a group name (use letters or digits, no spaces)")]
+    GroupName(String),
+    #[error("channel {channel}: lower bound {lower} is not ≤ upper bound {upper}")]
+    FreeBounds { channel: usize, lower: f64, upper: f64 },
+    #[error("there is no free group number {0}")]
+    NoGroup(usize),
+    #[error("'{0}' is not a number")]
+    NotANumber(String),
+    #[error("'{0}' is not #rrggbb")]
+    NotHex(String),
+    #[error("{0} is not a finite number ≥ 0")]
+    NotNonNegative(f64),
+    #[error("the lower bound is above the upper")]
+    Unordered,
+    #[error("the basis dimension is an integer from 1 to 31")]
+    BasisDimension,
+    #[error("the temperature must be a positive number of kelvin")]
+    Temperature,
+    #[error("the scale must be a positive finite number")]
+    Scale,
+    #[error("give 2 numbers (lower upper) or 6 (lower r g b, upper r g b)")]
+    BoundsCount,
+    #[error("give a path")]
+    NoPath,
+    /// The CSV reader thread could not be started.
+    #[error("cannot start the reader: {0}")]
+    Reader(String),
+    /// A save-as was refused (the file named, and why).
+    #[error(transparent)]
+    File(#[from] crate::tui::msg::FileError),
+}
 
-fn text(e: impl std::fmt::Display) -> String {
-    e.to_string()
+/// An [`EditError`] kept by a prompt until the next key (cloned with the prompt; compared by its text).
+#[derive(Clone, Debug)]
+pub struct Refusal(pub std::sync::Arc<EditError>);
+
+impl PartialEq for Refusal {
+    fn eq(&self, other: &Refusal) -> bool {
+        self.0.to_string() == other.0.to_string()
+    }
+}
+
+impl From<EditError> for Refusal {
+    fn from(e: EditError) -> Refusal {
+        Refusal(std::sync::Arc::new(e))
+    }
+}
+
+/// The outcome of an edit.
+pub type EditResult = Result<(), EditError>;
+
+fn text(e: crate::palette::edit::EditError) -> EditError {
+    EditError::Palette(e)
 }
 
 /// Make sure (light, reflectance) has a colour criterion, created in use with target `initial` when absent.
@@ -69,7 +123,7 @@ pub fn set_free(
         }
         Some(n) => {
             if n.is_empty() || n.chars().any(|c| c.is_whitespace() || c.is_control() || c == '"') {
-                return Err(format!("'{n}' is not a group name (use letters or digits, no spaces)"));
+                return Err(EditError::GroupName(n.to_string()));
             }
             let group = match palette.free.iter().position(|g| g.name == n) {
                 Some(g) => g,
@@ -84,9 +138,9 @@ pub fn set_free(
 /// Set the per-channel bounds (linear sRGB) of a free group.
 pub fn set_free_bounds(palette: &mut Palette, group: usize, lower: Vector3<f64>, upper: Vector3<f64>) -> EditResult {
     if let Some(k) = (0..3).find(|&k| lower[k].is_nan() || upper[k].is_nan() || lower[k] > upper[k]) {
-        return Err(format!("channel {}: lower bound {} is not ≤ upper bound {}", k + 1, lower[k], upper[k]));
+        return Err(EditError::FreeBounds { channel: k + 1, lower: lower[k], upper: upper[k] });
     }
-    let g = palette.free.get_mut(group).ok_or(format!("there is no free group number {group}"))?;
+    let g = palette.free.get_mut(group).ok_or(EditError::NoGroup(group))?;
     g.lower = lower;
     g.upper = upper;
     Ok(())

@@ -71,6 +71,7 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('z'), ctrl('z')], A::Undo, "undo"),
     bind(&[ch('Z'), ctrl('y')], A::Redo, "redo"),
     bind(&[ctrl('s')], A::Save, "save (atomic, keeps comments)"),
+    bind(&[ctrl('w')], A::SaveAs, "save as… (type a path)"),
     bind(&[ctrl('r')], A::Reload, "reload from disk (z undoes it)"),
     bind(&[ch('!')], A::Diagnostics, "the solver's diagnostics"),
     bind(&[ch('m')], A::Feasibility, "reachable colours of a cell on/off"),
@@ -146,6 +147,14 @@ pub const CONFIRM_QUIT: &[Binding] = &[
     bind(&[ch('n'), plain(K::Esc)], A::Back, "stay"),
 ];
 
+/// The palette file changed on disk since it was opened or saved.
+pub const CONFLICT: &[Binding] = &[
+    bind(&[ctrl('s'), ch('o')], A::Save, "overwrite the file with your version"),
+    bind(&[ctrl('r'), ch('r')], A::Reload, "reload the file (z undoes it)"),
+    bind(&[ctrl('w'), ch('a')], A::SaveAs, "save as… another file"),
+    bind(&[plain(K::Esc)], A::Back, "keep editing"),
+];
+
 /// The help popup.
 pub const HELP: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
@@ -168,6 +177,7 @@ pub const TABLES: &[(&str, &[Binding])] = &[
     ("add lists", PICK),
     ("light or reflectance?", CHOOSE),
     ("quit with unsaved changes", CONFIRM_QUIT),
+    ("file changed on disk", CONFLICT),
     ("help", HELP),
     ("diagnostics", DIAGNOSTICS),
 ];
@@ -183,6 +193,7 @@ pub fn table_for(state: &State) -> &'static [Binding] {
         Some(Popup::ChooseSpectrum { .. }) => CHOOSE,
         Some(Popup::Pick { .. }) => PICK,
         Some(Popup::ConfirmQuit) => CONFIRM_QUIT,
+        Some(Popup::Conflict { .. }) => CONFLICT,
     }
 }
 

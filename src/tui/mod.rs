@@ -1,11 +1,14 @@
 //! `metamer design`: the terminal palette designer (seed §4, Fig. 1) as a ratatui application.
 //!
-//! Architecture (ratatui's Elm architecture): the [`app::State`] is the whole model; a key becomes an
-//! [`action::Action`] through the one [`keymap`]; [`update::update`] changes the state and returns the
-//! side effects to run (start a solve, save); the [`ui`] draws the state without changing it. The
-//! [`event_loop::run_main_loop`] is generic over the ratatui backend, so the real terminal and the
-//! off-screen `TestBackend` (tests, `--replay`) run exactly the same code. Solves run on a worker
-//! thread ([`worker`]) and stale ones are cancelled.
+//! Architecture (the Elm architecture): the [`app::State`] is the whole model. Everything that happens —
+//! a key, a resize, a worker reply, a finished raycast, import or save, a tick, a signal — is a
+//! [`msg::Msg`] on the event loop's one channel; [`update::update`] is the only place the state changes
+//! and returns the side effects to run as data ([`msg::Effect`]: solve, train a basis, raycast, import,
+//! save, save as, reload, recover), whose results come back as messages. A key becomes an
+//! [`action::Action`] through the one [`keymap`]; the [`ui`] draws the state without changing it. The
+//! [`event_loop::run_main_loop`] blocks on the channel (no polling) and is generic over the ratatui
+//! backend, so the real terminal and the off-screen `TestBackend` (tests, `--replay`) run exactly the
+//! same code. Solves run on a worker thread ([`worker`]) and stale ones are cancelled.
 
 pub mod action;
 pub mod app;
@@ -16,6 +19,7 @@ pub mod edits;
 pub mod event_loop;
 pub mod graphics;
 pub mod keymap;
+pub mod msg;
 pub mod preview;
 pub mod replay;
 pub mod terminal;

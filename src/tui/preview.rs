@@ -20,8 +20,8 @@ use crate::spectrum::Spectrum;
 use crate::tui::derived::Derived;
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::mpsc::{self, Receiver, Sender};
-use std::time::{Duration, Instant};
+use std::sync::mpsc::{self, Sender};
+use std::time::Instant;
 
 /// Pixels of the raycast before the panel's size is known (and of [`Preview::from_scene`]).
 pub const PREVIEW_WIDTH: usize = 120;
@@ -209,18 +209,17 @@ pub struct Loaded {
     pub seconds: f64,
 }
 
-/// Raycasts the preview off the UI thread: one request at a time, always the newest.
+/// Raycasts the preview off the UI thread: one request at a time, always the newest. Each finished
+/// raycast is handed to the deliverer given to [`PreviewLoader::start`] (the designer's loop sends it on
+/// its one channel).
 pub struct PreviewLoader {
     requests: Sender<LoadRequest>,
-    replies: Receiver<Loaded>,
-    /// The size being raycast, and since when.
-    pub pending: Option<((usize, usize), Instant)>,
 }
 
 impl PreviewLoader {
-    pub fn start() -> std::io::Result<PreviewLoader> {
+    /// Start the raycast thread; `deliver` returns false when nobody listens any more (the thread ends).
+    pub fn start(deliver: impl Fn(Loaded) -> bool + Send + 'static) -> std::io::Result<PreviewLoader> {
         let (requests, rx) = mpsc::channel::<LoadRequest>();
-        let (tx, replies) = mpsc::channel();
         std::thread::Builder::new().name("metamer-preview".into()).spawn(move || {
             while let Ok(mut request) = rx.recv() {
                 // Only the newest request counts.
@@ -231,36 +230,23 @@ impl PreviewLoader {
                 let model = request.model.unwrap_or_else(|| preview_model(&request.scene, &request.colorimetry));
                 let weights = cast(&request.scene, request.width, request.height);
                 let loaded = Loaded { scene: request.scene, model, weights, seconds: start.elapsed().as_secs_f64() };
-                if tx.send(loaded).is_err() {
+                if !deliver(loaded) {
                     return;
                 }
             }
         })?;
-        Ok(PreviewLoader { requests, replies, pending: None })
+        Ok(PreviewLoader { requests })
     }
 
-    /// Ask for a raycast of `scene` at `size` (`model` when already built).
+    /// Ask for a raycast of `scene` at `size` (`model` when already built). False when the thread is gone.
     pub fn submit(
         &mut self,
         scene: Arc<Scene>,
         model: Option<ColourModel>,
         size: (usize, usize),
         colorimetry: &Colorimetry,
-    ) {
+    ) -> bool {
         let request = LoadRequest { scene, model, width: size.0, height: size.1, colorimetry: colorimetry.clone() };
-        if self.requests.send(request).is_ok() {
-            self.pending = Some((size, Instant::now()));
-        }
-    }
-
-    /// A finished raycast, if one is ready (waiting at most `wait`).
-    pub fn reply(&mut self, wait: Duration) -> Option<Loaded> {
-        let got = if wait.is_zero() { self.replies.try_recv().ok() } else { self.replies.recv_timeout(wait).ok() };
-        if let Some(l) = &got
-            && self.pending.is_some_and(|(size, _)| size == (l.weights.width, l.weights.height))
-        {
-            self.pending = None;
-        }
-        got
+        self.requests.send(request).is_ok()
     }
 }

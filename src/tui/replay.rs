@@ -15,15 +15,16 @@
 //! ```
 
 use crate::palette::Palette;
+use crate::palette::file::PaletteFile;
 use crate::tui::app::State;
-use crate::tui::event_loop::{self, Events, Input, Io, Saver};
+use crate::tui::event_loop::{self, Events, Io, Saver};
+use crate::tui::msg::{FileError, Msg, Saved};
 use crate::tui::ui;
 use crate::tui::worker::WorkerConfig;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use std::io;
-use std::time::Duration;
 
 /// Why a script line cannot be read.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -171,12 +172,12 @@ impl ScriptEvents {
 }
 
 impl Events for ScriptEvents {
-    fn next(&mut self, _timeout: Duration) -> io::Result<Option<Input>> {
-        Ok(Some(match self.steps.next() {
-            Some(Step::Key(k)) => Input::Key(k),
-            Some(Step::WaitSolve) => Input::WaitSolve,
-            None => Input::End,
-        }))
+    fn next_step(&mut self) -> Msg {
+        match self.steps.next() {
+            Some(Step::Key(k)) => Msg::Key(k),
+            Some(Step::WaitSolve) => Msg::WaitSolve,
+            None => Msg::End,
+        }
     }
 
     fn synchronous(&self) -> bool {
@@ -191,9 +192,11 @@ pub struct MemorySaver {
 }
 
 impl Saver for MemorySaver {
-    fn save(&mut self, palette: &Palette) -> Result<String, String> {
+    fn save(&mut self, file: &PaletteFile, palette: &Palette, _overwrite: bool) -> Result<Saved, FileError> {
         self.saved.push(palette.clone());
-        Ok("saved (in memory)".into())
+        let mut file = file.clone();
+        file.palette = palette.clone();
+        Ok(Saved { text: "saved (in memory)".into(), file })
     }
 }
 
@@ -224,7 +227,7 @@ pub fn run(
     event_loop::run_main_loop(
         &mut terminal,
         state,
-        Io { events: &mut events, saver, on_frame: Some(&mut on_frame), worker },
+        Io { events: &mut events, saver, on_frame: Some(&mut on_frame), on_msg: None, worker, tick: None },
     )?;
     if !every_frame {
         frames.push(last);

@@ -1,12 +1,14 @@
 //! The real terminal: raw mode and the alternate screen, restored by a guard on every way out — normal
 //! return, error, and (through ratatui's panic hook) a panic.
 
-use crate::tui::event_loop::{Events, Input};
+use crate::tui::event_loop::Events;
+use crate::tui::msg::Msg;
 use ratatui::DefaultTerminal;
 use ratatui::crossterm::event::{self, Event};
 use std::io;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Sender;
 use std::time::Duration;
 
 /// Owns the terminal while the designer runs; restores it when dropped.
@@ -40,47 +42,78 @@ impl Drop for TerminalGuard {
     }
 }
 
-/// Keys and resizes from the terminal, and the end signals (SIGTERM, SIGHUP) as [`Input::Terminated`].
+/// Keys and resizes from the terminal, and the end signals (SIGTERM, SIGHUP) as [`Msg::Terminated`], sent
+/// on the loop's channel by two threads: the input thread (crossterm's blocking read, woken now and then
+/// only to see whether the loop has ended) and the signal thread (signal-hook's iterator).
 pub struct TerminalEvents {
-    terminated: Arc<AtomicBool>,
+    #[cfg(unix)]
+    signals: Option<signal_hook::iterator::Signals>,
+    #[cfg(unix)]
+    handle: Option<signal_hook::iterator::Handle>,
+    stop: Arc<AtomicBool>,
 }
 
 impl TerminalEvents {
-    /// Listen to the terminal, and to SIGTERM and SIGHUP (whose default action would leave the terminal in
-    /// raw mode on the alternate screen and lose unsaved work).
+    /// Listen to SIGTERM and SIGHUP (whose default action would leave the terminal in raw mode on the
+    /// alternate screen and lose unsaved work) from now on; the terminal once started.
     pub fn new() -> io::Result<TerminalEvents> {
-        let terminated = Arc::new(AtomicBool::new(false));
         #[cfg(unix)]
-        for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP] {
-            signal_hook::flag::register(signal, terminated.clone())?;
-        }
-        Ok(TerminalEvents { terminated })
+        let signals = signal_hook::iterator::Signals::new([signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP])?;
+        Ok(TerminalEvents {
+            #[cfg(unix)]
+            handle: Some(signals.handle()),
+            #[cfg(unix)]
+            signals: Some(signals),
+            stop: Arc::new(AtomicBool::new(false)),
+        })
     }
 }
 
-/// How often a wait for input looks at the end signals.
-const SIGNAL_CHECK: Duration = Duration::from_millis(50);
+/// How often the input thread looks whether the loop has ended (it does not wake the loop).
+const STOP_CHECK: Duration = Duration::from_millis(100);
 
 impl Events for TerminalEvents {
-    fn next(&mut self, timeout: Duration) -> io::Result<Option<Input>> {
-        let mut left = timeout;
-        loop {
-            if self.terminated.load(Ordering::Relaxed) {
-                return Ok(Some(Input::Terminated));
-            }
-            let slice = left.min(SIGNAL_CHECK);
-            if event::poll(slice)? {
-                break;
-            }
-            left = left.saturating_sub(slice);
-            if left.is_zero() {
-                return Ok(None);
-            }
+    fn start(&mut self, tx: &Sender<Msg>) -> io::Result<()> {
+        #[cfg(unix)]
+        if let Some(mut signals) = self.signals.take() {
+            let tx = tx.clone();
+            std::thread::Builder::new().name("metamer-signals".into()).spawn(move || {
+                for _ in signals.forever() {
+                    if tx.send(Msg::Terminated).is_err() {
+                        return;
+                    }
+                }
+            })?;
         }
-        Ok(match event::read()? {
-            Event::Key(k) => Some(Input::Key(k)),
-            Event::Resize(_, _) => Some(Input::Resize),
-            _ => None,
-        })
+        let (tx, stop) = (tx.clone(), self.stop.clone());
+        std::thread::Builder::new().name("metamer-input".into()).spawn(move || {
+            while !stop.load(Ordering::Relaxed) {
+                let msg = match event::poll(STOP_CHECK) {
+                    Ok(false) => continue,
+                    Ok(true) => match event::read() {
+                        Ok(Event::Key(k)) => Msg::Key(k),
+                        Ok(Event::Resize(width, height)) => Msg::Resize { width, height },
+                        Ok(_) => continue,
+                        Err(_) => Msg::End,
+                    },
+                    Err(_) => Msg::End,
+                };
+                let end = matches!(msg, Msg::End);
+                if tx.send(msg).is_err() || end {
+                    return;
+                }
+            }
+        })?;
+        Ok(())
+    }
+}
+
+impl Drop for TerminalEvents {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        #[cfg(unix)]
+        if let Some(h) = self.handle.take() {
+            h.close();
+        }
     }
 }

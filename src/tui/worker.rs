@@ -45,6 +45,8 @@ pub struct WorkerConfig {
 /// A finished solve.
 #[derive(Debug)]
 pub struct Solved {
+    /// The request this answers ([`Worker::submit_ticket`]; [`Worker::submit`] uses the generation).
+    pub ticket: u64,
     pub generation: u64,
     pub result: Result<Arc<Solution>, DesignError>,
     /// Wall-clock time of the solve (and of any basis training it waited for).
@@ -70,12 +72,16 @@ pub enum Reply {
 }
 
 struct Request {
+    ticket: u64,
     generation: u64,
     palette: Palette,
     cancel: Arc<AtomicBool>,
     /// The cell whose mismatch region to compute after the solve.
     feasibility: Option<usize>,
 }
+
+/// Where the worker threads hand their replies.
+type Deliver = Arc<dyn Fn(Reply) -> bool + Send + Sync>;
 
 /// A request for the basis of some spectra.
 struct BasisRequest {
@@ -116,7 +122,7 @@ fn feasibility_panel(
         .map_err(|e| e.to_string())
 }
 
-fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: WorkerConfig) {
+fn serve_solves(requests: Receiver<Request>, deliver: Deliver, config: WorkerConfig) {
     let colorimetry = Colorimetry::default();
     let mut regions = RegionCache::default();
     while let Ok(first) = requests.recv() {
@@ -159,14 +165,14 @@ fn serve_solves(requests: Receiver<Request>, replies: Sender<Reply>, config: Wor
             }
             _ => None,
         };
-        let reply = Solved { generation: request.generation, result, elapsed, feasibility };
-        if replies.send(Reply::Solved(reply)).is_err() {
+        let reply = Solved { ticket: request.ticket, generation: request.generation, result, elapsed, feasibility };
+        if !deliver(Reply::Solved(reply)) {
             return;
         }
     }
 }
 
-fn serve_bases(requests: Receiver<BasisRequest>, replies: Sender<Reply>, sidecar: Option<PathBuf>) {
+fn serve_bases(requests: Receiver<BasisRequest>, deliver: Deliver, sidecar: Option<PathBuf>) {
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -175,7 +181,7 @@ fn serve_bases(requests: Receiver<BasisRequest>, replies: Sender<Reply>, sidecar
         }))
         .unwrap_or_else(|panic| Err(panic_message(&panic)));
         let reply = Trained { generation: request.generation, key: request.key, result };
-        if replies.send(Reply::Trained(reply)).is_err() {
+        if !deliver(Reply::Trained(reply)) {
             return;
         }
     }
@@ -196,7 +202,8 @@ pub fn panic_message(panic: &Box<dyn std::any::Any + Send>) -> String {
 pub struct Worker {
     solves: Option<Sender<Request>>,
     bases: Option<Sender<BasisRequest>>,
-    replies: Receiver<Reply>,
+    /// The replies, when this worker keeps them ([`Worker::start`]); else they went to the deliverer.
+    replies: Option<Receiver<Reply>>,
     /// Cancel flag of the newest solve request.
     cancel: Option<Arc<AtomicBool>>,
     /// The newest generations submitted and not yet answered.
@@ -209,15 +216,27 @@ pub struct Worker {
 }
 
 impl Worker {
-    /// Start the worker threads.
+    /// Start the worker threads; the replies are kept for [`Worker::wait_reply`].
     pub fn start(config: WorkerConfig) -> std::io::Result<Worker> {
         let (reply_tx, reply_rx) = mpsc::channel();
+        let mut worker = Worker::start_delivering(config, move |reply| reply_tx.send(reply).is_ok())?;
+        worker.replies = Some(reply_rx);
+        Ok(worker)
+    }
+
+    /// Start the worker threads; every reply is handed to `deliver` (the designer's loop sends it on its
+    /// one channel), which returns false when nobody listens any more (the threads then end).
+    pub fn start_delivering(
+        config: WorkerConfig,
+        deliver: impl Fn(Reply) -> bool + Send + Sync + 'static,
+    ) -> std::io::Result<Worker> {
+        let deliver: Deliver = Arc::new(deliver);
         let (solve_tx, solve_rx) = mpsc::channel();
         {
-            let (replies, config) = (reply_tx.clone(), config.clone());
+            let (deliver, config) = (deliver.clone(), config.clone());
             std::thread::Builder::new()
                 .name("metamer-solve".into())
-                .spawn(move || serve_solves(solve_rx, replies, config))?;
+                .spawn(move || serve_solves(solve_rx, deliver, config))?;
         }
         let bases = match config.basis {
             BasisMode::Off => None,
@@ -225,14 +244,14 @@ impl Worker {
                 let (basis_tx, basis_rx) = mpsc::channel();
                 std::thread::Builder::new()
                     .name("metamer-basis".into())
-                    .spawn(move || serve_bases(basis_rx, reply_tx, sidecar))?;
+                    .spawn(move || serve_bases(basis_rx, deliver, sidecar))?;
                 Some(basis_tx)
             }
         };
         Ok(Worker {
             solves: Some(solve_tx),
             bases,
-            replies: reply_rx,
+            replies: None,
             cancel: None,
             pending_solve: None,
             pending_basis: None,
@@ -241,16 +260,29 @@ impl Worker {
         })
     }
 
-    /// Solve `palette` (generation `generation`), cancelling whatever solve runs now.
+    /// Solve `palette` (generation `generation`, ticket = generation), cancelling whatever solve runs now.
     pub fn submit(&mut self, generation: u64, palette: &Palette) {
+        self.submit_ticket(generation, generation, palette.clone(), self.feasibility);
+    }
+
+    /// Solve `palette` as request `ticket` (its reply carries it), also computing the mismatch region of
+    /// `feasibility`, cancelling whatever solve runs now. False when the solver thread is gone.
+    pub fn submit_ticket(
+        &mut self,
+        ticket: u64,
+        generation: u64,
+        palette: Palette,
+        feasibility: Option<usize>,
+    ) -> bool {
         if let Some(old) = self.cancel.take() {
             old.store(true, Ordering::Relaxed);
         }
         let cancel = Arc::new(AtomicBool::new(false));
         self.cancel = Some(cancel.clone());
-        let request = Request { generation, palette: palette.clone(), cancel, feasibility: self.feasibility };
+        let request = Request { ticket, generation, palette, cancel, feasibility };
         let sent = self.solves.as_ref().is_some_and(|tx| tx.send(request).is_ok());
         self.pending_solve = sent.then_some(generation);
+        sent
     }
 
     /// True when this worker trains bases at all (not [`BasisMode::Off`]).
@@ -264,18 +296,21 @@ impl Worker {
         if self.basis_asked.as_deref() == Some(key.as_str()) {
             return;
         }
+        self.train(generation, key, set, m);
+    }
+
+    /// Have the basis of these spectra trained or loaded (the caller decides that it is new). False when
+    /// the basis thread is off or gone.
+    pub fn train(&mut self, generation: u64, key: String, set: TrainingSet, m: usize) -> bool {
         if let Some(tx) = &self.bases {
             let request = BasisRequest { generation, key: key.clone(), set, m };
             if tx.send(request).is_ok() {
                 self.pending_basis = Some(generation);
                 self.basis_asked = Some(key);
+                return true;
             }
         }
-    }
-
-    /// Forget which basis was asked for last (so it is asked for again, e.g. after a failure).
-    pub fn forget_basis_request(&mut self) {
-        self.basis_asked = None;
+        false
     }
 
     /// Have every following solve also compute the mismatch region of `cell` (None: none).
@@ -306,16 +341,9 @@ impl Worker {
         }
     }
 
-    /// A reply if one is ready, without waiting.
-    pub fn try_reply(&mut self) -> Option<Reply> {
-        let reply = self.replies.try_recv().ok()?;
-        self.note(&reply);
-        Some(reply)
-    }
-
-    /// Wait up to `timeout` for a reply.
+    /// Wait up to `timeout` for a reply (a worker started with [`Worker::start`]).
     pub fn wait_reply(&mut self, timeout: Duration) -> Option<Reply> {
-        match self.replies.recv_timeout(timeout) {
+        match self.replies.as_ref()?.recv_timeout(timeout) {
             Ok(reply) => {
                 self.note(&reply);
                 Some(reply)

@@ -351,12 +351,11 @@ fn render_refuses_outputs_onto_the_volume() {
 
 // ----------------------------------------------------------------------------------------- designer
 
-fn replay_with(path: &Path, saver: &mut FileSaver, script: &str) -> (State, Vec<String>) {
-    let mut state = State::new(path.to_path_buf(), saver.file.palette.clone(), ColourMode::TrueColor);
+fn replay_with(state: &mut State, script: &str) -> Vec<String> {
     let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
     let steps = replay::parse_script(script).expect("valid script");
-    let (frames, _) = replay::run(&mut state, steps, 100, 30, true, saver, worker).expect("replay runs");
-    (state, frames)
+    let (frames, _) = replay::run(state, steps, 100, 30, true, &mut FileSaver, worker).expect("replay runs");
+    frames
 }
 
 #[test]
@@ -364,18 +363,18 @@ fn an_outside_change_is_not_overwritten_silently() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.toml");
     std::fs::write(&path, SMALL).unwrap();
-    let mut saver = FileSaver::new(PaletteFile::load(&path).unwrap());
+    let mut state = State::with_file(PaletteFile::load(&path).unwrap(), ColourMode::TrueColor);
     // Another program rewrites the file while it is open.
     let outside = SMALL.replace("#806040", "#204080");
     std::fs::write(&path, &outside).unwrap();
-    let (_, frames) = replay_with(&path, &mut saver, "wait-solve\nCtrl-s");
+    let frames = replay_with(&mut state, "wait-solve\nCtrl-s");
     let last = frames.last().unwrap();
     assert!(last.contains("changed on disk"), "{last}");
     assert_eq!(std::fs::read_to_string(&path).unwrap(), outside, "the outside change is kept");
     let mine = PaletteFile::load(&mine_path(&path)).expect("the designer's version is saved aside");
-    assert_eq!(mine.palette.colours[0].target, saver.file.palette.colours[0].target);
+    assert_eq!(mine.palette.colours[0].target, state.palette.colours[0].target);
     // Ctrl-s again overwrites (the user chose to).
-    let (_, frames) = replay_with(&path, &mut saver, "Ctrl-s");
+    let frames = replay_with(&mut state, "Ctrl-s");
     assert!(frames.last().unwrap().contains("saved"), "{}", frames.last().unwrap());
     assert_ne!(std::fs::read_to_string(&path).unwrap(), outside);
 }
@@ -385,20 +384,21 @@ fn reload_reads_the_outside_change() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.toml");
     std::fs::write(&path, SMALL).unwrap();
-    let mut saver = FileSaver::new(PaletteFile::load(&path).unwrap());
+    let mut state = State::with_file(PaletteFile::load(&path).unwrap(), ColourMode::TrueColor);
     let outside = SMALL.replace("#806040", "#204080");
     std::fs::write(&path, &outside).unwrap();
-    let (state, _) = replay_with(&path, &mut saver, "Ctrl-r\nwait-solve");
+    replay_with(&mut state, "Ctrl-r\nwait-solve");
     let expected = PaletteFile::parse(&outside, &path).unwrap().palette;
     assert_eq!(state.palette, expected);
     assert_eq!(state.history.undo.len(), 1, "the reload can be undone");
+    assert!(!state.is_dirty(), "the reloaded file is the one on screen");
 }
 
 #[test]
 fn csv_import_runs_off_the_ui_thread_and_esc_cancels_it() {
-    use metamer::palette::Kind as SpectrumKind;
-    use metamer::tui::action::Action;
-    use metamer::tui::update;
+    use crate::tui_support;
+    use metamer::tui::msg::Msg;
+    use metamer::tui::replay::MemorySaver;
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().to_path_buf();
     let path = d.join("p.toml");
@@ -407,29 +407,30 @@ fn csv_import_runs_off_the_ui_thread_and_esc_cancels_it() {
     let rows: String = (0..=30).map(|i| format!("{},{}\n", 400 + 10 * i, 0.25)).collect();
     std::fs::write(d.join("grey.csv"), rows).unwrap();
     let palette = PaletteFile::load(&path).unwrap().palette;
-    within(Duration::from_secs(10), move || {
-        let mut state = State::new(path, palette.clone(), ColourMode::TrueColor);
-        // Started, the UI thread returns at once: the status says what is read and how to cancel.
-        update::start_import(&mut state, SpectrumKind::Reflectance, "slow.csv");
-        assert!(state.import.is_some());
-        let text = state.message.as_ref().map(|m| m.text.clone()).unwrap_or_default();
-        assert!(text.contains("reading slow.csv") && text.contains("Esc cancels"), "{text}");
-        // Esc cancels: the reply is dropped, the palette is unchanged.
-        update::update(&mut state, Action::Back);
+    // R, the last entry of the list (import CSV…), the path, Enter.
+    let import = |file: &str| format!("R\nPageDown *3\nEnter\n\"{file}\"\nEnter\n");
+    within(Duration::from_secs(20), move || {
+        // Live: the import starts and the loop takes the next key at once (Esc, queued behind it), which
+        // cancels it; the reply, whenever it comes, is dropped.
+        let mut state = State::new(path.clone(), palette.clone(), ColourMode::TrueColor);
+        let mut msgs = tui_support::keys(&format!("{}Esc\n", import("slow.csv")));
+        msgs.push(Msg::End);
+        let taken = tui_support::run_live(&mut state, msgs, &mut MemorySaver::default());
+        assert!(taken.iter().rev().nth(1).is_some_and(|l| l == "key Esc"), "{taken:?}");
         assert!(state.import.is_none());
-        assert!(state.message.as_ref().is_some_and(|m| m.text.contains("cancelled")));
-        assert_eq!(update::poll_import(&mut state, Duration::from_millis(200)), update::Effects::default());
+        assert!(state.message.as_ref().is_some_and(|m| m.text.contains("import of slow.csv cancelled")));
         assert_eq!(state.palette, palette);
-        // Not cancelled, the FIFO's refusal arrives as an error naming it.
-        update::start_import(&mut state, SpectrumKind::Reflectance, "slow.csv");
-        update::poll_import(&mut state, Duration::from_secs(5));
+        // Not cancelled (a replay waits for the import), the FIFO's refusal arrives as an error naming it.
+        let mut state = State::new(path.clone(), palette.clone(), ColourMode::TrueColor);
+        let steps = replay::parse_script(&import("slow.csv")).unwrap();
+        let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
+        replay::run(&mut state, steps, 100, 30, false, &mut MemorySaver::default(), worker.clone()).unwrap();
         let m = state.message.clone().expect("a message");
         assert!(m.is_error && m.text.contains("slow.csv") && m.text.contains("FIFO"), "{}", m.text);
         assert_eq!(state.palette, palette);
-        // A regular CSV is added when its reply arrives (and asks for a solve).
-        update::start_import(&mut state, SpectrumKind::Reflectance, "grey.csv");
-        let effects = update::poll_import(&mut state, Duration::from_secs(5));
-        assert!(effects.solve);
+        // A regular CSV is added when its reply arrives.
+        let steps = replay::parse_script(&import("grey.csv")).unwrap();
+        replay::run(&mut state, steps, 100, 30, false, &mut MemorySaver::default(), worker).unwrap();
         assert_eq!(state.palette.reflectances.len(), palette.reflectances.len() + 1);
         assert!(state.palette.reflectances.iter().any(|r| r.name == "grey"));
     });
@@ -440,10 +441,10 @@ fn a_recovery_copy_is_written_beside_the_palette() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.toml");
     std::fs::write(&path, SMALL).unwrap();
-    let mut saver = FileSaver::new(PaletteFile::load(&path).unwrap());
-    let mut edited = saver.file.palette.clone();
+    let file = PaletteFile::load(&path).unwrap();
+    let mut edited = file.palette.clone();
     edited.reflectances[0].name = "renamed".into();
-    let at = saver.recover(&edited).expect("recovery copy written");
+    let at = FileSaver.recover(&file, &edited).expect("recovery copy written");
     assert_eq!(at, recovery_path(&path));
     assert_eq!(PaletteFile::load(&at).unwrap().palette.reflectances[0].name, "renamed");
     assert_eq!(std::fs::read_to_string(&path).unwrap(), SMALL, "the palette itself is untouched");

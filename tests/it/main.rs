@@ -28,6 +28,7 @@ mod spec_objective;
 mod stress;
 mod tui_edits;
 mod tui_live;
+mod tui_loop;
 mod tui_preview;
 mod tui_robust;
 mod tui_save;

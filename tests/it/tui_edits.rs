@@ -37,7 +37,7 @@ fn add_and_remove_spectra() {
     let dir = tempfile::tempdir().expect("temporary folder");
     std::fs::write(dir.path().join("measured.csv"), "nm,value\n380,0.2\n550,0.4\n780,0.6\n").expect("csv");
     let mut s = state(demo_palette(), ColourMode::TrueColor);
-    s.path = dir.path().join("demo.toml");
+    s.file.path = Some(dir.path().join("demo.toml"));
     let original = s.palette.clone();
     // Add illuminant F11 (the list starts at D65: D65 D50 A E F2 F7 F11 …).
     replay(&mut s, "L\nDown *6\nEnter", 100, 30);

@@ -25,8 +25,8 @@ fn save_then_quit_keeps_comments_and_the_objective() {
     let original = text;
 
     let file = PaletteFile::load(&path).expect("the example palette loads");
-    let mut state = State::new(path.clone(), file.palette.clone(), ColourMode::TrueColor);
-    let mut saver = FileSaver::new(file);
+    let mut state = State::with_file(file, ColourMode::TrueColor);
+    let mut saver = FileSaver;
     let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
     let steps = replay::parse_script("Ctrl-s\nq").expect("valid script");
     let (frames, _) = replay::run(&mut state, steps, 100, 30, true, &mut saver, worker).expect("replay runs");

@@ -1,5 +1,5 @@
 //! Popups over the main screen: the help listing every key, text prompts, the add lists, the
-//! light-or-reflectance choice and the quit confirmation.
+//! light-or-reflectance choice, the quit confirmation and the outside-change conflict.
 
 use crate::tui::app::{Popup, State};
 use crate::tui::keymap::{self, TABLES};
@@ -28,6 +28,32 @@ fn frame(area: Rect, buf: &mut Buffer, title: &str) -> Rect {
     let inner = block.inner(area);
     block.render(area, buf);
     inner
+}
+
+/// `text` in lines of at most `width` characters, broken between words (a longer word is cut).
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let width = width.max(1);
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        let (have, add) = (line.chars().count(), word.chars().count());
+        if have > 0 && have + 1 + add > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+        while line.chars().count() > width {
+            let rest: String = line.chars().skip(width).collect();
+            lines.push(line.chars().take(width).collect());
+            line = rest;
+        }
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
 }
 
 /// One row of the help.
@@ -134,7 +160,7 @@ impl Widget for PopupView<'_> {
                         inner,
                         1,
                         2,
-                        &fit(e, usize::from(inner.width.saturating_sub(2))),
+                        &fit(&crate::fsio::escape(&e.0.to_string()), usize::from(inner.width.saturating_sub(2))),
                         Style::new().fg(Color::LightRed),
                     ),
                     None => put(buf, inner, 1, 2, "Enter accepts", grey),
@@ -163,11 +189,31 @@ impl Widget for PopupView<'_> {
             Popup::ConfirmQuit => {
                 let r = centred(area, 56, 6);
                 let inner = frame(r, buf, "unsaved changes");
-                let name = state.path.display().to_string();
+                let name = state.path().display().to_string();
                 put(buf, inner, 1, 0, &fit(&format!("{name} has unsaved changes."), 52), bold);
                 put(buf, inner, 1, 1, "s  save, then quit", Style::new());
                 put(buf, inner, 1, 2, "y  quit without saving", Style::new());
                 put(buf, inner, 1, 3, "n  stay", Style::new());
+            }
+            Popup::Conflict { text } => {
+                let width = 70u16.min(area.width.saturating_sub(2)).max(20);
+                let lines = wrap(&crate::fsio::escape(text), usize::from(width.saturating_sub(4)));
+                let r = centred(area, width, lines.len() as u16 + 7);
+                let inner = frame(r, buf, "the file changed on disk");
+                for (y, line) in lines.iter().enumerate() {
+                    put(buf, inner, 1, y as u16, line, bold);
+                }
+                let y = lines.len() as u16 + 1;
+                for (k, b) in keymap::CONFLICT.iter().enumerate() {
+                    put(
+                        buf,
+                        inner,
+                        1,
+                        y + k as u16,
+                        &format!("{:<10} {}", keymap::keys_label(b), b.help),
+                        Style::new(),
+                    );
+                }
             }
         }
     }

@@ -18,7 +18,7 @@ pub fn title_left(state: &State, compact: bool) -> Line<'static> {
     } else {
         spans.push(Span::raw(" "));
     }
-    spans.push(Span::raw(format!("{} ", state.path.display())));
+    spans.push(Span::raw(format!("{} ", state.path().display())));
     if state.is_dirty() {
         spans.push(Span::styled("● ", Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD)));
     }

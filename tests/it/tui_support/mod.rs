@@ -158,3 +158,33 @@ pub fn replay_with(
     let (frames, buf) = replay::run(state, steps, width, height, false, saver, worker).expect("replay runs");
     (frames.last().cloned().unwrap_or_default(), buf)
 }
+
+/// Run the designer's loop live (not synchronously) on `msgs`, all sent on its channel at the start as
+/// an input thread would; returns the label of every message the loop took, in order.
+pub fn run_live(
+    state: &mut State,
+    msgs: Vec<metamer::tui::msg::Msg>,
+    saver: &mut dyn metamer::tui::event_loop::Saver,
+) -> Vec<String> {
+    use metamer::tui::event_loop::{self, ChannelEvents, Io};
+    let mut terminal = ratatui::Terminal::new(ratatui::backend::TestBackend::new(100, 30)).expect("terminal");
+    let mut events = ChannelEvents(msgs);
+    let mut taken = Vec::new();
+    let mut on_msg = |m: &metamer::tui::msg::Msg| taken.push(m.label());
+    let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
+    let io = Io { events: &mut events, saver, on_frame: None, on_msg: Some(&mut on_msg), worker, tick: None };
+    event_loop::run_main_loop(&mut terminal, state, io).expect("the loop runs");
+    taken
+}
+
+/// The key events of `script` (a replay script) as messages.
+pub fn keys(script: &str) -> Vec<metamer::tui::msg::Msg> {
+    replay::parse_script(script)
+        .expect("valid script")
+        .into_iter()
+        .map(|s| match s {
+            replay::Step::Key(k) => metamer::tui::msg::Msg::Key(k),
+            replay::Step::WaitSolve => metamer::tui::msg::Msg::WaitSolve,
+        })
+        .collect()
+}

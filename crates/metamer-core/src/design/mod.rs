@@ -89,6 +89,25 @@ pub struct Solution {
     pub diagnostics: Vec<Diagnostic>,
 }
 
+impl Solution {
+    /// `palette` with its designed spectra replaced by this solution's, matched by side, position and name
+    /// (a spectrum renamed, added or no longer designed since the solve keeps its own). The solved spectra
+    /// are samples, never normalised or scaled again (DESIGN_SPEC §1, §3). This is what a designer saves.
+    pub fn apply_to(&self, palette: &Palette) -> Palette {
+        let mut out = palette.clone();
+        for (own, solved) in
+            [(&mut out.lights, &self.palette.lights), (&mut out.reflectances, &self.palette.reflectances)]
+        {
+            for (e, s) in own.iter_mut().zip(solved) {
+                if e.design && e.name == s.name {
+                    *e = s.clone();
+                }
+            }
+        }
+        out
+    }
+}
+
 /// Why a solve failed outright (as opposed to a design that is merely infeasible, which is reported in
 /// [`Solution::diagnostics`]).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

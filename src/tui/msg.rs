@@ -1,0 +1,154 @@
+//! The designer's messages and effects (the Elm architecture's `Msg` and `Cmd`).
+//!
+//! Everything that can change the [`crate::tui::State`] arrives as one [`Msg`] on the event loop's one
+//! channel: keys and resizes from the input thread, worker replies (solves, bases), finished raycasts,
+//! finished CSV imports, the outcome of saves and reloads, the end signals and the spinner's ticks.
+//! [`crate::tui::update::update`] handles each and returns the [`Effect`]s to run, as data; the loop runs
+//! them and their results come back as messages. Nothing else changes the state.
+
+use crate::basis::train::TrainingSet;
+use crate::colorimetry::Colorimetry;
+use crate::palette::file::PaletteFile;
+use crate::palette::{Kind, Palette};
+use crate::render::relight::ColourModel;
+use crate::render::scene::Scene;
+use crate::tui::action::Action;
+use crate::tui::preview::Loaded;
+use crate::tui::worker::Reply;
+use ratatui::crossterm::event::KeyEvent;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Why a save, a save-as, a reload or a recovery copy did not happen.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FileError {
+    /// Another program changed the file since it was opened or last saved; the designer's version was
+    /// saved aside (`aside`: where, or why not).
+    #[error(
+        "{} changed on disk since it was opened; {}. Ctrl-s again overwrites the file, Ctrl-r reloads it, \
+         Ctrl-w saves as another file",
+        crate::fsio::show(.path),
+        match .aside { Ok(p) => format!("your version is saved as {}", crate::fsio::show(p)), Err(e) => format!("your version could not be saved aside ({e})") }
+    )]
+    Conflict { path: PathBuf, aside: Result<PathBuf, String> },
+    /// The palette has no file (tests, in-memory designs).
+    #[error("the palette has no file")]
+    NoFile,
+    /// The target of a save-as is empty.
+    #[error("give a path")]
+    NoPath,
+    /// The file system or the palette writer refused (the message names the file and the reason).
+    #[error("{0}")]
+    Failed(String),
+}
+
+/// A save that went through.
+#[derive(Clone, Debug)]
+pub struct Saved {
+    /// What the status line says (where it went).
+    pub text: String,
+    /// The palette file as written (its path: the new one after a save-as).
+    pub file: PaletteFile,
+}
+
+/// Which file operation a [`Msg::File`] answers. (One per file operation, moved once: the size of the
+/// save's variant does not matter.)
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)]
+pub enum FileOutcome {
+    /// `Effect::Save` or `Effect::SaveAs` (`save_as`: the path typed): the file as written (or why not), and
+    /// whether to quit now.
+    Saved {
+        /// The palette on screen when the save was asked for.
+        before: Palette,
+        result: Result<Saved, FileError>,
+        quit_after: bool,
+        save_as: Option<PathBuf>,
+    },
+    /// `Effect::Reload`: the file read again.
+    Reloaded(Result<PaletteFile, FileError>),
+    /// `Effect::Recover`: where the recovery copy went.
+    Recovered(Result<PathBuf, FileError>),
+}
+
+/// One message to the designer. (A few per key or reply, each moved once through the channel: the
+/// variants' sizes do not matter, so the large ones are not boxed.)
+#[allow(clippy::large_enum_variant)]
+pub enum Msg {
+    /// The loop starts on a terminal of this size (columns, rows); `trains_bases`: the worker trains bases.
+    Start { width: u16, height: u16, trains_bases: bool },
+    /// A key from the terminal or a script (turned into an [`Action`] by the keymap).
+    Key(KeyEvent),
+    /// A user action as such (tests; the keymap's output).
+    Action(Action),
+    /// The terminal changed size.
+    Resize { width: u16, height: u16 },
+    /// The solve or basis worker finished something.
+    Worker(Reply),
+    /// A preview raycast finished.
+    Preview(Loaded),
+    /// A CSV import (number `id`) finished: the palette with the spectrum added, or why not.
+    Imported { id: u64, result: Result<Palette, crate::tui::edits::EditError> },
+    /// A save, reload or recovery copy finished.
+    File(FileOutcome),
+    /// The spinner's clock (sent only while something is under way).
+    Tick(Instant),
+    /// A script asks to wait for the running solve (every step waits anyway; kept for old scripts).
+    WaitSolve,
+    /// The process was told to end (SIGTERM, SIGHUP): write a recovery copy of unsaved work and stop.
+    Terminated,
+    /// No more input: stop.
+    End,
+}
+
+impl Msg {
+    /// A short name of the message (logs and tests).
+    pub fn label(&self) -> String {
+        match self {
+            Msg::Start { .. } => "start".into(),
+            Msg::Key(k) => format!("key {:?}", k.code),
+            Msg::Action(a) => format!("action {a:?}"),
+            Msg::Resize { .. } => "resize".into(),
+            Msg::Worker(Reply::Solved(s)) => format!("solved {}", s.generation),
+            Msg::Worker(Reply::Trained(_)) => "trained".into(),
+            Msg::Preview(_) => "preview".into(),
+            Msg::Imported { .. } => "imported".into(),
+            Msg::File(_) => "file".into(),
+            Msg::Tick(_) => "tick".into(),
+            Msg::WaitSolve => "wait-solve".into(),
+            Msg::Terminated => "terminated".into(),
+            Msg::End => "end".into(),
+        }
+    }
+}
+
+/// A side effect [`crate::tui::update::update`] asks the loop to run; its result comes back as a [`Msg`].
+#[allow(clippy::large_enum_variant)]
+pub enum Effect {
+    /// Solve `palette` (cancelling the running solve); the reply is a `Reply::Solved` with `ticket`.
+    Solve { ticket: u64, generation: u64, palette: Palette, feasibility: Option<usize> },
+    /// Train (or look up) the basis of these spectra; the reply is a `Reply::Trained` with `key`.
+    TrainBasis { generation: u64, key: String, set: TrainingSet, m: usize },
+    /// Raycast the scene preview at `size` pixels; the reply is a [`Msg::Preview`].
+    Raycast { scene: Arc<Scene>, model: Option<ColourModel>, size: (usize, usize), colorimetry: Colorimetry },
+    /// Read a CSV spectrum into `palette` off the UI thread; the reply is a [`Msg::Imported`].
+    Import {
+        id: u64,
+        kind: Kind,
+        name: String,
+        path: String,
+        base_dir: PathBuf,
+        palette: Palette,
+        colorimetry: Colorimetry,
+    },
+    /// Save `palette` into `file` (`before`: the palette on screen, handed back with the outcome;
+    /// `overwrite`: even when the file changed on disk).
+    Save { file: PaletteFile, palette: Palette, before: Palette, quit_after: bool, overwrite: bool },
+    /// Save `palette` into `file` at `path`, which becomes the palette file.
+    SaveAs { file: PaletteFile, palette: Palette, before: Palette, path: PathBuf },
+    /// Read the palette file again.
+    Reload { file: PaletteFile },
+    /// Write a recovery copy of `palette` beside `file`.
+    Recover { file: PaletteFile, palette: Palette },
+}

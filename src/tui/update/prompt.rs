@@ -1,0 +1,137 @@
+//! A submitted prompt: its text parsed and the edit made, or the reason shown in the prompt.
+
+use super::keys::{Wants, current_colour, try_edit};
+use super::popups::{add_spectrum, start_import};
+use crate::colorimetry::{Colorimetry, hex_to_linear};
+use crate::palette::{Bounds, Kind, Palette, Source};
+use crate::tui::app::{EditKey, Popup, Prompt, PromptPurpose, SettingField, State};
+use crate::tui::edits::{self, EditError, EditResult};
+use nalgebra::Vector3;
+
+/// A number as prompts prefill it (shortest round-trip form).
+pub(super) fn num_text(v: f64) -> String {
+    format!("{v}")
+}
+
+/// Parse a number the way prompts accept it (`inf`, `-inf` included; NaN refused).
+fn parse_number(text: &str) -> Result<f64, EditError> {
+    let t = text.trim();
+    match t.parse::<f64>() {
+        Ok(v) if !v.is_nan() => Ok(v),
+        _ => Err(EditError::NotANumber(t.to_string())),
+    }
+}
+
+pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Wants {
+    let result: Result<Wants, EditError> = (|| {
+        let input = prompt.input.trim().to_string();
+        Ok(match prompt.purpose.clone() {
+            PromptPurpose::Hex { light, reflectance } => {
+                let hex = if input.starts_with('#') { input.clone() } else { format!("#{input}") };
+                let rgb = hex_to_linear(&hex).ok_or_else(|| EditError::NotHex(input.clone()))?;
+                edit_or_err(state, |p, _| edits::set_target(p, light, reflectance, rgb))?
+            }
+            PromptPurpose::Weight { light, reflectance } => {
+                let w = parse_number(&input)?;
+                let now = current_colour(state, light, reflectance);
+                edit_or_err(state, |p, _| edits::set_weight(p, light, reflectance, w, now))?
+            }
+            PromptPurpose::FreeGroup { light, reflectance } => {
+                let now = current_colour(state, light, reflectance);
+                let name = (!input.is_empty()).then_some(input.as_str());
+                edit_or_err(state, |p, _| edits::set_free(p, light, reflectance, name, now))?
+            }
+            PromptPurpose::FreeBounds { group } => {
+                let v: Vec<f64> = input
+                    .split([' ', ',', '\t'])
+                    .filter(|s| !s.is_empty())
+                    .map(parse_number)
+                    .collect::<Result<_, _>>()?;
+                let (lower, upper) = match v.as_slice() {
+                    [lo, hi] => (Vector3::repeat(*lo), Vector3::repeat(*hi)),
+                    [a, b, c, d, e, f] => (Vector3::new(*a, *b, *c), Vector3::new(*d, *e, *f)),
+                    _ => return Err(EditError::BoundsCount),
+                };
+                edit_or_err(state, |p, _| edits::set_free_bounds(p, group, lower, upper))?
+            }
+            PromptPurpose::Planck { light } => {
+                let t = parse_number(&input)?;
+                if !(t.is_finite() && t > 0.0) {
+                    return Err(EditError::Temperature);
+                }
+                edit_or_err(state, |p, c| edits::make_planck(p, light, t, c))?
+            }
+            PromptPurpose::NewPlanck => {
+                let t = parse_number(&input)?;
+                if !(t.is_finite() && t > 0.0) {
+                    return Err(EditError::Temperature);
+                }
+                add_spectrum(state, Kind::Light, &format!("planck_{}K", t.round()), Source::Planck(t))
+            }
+            PromptPurpose::Scale { kind, index } => {
+                let k = parse_number(&input)?;
+                if !(k.is_finite() && k > 0.0) {
+                    return Err(EditError::Scale);
+                }
+                edit_or_err(state, |p, c| edits::scale(p, kind, index, k, c))?
+            }
+            PromptPurpose::CsvPath(kind) => {
+                if input.is_empty() {
+                    return Err(EditError::NoPath);
+                }
+                start_import(state, kind, &input)
+            }
+            PromptPurpose::SaveAs => {
+                if input.is_empty() {
+                    return Err(EditError::NoPath);
+                }
+                Wants { save_as: Some(std::path::PathBuf::from(&input)), ..Wants::NONE }
+            }
+            PromptPurpose::Setting(field) => {
+                let v = parse_number(&input)?;
+                edit_or_err(state, |p, _| set_setting(p, field, v))?
+            }
+        })
+    })();
+    match result {
+        Ok(effects) => effects,
+        Err(reason) => {
+            state.message = None;
+            prompt.error = Some(reason.into());
+            state.popup = Some(Popup::Prompt(prompt));
+            Wants::NONE
+        }
+    }
+}
+
+/// Like [`edit`], but a refused edit is an error for the prompt to show.
+fn edit_or_err(
+    state: &mut State,
+    f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult,
+) -> Result<Wants, EditError> {
+    try_edit(state, EditKey::Other, f)
+}
+
+fn set_setting(p: &mut Palette, field: SettingField, v: f64) -> EditResult {
+    let s = &mut p.settings;
+    let nonneg = |v: f64| {
+        if v.is_finite() && v >= 0.0 { Ok(v) } else { Err(EditError::NotNonNegative(v)) }
+    };
+    let ordered = |b: Bounds| if b.lower <= b.upper { Ok(b) } else { Err(EditError::Unordered) };
+    match field {
+        SettingField::ReflectanceLower => s.reflectance_bounds = ordered(Bounds::new(v, s.reflectance_bounds.upper))?,
+        SettingField::ReflectanceUpper => s.reflectance_bounds = ordered(Bounds::new(s.reflectance_bounds.lower, v))?,
+        SettingField::LightLower => s.light_bounds = ordered(Bounds::new(v, s.light_bounds.upper))?,
+        SettingField::LightUpper => s.light_bounds = ordered(Bounds::new(s.light_bounds.lower, v))?,
+        SettingField::Smoothness => s.smoothness = nonneg(v)?,
+        SettingField::SubspaceError => s.subspace_error = nonneg(v)?,
+        SettingField::BasisDimension => {
+            if v.fract() != 0.0 || !(1.0..=31.0).contains(&v) {
+                return Err(EditError::BasisDimension);
+            }
+            s.basis_dimension = v as usize;
+        }
+        SettingField::Bounds | SettingField::FitInSubspace => {}
+    }
+    Ok(())
+}
