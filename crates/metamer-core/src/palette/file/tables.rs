@@ -3,28 +3,46 @@
 //! file: each changed `[[lights]]` / `[[reflectances]]` table's text (from its header to the next
 //! top-level header) is parsed as a `toml_edit` document of its own, updated by the one writer
 //! ([`super::write::sync_spectrum`]), printed and put back in its place; the rest of the text is not
-//! touched. Each new table is read back before anything is written.
+//! touched. The entry each new table reads as is resolved as the reader resolves it; debug builds (the
+//! tests) read the whole new text back and compare.
 //!
 //! That is the document writer's own output (the same code writes the same keys with the same decor), at
 //! the cost of the changed tables only (building and printing the document of a palette of thousands of
 //! spectra dominated such a save). Anything else (renames, added or removed entries, settings, cells, a
 //! CSV path to rebase, a table whose text holds another header or an inline table) is written through the
 //! whole document.
+//!
+//! A source value the writer replaces (a solve's old samples, most of a designed table's text) is not
+//! parsed: the table is parsed with a placeholder in its place, at the span the reader saw.
 
-use super::read::Reader;
-use super::write::{SaveContext, sync_spectrum};
+use super::write::{SaveContext, sync_spectrum, written_source};
 use crate::palette::{Kind, Palette, Source, SpectrumEntry};
 use rayon::prelude::*;
 use std::ops::Range;
-use std::path::Path;
 use toml::de::{DeTable, DeValue};
 use toml_edit::DocumentMut;
+
+/// Where one spectrum's table sits in the text.
+#[derive(Clone, Debug)]
+pub(super) struct TableSpan {
+    /// From the header to the next top-level header (or the end of the text).
+    range: Range<usize>,
+    /// Where its source value sits, from the table's start, as read (`None` once the table is rewritten).
+    source_value: Option<Range<usize>>,
+}
+
+/// Spans are equal when they cover the same text (the source value's place is only known as read).
+impl PartialEq for TableSpan {
+    fn eq(&self, other: &TableSpan) -> bool {
+        self.range == other.range
+    }
+}
 
 /// Where each light's and reflectance's table sits in the text, in model order.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct Tables {
-    lights: Vec<Range<usize>>,
-    reflectances: Vec<Range<usize>>,
+    lights: Vec<TableSpan>,
+    reflectances: Vec<TableSpan>,
 }
 
 impl Tables {
@@ -53,21 +71,33 @@ impl Tables {
             let i = starts.partition_point(|&s| s <= start);
             starts.get(i).copied().unwrap_or(text.len())
         };
-        let list = |key: &str| -> Option<Vec<Range<usize>>> {
+        let list = |key: &str| -> Option<Vec<TableSpan>> {
             let Some(v) = root.get(key) else { return Some(Vec::new()) };
             let items = v.get_ref().as_array()?;
             items
                 .iter()
                 .map(|item| {
                     let start = item.span().start;
-                    (item.get_ref().is_table() && text.get(start..)?.starts_with("[[")).then(|| start..end_of(start))
+                    let table = item.get_ref().as_table()?;
+                    if !text.get(start..)?.starts_with("[[") {
+                        return None;
+                    }
+                    let range = start..end_of(start);
+                    let mut sources = Source::KEYS.iter().filter_map(|k| table.get(*k));
+                    let source_value = match (sources.next(), sources.next()) {
+                        (Some(v), None) if range.start <= v.span().start && v.span().end <= range.end => {
+                            Some(v.span().start - start..v.span().end - start)
+                        }
+                        _ => None,
+                    };
+                    Some(TableSpan { range, source_value })
                 })
                 .collect()
         };
         Some(Tables { lights: list("lights")?, reflectances: list("reflectances")? })
     }
 
-    fn list(&self, kind: Kind) -> &[Range<usize>] {
+    fn list(&self, kind: Kind) -> &[TableSpan] {
         if kind == Kind::Light { &self.lights } else { &self.reflectances }
     }
 }
@@ -96,7 +126,7 @@ fn same_but_spectrum(a: &SpectrumEntry, b: &SpectrumEntry) -> bool {
 
 /// The text of saving `new` to `path` over the file `layout` (which says `old`), or `None` when the change
 /// is more than rewriting some spectrum tables.
-pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveContext, path: &Path) -> Option<Saved> {
+pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveContext) -> Option<Saved> {
     let tables = layout.tables;
     let same_shape = old.name == new.name
         && old.settings == new.settings
@@ -127,9 +157,9 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
     let rewritten: Vec<(Range<usize>, String, SpectrumEntry)> = changed
         .par_iter()
         .map(|&(i, o, n)| {
-            let range = tables.list(o.kind).get(i)?.clone();
-            let (text, entry) = rewrite(layout, range.clone(), i, o, n, ctx, path)?;
-            Some((range, text, entry))
+            let span = tables.list(o.kind).get(i)?;
+            let (text, entry) = rewrite(layout, span, o, n, ctx)?;
+            Some((span.range.clone(), text, entry))
         })
         .collect::<Option<_>>()?;
     let mut order: Vec<usize> = (0..rewritten.len()).collect();
@@ -149,11 +179,13 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
         .iter()
         .map(|&k| (rewritten[k].0.clone(), rewritten[k].1.len() as isize - rewritten[k].0.len() as isize))
         .collect();
-    let shift = |r: &Range<usize>| -> Range<usize> {
+    let shift = |t: &TableSpan| -> TableSpan {
+        let r = &t.range;
         let before: isize = edits.iter().take_while(|(e, _)| e.end <= r.start).map(|(_, d)| d).sum();
-        let own = edits.iter().find(|(e, _)| e == r).map_or(0, |(_, d)| *d);
+        let own = edits.iter().find(|(e, _)| e == r).map(|(_, d)| *d);
         let start = (r.start as isize + before) as usize;
-        start..(r.end as isize + before + own) as usize
+        let range = start..(r.end as isize + before + own.unwrap_or(0)) as usize;
+        TableSpan { range, source_value: if own.is_some() { None } else { t.source_value.clone() } }
     };
     let new_tables = Tables {
         lights: tables.lights.iter().map(shift).collect(),
@@ -167,22 +199,31 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
     Some(Saved { text: out, palette, tables: new_tables })
 }
 
-/// The new text of the table at `range` (entry `i` of its list, which says `old`) saying `new`, and the
-/// entry it reads back as.
+/// The new text of the table at `span` (which says `old`) saying `new`, and the entry it then reads as.
 fn rewrite(
     layout: &Layout,
-    range: Range<usize>,
-    i: usize,
+    span: &TableSpan,
     old: &SpectrumEntry,
     new: &SpectrumEntry,
     ctx: &SaveContext,
-    path: &Path,
 ) -> Option<(String, SpectrumEntry)> {
+    let range = span.range.clone();
     let piece = layout.text.get(range.clone())?;
     // Its own header only: no other table, no inline table (which the cut could split).
     if super::budget::count(piece).tables != 1 {
         return None;
     }
+    let (source, normalize, scale) = written_source(new, ctx);
+    // A source the writer replaces need not be parsed: its value (a solve's old samples, most of the
+    // table's text) is read as a placeholder; the key and the text around the value are kept.
+    let placeholder;
+    let piece = match &span.source_value {
+        Some(v) if old.source != source => {
+            placeholder = format!("{}0{}", piece.get(..v.start)?, piece.get(v.end..)?);
+            placeholder.as_str()
+        }
+        _ => piece,
+    };
     let list = if old.kind == Kind::Light { "lights" } else { "reflectances" };
     let mut document: DocumentMut = piece.parse().ok()?;
     if document.len() != 1 {
@@ -201,15 +242,15 @@ fn rewrite(
     if layout.crlf {
         text = text.replace("\r\n", "\n").replace('\n', "\r\n");
     }
-    // Read back as the reader reads the whole file.
-    let root = DeTable::parse(&text).ok()?;
-    if root.get_ref().values().any(|v| super::read::check_numbers(v).is_some()) {
-        return None;
-    }
-    let table = root.get_ref().get(list)?.get_ref().as_array()?.first()?.get_ref().as_table()?;
-    let reader = Reader::new(path, ctx.luminance);
-    let (entry, _) = reader.spectrum(table, &format!("{list}[{i}]"), old.kind).ok()?;
-    Some((text, entry))
+    // The entry as reading the new table gives it: the written source, resolved as the reader resolves
+    // it (debug builds read the whole text back and compare).
+    let raw = match &source {
+        Source::Csv(file) => ctx.csv_raw.get(file).copied().or_else(|| source.raw_spectrum(ctx.old_base).ok())?,
+        other => other.raw_spectrum(None).ok()?,
+    };
+    let normalize = if new.kind == Kind::Light { normalize } else { crate::spectrum::Normalize::default() };
+    let spectrum = crate::palette::source::finish(&raw, new.kind, normalize, scale, &ctx.luminance).ok()?;
+    Some((text, SpectrumEntry { source, normalize, scale, spectrum, ..new.clone() }))
 }
 
 #[cfg(test)]

@@ -134,6 +134,8 @@ fn tables_run_from_header_to_header() {
     let text = "name = \"t\"\n[[lights]]\nname = \"e\"\nflat = 1\n[settings]\nsmoothness = 0\n[[reflectances]]\nname = \"r\"\nflat = 0.5\n";
     let root = toml::de::DeTable::parse(text).unwrap();
     let t = Tables::of(root.get_ref(), text).unwrap();
-    assert_eq!(&text[t.lights[0].clone()], "[[lights]]\nname = \"e\"\nflat = 1\n");
-    assert_eq!(&text[t.reflectances[0].clone()], "[[reflectances]]\nname = \"r\"\nflat = 0.5\n");
+    assert_eq!(&text[t.lights[0].range.clone()], "[[lights]]\nname = \"e\"\nflat = 1\n");
+    assert_eq!(&text[t.reflectances[0].range.clone()], "[[reflectances]]\nname = \"r\"\nflat = 0.5\n");
+    let value = t.reflectances[0].source_value.clone().unwrap();
+    assert_eq!(&text[t.reflectances[0].range.clone()][value], "0.5");
 }

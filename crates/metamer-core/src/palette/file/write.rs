@@ -259,7 +259,7 @@ fn sync_settings(root: &mut Table, old: &Settings, new: &Settings) {
 
 /// How a spectrum is written: its own source when the samples are what that source resolves to, else
 /// (designed or edited samples) the samples themselves, never normalised or scaled again.
-fn written_source(entry: &SpectrumEntry, ctx: &SaveContext) -> (Source, Normalize, f64) {
+pub(super) fn written_source(entry: &SpectrumEntry, ctx: &SaveContext) -> (Source, Normalize, f64) {
     let raw = match &entry.source {
         Source::Csv(file) => match ctx.csv_raw.get(file) {
             Some(raw) => Ok(*raw),
