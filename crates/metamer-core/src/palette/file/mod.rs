@@ -1,17 +1,18 @@
 //! Palette files (DESIGN_SPEC §3): reading TOML into the resolved [`Palette`] model with validation that
 //! names the file, the key and the reason, and saving the model back while keeping the user's comments,
-//! key order and unknown keys (only changed values are rewritten: new spectrum values are spliced into the
-//! text as read when that is all that changed, anything else goes through a `toml_edit` document). Saving is
-//! atomic: a temporary file in the same folder, flushed to disk, then renamed over the target, so a failed
-//! save never leaves a half-written or missing palette.
+//! key order and unknown keys. Saving is atomic ([`crate::fsio::write_atomic`]: a temporary file in the same
+//! folder, flushed to disk, then renamed over the target), so a failed save never leaves a half-written or
+//! missing palette.
 //!
-//! Reading uses `toml`'s borrowing parser (spans kept, no document built); the `toml_edit` document is only
-//! parsed when a save needs it.
+//! One parser, one writer. Reading ([`read`]) walks the tree of `toml`'s borrowing parser (spans kept for
+//! messages, no document built). Writing ([`write`]) updates a `toml_edit` document of the text so only
+//! what changed is rewritten; the document is parsed when a save needs it. A save that only changes
+//! spectra (what a solve does) updates a document of each changed table instead of one of the whole
+//! file ([`tables`]); it is the same writer, applied to less text.
 
 mod budget;
-mod parallel;
 mod read;
-mod splice;
+mod tables;
 mod write;
 
 use crate::colorimetry::Colorimetry;
@@ -77,8 +78,8 @@ pub struct PaletteFile {
     pub path: Option<PathBuf>,
     /// The document as the user wrote it (parsed from `original` on first use); saving edits a copy.
     document: OnceLock<DocumentMut>,
-    /// Where each spectrum's source, `normalize` and `scale` sit in `original` (for splicing saves).
-    spans: Option<splice::Spans>,
+    /// Where each spectrum's table sits in `original` (for saves that rewrite only some tables).
+    tables: Option<tables::Tables>,
     /// The resolved model, as the document currently says.
     pub palette: Palette,
     /// Non-fatal remarks from reading (unknown keys, kept as they are).
@@ -87,6 +88,8 @@ pub struct PaletteFile {
     csv_raw: HashMap<String, Spectrum>,
     /// The file used CRLF line endings (the document keeps LF; saving writes CRLF back).
     crlf: bool,
+    /// Some lines of the file end in CRLF and some in LF.
+    mixed_newlines: bool,
     /// The file ended without a newline (saving keeps it that way).
     no_final_newline: bool,
     /// The file began with a UTF-8 byte order mark (the document drops it; saving writes it back).
@@ -172,13 +175,6 @@ impl PaletteFile {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
             PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
         };
-        // Long files are parsed in pieces on several threads; anything unusual, and every error (whose
-        // message needs the spans of the whole text), goes through the whole-text parse.
-        if let Some(parsed) = parallel::parse(text)
-            && let Ok(outcome) = read::Reader::new(path, Colorimetry::default().luminance()).read(&parsed.root)
-        {
-            return Ok(PaletteFile::from_outcome(text, path, outcome, parsed.spans));
-        }
         let spanned = DeTable::parse(text).map_err(|e| syntax(e.message(), e.span()))?;
         let root = spanned.get_ref();
         // The parser keeps numbers as text; one TOML cannot represent is a syntax error, as in `toml_edit`.
@@ -193,10 +189,10 @@ impl PaletteFile {
             }
             other => other,
         })?;
-        Ok(PaletteFile::from_outcome(text, path, outcome, splice::Spans::of(root)))
+        Ok(PaletteFile::from_outcome(text, path, outcome, tables::Tables::of(root, text)))
     }
 
-    fn from_outcome(text: &str, path: &Path, outcome: read::ReadOutcome, spans: Option<splice::Spans>) -> Self {
+    fn from_outcome(text: &str, path: &Path, outcome: read::ReadOutcome, tables: Option<tables::Tables>) -> Self {
         // Line endings: CRLF when most newlines have a carriage return before them.
         let bytes = text.as_bytes();
         let (mut newlines, mut crlf) = (0usize, 0usize);
@@ -209,11 +205,12 @@ impl PaletteFile {
         PaletteFile {
             path: Some(path.to_path_buf()),
             document: OnceLock::new(),
-            spans,
+            tables,
             palette: outcome.palette,
             warnings: outcome.warnings,
             csv_raw: outcome.csv_raw,
             crlf: crlf * 2 > newlines,
+            mixed_newlines: crlf != 0 && crlf != newlines,
             no_final_newline: !text.ends_with('\n'),
             bom: text.starts_with('\u{feff}'),
             original: text.to_string(),
@@ -234,11 +231,12 @@ impl PaletteFile {
         PaletteFile {
             path: None,
             document: OnceLock::from(document),
-            spans: None,
+            tables: None,
             palette: palette.clone(),
             warnings: Vec::new(),
             csv_raw: HashMap::new(),
             crlf: false,
+            mixed_newlines: false,
             no_final_newline: false,
             bom: false,
             original: String::new(),
@@ -327,15 +325,15 @@ impl PaletteFile {
     }
 
     /// Save `palette` to `path` (atomically) and make that this file's path. The text is checked by reading
-    /// it back before anything is written (a splicing save checks each value it writes); on any error the
-    /// file on disk is left as it was.
+    /// it back before anything is written (a save by tables, in debug builds); on any error
+    /// the file on disk is left as it was.
     pub fn save_as(&mut self, palette: &Palette, path: &Path) -> Result<(), PaletteError> {
-        if let Some(spliced) = self.splice(palette, path) {
-            write_atomically(path, &spliced.text)
+        if let Some(saved) = self.save_by_tables(palette, path) {
+            write_atomically(path, &saved.text)
                 .map_err(|cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) })?;
-            self.palette = spliced.palette;
-            self.spans = Some(spliced.spans);
-            self.original = spliced.text;
+            self.palette = saved.palette;
+            self.tables = Some(saved.tables);
+            self.original = saved.text;
             self.document = OnceLock::new();
             self.path = Some(path.to_path_buf());
             return Ok(());
@@ -347,7 +345,7 @@ impl PaletteFile {
         self.palette = reread.palette;
         self.csv_raw = reread.csv_raw;
         self.warnings = reread.warnings;
-        self.spans = reread.spans;
+        self.tables = reread.tables;
         self.original = reread.original;
         self.path = Some(path.to_path_buf());
         Ok(())
@@ -365,25 +363,31 @@ impl PaletteFile {
         })
     }
 
-    /// The splicing save of `palette` to `path`, when the change allows it (see [`splice`]).
-    fn splice(&self, palette: &Palette, path: &Path) -> Option<splice::Spliced> {
-        let spans = self.spans.as_ref()?;
+    /// The save of `palette` to `path` that rewrites only the changed spectrum tables, when the change
+    /// allows it (see [`tables`]).
+    fn save_by_tables(&self, palette: &Palette, path: &Path) -> Option<tables::Saved> {
+        let tables = self.tables.as_ref()?;
         if self.original.is_empty() {
             return None;
         }
-        let spliced = self.with_save_context(path, |ctx| {
-            splice::splice(&self.original, spans, &self.palette, palette, ctx, self.crlf)
-        })?;
+        let layout = tables::Layout {
+            text: &self.original,
+            tables,
+            crlf: self.crlf,
+            mixed_newlines: self.mixed_newlines,
+            no_final_newline: self.no_final_newline,
+        };
+        let saved = self.with_save_context(path, |ctx| tables::save(&layout, &self.palette, palette, ctx))?;
         // Debug builds (the tests) also read the whole text back.
         #[cfg(debug_assertions)]
         {
-            let reread = PaletteFile::parse(&spliced.text, path);
+            let reread = PaletteFile::parse(&saved.text, path);
             debug_assert!(
-                reread.as_ref().is_ok_and(|r| r.palette == spliced.palette && r.spans.as_ref() == Some(&spliced.spans)),
-                "a splicing save does not read back as intended"
+                reread.as_ref().is_ok_and(|r| r.palette == saved.palette && r.tables.as_ref() == Some(&saved.tables)),
+                "a save by tables does not read back as intended"
             );
         }
-        Some(spliced)
+        Some(saved)
     }
 }
 

@@ -336,7 +336,7 @@ impl<'a> Reader<'a> {
     }
 
     /// One spectrum, and its CSV file's raw samples when it has one.
-    fn spectrum(&self, t: &Table, at: &str, kind: Kind) -> Res<ReadSpectrum> {
+    pub(super) fn spectrum(&self, t: &Table, at: &str, kind: Kind) -> Res<ReadSpectrum> {
         let name = match t.value("name") {
             Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
             None => return Err(self.invalid(format!("{at}.name"), "missing: every spectrum needs a name")),

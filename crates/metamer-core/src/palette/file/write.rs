@@ -12,7 +12,6 @@ use nalgebra::Vector3;
 use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
 use toml_edit::{Array, ArrayOfTables, DocumentMut, InlineTable, Item, Table, TableLike, Value};
-use toml_writer::{ToTomlValue, WriteTomlValue};
 
 /// What the update needs besides the two palettes.
 pub(super) struct SaveContext<'a> {
@@ -214,41 +213,6 @@ fn samples_array(values: &[f64]) -> Value {
     Value::Array(a)
 }
 
-/// The text [`samples_array`] prints as, with `newline` for its line breaks (what the splicing save writes).
-pub(super) fn samples_text(values: &[f64], newline: &str) -> String {
-    let mut s = String::with_capacity(values.len() * 22 + 16);
-    s.push('[');
-    for (i, x) in values.iter().enumerate() {
-        if i > 0 {
-            s.push(',');
-        }
-        if i % 8 == 0 {
-            s.push_str(newline);
-            s.push_str("    ");
-        } else {
-            s.push(' ');
-        }
-        // Writing to a String cannot fail.
-        let _ = x.write_toml_value(&mut s);
-    }
-    if !values.is_empty() {
-        s.push(',');
-    }
-    s.push_str(newline);
-    s.push(']');
-    s
-}
-
-/// A float as the document writer prints it.
-pub(super) fn float_text(x: f64) -> String {
-    x.to_toml_value()
-}
-
-/// A string as the document writer prints it.
-pub(super) fn string_text(s: &str) -> String {
-    toml_writer::TomlStringBuilder::new(s).as_default().to_toml_value()
-}
-
 fn bounds_value(b: Bounds) -> Value {
     float_array(&[b.lower, b.upper])
 }
@@ -400,7 +364,12 @@ fn replace_source(t: &mut dyn TableLike, source: &Source) {
     }
 }
 
-fn sync_spectrum(t: &mut dyn TableLike, old: Option<&SpectrumEntry>, new: &SpectrumEntry, ctx: &SaveContext) {
+pub(super) fn sync_spectrum(
+    t: &mut dyn TableLike,
+    old: Option<&SpectrumEntry>,
+    new: &SpectrumEntry,
+    ctx: &SaveContext,
+) {
     if old.map(|o| &o.name) != Some(&new.name) {
         put(t, "name", Value::from(new.name.as_str()));
     }

@@ -1,0 +1,258 @@
+//! Saving table by table. A save that only changes how spectra are given (a designed spectrum's new
+//! `samples`, its `normalize` or `scale`), which is what a solve does, needs no document of the whole
+//! file: each changed `[[lights]]` / `[[reflectances]]` table's text (from its header to the next
+//! top-level header) is parsed as a `toml_edit` document of its own, updated by the one writer
+//! ([`super::write::sync_spectrum`]), printed and put back in its place; the rest of the text is not
+//! touched. The entry each new table reads as is resolved as the reader resolves it; debug builds (the
+//! tests) read the whole new text back and compare.
+//!
+//! That is the document writer's own output (the same code writes the same keys with the same decor), at
+//! the cost of the changed tables only (building and printing the document of a palette of thousands of
+//! spectra dominated such a save). Anything else (renames, added or removed entries, settings, cells, a
+//! CSV path to rebase, a table whose text holds another header or an inline table) is written through the
+//! whole document.
+//!
+//! A source value the writer replaces (a solve's old samples, most of a designed table's text) is not
+//! parsed: the table is parsed with a placeholder in its place, at the span the reader saw.
+
+use super::write::{SaveContext, sync_spectrum, written_source};
+use crate::palette::{Kind, Palette, Source, SpectrumEntry};
+use rayon::prelude::*;
+use std::ops::Range;
+use toml::de::{DeTable, DeValue};
+use toml_edit::DocumentMut;
+
+/// Where one spectrum's table sits in the text.
+#[derive(Clone, Debug)]
+pub(super) struct TableSpan {
+    /// From the header to the next top-level header (or the end of the text).
+    range: Range<usize>,
+    /// Where its source value sits, from the table's start, as read (`None` once the table is rewritten).
+    source_value: Option<Range<usize>>,
+}
+
+/// Spans are equal when they cover the same text (the source value's place is only known as read).
+impl PartialEq for TableSpan {
+    fn eq(&self, other: &TableSpan) -> bool {
+        self.range == other.range
+    }
+}
+
+/// Where each light's and reflectance's table sits in the text, in model order.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Tables {
+    lights: Vec<TableSpan>,
+    reflectances: Vec<TableSpan>,
+}
+
+impl Tables {
+    /// The tables of a parsed text the reader accepted (`None` when its lists are not all `[[…]]` tables,
+    /// e.g. inline arrays, which then save through the whole document).
+    pub(super) fn of(root: &DeTable, text: &str) -> Option<Tables> {
+        // Every top-level header, sorted: a table ends where the next one starts.
+        let mut starts: Vec<usize> = Vec::new();
+        for value in root.values() {
+            match value.get_ref() {
+                DeValue::Array(items) => starts.extend(
+                    items
+                        .iter()
+                        .map(|i| i.span().start)
+                        .filter(|&s| text.get(s..).is_some_and(|t| t.starts_with("[["))),
+                ),
+                DeValue::Table(_) if text.get(value.span()).is_some_and(|h| h.starts_with('[')) => {
+                    starts.push(value.span().start)
+                }
+                _ => {}
+            }
+        }
+        starts.sort_unstable();
+        starts.dedup();
+        let end_of = |start: usize| {
+            let i = starts.partition_point(|&s| s <= start);
+            starts.get(i).copied().unwrap_or(text.len())
+        };
+        let list = |key: &str| -> Option<Vec<TableSpan>> {
+            let Some(v) = root.get(key) else { return Some(Vec::new()) };
+            let items = v.get_ref().as_array()?;
+            items
+                .iter()
+                .map(|item| {
+                    let start = item.span().start;
+                    let table = item.get_ref().as_table()?;
+                    if !text.get(start..)?.starts_with("[[") {
+                        return None;
+                    }
+                    let range = start..end_of(start);
+                    let mut sources = Source::KEYS.iter().filter_map(|k| table.get(*k));
+                    let source_value = match (sources.next(), sources.next()) {
+                        (Some(v), None) if range.start <= v.span().start && v.span().end <= range.end => {
+                            Some(v.span().start - start..v.span().end - start)
+                        }
+                        _ => None,
+                    };
+                    Some(TableSpan { range, source_value })
+                })
+                .collect()
+        };
+        Some(Tables { lights: list("lights")?, reflectances: list("reflectances")? })
+    }
+
+    fn list(&self, kind: Kind) -> &[TableSpan] {
+        if kind == Kind::Light { &self.lights } else { &self.reflectances }
+    }
+}
+
+/// A save written table by table: the new text and what the file now says.
+pub(super) struct Saved {
+    pub text: String,
+    pub palette: Palette,
+    pub tables: Tables,
+}
+
+/// What the file as read says, and how it is laid out.
+pub(super) struct Layout<'a> {
+    pub text: &'a str,
+    pub tables: &'a Tables,
+    pub crlf: bool,
+    /// Some lines end in CRLF and some in LF (the whole document's print changes some of them).
+    pub mixed_newlines: bool,
+    pub no_final_newline: bool,
+}
+
+/// Entries of the two palettes that only differ in how their spectrum is given.
+fn same_but_spectrum(a: &SpectrumEntry, b: &SpectrumEntry) -> bool {
+    a.name == b.name && a.kind == b.kind && a.design == b.design && a.bounds == b.bounds && a.dial == b.dial
+}
+
+/// The text of saving `new` to `path` over the file `layout` (which says `old`), or `None` when the change
+/// is more than rewriting some spectrum tables.
+pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveContext) -> Option<Saved> {
+    let tables = layout.tables;
+    let same_shape = old.name == new.name
+        && old.settings == new.settings
+        && old.colours == new.colours
+        && old.free == new.free
+        && old.lights.len() == new.lights.len()
+        && old.reflectances.len() == new.reflectances.len()
+        && tables.lights.len() == old.lights.len()
+        && tables.reflectances.len() == old.reflectances.len()
+        && old.lights.iter().zip(&new.lights).all(|(a, b)| same_but_spectrum(a, b))
+        && old.reflectances.iter().zip(&new.reflectances).all(|(a, b)| same_but_spectrum(a, b));
+    // A CSV source saved into another folder gets a rebased path in every table that has one.
+    let moves_csv = || {
+        let same_dir = ctx.old_base.is_some_and(|b| super::write::same_dir(b, ctx.new_base));
+        !same_dir && new.lights.iter().chain(&new.reflectances).any(|e| matches!(e.source, Source::Csv(_)))
+    };
+    if !same_shape || layout.mixed_newlines || moves_csv() {
+        return None;
+    }
+    let changed: Vec<(usize, &SpectrumEntry, &SpectrumEntry)> = [Kind::Light, Kind::Reflectance]
+        .into_iter()
+        .flat_map(|kind| {
+            let (o, n) =
+                if kind == Kind::Light { (&old.lights, &new.lights) } else { (&old.reflectances, &new.reflectances) };
+            o.iter().zip(n).enumerate().filter(|(_, (o, n))| o != n).map(|(i, (o, n))| (i, o, n))
+        })
+        .collect();
+    let rewritten: Vec<(Range<usize>, String, SpectrumEntry)> = changed
+        .par_iter()
+        .map(|&(i, o, n)| {
+            let span = tables.list(o.kind).get(i)?;
+            let (text, entry) = rewrite(layout, span, o, n, ctx)?;
+            Some((span.range.clone(), text, entry))
+        })
+        .collect::<Option<_>>()?;
+    let mut order: Vec<usize> = (0..rewritten.len()).collect();
+    order.sort_by_key(|&k| rewritten[k].0.start);
+    let growth: usize = rewritten.iter().map(|(_, t, _)| t.len()).sum();
+    let mut out = String::with_capacity(layout.text.len() + growth);
+    let mut at = 0;
+    for &k in &order {
+        let (range, text, _) = &rewritten[k];
+        out.push_str(layout.text.get(at..range.start)?);
+        out.push_str(text);
+        at = range.end;
+    }
+    out.push_str(layout.text.get(at..)?);
+    // The tables after the rewrite: each start moves by the growth of the tables before it.
+    let edits: Vec<(Range<usize>, isize)> = order
+        .iter()
+        .map(|&k| (rewritten[k].0.clone(), rewritten[k].1.len() as isize - rewritten[k].0.len() as isize))
+        .collect();
+    let shift = |t: &TableSpan| -> TableSpan {
+        let r = &t.range;
+        let before: isize = edits.iter().take_while(|(e, _)| e.end <= r.start).map(|(_, d)| d).sum();
+        let own = edits.iter().find(|(e, _)| e == r).map(|(_, d)| *d);
+        let start = (r.start as isize + before) as usize;
+        let range = start..(r.end as isize + before + own.unwrap_or(0)) as usize;
+        TableSpan { range, source_value: if own.is_some() { None } else { t.source_value.clone() } }
+    };
+    let new_tables = Tables {
+        lights: tables.lights.iter().map(shift).collect(),
+        reflectances: tables.reflectances.iter().map(shift).collect(),
+    };
+    let mut palette = old.clone();
+    for ((i, o, _), (_, _, entry)) in changed.iter().zip(rewritten) {
+        let list = if o.kind == Kind::Light { &mut palette.lights } else { &mut palette.reflectances };
+        list[*i] = entry;
+    }
+    Some(Saved { text: out, palette, tables: new_tables })
+}
+
+/// The new text of the table at `span` (which says `old`) saying `new`, and the entry it then reads as.
+fn rewrite(
+    layout: &Layout,
+    span: &TableSpan,
+    old: &SpectrumEntry,
+    new: &SpectrumEntry,
+    ctx: &SaveContext,
+) -> Option<(String, SpectrumEntry)> {
+    let range = span.range.clone();
+    let piece = layout.text.get(range.clone())?;
+    // Its own header only: no other table, no inline table (which the cut could split).
+    if super::budget::count(piece).tables != 1 {
+        return None;
+    }
+    let (source, normalize, scale) = written_source(new, ctx);
+    // A source the writer replaces need not be parsed: its value (a solve's old samples, most of the
+    // table's text) is read as a placeholder; the key and the text around the value are kept.
+    let placeholder;
+    let piece = match &span.source_value {
+        Some(v) if old.source != source => {
+            placeholder = format!("{}0{}", piece.get(..v.start)?, piece.get(v.end..)?);
+            placeholder.as_str()
+        }
+        _ => piece,
+    };
+    let list = if old.kind == Kind::Light { "lights" } else { "reflectances" };
+    let mut document: DocumentMut = piece.parse().ok()?;
+    if document.len() != 1 {
+        return None;
+    }
+    let aot = document.get_mut(list)?.as_array_of_tables_mut()?;
+    if aot.len() != 1 {
+        return None;
+    }
+    sync_spectrum(aot.get_mut(0)?, Some(old), new, ctx);
+    // As the whole document is printed: the file's final newline (or none) and line endings.
+    let mut text = document.to_string();
+    if range.end == layout.text.len() && layout.no_final_newline && text.ends_with('\n') {
+        text.pop();
+    }
+    if layout.crlf {
+        text = text.replace("\r\n", "\n").replace('\n', "\r\n");
+    }
+    // The entry as reading the new table gives it: the written source, resolved as the reader resolves
+    // it (debug builds read the whole text back and compare).
+    let raw = match &source {
+        Source::Csv(file) => ctx.csv_raw.get(file).copied().or_else(|| source.raw_spectrum(ctx.old_base).ok())?,
+        other => other.raw_spectrum(None).ok()?,
+    };
+    let normalize = if new.kind == Kind::Light { normalize } else { crate::spectrum::Normalize::default() };
+    let spectrum = crate::palette::source::finish(&raw, new.kind, normalize, scale, &ctx.luminance).ok()?;
+    Some((text, SpectrumEntry { source, normalize, scale, spectrum, ..new.clone() }))
+}
+
+#[cfg(test)]
+#[path = "tables_tests.rs"]
+mod tests;
