@@ -452,6 +452,12 @@ impl State {
     /// Relight the scene preview with the current spectra at the current dial position.
     pub fn relight(&mut self) {
         let lut = crate::tui::preview::lut();
+        // The basis of the spectra shown, once trained, is the one `metamer render` would use for them.
+        if let (Some(p), Some((key, resolved))) = (&mut self.preview, &self.basis)
+            && self.derived.basis_key.as_deref() == Some(key.as_str())
+        {
+            p.follow_basis(&self.palette, key, &resolved.0);
+        }
         self.preview_frame = match (&mut self.preview, &self.dial_state) {
             (Some(p), Some(d)) => p.frame(&self.palette, &self.derived, d, lut),
             _ => Vec::new(),

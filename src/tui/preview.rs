@@ -6,11 +6,14 @@
 //! with the exposure `metamer render` uses. So the preview at a dial position shows the colours
 //! `metamer render` writes for it.
 //!
-//! The raycast is redone only for a new scene or a new panel size.
+//! The exposure is render's for a palette holding the designer's current spectra: it is taken again when
+//! a solve (saved or not) or an edit changes a spectrum, so an unsaved design previews as `metamer render`
+//! draws it once saved. The raycast is redone only for a new scene or a new panel size.
 
+use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
-use crate::render::dial::DialState;
+use crate::render::dial::{Dial, DialState, Sweep};
 use crate::render::raycast::{ChannelImage, MaterialWeights, raycast};
 use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
 use crate::render::scene::Scene;
@@ -46,8 +49,14 @@ pub struct Preview {
     /// designed has no reflectance of that name).
     pub materials: Vec<(String, Spectrum)>,
 
-    /// The exposure of `metamer render` for this scene (sweep of [`EXPOSURE_FRAMES`] frames).
+    /// The exposure of `metamer render` for this scene (sweep of [`EXPOSURE_FRAMES`] frames) with the
+    /// spectra it was last computed for.
     pub exposure: f64,
+    /// The reflectances and light spectra `exposure` was computed with (`None`: not yet).
+    exposed: Option<(Vec<Spectrum>, Vec<Spectrum>)>,
+    colorimetry: Colorimetry,
+    /// The key of the designer's basis `model` was built with (`None`: the scene palette's own basis).
+    model_key: Option<String>,
 }
 
 /// The spectrum named `name` among `names`/`spectra`, else `fallback`.
@@ -94,35 +103,90 @@ impl Preview {
             scene.materials.iter().map(|m| (m.reflectance.clone(), m.spectrum)).collect();
         let reflectances: Vec<Spectrum> = materials.iter().map(|m| m.1).collect();
         let image = ChannelImage { width: 0, height: 0, channels: model.channels(), data: Vec::new() };
-        let mut preview = Preview { scene, model, weights, image, projected: Vec::new(), materials, exposure: 1.0 };
+        let mut preview = Preview {
+            scene,
+            model,
+            weights,
+            image,
+            projected: Vec::new(),
+            materials,
+            exposure: 1.0,
+            exposed: None,
+            colorimetry: colorimetry.clone(),
+            model_key: None,
+        };
         preview.project(&reflectances);
-        preview.exposure = preview.render_exposure(&preview.scene, colorimetry);
+        let dial = preview.scene.dial.clone();
+        preview.expose(&reflectances, &dial);
         preview
     }
 
-    /// The scene as saved (same volume, materials and camera: the raycast stays), with the exposure
-    /// `metamer render` now uses for its sweep.
+    /// The scene as saved (same volume, materials and camera: the raycast stays); the next frame takes
+    /// the exposure `metamer render` now uses for its sweep.
     pub fn rescene(&mut self, scene: Arc<Scene>, colorimetry: &Colorimetry) {
-        self.exposure = self.render_exposure(&scene, colorimetry);
         self.scene = scene;
+        self.colorimetry = colorimetry.clone();
+        self.exposed = None;
+        let reflectances = self.projected.clone();
+        let dial = self.scene.dial.clone();
+        self.expose(&reflectances, &dial);
     }
 
-    /// The exposure `metamer render` uses for a sweep of [`EXPOSURE_FRAMES`] frames of `scene`, from this
-    /// raycast projected with the scene's own reflectances (as render projects them).
-    fn render_exposure(&self, scene: &Scene, colorimetry: &Colorimetry) -> f64 {
-        let reflectances: Vec<Spectrum> = scene.materials.iter().map(|m| m.spectrum).collect();
-        let colours: Vec<Vec<f32>> = reflectances.iter().map(|s| self.model.material_vector(s)).collect();
-        let image = self.weights.project(&colours);
-        render_exposure(
-            &image,
+    /// Take the exposure `metamer render` uses for a sweep of [`EXPOSURE_FRAMES`] frames of `dial` over
+    /// this raycast, projected with `reflectances` (as render projects a palette holding these spectra);
+    /// skipped when neither changed. `reflectances` must be the ones `image` is projected with.
+    fn expose(&mut self, reflectances: &[Spectrum], dial: &Dial) {
+        let key = (reflectances.to_vec(), dial.base.lights.iter().map(|l| l.spectrum).collect::<Vec<_>>());
+        if self.exposed.as_ref() == Some(&key) {
+            return;
+        }
+        self.exposure = render_exposure(
+            &self.image,
             &self.model,
-            &scene.dial,
-            colorimetry,
-            &reflectances,
+            dial,
+            &self.colorimetry,
+            reflectances,
             EXPOSURE_FRAMES,
-            scene.settings.exposure,
+            self.scene.settings.exposure,
             false,
-        )
+        );
+        self.exposed = Some(key);
+    }
+
+    /// The scene's dial (its sweep too) with the designer's current light spectra.
+    fn current_sweep(&self, palette: &Palette, derived: &Derived) -> Dial {
+        let mut dial = self.scene.dial.clone();
+        let fix = |s: &mut DialState| {
+            for l in &mut s.lights {
+                l.spectrum = current(&palette.lights, &derived.light_spectra, &l.name, &l.spectrum);
+            }
+        };
+        fix(&mut dial.base);
+        if let Sweep::Keyframes(k) = &mut dial.sweep {
+            k.iter_mut().for_each(fix);
+        }
+        dial
+    }
+
+    /// Draw with the designer's basis `key` (trained on the spectra the designer shows) when it is not
+    /// the one in use: `metamer render` of a palette holding those spectra trains exactly that basis.
+    /// Only for the factor model, and only when the designer's palette has the scene palette's lights and
+    /// reflectances (by name, in order), so the training set is the one render would build. Returns true
+    /// when the model changed (the picture is then re-projected and re-exposed by the next frame).
+    pub fn follow_basis(&mut self, palette: &Palette, key: &str, basis: &Basis) -> bool {
+        let names = |e: &[crate::palette::SpectrumEntry]| e.iter().map(|e| e.name.clone()).collect::<Vec<_>>();
+        let same_set = names(&palette.lights) == names(&self.scene.palette.lights)
+            && names(&palette.reflectances) == names(&self.scene.palette.reflectances);
+        if self.model.mode != Mode::Factor || !same_set || self.model_key.as_deref() == Some(key) {
+            return false;
+        }
+        self.model = ColourModel::factor(self.colorimetry.clone(), basis.clone());
+        self.model_key = Some(key.to_string());
+        // Re-project and re-expose with the new model.
+        self.projected.clear();
+        self.image.data.clear();
+        self.exposed = None;
+        true
     }
 
     /// Pixel size of the raycast.
@@ -130,11 +194,14 @@ impl Preview {
         (self.weights.width, self.weights.height)
     }
 
-    /// Replace the raycast (after a resize).
+    /// Replace the raycast (after a resize); the exposure is taken again from the new picture.
     pub fn set_weights(&mut self, weights: MaterialWeights) {
         self.weights = weights;
         let spectra = std::mem::take(&mut self.projected);
         self.project(&spectra);
+        self.exposed = None;
+        let dial = self.scene.dial.clone();
+        self.expose(&spectra, &dial);
     }
 
     /// Project the weights with these material reflectances (skipped when they are unchanged).
@@ -182,10 +249,13 @@ impl Preview {
     }
 
     /// Display sRGB of every pixel under the light of `dial` with the designer's current spectra
-    /// (re-projecting first when a reflectance changed).
+    /// (re-projecting first when a reflectance changed, and taking the exposure `metamer render` gives a
+    /// palette holding the current spectra when a spectrum changed).
     pub fn frame(&mut self, palette: &Palette, derived: &Derived, dial: &DialState, lut: &SrgbLut) -> Vec<u8> {
         let spectra = self.current_reflectances(palette, derived);
         self.project(&spectra);
+        let sweep = self.current_sweep(palette, derived);
+        self.expose(&spectra, &sweep);
         let e = self.light_at(palette, derived, dial);
         self.relight(&e, lut)
     }

@@ -13,6 +13,8 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::Widget;
 use ratatui::widgets::canvas::{Canvas, Line as CanvasLine};
 
+mod labels;
+
 /// The lights that light the dial now, strongest first, as `name 70% · name 30%`.
 pub fn caption(dial: &DialState) -> String {
     let w = dial.weights();
@@ -113,7 +115,9 @@ impl Widget for DialPanel<'_> {
         // The designer's current spectra colour the vertices.
         let dial = preview.current_dial(&state.palette, &state.derived, dial);
         let n = dial.lights.len();
-        let list_rows = (n as u16 + 1).min(area.height.saturating_sub(3));
+        // The dial keeps at least half the panel (and 3 rows): with many lights on a short panel the
+        // intensity list scrolls to keep the selected light in view.
+        let list_rows = (n as u16 + 1).min(area.height.saturating_sub((area.height / 2).max(3)));
         let canvas_area = Rect { height: area.height - list_rows, ..area };
         let list_area = Rect { y: area.y + canvas_area.height, height: list_rows, ..area };
         let [[x0, y0], [x1, y1]] = dial.bounds();
@@ -123,51 +127,76 @@ impl Widget for DialPanel<'_> {
         // Cells are about twice as high as wide: widen the x range so the dial is not squashed.
         let aspect = f64::from(canvas_area.width.max(1)) / (2.0 * f64::from(canvas_area.height.max(1)));
         let (hx, hy) = if aspect >= 1.0 { (half * aspect, half) } else { (half, half / aspect) };
-        let cell_w = 2.0 * hx / f64::from(canvas_area.width.max(1));
         let colours: Vec<Color> = dial.lights.iter().map(|l| light_colour(state, &l.spectrum)).collect();
         let selected = if state.dial_keys { state.dial_selected } else { None };
         let keys = state.dial_keys;
+        let (left, right, bottom, top) = (cx - hx, cx + hx, cy - hy, cy + hy);
         let canvas =
-            Canvas::default().marker(Marker::Braille).x_bounds([cx - hx, cx + hx]).y_bounds([cy - hy, cy + hy]).paint(
-                |ctx| {
-                    for i in 0..n {
-                        let (a, b) = (dial.lights[i].position, dial.lights[(i + 1) % n].position);
-                        if n > 1 && (n > 2 || i == 0) {
-                            ctx.draw(&CanvasLine::new(a[0], a[1], b[0], b[1], Color::DarkGray));
-                        }
+            Canvas::default().marker(Marker::Braille).x_bounds([left, right]).y_bounds([bottom, top]).paint(|ctx| {
+                for i in 0..n {
+                    let (a, b) = (dial.lights[i].position, dial.lights[(i + 1) % n].position);
+                    if n > 1 && (n > 2 || i == 0) {
+                        ctx.draw(&CanvasLine::new(a[0], a[1], b[0], b[1], Color::DarkGray));
                     }
-                    ctx.layer();
-                    for (i, l) in dial.lights.iter().enumerate() {
-                        let mark = if l.on { "●" } else { "○" };
-                        let mut style = Style::new().fg(colours[i]);
-                        if selected == Some(i) {
-                            style = style.add_modifier(Modifier::REVERSED);
-                        }
-                        // Labels run away from the centre so the right-hand ones are not cut off.
-                        let (label, x) = if l.position[0] > cx + 1e-9 {
-                            let label = format!("{} {}{mark}", l.name, i + 1);
-                            let x = l.position[0] - (label.chars().count() - 1) as f64 * cell_w;
-                            (label, x)
-                        } else {
-                            (format!("{mark}{} {}", i + 1, l.name), l.position[0])
-                        };
-                        ctx.print(x, l.position[1], Line::from(Span::styled(label, style)));
-                    }
-                    let style = if keys && selected.is_none() {
-                        Style::new().fg(Color::White).add_modifier(Modifier::REVERSED | Modifier::BOLD)
-                    } else {
-                        Style::new().fg(Color::White).add_modifier(Modifier::BOLD)
-                    };
-                    ctx.print(dial.slider[0], dial.slider[1], Line::from(Span::styled("◆", style)));
-                },
-            );
+                }
+            });
         canvas.render(canvas_area, buf);
+        // Marks and labels go on the cells the canvas puts these points on (its braille grid, 2 × 4 dots a
+        // cell), so the marks sit at the ends of the outline.
+        let (cw, ch) = (f64::from(canvas_area.width), f64::from(canvas_area.height));
+        let cell_of = |p: [f64; 2]| -> (f64, f64) {
+            let px = ((p[0] - left) * (2.0 * cw - 1.0) / (right - left)).round();
+            let py = ((top - p[1]) * (4.0 * ch - 1.0) / (top - bottom)).round();
+            ((px / 2.0).floor().min(cw - 1.0).max(0.0), (py / 4.0).floor().min(ch - 1.0).max(0.0))
+        };
+        let cell = |p: [f64; 2]| -> (u16, u16) {
+            let (x, y) = cell_of(p);
+            (x as u16, y as u16)
+        };
+        let marks: Vec<(u16, u16)> = dial.lights.iter().map(|l| cell(l.position)).collect();
+        let slider = cell(dial.slider);
+        let names: Vec<&str> = dial.lights.iter().map(|l| l.name.as_str()).collect();
+        let centroid = dial.lights.iter().fold([0.0, 0.0], |a, l| [a[0] + l.position[0], a[1] + l.position[1]]);
+        let centroid = [centroid[0] / n.max(1) as f64, centroid[1] / n.max(1) as f64];
+        let centre = {
+            let px = (centroid[0] - left) * (2.0 * cw - 1.0) / (right - left);
+            let py = (top - centroid[1]) * (4.0 * ch - 1.0) / (top - bottom);
+            (px / 2.0 - 0.5, py / 4.0 - 0.5)
+        };
+        let placed = if canvas_area.is_empty() {
+            Vec::new()
+        } else {
+            labels::layout((canvas_area.width, canvas_area.height), &marks, &[slider], &names, centre)
+        };
+        let style_of = |i: usize| {
+            let style = Style::new().fg(colours[i]);
+            if selected == Some(i) { style.add_modifier(Modifier::REVERSED) } else { style }
+        };
+        for (i, p) in placed.iter().enumerate() {
+            if let Some(p) = p {
+                buf.set_string(canvas_area.x + p.x, canvas_area.y + p.y, &p.text, style_of(i));
+            }
+        }
+        for (i, (l, &(x, y))) in dial.lights.iter().zip(&marks).enumerate().filter(|_| !canvas_area.is_empty()) {
+            let mark = if l.on { "●" } else { "○" };
+            buf.set_string(canvas_area.x + x, canvas_area.y + y, mark, style_of(i));
+        }
+        let style = if keys && selected.is_none() {
+            Style::new().fg(Color::White).add_modifier(Modifier::REVERSED | Modifier::BOLD)
+        } else {
+            Style::new().fg(Color::White).add_modifier(Modifier::BOLD)
+        };
+        if !canvas_area.is_empty() {
+            buf.set_string(canvas_area.x + slider.0, canvas_area.y + slider.1, "◆", style);
+        }
         // Intensity sliders: number, on/off, name, bar, value (0 … 2).
         let weights = dial.weights();
-        for (i, l) in dial.lights.iter().enumerate().take(usize::from(list_rows)) {
-            let y = list_area.y + i as u16;
+        let shown = usize::from(list_rows).min(n);
+        let first = selected.map_or(0, |s| (s + 1).saturating_sub(shown)).min(n - shown);
+        for (row, (i, l)) in dial.lights.iter().enumerate().skip(first).take(shown).enumerate() {
+            let y = list_area.y + row as u16;
             let mark = if l.on { "●" } else { "○" };
-            let name: String = l.name.chars().take(9).collect();
+            let name = labels::shorten(&l.name, 9).unwrap_or_default();
             let head = format!("{}{mark} {name:<9} ", i + 1);
             let bar_w = usize::from(area.width).saturating_sub(head.chars().count() + 10).max(1);
             let filled = ((l.intensity / 2.0).clamp(0.0, 1.0) * bar_w as f64).round() as usize;
