@@ -304,7 +304,11 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
         ("+ jitter".into(), with(&|s| s.settings.gradient = Gradient::Cell), 1),
         ("+ jitter + smooth gradient (the default)".into(), scene.clone(), 1),
         ("unshaded (no gradient at all)".into(), with(&|s| s.settings.shading = Shading::Unshaded), 1),
-        ("pre-classified label interpolation".into(), with(&|s| s.settings.interpolation = Interpolation::Labels), 1),
+        (
+            "smoothed label occupancy (interpolation = labels)".into(),
+            with(&|s| s.settings.interpolation = Interpolation::Labels),
+            1,
+        ),
         ("default at --ss 2 (raycast 2× per side, averaged)".into(), scene.clone(), 2),
     ];
     let mut quality = Vec::new();
@@ -468,9 +472,10 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         .map(|q| vec![q.what.clone(), format_seconds(q.median_s), format!("{:.2}×", q.median_s / base_q.max(1e-12))])
         .collect();
     s += &markdown_table(&["configuration", "median raycast", "against no quality steps"], &qrows);
-    s += "\nJitter moves sample positions only (no extra work); the smooth gradient interpolates a per-voxel gradient grid \
-          (i16, 6 bytes a voxel, built once per raycast) at shaded samples only; label interpolation classifies eight voxels per \
-          sample; supersampling multiplies the rays by ss². None of them changes the per-frame cost.\n";
+    s += "\nJitter moves sample positions only (no extra work); the smooth gradient interpolates per-voxel central differences \
+          (i16, 6 bytes an entry) at shaded samples only, built lazily per 8³ brick the first time a ray reaches it; label \
+          interpolation samples each material's Gaussian-smoothed occupancy (u8 per material present, built the same way); \
+          supersampling multiplies the rays by ss². None of them changes the per-frame cost.\n";
     let a = &r.accuracy;
     s += &format!(
         "\n## Accuracy against the full 31-sample frames ({0}×{0}, {1} frames, {2} non-black pixels, 8-bit frames as written)\n\n",

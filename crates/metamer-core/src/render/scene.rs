@@ -27,7 +27,7 @@
 //! step = 1.0                 # voxels between samples
 //! ambient = 0.3              # shading = ambient + (1 − ambient)·max(n·l, 0)
 //! shading = "key"            # key light above left of the eye, "headlight", or "unshaded" (the seed's look)
-//! interpolation = "trilinear"    # "labels" for label volumes (pre-classified, smooth), or "nearest"
+//! interpolation = "trilinear"    # "labels" for label volumes (smoothed per tissue), or "nearest"
 //! exposure = 1.0             # multiplies the automatic sweep exposure
 //! generated_size = 160       # size of a generated volume
 //! [raw]                      # only for raw volume files

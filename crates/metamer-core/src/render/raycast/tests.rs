@@ -1,0 +1,258 @@
+use super::*;
+use std::path::Path;
+
+fn cube(n: usize, inner: f32) -> Volume {
+    let mut data = vec![0f32; n * n * n];
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let c = |v: usize| v >= n / 4 && v < 3 * n / 4;
+                if c(x) && c(y) && c(z) {
+                    data[x + n * (y + n * z)] = inner;
+                }
+            }
+        }
+    }
+    Volume::new(Path::new("cube"), [n, n, n], [1.0; 3], data).unwrap()
+}
+
+#[test]
+fn opaque_cube_covers_its_silhouette_and_weights_stay_within_one() {
+    let vol = cube(32, 100.0);
+    let mats = [MaterialClass::new([50.0, 150.0], 0.9)];
+    let opts = RaycastOptions { width: 64, height: 64, shading: Shading::Headlight, ..Default::default() };
+    let cam = Camera { azimuth_deg: 0.0, elevation_deg: 0.0, ..Camera::default() };
+    let (w, stats) = raycast(&vol, &mats, None, &cam, &opts);
+    assert!(stats.samples > 0 && stats.terminated > 0);
+    // The centre pixel sees the cube face-on: weight close to 1 (shade 1, opaque after a few steps).
+    let centre = w.data[32 * 64 + 32];
+    assert!(centre > 0.95 && centre <= 1.0, "{centre}");
+    // A corner pixel misses it.
+    assert_eq!(w.data[0], 0.0);
+    assert!(w.data.iter().all(|v| (0.0..=1.0 + 1e-6).contains(v)));
+}
+
+#[test]
+fn skipping_and_termination_switches_keep_the_image() {
+    let vol = crate::volume::generate::engine_like(48);
+    let mats = [
+        MaterialClass::new([18.0, 75.0], 0.05),
+        MaterialClass::new([105.0, 175.0], 0.2),
+        MaterialClass::new([200.0, 255.0], 0.8),
+    ];
+    let cam = Camera::default();
+    let base = RaycastOptions { width: 48, height: 48, ..Default::default() };
+    let (all_on, s_on) = raycast(&vol, &mats, None, &cam, &base);
+    let no_skip = RaycastOptions { empty_space_skipping: false, ..base.clone() };
+    let (a, s_a) = raycast(&vol, &mats, None, &cam, &no_skip);
+    // Skipping only jumps over bricks with no material: identical samples where it matters
+    // (tolerance: float summation order is the same, so differences are at rounding level).
+    let max_diff = all_on.data.iter().zip(&a.data).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max);
+    assert!(max_diff < 1e-5, "skipping changed the image by {max_diff}");
+    assert!(s_on.skipped > 0 && s_on.samples < s_a.samples, "{s_on:?} {s_a:?}");
+    // Termination leaves out at most the remaining transmittance (1%) per ray.
+    let none = RaycastOptions { empty_space_skipping: false, early_termination: false, ..base };
+    let (b, _) = raycast(&vol, &mats, None, &cam, &none);
+    for (px_a, px_b) in a.data.chunks(3).zip(b.data.chunks(3)) {
+        let (sa, sb): (f32, f32) = (px_a.iter().sum(), px_b.iter().sum());
+        assert!((sb - sa) >= -1e-5 && (sb - sa) <= 0.01 + 1e-5, "{sa} vs {sb}");
+    }
+}
+
+/// A 64³ volume with a small dense cube in one corner region.
+fn off_centre_cube() -> Volume {
+    let n = 64;
+    let mut data = vec![0f32; n * n * n];
+    for z in 36..52 {
+        for y in 8..20 {
+            for x in 40..56 {
+                data[x + n * (y + n * z)] = 100.0;
+            }
+        }
+    }
+    Volume::new(Path::new("off"), [n, n, n], [1.0; 3], data).unwrap()
+}
+
+/// Coverage-weighted centroid of the image, in pixels, and the covered pixel count.
+fn centroid(w: &MaterialWeights) -> ((f64, f64), usize) {
+    let (mut sx, mut sy, mut s, mut n) = (0.0, 0.0, 0.0, 0);
+    for y in 0..w.height {
+        for x in 0..w.width {
+            let v: f32 = w.data[(y * w.width + x) * w.materials..][..w.materials].iter().sum();
+            if v > 0.0 {
+                n += 1;
+            }
+            sx += f64::from(v) * x as f64;
+            sy += f64::from(v) * y as f64;
+            s += f64::from(v);
+        }
+    }
+    ((sx / s, sy / s), n)
+}
+
+#[test]
+fn camera_fits_and_centres_the_materials_not_the_grid() {
+    let vol = off_centre_cube();
+    let mats = [MaterialClass::new([50.0, 150.0], 0.5)];
+    let opts = RaycastOptions { width: 64, height: 64, ..Default::default() };
+    // Looking along +y: image x is world x (the cube sits at x 40..56 of 0..63), image up is z.
+    let fit = Camera { azimuth_deg: 0.0, elevation_deg: 0.0, ..Camera::default() };
+    let grid = Camera { fit_materials: false, ..fit };
+    let ((fx, fy), fit_n) = centroid(&raycast(&vol, &mats, None, &fit, &opts).0);
+    let ((gx, gy), grid_n) = centroid(&raycast(&vol, &mats, None, &grid, &opts).0);
+    // Fitted: centred within 3 px and much larger than when the whole grid is framed.
+    assert!((fx - 31.5).abs() < 3.0 && (fy - 31.5).abs() < 3.0, "fitted centroid ({fx}, {fy})");
+    assert!((gx - 31.5).abs() > 5.0 || (gy - 31.5).abs() > 5.0, "grid framing is off-centre ({gx}, {gy})");
+    assert!(fit_n > 3 * grid_n, "fitted covers {fit_n} px, grid framing {grid_n}");
+}
+
+#[test]
+fn jitter_is_deterministic_and_spreads_ray_starts() {
+    let vol = crate::volume::generate::engine_like(32);
+    let mats = [MaterialClass::new([105.0, 175.0], 0.2)];
+    let opts = RaycastOptions { width: 32, height: 32, ..Default::default() };
+    let cam = Camera::default();
+    let (a, _) = raycast(&vol, &mats, None, &cam, &opts);
+    let (b, _) = raycast(&vol, &mats, None, &cam, &opts);
+    assert_eq!(a, b, "the same pixel must jitter the same way");
+    let (c, _) = raycast(&vol, &mats, None, &cam, &RaycastOptions { jitter: false, ..opts });
+    assert_ne!(a, c, "jitter moved no sample");
+    let offs: Vec<f64> = (0..16).flat_map(|y| (0..16).map(move |x| interleaved_gradient_noise(x, y))).collect();
+    assert!(offs.iter().all(|o| (0.0..1.0).contains(o)));
+    // Spread over the whole step: every tenth of [0, 1) is hit by some pixel of a 16×16 block.
+    for d in 0..10 {
+        assert!(offs.iter().any(|o| (*o * 10.0) as usize == d), "no offset in tenth {d}");
+    }
+}
+
+#[test]
+fn emissive_only_material_hides_nothing_behind_it() {
+    // Front slab (material 0) and back slab (material 1) along the view (+y at azimuth 0).
+    let n = 32;
+    let mut data = vec![0f32; n * n * n];
+    for z in 8..24 {
+        for y in 4..28 {
+            for x in 8..24 {
+                data[x + n * (y + n * z)] = if y < 14 { 100.0 } else { 200.0 };
+            }
+        }
+    }
+    let vol = Volume::new(Path::new("slabs"), [n, n, n], [1.0; 3], data).unwrap();
+    let cam = Camera { azimuth_deg: 0.0, elevation_deg: 0.0, ..Camera::default() };
+    let opts =
+        RaycastOptions { width: 16, height: 16, shading: Shading::Unshaded, jitter: false, ..Default::default() };
+    let front = MaterialClass::new([50.0, 150.0], 0.3);
+    let back = MaterialClass::new([150.5, 250.0], 0.3);
+    let centre = |_: &MaterialWeights| (8 * 16 + 8) * 2;
+    let (absorbing, _) = raycast(&vol, &[front.clone(), back.clone()], None, &cam, &opts);
+    let (emissive, _) =
+        raycast(&vol, &[MaterialClass { absorbs: false, ..front.clone() }, back.clone()], None, &cam, &opts);
+    let (alone, _) = raycast(&vol, &[MaterialClass::new([1000.0, 1001.0], 0.3), back], None, &cam, &opts);
+    let c = centre(&absorbing);
+    assert!(absorbing.data[c + 1] < 0.2 * alone.data[c + 1], "an absorbing front slab must hide the back");
+    assert!((emissive.data[c + 1] - alone.data[c + 1]).abs() < 1e-5, "emissive front hid the back");
+    // Not attenuated by itself either: its own weight is the plain sum of its step opacities.
+    assert!(emissive.data[c] > absorbing.data[c], "{} vs {}", emissive.data[c], absorbing.data[c]);
+}
+
+#[test]
+fn label_interpolation_blends_opacity_smoothly_and_stays_bounded() {
+    let vol = cube(32, 7.0);
+    let mats = [MaterialClass::new([7.0, 7.0], 0.6)];
+    let cam = Camera { azimuth_deg: 20.0, elevation_deg: 10.0, ..Camera::default() };
+    let base = RaycastOptions { width: 64, height: 64, ..Default::default() };
+    let (near, _) =
+        raycast(&vol, &mats, None, &cam, &RaycastOptions { interpolation: Interpolation::Nearest, ..base.clone() });
+    let (labels, _) =
+        raycast(&vol, &mats, None, &cam, &RaycastOptions { interpolation: Interpolation::Labels, ..base });
+    assert!(labels.data.iter().all(|v| (0.0..=1.0 + 1e-6).contains(v)));
+    // Partial-coverage (edge) pixels: interpolated opacity gives many more distinct levels.
+    let levels = |w: &MaterialWeights| {
+        let mut v: Vec<u32> = w.data.iter().filter(|x| **x > 0.0).map(|x| (x * 1000.0) as u32).collect();
+        v.sort_unstable();
+        v.dedup();
+        v.len()
+    };
+    assert!(levels(&labels) > levels(&near), "{} vs {}", levels(&labels), levels(&near));
+}
+
+#[test]
+fn projection_is_the_weighted_sum() {
+    let w = MaterialWeights { width: 2, height: 1, materials: 2, data: vec![0.5, 0.25, 0.0, 1.0] };
+    let img = w.project(&[vec![1.0, 2.0, 3.0], vec![4.0, 0.0, -1.0]]);
+    assert_eq!(img.channels, 3);
+    assert_eq!(img.data, vec![1.5, 1.0, 1.25, 4.0, 0.0, -1.0]);
+}
+
+/// A label volume whose boundary is a tilted plane, `z < 0.25·x + 12`: a voxel staircase of four-voxel
+/// treads.
+fn tilted_plane(n: usize) -> Volume {
+    let mut data = vec![0f32; n * n * n];
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                if (z as f64) < 0.25 * x as f64 + 12.0 {
+                    data[x + n * (y + n * z)] = 3.0;
+                }
+            }
+        }
+    }
+    Volume::new(Path::new("plane"), [n, n, n], [1.0; 3], data).unwrap()
+}
+
+/// Spread of the weights over the image's central block (where the plane fills every pixel).
+fn central_spread(w: &MaterialWeights) -> (f32, f32) {
+    let mut v = Vec::new();
+    for y in w.height / 4..3 * w.height / 4 {
+        for x in w.width / 4..3 * w.width / 4 {
+            v.push(w.data[(y * w.width + x) * w.materials]);
+        }
+    }
+    let mean = v.iter().sum::<f32>() / v.len() as f32;
+    let var = v.iter().map(|a| (a - mean).powi(2)).sum::<f32>() / v.len() as f32;
+    (mean, var.sqrt())
+}
+
+#[test]
+fn smoothed_labels_shade_a_staircase_as_a_smooth_plane() {
+    let vol = tilted_plane(48);
+    let mats = [MaterialClass::new([3.0, 3.0], 0.9)];
+    // From above: the plane is seen face-on, the staircase's treads and risers alternate along x.
+    let cam = Camera { azimuth_deg: 0.0, elevation_deg: 89.0, fit_materials: false, zoom: 2.0 };
+    let base =
+        RaycastOptions { width: 64, height: 64, shading: Shading::Headlight, ambient: 0.0, ..Default::default() };
+    let (smooth, stats) =
+        raycast(&vol, &mats, None, &cam, &RaycastOptions { interpolation: Interpolation::Labels, ..base.clone() });
+    let (stairs, _) = raycast(
+        &vol,
+        &mats,
+        None,
+        &cam,
+        &RaycastOptions { interpolation: Interpolation::Nearest, gradient: Gradient::Cell, ..base },
+    );
+    let (ms, ss) = central_spread(&smooth);
+    let (mn, sn) = central_spread(&stairs);
+    assert!(ms > 0.5 && mn > 0.3, "the plane must show: {ms} {mn}");
+    // A smooth plane under a headlight has one shade; the staircase flickers between tread and riser.
+    assert!(ss < 0.02 && ss < 0.25 * sn, "smoothed spread {ss} vs staircase {sn}");
+    assert!(stats.field_blocks > 0 && stats.field_bytes > 0);
+    assert!(smooth.data.iter().all(|v| (0.0..=1.0 + 1e-6).contains(v)));
+}
+
+#[test]
+fn fields_are_built_only_where_rays_reach() {
+    // An opaque cube in a large empty grid: rays stop at its front faces, so few bricks are built.
+    let vol = cube(64, 100.0);
+    let mats = [MaterialClass::new([50.0, 150.0], 1.0)];
+    let opts = RaycastOptions { width: 64, height: 64, ..Default::default() };
+    let (_, stats) = raycast(&vol, &mats, None, &Camera::default(), &opts);
+    let bricks = 8u64 * 8 * 8;
+    assert!(stats.field_blocks > 0 && stats.field_blocks < bricks / 2, "{} of {bricks} blocks", stats.field_blocks);
+    // Skipping inside empty bricks is exact for smoothed labels too (the skipping map is dilated).
+    let labels = RaycastOptions { interpolation: Interpolation::Labels, ..opts };
+    let (a, _) = raycast(&vol, &mats, None, &Camera::default(), &labels);
+    let (b, _) =
+        raycast(&vol, &mats, None, &Camera::default(), &RaycastOptions { empty_space_skipping: false, ..labels });
+    let max_diff = a.data.iter().zip(&b.data).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max);
+    assert!(max_diff < 1e-5, "skipping changed the smoothed-label image by {max_diff}");
+}
