@@ -158,8 +158,8 @@ pub fn save_keyframes(path: &Path, keyframes: &[DialState]) -> Result<String, St
         frames.push(keyframe_table(k));
     }
     let total = frames.len();
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| format!("{show}: cannot write: {e}"))?;
+    let dir = crate::fsio::folder_of(path);
+    let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(|e| format!("{show}: cannot write: {e}"))?;
     std::io::Write::write_all(&mut tmp, doc.to_string().as_bytes()).map_err(|e| format!("{show}: {e}"))?;
     tmp.persist(path).map_err(|e| format!("{show}: cannot replace: {e}"))?;
     let note = if had_path { " (its dial path is now these keyframes)" } else { "" };

@@ -1,10 +1,11 @@
 //! Degenerate and infeasible designs, joint (bilinear) design, gradient checks and the subspace rows.
 
+use crate::common::random;
 use metamer::basis::Basis;
 use metamer::colorimetry::Colorimetry;
 use metamer::design::joint::NonlinearProblem;
 use metamer::design::system::{Design, Layout};
-use metamer::design::{self, DesignError, SolveOptions, random};
+use metamer::design::{self, DesignError, SolveOptions};
 use metamer::palette::{Bounds, FreeGroup, Kind, Palette, Settings};
 use metamer::spectrum::Spectrum;
 use nalgebra::{DMatrix, DVector, Vector3};

@@ -14,7 +14,9 @@
 //!
 //! Iterates stay feasible throughout. It stops when the projected gradient `‖x − P(x − ∇f)‖∞` is at
 //! most `pg_tol`, when the relative decrease of f falls below `f_tol`, when the line search cannot
-//! decrease f even from steepest descent, at the deadline, or when the cancel flag is set.
+//! decrease f even from steepest descent ([`crate::optimize::NO_DECREASE`]), or when the cancel flag is set
+//! (`TerminationReason::Interrupt`); the iteration cap and the deadline are the executor's
+//! ([`crate::optimize::run`]).
 
 use argmin::core::{
     CostFunction, Error, Gradient, IterState, KV, Problem, Solver, State, TerminationReason, TerminationStatus,
@@ -23,7 +25,6 @@ use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
 
 /// The argmin state L-BFGS-B runs on.
 pub type LbState = IterState<DVector<f64>, DVector<f64>, (), (), (), f64>;
@@ -43,7 +44,6 @@ pub struct LBfgsB {
     s: VecDeque<DVector<f64>>,
     y: VecDeque<DVector<f64>>,
     theta: f64,
-    deadline: Option<Instant>,
     cancel: Option<Arc<AtomicBool>>,
     stop: Option<TerminationReason>,
 }
@@ -61,7 +61,6 @@ impl LBfgsB {
             s: VecDeque::new(),
             y: VecDeque::new(),
             theta: 1.0,
-            deadline: None,
             cancel: None,
             stop: None,
         }
@@ -86,13 +85,7 @@ impl LBfgsB {
         self
     }
 
-    /// Stop (with `SolverExit("deadline")`) once this instant has passed.
-    pub fn with_deadline(mut self, deadline: Option<Instant>) -> Self {
-        self.deadline = deadline;
-        self
-    }
-
-    /// Stop (with `SolverExit("cancelled")`) when the flag becomes true.
+    /// Stop (with `TerminationReason::Interrupt`) when the flag becomes true.
     pub fn with_cancel(mut self, cancel: Option<Arc<AtomicBool>>) -> Self {
         self.cancel = cancel;
         self
@@ -509,18 +502,15 @@ where
                     if f - st.f <= self.f_tol * scale {
                         self.stop = Some(TerminationReason::SolverConverged);
                     }
-                    if self.deadline.is_some_and(|d| Instant::now() >= d) {
-                        self.stop = Some(TerminationReason::SolverExit("deadline".into()));
-                    }
                     if self.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed)) {
-                        self.stop = Some(TerminationReason::SolverExit("cancelled".into()));
+                        self.stop = Some(TerminationReason::Interrupt);
                     }
                     return Ok((state.param(st.x).cost(st.f).gradient(st.g), None));
                 }
                 _ => {
                     // No decrease along this direction: drop the memory and retry once from steepest descent.
                     if retried || self.s.is_empty() {
-                        self.stop = Some(TerminationReason::SolverExit("line search found no decrease".into()));
+                        self.stop = Some(TerminationReason::SolverExit(crate::optimize::NO_DECREASE.into()));
                         return Ok((state.param(x).cost(f).gradient(g), None));
                     }
                     self.reset_memory();
@@ -543,8 +533,8 @@ where
     }
 }
 
-/// Run L-BFGS-B through argmin's [`argmin::core::Executor`] from `x0` (projected onto the box).
-/// Returns the final point, its cost and gradient.
+/// Run L-BFGS-B from `x0` (projected onto the box) for at most `max_iters` iterations, through the one
+/// argmin set-up ([`crate::optimize::run`]). Returns the final point, its cost and gradient.
 pub fn minimize<O>(
     problem: O,
     solver: LBfgsB,
@@ -554,12 +544,7 @@ pub fn minimize<O>(
 where
     O: CostFunction<Param = DVector<f64>, Output = f64> + Gradient<Param = DVector<f64>, Gradient = DVector<f64>>,
 {
-    let res = argmin::core::Executor::new(problem, solver)
-        .configure(|s| s.param(x0).max_iters(max_iters))
-        .ctrlc(false)
-        .timer(false)
-        .run()?;
-    let mut st = res.state;
+    let mut st = crate::optimize::run(problem, solver, x0, &crate::optimize::Limits::iterations(max_iters))?.state;
     let f = st.get_cost();
     let x = st.take_param().ok_or_else(|| Error::msg("L-BFGS-B: no result"))?;
     let g = st.take_gradient().ok_or_else(|| Error::msg("L-BFGS-B: no gradient"))?;

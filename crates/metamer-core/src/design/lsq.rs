@@ -244,14 +244,9 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work) -> LsqOutcome 
 }
 
 fn run_lbfgsb(problem: Objective, solver: LBfgsB, x0: DVector<f64>, max_iters: u64) -> Option<(DVector<f64>, u64)> {
-    let res = argmin::core::Executor::new(problem, solver)
-        .configure(|s| s.param(x0).max_iters(max_iters))
-        .ctrlc(false)
-        .timer(false)
-        .run()
-        .ok()?;
-    let iters = argmin::core::State::get_iter(&res.state);
-    let x = res.state.param?;
+    let run = crate::optimize::run(problem, solver, x0, &crate::optimize::Limits::iterations(max_iters)).ok()?;
+    let iters = run.iterations();
+    let x = run.state.param?;
     x.iter().all(|v| v.is_finite()).then_some((x, iters))
 }
 

@@ -21,7 +21,10 @@ pub mod feasibility;
 pub mod joint;
 pub mod lbfgsb;
 pub mod lsq;
-pub mod random;
+/// Seeded random palettes (a test helper: tests/it/common/random.rs).
+#[cfg(test)]
+#[path = "../../../../tests/it/common/random.rs"]
+pub(crate) mod random;
 pub mod report;
 pub mod solve;
 pub mod system;
@@ -93,8 +96,6 @@ pub struct Solution {
 /// [`Solution::diagnostics`]).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DesignError {
-    #[error("the design engine is not built yet")]
-    NotBuilt,
     #[error("the solve was cancelled")]
     Cancelled,
     #[error("{0}")]

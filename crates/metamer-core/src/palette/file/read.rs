@@ -129,7 +129,7 @@ fn type_name(v: &Value) -> &'static str {
 
 impl<'a> Reader<'a> {
     pub(super) fn new(path: &'a Path, luminance: Samples) -> Reader<'a> {
-        let base_dir = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p }.to_path_buf());
+        let base_dir = Some(crate::fsio::folder_of(path));
         Reader { path, base_dir, luminance, warnings: Vec::new(), csv_raw: HashMap::new() }
     }
 
