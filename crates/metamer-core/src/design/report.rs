@@ -7,7 +7,7 @@
 
 use super::lsq;
 use super::system::{Design, Form, LinearSystem, Values};
-use super::{CellResult, Diagnostic};
+use super::{CellResult, CellStatus, Diagnostic, DiagnosticKind};
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
 use crate::colorimetry::Q31;
@@ -27,6 +27,50 @@ fn finite_or(v: f64, d: f64) -> f64 {
     if v.is_finite() { v } else { d }
 }
 
+/// The colour of light `e` on reflectance `s`: in the full 31-sample model, and in the spectral factor
+/// model of `basis` when one is given. The one place a cell's colours are computed (the solve's cells,
+/// and the designer's cells that have no solved result: cells without a criterion, edits not solved yet).
+pub fn pair_colours(
+    e: &Spectrum,
+    s: &Spectrum,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+) -> (Vector3<f64>, Option<Vector3<f64>>) {
+    (colorimetry.rgb(e, s), basis.map(|b| b.rgb_factor(e, s)))
+}
+
+impl CellResult {
+    /// The colours and errors of cell `cell` (light `e` on reflectance `s`, aiming at `target`; `active`:
+    /// the cell is used by the design).
+    pub fn new(
+        cell: usize,
+        target: Vector3<f64>,
+        (e, s): (&Spectrum, &Spectrum),
+        active: bool,
+        basis: Option<&Basis>,
+        colorimetry: &Colorimetry,
+    ) -> CellResult {
+        let (rgb_full, _) = pair_colours(e, s, None, colorimetry);
+        let delta_e_full = finite_or(colorimetry.delta_e00_under(&target, &rgb_full, e), f64::MAX);
+        let status = match (active, delta_e_full > MET_DELTA_E) {
+            (false, _) => CellStatus::NotUsed,
+            (true, false) => CellStatus::Met,
+            (true, true) => CellStatus::Unmet,
+        };
+        let mut r =
+            CellResult { cell, target, rgb_full, rgb_subspace: None, delta_e_full, delta_e_subspace: None, status };
+        r.set_subspace(basis, e, s, colorimetry);
+        r
+    }
+
+    /// Set (or, without a basis, clear) the subspace colour and its ΔE00 for light `e` on reflectance `s`.
+    pub fn set_subspace(&mut self, basis: Option<&Basis>, e: &Spectrum, s: &Spectrum, colorimetry: &Colorimetry) {
+        self.rgb_subspace = basis.map(|b| b.rgb_factor(e, s));
+        self.delta_e_subspace =
+            self.rgb_subspace.map(|r| finite_or(colorimetry.delta_e00_under(&self.target, &r, e), f64::MAX));
+    }
+}
+
 /// Colours and errors of every cell of the palette at `v`.
 pub fn cell_results(
     palette: &Palette,
@@ -39,15 +83,9 @@ pub fn cell_results(
         .par_iter()
         .enumerate()
         .map(|(k, c)| {
-            let e = &v.lights[c.light];
-            let s = &v.reflectances[c.reflectance];
             let target = c.free.map(|g| v.free[g]).unwrap_or(c.target);
-            let rgb_full = colorimetry.rgb(e, s);
-            let rgb_subspace = basis.map(|b| b.rgb_factor(e, s));
-            let delta_e_full = finite_or(colorimetry.delta_e00_under(&target, &rgb_full, e), f64::MAX);
-            let delta_e_subspace =
-                rgb_subspace.map(|r| finite_or(colorimetry.delta_e00_under(&target, &r, e), f64::MAX));
-            CellResult { cell: k, target, rgb_full, rgb_subspace, delta_e_full, delta_e_subspace }
+            let pair = (&v.lights[c.light], &v.reflectances[c.reflectance]);
+            CellResult::new(k, target, pair, c.is_active(), basis, colorimetry)
         })
         .collect()
 }
@@ -246,7 +284,7 @@ type ReachKey = (bool, usize, Form);
 pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells: &[CellResult]) -> Vec<Diagnostic> {
     let p = design.palette;
     let mut out = Vec::new();
-    let say = |cell: Option<usize>, message: String| Diagnostic { cell, message };
+    let say = |cell: Option<usize>, kind: DiagnosticKind, message: String| Diagnostic { cell, kind, message };
     // Designed spectra without any colour criterion.
     let mut light_used = vec![false; p.lights.len()];
     let mut refl_used = vec![false; p.reflectances.len()];
@@ -259,6 +297,7 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
             if e.design && !used[i] {
                 out.push(say(
                     None,
+                    DiagnosticKind::Unused,
                     format!(
                         "{kind} \"{}\" is designed but no active colour cell uses it: only smoothness acts on it",
                         e.name
@@ -276,6 +315,7 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
         if let Some(&j) = first.get(&(c.light, c.reflectance)) {
             out.push(say(
                 Some(k),
+                DiagnosticKind::Duplicate,
                 format!(
                     "cell {} × {} appears twice (colours[{j}] and colours[{k}]): both count, so the solution is their weighted compromise",
                     p.lights[c.light].name, p.reflectances[c.reflectance].name
@@ -298,6 +338,7 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
         if c.is_active() && is_zero(&v.lights[c.light]) {
             out.push(say(
                 Some(r.cell),
+                DiagnosticKind::Unmet,
                 format!(
                     "cell {} × {} not met: light \"{}\" is zero, so every reflectance is black under it (target {})",
                     p.lights[c.light].name,
@@ -310,10 +351,7 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
     }
     let unmet: Vec<&CellResult> = cells
         .iter()
-        .filter(|r| {
-            let c = &p.colours[r.cell];
-            c.is_active() && r.delta_e_full > MET_DELTA_E && !is_zero(&v.lights[c.light])
-        })
+        .filter(|r| r.status == CellStatus::Unmet && !is_zero(&v.lights[p.colours[r.cell].light]))
         .collect();
     // The form of each cell's colour rows, and the reachability data of each fixed partner, built once.
     let mut form_of = vec![Form::Full; p.colours.len()];
@@ -363,7 +401,7 @@ fn unmet_reason(
     by_reflectance: &[Vec<usize>],
 ) -> Diagnostic {
     let p = design.palette;
-    let say = |cell: Option<usize>, message: String| Diagnostic { cell, message };
+    let say = |cell: Option<usize>, message: String| Diagnostic { cell, kind: DiagnosticKind::Unmet, message };
     {
         let c = &p.colours[r.cell];
         let light = &p.lights[c.light];
