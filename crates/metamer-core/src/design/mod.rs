@@ -3,7 +3,7 @@
 //!
 //! Interface pinned for the other modules (TUI, CLI, renderer); the engine fills it in.
 //!
-//! * [`system`]: assembly of the exact objective (rows, bounds, blocks);
+//! * [`system`]: assembly of the exact objective (rows, bounds, blocks; [`layout`]: blocks, stacked layout);
 //! * [`lsq`]: minimum-norm SVD least squares, then L-BFGS-B and an exact active-set finish under bounds;
 //! * [`lbfgsb`]: L-BFGS-B as an argmin `Solver`;
 //! * [`joint`]: bilinear blocks (light and reflectance both designed);
@@ -19,6 +19,7 @@
 
 pub mod feasibility;
 pub mod joint;
+pub mod layout;
 pub mod lbfgsb;
 pub mod lsq;
 /// Seeded random palettes (a test helper: tests/it/common/random.rs).
