@@ -294,34 +294,3 @@ pub fn convex_palette(seed: u64, colorimetry: &Colorimetry) -> Palette {
         free,
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn capacity_variants_share_targets_and_differ_in_starts() {
-        let col = Colorimetry::default();
-        let base = capacity_palette(6, 3, &col);
-        assert_eq!(base, capacity_palette_with(6, 3, &col, &CapacityOptions::default()));
-        for options in [
-            CapacityOptions { start: CapacityStart::Flat, ..Default::default() },
-            CapacityOptions { start: CapacityStart::Random, light_scale: CapacityLightScale::L2, ..Default::default() },
-            CapacityOptions {
-                light_scale: CapacityLightScale::Raw,
-                reflectances_below_one: true,
-                ..Default::default()
-            },
-        ] {
-            let p = capacity_palette_with(6, 3, &col, &options);
-            assert_eq!(p.colours, base.colours, "{options:?}");
-            assert_ne!(p.lights, base.lights, "{options:?}");
-            assert_eq!(p.settings.reflectance_bounds.upper == 1.0, options.reflectances_below_one);
-            assert!(p.lights.iter().chain(&p.reflectances).all(|e| e.design && e.spectrum.0.min() >= 0.0));
-        }
-        // Luminance-normalised lights have Y = 1.
-        for l in &base.lights {
-            assert!((col.luminance().dot(&l.spectrum.0) - 1.0).abs() < 1e-12);
-        }
-    }
-}
