@@ -4,11 +4,14 @@
 //! target (one QP and one feasibility LP), one outer support LP and one a*–b* slice.
 //! Run: `cargo bench --bench feasibility`.
 
+#[path = "../tests/it/common/random.rs"]
+mod random;
+
 use criterion::{Criterion, criterion_group, criterion_main};
 use metamer::colorimetry::Colorimetry;
 use metamer::design::feasibility::{self, DEFAULT_TOLERANCE, Problem};
 use metamer::design::system::Values;
-use metamer::design::{self, SolveOptions, random};
+use metamer::design::{self, SolveOptions};
 use std::hint::black_box;
 
 fn problem() -> Problem {

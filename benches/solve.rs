@@ -3,9 +3,12 @@
 //! palettes (TOG 2009 Fig. 3 protocol). Errors for the same cases: `metamer::bench::solve::run`.
 //! Run: `cargo bench --bench solve`. The scipy BVLS baseline: `benches/scipy_bvls.py`.
 
+#[path = "../tests/it/common/random.rs"]
+mod random;
+
 use criterion::{Criterion, criterion_group, criterion_main};
 use metamer::colorimetry::Colorimetry;
-use metamer::design::{self, SolveOptions, random, system::Design};
+use metamer::design::{self, SolveOptions, system::Design};
 use metamer::palette::Bounds;
 use std::hint::black_box;
 

@@ -3,7 +3,9 @@
 //! single-reflectance designs under 3 lights) or `... capacity N OUT.toml [SEED]` (the n×n joint protocol).
 
 use metamer::colorimetry::Colorimetry;
-use metamer::design::random;
+#[path = "../tests/it/common/random.rs"]
+mod random;
+
 use metamer::palette::file::PaletteFile;
 use std::path::Path;
 

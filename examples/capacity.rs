@@ -10,8 +10,10 @@
 
 use metamer::bench::solve::capacity_errors;
 use metamer::colorimetry::Colorimetry;
-use metamer::design::random::{self, CapacityLightScale, CapacityOptions, CapacityStart};
+#[path = "../tests/it/common/random.rs"]
+mod random;
 use metamer::design::{self, SolveOptions};
+use random::{CapacityLightScale, CapacityOptions, CapacityStart};
 use std::time::{Duration, Instant};
 
 fn main() -> anyhow::Result<()> {

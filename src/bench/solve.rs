@@ -11,8 +11,9 @@
 
 use super::plot::{self, Scale, Series, XyPlot};
 use super::{Timing, fixed, format_seconds, markdown_table, time_runs};
+use crate::bench::random;
 use crate::colorimetry::{Colorimetry, xyz_to_lab};
-use crate::design::{self, Solution, SolveOptions, random};
+use crate::design::{self, Solution, SolveOptions};
 use crate::palette::{Bounds, Palette};
 use std::path::Path;
 use std::time::Duration;

@@ -10,8 +10,8 @@
 use super::plot::{self, PlotError, Scale, Series, XyPlot};
 use super::render::RenderBenchReport;
 use super::{basis, format_seconds, markdown_table, pareto_front, solve};
+use crate::bench::random;
 use crate::colorimetry::Colorimetry;
-use crate::design::random;
 use crate::design::system::{Design, Layout};
 use crate::palette::{Bounds, Palette};
 use crate::render::relight::Mode;

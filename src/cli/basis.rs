@@ -6,7 +6,6 @@ use crate::basis::store::{self, Report};
 use crate::basis::train::{TrainOptions, TrainingSet};
 use crate::basis::{Basis, POOR_MODEL_MEAN_DE00, accuracy::ErrorStats};
 use crate::palette::file::PaletteFile;
-use crate::spectrum::SAMPLES;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
 
@@ -45,8 +44,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("warning: {}", crate::fsio::escape_lines(w));
     }
     let m = args.dimension.unwrap_or(file.palette.settings.basis_dimension);
-    if !(1..=SAMPLES).contains(&m) {
-        bail!("--dimension: the basis dimension must be between 1 and {SAMPLES}, got {m}");
+    if let Err(e) = crate::basis::check_dimension(m) {
+        bail!("--dimension: the {e}");
     }
     let sidecar = store::sidecar_path(&args.palette);
     let cache = (!args.no_cache).then_some(sidecar.as_path());
@@ -67,37 +66,66 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("warning: {}: {w}", args.palette.display());
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&json(basis, report, &args.palette, cache))?);
+        // Through a `Value`: its objects print their keys sorted, the order the output has always had.
+        let doc = serde_json::to_value(BasisJson::new(basis, report, &args.palette, cache))?;
+        println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         print!("{}", crate::fsio::escape_lines(&table(report, &args.palette, cache)));
     }
     Ok(())
 }
 
-/// The `--json` document: DESIGN_SPEC §5's `dimension` and `basis` (columns of B), then the report.
-pub fn json(basis: &Basis, report: &Report, palette: &Path, cache: Option<&Path>) -> serde_json::Value {
-    let columns: Vec<Vec<f64>> = basis.b.column_iter().map(|c| c.iter().copied().collect()).collect();
-    serde_json::json!({
-        "dimension": basis.dimension(),
-        "basis": columns,
-        "palette": palette.display().to_string(),
-        "cache": cache.map(|p| p.display().to_string()),
-        "pairs": report.pairs,
-        "signal_rank": report.signal_rank,
-        "padded": report.padded,
-        "from_cache": report.from_cache,
-        "stored": report.stored,
-        "training_seconds": report.training_seconds,
-        "key": report.key,
-        "accuracy": report.accuracy,
-        "stages": report.stages,
-        "start": report.start,
-        "candidates": report.candidates,
-        "condition": report.condition,
-        "poor_model_threshold": POOR_MODEL_MEAN_DE00,
-        "poor_model": report.poor_model(),
-        "notes": report.notes,
-    })
+/// The `--json` document: DESIGN_SPEC §5's `dimension` and `basis` (columns of B), then the report
+/// (keys print sorted; see `run`).
+#[derive(serde::Serialize)]
+pub struct BasisJson<'a> {
+    dimension: usize,
+    /// The columns of the sharpened B, 31 samples each.
+    basis: Vec<Vec<f64>>,
+    palette: String,
+    /// The sidecar read and written, `null` with --no-cache.
+    cache: Option<String>,
+    pairs: usize,
+    signal_rank: usize,
+    padded: usize,
+    from_cache: bool,
+    stored: bool,
+    training_seconds: f64,
+    key: &'a str,
+    accuracy: &'a store::AccuracyReport,
+    stages: &'a [crate::basis::train::StageResult],
+    start: Option<crate::basis::train::Start>,
+    candidates: &'a [crate::basis::train::CandidateSummary],
+    condition: f64,
+    poor_model_threshold: f64,
+    poor_model: Option<String>,
+    notes: &'a [String],
+}
+
+impl<'a> BasisJson<'a> {
+    pub fn new(basis: &Basis, report: &'a Report, palette: &Path, cache: Option<&Path>) -> BasisJson<'a> {
+        BasisJson {
+            dimension: basis.dimension(),
+            basis: basis.b.column_iter().map(|c| c.iter().copied().collect()).collect(),
+            palette: palette.display().to_string(),
+            cache: cache.map(|p| p.display().to_string()),
+            pairs: report.pairs,
+            signal_rank: report.signal_rank,
+            padded: report.padded,
+            from_cache: report.from_cache,
+            stored: report.stored,
+            training_seconds: report.training_seconds,
+            key: &report.key,
+            accuracy: &report.accuracy,
+            stages: &report.stages,
+            start: report.start,
+            candidates: &report.candidates,
+            condition: report.condition,
+            poor_model_threshold: POOR_MODEL_MEAN_DE00,
+            poor_model: report.poor_model(),
+            notes: &report.notes,
+        }
+    }
 }
 
 /// The human-readable report.

@@ -7,6 +7,7 @@ use crate::palette::file::PaletteFile;
 use crate::palette::{Palette, Source, SpectrumEntry};
 use crate::spectrum::Spectrum;
 use anyhow::bail;
+use clap::ColorChoice;
 use nalgebra::Vector3;
 use std::fmt::Write as _;
 use std::io::IsTerminal;
@@ -26,34 +27,24 @@ pub struct Args {
     /// Palette files to check.
     #[arg(required = true, value_name = "PALETTE")]
     pub palettes: Vec<PathBuf>,
-    /// When to print colour swatches.
-    #[arg(long, value_enum, default_value_t = ColourMode::Auto, value_name = "WHEN")]
-    pub color: ColourMode,
+    /// When to print colour swatches (auto: when stdout is a terminal and NO_COLOR is not set).
+    #[arg(long, value_enum, default_value_t = ColorChoice::Auto, value_name = "WHEN")]
+    pub color: ColorChoice,
 }
 
-/// When to use truecolor swatches.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ColourMode {
-    /// When stdout is a terminal and NO_COLOR is not set.
-    Auto,
-    Always,
-    Never,
-}
-
-impl ColourMode {
-    fn enabled(self) -> bool {
-        match self {
-            ColourMode::Always => true,
-            ColourMode::Never => false,
-            ColourMode::Auto => {
-                std::io::stdout().is_terminal() && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty())
-            }
+/// Whether to print truecolor swatches for `--color` (clap's own auto / always / never).
+fn swatches(choice: ColorChoice) -> bool {
+    match choice {
+        ColorChoice::Always => true,
+        ColorChoice::Never => false,
+        ColorChoice::Auto => {
+            std::io::stdout().is_terminal() && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty())
         }
     }
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let colour = args.color.enabled();
+    let colour = swatches(args.color);
     let colorimetry = Colorimetry::default();
     let mut failed = Vec::new();
     let mut printed = false;

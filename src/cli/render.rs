@@ -67,8 +67,8 @@ pub struct Args {
     #[arg(short, long, default_value = "frames")]
     pub output: PathBuf,
     /// Colour model: factor (m-D spectral factor model), full (31 samples, reference) or rgb (RGB factor model).
-    #[arg(long, default_value = "factor", value_parser = ["factor", "full", "rgb"])]
-    pub mode: String,
+    #[arg(long, value_enum, default_value_t = ModeArg::Factor)]
+    pub mode: ModeArg,
     /// Also write a contact sheet of the written frames.
     #[arg(long)]
     pub contact_sheet: Option<PathBuf>,
@@ -132,6 +132,25 @@ fn parse_range(s: &str, frames: usize) -> anyhow::Result<std::ops::Range<usize>>
     Ok(a..b)
 }
 
+/// `--mode`: the renderer's colour models ([`Mode`]) as command-line values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModeArg {
+    // (no doc comments: clap would list them in --help instead of `[possible values: …]`)
+    Factor,
+    Full,
+    Rgb,
+}
+
+impl From<ModeArg> for Mode {
+    fn from(m: ModeArg) -> Mode {
+        match m {
+            ModeArg::Factor => Mode::Factor,
+            ModeArg::Full => Mode::Full,
+            ModeArg::Rgb => Mode::Rgb,
+        }
+    }
+}
+
 pub fn run(mut args: Args) -> anyhow::Result<()> {
     if !(1..=100_000).contains(&args.frames) {
         bail!("--frames {} is outside 1..=100000", args.frames);
@@ -139,7 +158,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     if !(8..=4096).contains(&args.size) {
         bail!("--size {} is outside 8..=4096", args.size);
     }
-    let mode = Mode::parse(&args.mode).with_context(|| format!("--mode `{}` is unknown", args.mode))?;
+    let mode = Mode::from(args.mode);
     let range = match &args.frame_range {
         Some(s) => parse_range(s, args.frames)?,
         None => 0..args.frames,

@@ -113,7 +113,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         match basis_for_palette(&solution.palette, Some(&sidecar)) {
             Ok(resolved) => {
                 let (b, report) = &*resolved;
-                solution.cells = design::report::cell_results(palette, Some(b), &colorimetry, &values_of(&solution));
+                solution.set_subspace(b, &colorimetry);
                 basis_warning = report.poor_model();
             }
             Err(e) => notes.push(format!("no subspace colours: {e}")),
@@ -161,15 +161,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     printed?;
     reported
-}
-
-/// The solution's values as the report module wants them.
-fn values_of(s: &Solution) -> design::system::Values {
-    design::system::Values {
-        lights: s.palette.lights.iter().map(|e| e.spectrum).collect(),
-        reflectances: s.palette.reflectances.iter().map(|e| e.spectrum).collect(),
-        free: s.free.clone(),
-    }
 }
 
 /// `r g b` with four decimals.
@@ -295,7 +286,7 @@ fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet
     }
     unphysical_lines(&mut w, palette);
     for d in &s.diagnostics {
-        let tag = if d.cell.is_some() && d.message.contains("not met") { "UNMET" } else { "note" };
+        let tag = if d.is_unmet() { "UNMET" } else { "note" };
         let _ = writeln!(w, "{tag}: {}", d.message);
     }
     for n in notes {
@@ -467,14 +458,9 @@ fn feasibility_of(
     use design::feasibility::{self as fz, RegionCache};
     use rayon::prelude::*;
     let p = &s.palette;
-    let values = values_of(s);
+    let values = s.values();
     let cache = RegionCache::default();
-    let unmet: Vec<usize> = s
-        .cells
-        .iter()
-        .filter(|c| p.colours[c.cell].is_active() && c.delta_e_full > design::report::MET_DELTA_E)
-        .map(|c| c.cell)
-        .collect();
+    let unmet: Vec<usize> = s.unmet_cells().map(|c| c.cell).collect();
     unmet
         .par_iter()
         .map(|&k| {

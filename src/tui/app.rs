@@ -559,10 +559,7 @@ impl State {
 
     /// The palette file's folder (CSV paths are relative to it).
     pub fn base_dir(&self) -> PathBuf {
-        match self.path().parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        }
+        crate::fsio::folder_of(self.path())
     }
 
     /// The latest solution's diagnostics (of the current palette, else the last one solved).

@@ -1,12 +1,18 @@
 //! What the view shows, derived once per change (not per frame) from the palette and the latest
 //! solution: the colour of every light × reflectance cell in the full 31-sample model and in the
 //! subspace model, its desired colour and the CIEDE2000 errors between them.
+//!
+//! A cell with a criterion draws the solve's own [`CellResult`] ([`Solution::cells`]) while that result
+//! holds for what is shown; its subspace colour is set from the basis of the shown spectra, which the
+//! one basis policy delivers later (until then the view says "updating", [`Derived::subspace_pending`]).
+//! Cells without a criterion, and cells edited since the solve, are computed by the same domain functions
+//! ([`CellResult::new`], [`report::pair_colours`]).
 
 use crate::basis::Basis;
 use crate::basis::store::cache_key;
 use crate::basis::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
-use crate::design::Solution;
+use crate::design::{CellResult, Solution, report};
 use crate::palette::{Palette, SpectrumEntry};
 use crate::spectrum::Spectrum;
 use nalgebra::Vector3;
@@ -57,6 +63,22 @@ pub struct Derived {
     pub subspace_pending: bool,
 }
 
+/// The solve's result for cell `k` of `palette` when it holds for the cell as shown: the solution's cell
+/// `k` has the same light, reflectance, target and free group, and the shown spectra are the ones it was
+/// solved with. `None` for a stale solution (the palette was edited since).
+fn solved_cell(solution: &Solution, k: usize, palette: &Palette, (e, s): (&Spectrum, &Spectrum)) -> Option<CellResult> {
+    let (now, then) = (palette.colours.get(k)?, solution.palette.colours.get(k)?);
+    let same_cell = now.light == then.light
+        && now.reflectance == then.reflectance
+        && now.target == then.target
+        && now.free == then.free
+        && now.is_active() == then.is_active();
+    let same_spectra = solution.palette.lights.get(now.light).is_some_and(|l| l.spectrum == *e)
+        && solution.palette.reflectances.get(now.reflectance).is_some_and(|r| r.spectrum == *s);
+    let r = solution.cells.get(k)?;
+    (same_cell && same_spectra && r.cell == k).then(|| r.clone())
+}
+
 /// True when `a` and `b` list the same spectra by name, in order.
 fn same_names(a: &[SpectrumEntry], b: &[SpectrumEntry]) -> bool {
     a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.name == y.name)
@@ -105,16 +127,30 @@ impl Derived {
         let mut worst: Option<f64> = None;
         for (i, s) in reflectance_spectra.iter().enumerate() {
             for (j, e) in light_spectra.iter().enumerate() {
-                let full = colorimetry.rgb(e, s);
-                let subspace = basis.map(|b| b.rgb_factor(e, s));
-                let criterion = palette.cell(j, i);
+                let index = palette.colours.iter().position(|c| c.light == j && c.reflectance == i);
+                let criterion = index.map(|k| &palette.colours[k]);
                 let desired = criterion.and_then(|c| match c.free {
                     Some(g) => solution.and_then(|s| s.free.get(g).copied()),
                     None => Some(c.target),
                 });
-                let de = |rgb: &Vector3<f64>| desired.map(|d| colorimetry.delta_e00_under(&d, rgb, e));
-                let delta_e_full = de(&full);
-                let delta_e_subspace = subspace.as_ref().and_then(de);
+                // The solve's own result for this cell when it holds for what is shown (the same spectra
+                // and criterion); otherwise (no criterion, an edit not solved yet) the same computation here.
+                let result = match (index, desired) {
+                    (Some(k), Some(d)) => Some(match solution.and_then(|sol| solved_cell(sol, k, palette, (e, s))) {
+                        Some(mut r) => {
+                            r.set_subspace(basis, e, s, colorimetry);
+                            r
+                        }
+                        None => CellResult::new(k, d, (e, s), palette.colours[k].is_active(), basis, colorimetry),
+                    }),
+                    _ => None,
+                };
+                let (full, subspace) = match &result {
+                    Some(r) => (r.rgb_full, r.rgb_subspace),
+                    None => report::pair_colours(e, s, basis, colorimetry),
+                };
+                let delta_e_full = result.as_ref().map(|r| r.delta_e_full);
+                let delta_e_subspace = result.as_ref().and_then(|r| r.delta_e_subspace);
                 let active = criterion.is_some_and(|c| c.is_active());
                 if active && let Some(d) = delta_e_full.filter(|d| d.is_finite()) {
                     worst = Some(worst.map_or(d, |w: f64| w.max(d)));

@@ -1,10 +1,11 @@
 //! Degenerate and infeasible designs, joint (bilinear) design, gradient checks and the subspace rows.
 
+use crate::common::random;
 use metamer::basis::Basis;
 use metamer::colorimetry::Colorimetry;
 use metamer::design::joint::NonlinearProblem;
 use metamer::design::system::{Design, Layout};
-use metamer::design::{self, DesignError, SolveOptions, random};
+use metamer::design::{self, DesignError, SolveOptions};
 use metamer::palette::{Bounds, FreeGroup, Kind, Palette, Settings};
 use metamer::spectrum::Spectrum;
 use nalgebra::{DMatrix, DVector, Vector3};
@@ -271,4 +272,35 @@ fn linear_assembly_matches_the_objective() {
     // And the solve with a basis reports subspace colours.
     let sol = design::solve(&p, Some(&basis), &c, &SolveOptions::default()).unwrap();
     assert!(sol.cells.iter().all(|c| c.rgb_subspace.is_some() && c.delta_e_subspace.is_some()));
+}
+
+/// The test palettes themselves (tests/it/common/random.rs).
+#[test]
+fn capacity_variants_share_targets_and_differ_in_starts() {
+    let col = metamer::colorimetry::Colorimetry::default();
+    let base = random::capacity_palette(6, 3, &col);
+    assert_eq!(base, random::capacity_palette_with(6, 3, &col, &random::CapacityOptions::default()));
+    for options in [
+        random::CapacityOptions { start: random::CapacityStart::Flat, ..Default::default() },
+        random::CapacityOptions {
+            start: random::CapacityStart::Random,
+            light_scale: random::CapacityLightScale::L2,
+            ..Default::default()
+        },
+        random::CapacityOptions {
+            light_scale: random::CapacityLightScale::Raw,
+            reflectances_below_one: true,
+            ..Default::default()
+        },
+    ] {
+        let p = random::capacity_palette_with(6, 3, &col, &options);
+        assert_eq!(p.colours, base.colours, "{options:?}");
+        assert_ne!(p.lights, base.lights, "{options:?}");
+        assert_eq!(p.settings.reflectance_bounds.upper == 1.0, options.reflectances_below_one);
+        assert!(p.lights.iter().chain(&p.reflectances).all(|e| e.design && e.spectrum.0.min() >= 0.0));
+    }
+    // Luminance-normalised lights have Y = 1.
+    for l in &base.lights {
+        assert!((col.luminance().dot(&l.spectrum.0) - 1.0).abs() < 1e-12);
+    }
 }

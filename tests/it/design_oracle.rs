@@ -5,9 +5,10 @@
 
 use crate::common;
 
+use crate::common::random;
 use common::{oracle, stack};
 use metamer::colorimetry::Colorimetry;
-use metamer::design::{self, SolveOptions, random};
+use metamer::design::{self, SolveOptions};
 use metamer::palette::Palette;
 use nalgebra::DVector;
 use proptest::prelude::*;

@@ -11,12 +11,12 @@
 //!   the region reports inside are met by the solve within the tolerance, targets reported outside are not;
 //!   the undecided band between the inner and the outer region is counted.
 
+use crate::common::random::{self, Rng};
 use metamer::colorimetry::Colorimetry;
 use metamer::colorimetry::{delta_e00, xyz_to_lab};
 use metamer::design::feasibility::{
     self, DEFAULT_DIRECTIONS, DEFAULT_TOLERANCE, MET_BOX_MARGIN, Placement, Problem, RegionCache, hull_volume, met_box,
 };
-use metamer::design::random::{self, Rng};
 use metamer::design::system::Values;
 use metamer::design::{self, SolveOptions};
 use metamer::palette::{Bounds, Kind, Palette, Settings};

@@ -15,11 +15,11 @@
 
 use crate::common;
 
+use crate::common::random::{self, Rng};
 use common::{Stacked, bound_violation, kkt_residual, objective, oracle_point, stack, stacked_solution};
 use metamer::bench::summary::condition_number;
 use metamer::colorimetry::Colorimetry;
 use metamer::design::joint::JointLimits;
-use metamer::design::random::{self, Rng};
 use metamer::design::system::Design;
 use metamer::design::{self, Solution, SolveOptions};
 use metamer::palette::{Bounds, FreeGroup, Kind, Palette, Settings, SpectrumEntry};

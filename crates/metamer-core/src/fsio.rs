@@ -488,14 +488,6 @@ fn resolve_target(path: &Path) -> std::io::Result<PathBuf> {
     Err(std::io::Error::other("too many levels of symbolic links"))
 }
 
-/// The folder a file lives in (`.` for a bare file name).
-fn folder_of(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    }
-}
-
 /// Write `bytes` to `path` atomically (see the module docs). Nothing at `path` changes unless the whole
 /// new content is on disk.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FsError> {
@@ -553,6 +545,15 @@ pub fn create_dir_all(dir: &Path) -> Result<(), FsError> {
     std::fs::create_dir_all(dir).map_err(|source| FsError::Write { path: dir.to_path_buf(), source })
 }
 
+/// The folder a file lives in: its parent, or `.` for a bare file name (relative paths in a file, its
+/// sidecars and its temporary files are taken from here).
+pub fn folder_of(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -563,5 +564,12 @@ mod tests {
         assert_eq!(escape("plain"), "plain");
         assert_eq!(escape_lines("a\nb\x1b"), "a\nb\\u{1b}");
         assert_eq!(escape("a\nb"), "a\\nb");
+    }
+
+    #[test]
+    fn folder_of_a_bare_name_is_dot() {
+        assert_eq!(folder_of(Path::new("a.toml")), PathBuf::from("."));
+        assert_eq!(folder_of(Path::new("d/e/a.toml")), PathBuf::from("d/e"));
+        assert_eq!(folder_of(Path::new("/a.toml")), PathBuf::from("/"));
     }
 }

@@ -126,7 +126,7 @@ fn set_setting(p: &mut Palette, field: SettingField, v: f64) -> EditResult {
         SettingField::Smoothness => s.smoothness = nonneg(v)?,
         SettingField::SubspaceError => s.subspace_error = nonneg(v)?,
         SettingField::BasisDimension => {
-            if v.fract() != 0.0 || !(1.0..=31.0).contains(&v) {
+            if v.fract() != 0.0 || crate::basis::check_dimension(v as usize).is_err() {
                 return Err(EditError::BasisDimension);
             }
             s.basis_dimension = v as usize;

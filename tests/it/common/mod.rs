@@ -3,6 +3,7 @@
 //! the clarabel QP oracle on it, and first-order (KKT) checks computed from that assembly alone.
 
 pub mod data;
+pub mod random;
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT};

@@ -34,6 +34,24 @@ use crate::colorimetry::{Colorimetry, Q31};
 use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Vector3};
 
+/// The basis dimension m of a palette that does not set `basis_dimension` (the "V7" model).
+pub const DEFAULT_DIMENSION: usize = 7;
+
+/// The basis dimensions allowed everywhere (palette files, `metamer basis --dimension`, the designer, a
+/// basis matrix): 1 ..= 31, one per sample at most.
+pub const DIMENSIONS: std::ops::RangeInclusive<usize> = 1..=SAMPLES;
+
+/// The basis-dimension rule, in one place: `Ok(m)` when m is in [`DIMENSIONS`], else
+/// [`BasisError::BadDimension`].
+pub fn check_dimension(m: usize) -> Result<usize, BasisError> {
+    if DIMENSIONS.contains(&m) { Ok(m) } else { Err(BasisError::BadDimension(m)) }
+}
+
+/// m moved into [`DIMENSIONS`] (for callers that take any m and use the nearest allowed one).
+pub fn clamp_dimension(m: usize) -> usize {
+    m.clamp(*DIMENSIONS.start(), *DIMENSIONS.end())
+}
+
 /// Why a basis cannot be built from a matrix.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum BasisError {
@@ -74,10 +92,7 @@ impl Basis {
         if b.nrows() != SAMPLES {
             return Err(BasisError::WrongRows(b.nrows()));
         }
-        let m = b.ncols();
-        if m == 0 || m > SAMPLES {
-            return Err(BasisError::BadDimension(m));
-        }
+        let m = check_dimension(b.ncols())?;
         if b.iter().any(|v| !v.is_finite()) {
             return Err(BasisError::NotFinite);
         }

@@ -25,7 +25,7 @@
 use super::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
 use crate::spectrum::{SAMPLES, Spectrum};
-use argmin::core::{CostFunction, Error, Executor, Gradient, State};
+use argmin::core::{CostFunction, Error, Gradient};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::quasinewton::LBFGS;
 use nalgebra::{DMatrix, DVector, Matrix3, SymmetricEigen, Vector3};
@@ -459,10 +459,10 @@ fn run(objective: &Objective, b0: Option<&DMatrix<f64>>, start: &DMatrix<f64>, i
         Ok(s) => s,
         Err(e) => return RefineOutcome::Kept { reason: e.to_string() },
     };
-    let result =
-        Executor::new(problem, solver).configure(|s| s.param(x0).max_iters(iterations).target_cost(TARGET_COST)).run();
-    let (iters, aborted) = match result {
-        Ok(r) => (r.state().get_iter(), None),
+    let limits =
+        crate::optimize::Limits { target_cost: Some(TARGET_COST), ..crate::optimize::Limits::iterations(iterations) };
+    let (iters, aborted) = match crate::optimize::run(problem, solver, x0, &limits) {
+        Ok(r) => (r.iterations(), None),
         Err(e) => (iterations, Some(e.to_string())),
     };
     // The best point seen by any evaluation (a line search may end on a worse one than it tried, and an

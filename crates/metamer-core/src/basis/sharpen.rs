@@ -27,7 +27,7 @@ pub const MAX_CONDITION: f64 = 1e8;
 
 /// The 31 samples cut into m contiguous bands of (nearly) equal width, the wider ones first.
 pub fn equal_bands(m: usize) -> Vec<Range<usize>> {
-    let m = m.clamp(1, SAMPLES);
+    let m = super::clamp_dimension(m);
     let base = SAMPLES / m;
     let extra = SAMPLES % m;
     let mut start = 0;

@@ -29,6 +29,7 @@
 use super::lbfgsb::{LBfgsB, projected_gradient_norm};
 use super::lsq;
 use super::system::{Block, Design, Form, Layout, Unit, Values, smoothness_grad, smoothness_scale, smoothness_sq};
+use crate::optimize::{Limits, Termination};
 use argmin::core::{CostFunction, Error, Gradient};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -148,8 +149,8 @@ pub struct JointOutcome {
     /// Alternating rounds, summed over all starts.
     pub alternating_rounds: usize,
     pub lbfgsb_iterations: u64,
-    /// Why it stopped early, if it did ("time limit", "cancelled").
-    pub stopped: Option<String>,
+    /// Why it stopped early, if it did ([`Termination::TimeLimit`] or [`Termination::Cancelled`]).
+    pub stopped: Option<Termination>,
 }
 
 /// Default number of starts of a joint solve ([`JointLimits::starts`]).
@@ -196,11 +197,11 @@ impl JointLimits {
         }
     }
 
-    fn out_of_time(&self) -> Option<String> {
+    fn out_of_time(&self) -> Option<Termination> {
         if self.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed)) {
-            return Some("cancelled".into());
+            return Some(Termination::Cancelled);
         }
-        (Instant::now() >= self.deadline).then(|| "time limit".into())
+        (Instant::now() >= self.deadline).then_some(Termination::TimeLimit)
     }
 }
 
@@ -348,7 +349,7 @@ fn lift_zero_starts(design: &Design, block: &Block, v: &mut Values) {
 /// Free colours keep their start. Deterministic: the same block and k give the same start.
 fn perturbed_start(design: &Design, block: &Block, v: &Values, k: usize) -> Values {
     const SIGMA: f64 = 3.0;
-    let mut rng = super::random::Rng::new(0x5eed_0000 + k as u64);
+    let mut rng = crate::optimize::Rng::new(0x5eed_0000 + k as u64);
     let mut w = v.clone();
     for u in &block.units {
         if matches!(u, Unit::Free(_)) {
@@ -450,15 +451,10 @@ fn finish(design: &Design, block: &Block, v: &mut Values, limits: &JointLimits, 
             .with_memory(10)
             .with_pg_tol(1e-12 * (1.0 + f0))
             .with_f_tol(1e-13, 0.0)
-            .with_deadline(Some(limits.deadline))
             .with_cancel(limits.cancel.clone());
-        let res = argmin::core::Executor::new(problem, solver)
-            .configure(|s| s.param(x0).max_iters(limits.lbfgsb_iterations))
-            .ctrlc(false)
-            .timer(false)
-            .run();
-        if let Ok(res) = res {
-            out.lbfgsb_iterations = argmin::core::State::get_iter(&res.state);
+        let run_limits = Limits { deadline: Some(limits.deadline), ..Limits::iterations(limits.lbfgsb_iterations) };
+        if let Ok(res) = crate::optimize::run(problem, solver, x0, &run_limits) {
+            out.lbfgsb_iterations = res.iterations();
             if let Some(x) = res.state.param.as_ref() {
                 let mut trial = v.clone();
                 layout.scatter(x, &mut trial);
@@ -576,7 +572,7 @@ mod tests {
         let t = Instant::now();
         let out = solve_block(&design, block, &mut v, &lim);
         assert!(t.elapsed() < Duration::from_secs(2), "took {:?}", t.elapsed());
-        assert_eq!(out.stopped.as_deref(), Some("cancelled"));
+        assert_eq!(out.stopped, Some(Termination::Cancelled));
         assert!(out.history.windows(2).all(|w| w[1] <= w[0]));
     }
 }

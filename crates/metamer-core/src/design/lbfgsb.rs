@@ -14,7 +14,9 @@
 //!
 //! Iterates stay feasible throughout. It stops when the projected gradient `‖x − P(x − ∇f)‖∞` is at
 //! most `pg_tol`, when the relative decrease of f falls below `f_tol`, when the line search cannot
-//! decrease f even from steepest descent, at the deadline, or when the cancel flag is set.
+//! decrease f even from steepest descent ([`crate::optimize::NO_DECREASE`]), or when the cancel flag is set
+//! (`TerminationReason::Interrupt`); the iteration cap and the deadline are the executor's
+//! ([`crate::optimize::run`]).
 
 use argmin::core::{
     CostFunction, Error, Gradient, IterState, KV, Problem, Solver, State, TerminationReason, TerminationStatus,
@@ -23,7 +25,6 @@ use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
 
 /// The argmin state L-BFGS-B runs on.
 pub type LbState = IterState<DVector<f64>, DVector<f64>, (), (), (), f64>;
@@ -43,7 +44,6 @@ pub struct LBfgsB {
     s: VecDeque<DVector<f64>>,
     y: VecDeque<DVector<f64>>,
     theta: f64,
-    deadline: Option<Instant>,
     cancel: Option<Arc<AtomicBool>>,
     stop: Option<TerminationReason>,
 }
@@ -61,7 +61,6 @@ impl LBfgsB {
             s: VecDeque::new(),
             y: VecDeque::new(),
             theta: 1.0,
-            deadline: None,
             cancel: None,
             stop: None,
         }
@@ -86,13 +85,7 @@ impl LBfgsB {
         self
     }
 
-    /// Stop (with `SolverExit("deadline")`) once this instant has passed.
-    pub fn with_deadline(mut self, deadline: Option<Instant>) -> Self {
-        self.deadline = deadline;
-        self
-    }
-
-    /// Stop (with `SolverExit("cancelled")`) when the flag becomes true.
+    /// Stop (with `TerminationReason::Interrupt`) when the flag becomes true.
     pub fn with_cancel(mut self, cancel: Option<Arc<AtomicBool>>) -> Self {
         self.cancel = cancel;
         self
@@ -509,18 +502,15 @@ where
                     if f - st.f <= self.f_tol * scale {
                         self.stop = Some(TerminationReason::SolverConverged);
                     }
-                    if self.deadline.is_some_and(|d| Instant::now() >= d) {
-                        self.stop = Some(TerminationReason::SolverExit("deadline".into()));
-                    }
                     if self.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed)) {
-                        self.stop = Some(TerminationReason::SolverExit("cancelled".into()));
+                        self.stop = Some(TerminationReason::Interrupt);
                     }
                     return Ok((state.param(st.x).cost(st.f).gradient(st.g), None));
                 }
                 _ => {
                     // No decrease along this direction: drop the memory and retry once from steepest descent.
                     if retried || self.s.is_empty() {
-                        self.stop = Some(TerminationReason::SolverExit("line search found no decrease".into()));
+                        self.stop = Some(TerminationReason::SolverExit(crate::optimize::NO_DECREASE.into()));
                         return Ok((state.param(x).cost(f).gradient(g), None));
                     }
                     self.reset_memory();
@@ -543,8 +533,8 @@ where
     }
 }
 
-/// Run L-BFGS-B through argmin's [`argmin::core::Executor`] from `x0` (projected onto the box).
-/// Returns the final point, its cost and gradient.
+/// Run L-BFGS-B from `x0` (projected onto the box) for at most `max_iters` iterations, through the one
+/// argmin set-up ([`crate::optimize::run`]). Returns the final point, its cost and gradient.
 pub fn minimize<O>(
     problem: O,
     solver: LBfgsB,
@@ -554,12 +544,7 @@ pub fn minimize<O>(
 where
     O: CostFunction<Param = DVector<f64>, Output = f64> + Gradient<Param = DVector<f64>, Gradient = DVector<f64>>,
 {
-    let res = argmin::core::Executor::new(problem, solver)
-        .configure(|s| s.param(x0).max_iters(max_iters))
-        .ctrlc(false)
-        .timer(false)
-        .run()?;
-    let mut st = res.state;
+    let mut st = crate::optimize::run(problem, solver, x0, &crate::optimize::Limits::iterations(max_iters))?.state;
     let f = st.get_cost();
     let x = st.take_param().ok_or_else(|| Error::msg("L-BFGS-B: no result"))?;
     let g = st.take_gradient().ok_or_else(|| Error::msg("L-BFGS-B: no gradient"))?;
@@ -567,131 +552,5 @@ where
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// f(x) = ½ xᵀ H x − cᵀ x.
-    struct Quadratic {
-        h: DMatrix<f64>,
-        c: DVector<f64>,
-    }
-    impl CostFunction for Quadratic {
-        type Param = DVector<f64>;
-        type Output = f64;
-        fn cost(&self, x: &DVector<f64>) -> Result<f64, Error> {
-            Ok(0.5 * x.dot(&(&self.h * x)) - self.c.dot(x))
-        }
-    }
-    impl Gradient for Quadratic {
-        type Param = DVector<f64>;
-        type Gradient = DVector<f64>;
-        fn gradient(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
-            Ok(&self.h * x - &self.c)
-        }
-    }
-
-    struct Rosenbrock;
-    impl CostFunction for Rosenbrock {
-        type Param = DVector<f64>;
-        type Output = f64;
-        fn cost(&self, x: &DVector<f64>) -> Result<f64, Error> {
-            Ok((0..x.len() - 1).map(|i| 100.0 * (x[i + 1] - x[i] * x[i]).powi(2) + (1.0 - x[i]).powi(2)).sum())
-        }
-    }
-    impl Gradient for Rosenbrock {
-        type Param = DVector<f64>;
-        type Gradient = DVector<f64>;
-        fn gradient(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
-            let n = x.len();
-            let mut g = DVector::zeros(n);
-            for i in 0..n - 1 {
-                let t = x[i + 1] - x[i] * x[i];
-                g[i] += -400.0 * x[i] * t - 2.0 * (1.0 - x[i]);
-                g[i + 1] += 200.0 * t;
-            }
-            Ok(g)
-        }
-    }
-
-    #[test]
-    fn separable_quadratic_hits_the_clamped_minimiser() {
-        // Diagonal H: the bounded minimiser is the unconstrained one clamped, componentwise.
-        let n = 12;
-        let h = DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| 1.0 + i as f64));
-        let c = DVector::from_fn(n, |i, _| if i % 2 == 0 { 5.0 * (i as f64 + 1.0) } else { -3.0 });
-        let lo = DVector::from_element(n, -1.0);
-        let hi = DVector::from_element(n, 2.0);
-        let want = DVector::from_fn(n, |i, _| (c[i] / h[(i, i)]).clamp(-1.0, 2.0));
-        let solver = LBfgsB::new(lo.clone(), hi.clone()).with_f_tol(0.0, 0.0).with_pg_tol(1e-12);
-        let (x, _, g) = minimize(Quadratic { h, c }, solver, DVector::zeros(n), 200).unwrap();
-        // Function values limit the line search to about √ε relative accuracy in x.
-        assert!((&x - &want).amax() < 1e-6, "x = {x}, want {want}");
-        assert!(projected_gradient_norm(&x, &g, &lo, &hi) < 1e-6);
-        // The active set is exact: every clamped component sits exactly on its bound.
-        for i in 0..n {
-            if want[i] == 2.0 || want[i] == -1.0 {
-                assert_eq!(x[i], want[i]);
-            }
-        }
-    }
-
-    #[test]
-    fn coupled_quadratic_satisfies_kkt() {
-        // H = tridiagonal (ill-conditioned chain), bounds active on part of the variables.
-        let n = 30;
-        let h = DMatrix::from_fn(n, n, |i, j| {
-            if i == j {
-                2.01
-            } else if i.abs_diff(j) == 1 {
-                -1.0
-            } else {
-                0.0
-            }
-        });
-        let c = DVector::from_fn(n, |i, _| ((i as f64) * 0.7).sin());
-        let lo = DVector::from_element(n, -0.5);
-        let hi = DVector::from_element(n, 0.5);
-        let (x, _, g) =
-            minimize(Quadratic { h, c }, LBfgsB::new(lo.clone(), hi.clone()), DVector::zeros(n), 5000).unwrap();
-        assert!(x.iter().all(|v| (-0.5..=0.5).contains(v)));
-        let kkt = projected_gradient_norm(&x, &g, &lo, &hi);
-        assert!(kkt < 1e-7, "projected gradient {kkt}");
-        assert!(x.iter().any(|v| *v == 0.5 || *v == -0.5), "some bound should be active");
-    }
-
-    #[test]
-    fn bounded_rosenbrock() {
-        // Minimum of Rosenbrock in [-2, 0.5]² with x1 ≤ 0.5: on the boundary x0 = 0.5, x1 = 0.25.
-        let lo = DVector::from_vec(vec![-2.0, -2.0]);
-        let hi = DVector::from_vec(vec![0.5, 2.0]);
-        let (x, f, g) =
-            minimize(Rosenbrock, LBfgsB::new(lo.clone(), hi.clone()), DVector::from_vec(vec![-1.2, 1.0]), 2000)
-                .unwrap();
-        assert!((x[0] - 0.5).abs() < 1e-7 && (x[1] - 0.25).abs() < 1e-6, "x = {x}");
-        assert!((f - 0.25).abs() < 1e-10);
-        assert!(projected_gradient_norm(&x, &g, &lo, &hi) < 1e-6);
-    }
-
-    #[test]
-    fn unbounded_rosenbrock_in_10d() {
-        let n = 10;
-        let lo = DVector::from_element(n, f64::NEG_INFINITY);
-        let hi = DVector::from_element(n, f64::INFINITY);
-        let x0 = DVector::from_fn(n, |i, _| if i % 2 == 0 { -1.2 } else { 1.0 });
-        let (x, f, _) = minimize(Rosenbrock, LBfgsB::new(lo, hi), x0, 5000).unwrap();
-        assert!(f < 1e-12, "f = {f}");
-        assert!((x - DVector::from_element(n, 1.0)).amax() < 1e-5);
-    }
-
-    #[test]
-    fn iterates_never_leave_the_box() {
-        // A start far outside is projected; every accepted point stays inside.
-        let n = 5;
-        let h = DMatrix::identity(n, n);
-        let c = DVector::from_element(n, 10.0);
-        let lo = DVector::from_element(n, 0.0);
-        let hi = DVector::from_element(n, 1.0);
-        let (x, _, _) = minimize(Quadratic { h, c }, LBfgsB::new(lo, hi), DVector::from_element(n, -7.0), 100).unwrap();
-        assert!(x.iter().all(|v| *v == 1.0), "x = {x}");
-    }
-}
+#[path = "lbfgsb_tests.rs"]
+mod tests;

@@ -3,7 +3,7 @@
 //!
 //! Interface pinned for the other modules (TUI, CLI, renderer); the engine fills it in.
 //!
-//! * [`system`]: assembly of the exact objective (rows, bounds, blocks);
+//! * [`system`]: assembly of the exact objective (rows, bounds, blocks; [`layout`]: blocks, stacked layout);
 //! * [`lsq`]: minimum-norm SVD least squares, then L-BFGS-B and an exact active-set finish under bounds;
 //! * [`lbfgsb`]: L-BFGS-B as an argmin `Solver`;
 //! * [`joint`]: bilinear blocks (light and reflectance both designed);
@@ -19,9 +19,13 @@
 
 pub mod feasibility;
 pub mod joint;
+pub mod layout;
 pub mod lbfgsb;
 pub mod lsq;
-pub mod random;
+/// Seeded random palettes (a test helper: tests/it/common/random.rs).
+#[cfg(test)]
+#[path = "../../../../tests/it/common/random.rs"]
+pub(crate) mod random;
 pub mod report;
 pub mod solve;
 pub mod system;
@@ -50,7 +54,19 @@ impl Default for SolveOptions {
     }
 }
 
-/// The colours of one cell at the solution.
+/// Whether a cell's target is met.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellStatus {
+    /// The cell is not used (weight 0 or `use = false`): it has no say in the design.
+    NotUsed,
+    /// Its full colour is within [`report::MET_DELTA_E`] (CIEDE2000) of its target.
+    Met,
+    /// It is not; [`Solution::diagnostics`] says why.
+    Unmet,
+}
+
+/// The colours of one cell at the solution: computed once by the solve ([`report::cell_results`]) and
+/// drawn by the CLI's table, the JSON report and the designer's cells.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CellResult {
     /// Index into `palette.colours`.
@@ -61,8 +77,26 @@ pub struct CellResult {
     pub rgb_full: Vector3<f64>,
     /// Subspace (spectral factor model) colour, when a basis was given.
     pub rgb_subspace: Option<Vector3<f64>>,
+    /// CIEDE2000 of the full colour from the target (under the cell's light); `f64::MAX` when not finite.
     pub delta_e_full: f64,
     pub delta_e_subspace: Option<f64>,
+    pub status: CellStatus,
+}
+
+/// What a [`Diagnostic`] is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DiagnosticKind {
+    /// A cell whose target is not met (ΔE00 above [`report::MET_DELTA_E`], or its light is zero), with the
+    /// reason and, where one is known, the closest reachable colour.
+    Unmet,
+    /// A cell that appears more than once (light × reflectance): both count.
+    Duplicate,
+    /// A designed spectrum that no active cell uses: only smoothness acts on it.
+    Unused,
+    /// The solve produced non-finite values; the starting spectra were returned.
+    NonFinite,
+    /// A joint block stopped before converging (time limit, cancel); its best solution was returned.
+    StoppedEarly(crate::optimize::Termination),
 }
 
 /// Something the user should know about a design: a cell that cannot be met and why, a degenerate input…
@@ -70,7 +104,16 @@ pub struct CellResult {
 pub struct Diagnostic {
     /// Index into `palette.colours` when it is about one cell.
     pub cell: Option<usize>,
+    pub kind: DiagnosticKind,
+    /// The sentence shown to the user (the table's remark, the report's `message`).
     pub message: String,
+}
+
+impl Diagnostic {
+    /// True for an unmet cell ([`DiagnosticKind::Unmet`]).
+    pub fn is_unmet(&self) -> bool {
+        self.kind == DiagnosticKind::Unmet
+    }
 }
 
 /// The result of a solve.
@@ -112,8 +155,6 @@ impl Solution {
 /// [`Solution::diagnostics`]).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DesignError {
-    #[error("the design engine is not built yet")]
-    NotBuilt,
     #[error("the solve was cancelled")]
     Cancelled,
     #[error("{0}")]
@@ -168,14 +209,16 @@ pub fn solve_with(
     } else {
         diagnostics.push(Diagnostic {
             cell: None,
+            kind: DiagnosticKind::NonFinite,
             message: "the solve produced non-finite values; the starting spectra are returned unchanged".into(),
         });
         start
     };
     for b in &blocks {
-        if let Some(why) = &b.stopped {
+        if let Some(why) = b.stopped {
             diagnostics.push(Diagnostic {
                 cell: None,
+                kind: DiagnosticKind::StoppedEarly(why),
                 message: format!(
                     "joint design of {} unknown spectra stopped early ({why}); objective {:.6e} is the best found",
                     b.units.iter().filter(|u| !matches!(u, system::Unit::Free(_))).count(),
@@ -215,6 +258,38 @@ pub fn solve_with(
         cells,
         diagnostics,
     })
+}
+
+impl Solution {
+    /// The solved spectra and free colours as the design system's values (what feasibility analyses of
+    /// the solution start from).
+    pub fn values(&self) -> system::Values {
+        system::Values {
+            lights: self.palette.lights.iter().map(|e| e.spectrum).collect(),
+            reflectances: self.palette.reflectances.iter().map(|e| e.spectrum).collect(),
+            free: self.free.clone(),
+        }
+    }
+
+    /// Give every cell its subspace colour and ΔE00 in `basis` — the basis of the *solved* spectra (the
+    /// one basis policy's), which the solve itself cannot know; the full colours are kept.
+    pub fn set_subspace(&mut self, basis: &Basis, colorimetry: &Colorimetry) {
+        let p = &self.palette;
+        for r in &mut self.cells {
+            let c = &p.colours[r.cell];
+            r.set_subspace(
+                Some(basis),
+                &p.lights[c.light].spectrum,
+                &p.reflectances[c.reflectance].spectrum,
+                colorimetry,
+            );
+        }
+    }
+
+    /// The cells whose target is not met ([`CellStatus::Unmet`]).
+    pub fn unmet_cells(&self) -> impl Iterator<Item = &CellResult> {
+        self.cells.iter().filter(|c| c.status == CellStatus::Unmet)
+    }
 }
 
 /// An instant about a century after `from` (the latest a deadline needs to be), or the latest that can

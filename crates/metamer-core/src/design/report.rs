@@ -7,7 +7,7 @@
 
 use super::lsq;
 use super::system::{Design, Form, LinearSystem, Values};
-use super::{CellResult, Diagnostic};
+use super::{CellResult, CellStatus, Diagnostic, DiagnosticKind};
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
 use crate::colorimetry::Q31;
@@ -27,6 +27,50 @@ fn finite_or(v: f64, d: f64) -> f64 {
     if v.is_finite() { v } else { d }
 }
 
+/// The colour of light `e` on reflectance `s`: in the full 31-sample model, and in the spectral factor
+/// model of `basis` when one is given. The one place a cell's colours are computed (the solve's cells,
+/// and the designer's cells that have no solved result: cells without a criterion, edits not solved yet).
+pub fn pair_colours(
+    e: &Spectrum,
+    s: &Spectrum,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+) -> (Vector3<f64>, Option<Vector3<f64>>) {
+    (colorimetry.rgb(e, s), basis.map(|b| b.rgb_factor(e, s)))
+}
+
+impl CellResult {
+    /// The colours and errors of cell `cell` (light `e` on reflectance `s`, aiming at `target`; `active`:
+    /// the cell is used by the design).
+    pub fn new(
+        cell: usize,
+        target: Vector3<f64>,
+        (e, s): (&Spectrum, &Spectrum),
+        active: bool,
+        basis: Option<&Basis>,
+        colorimetry: &Colorimetry,
+    ) -> CellResult {
+        let (rgb_full, _) = pair_colours(e, s, None, colorimetry);
+        let delta_e_full = finite_or(colorimetry.delta_e00_under(&target, &rgb_full, e), f64::MAX);
+        let status = match (active, delta_e_full > MET_DELTA_E) {
+            (false, _) => CellStatus::NotUsed,
+            (true, false) => CellStatus::Met,
+            (true, true) => CellStatus::Unmet,
+        };
+        let mut r =
+            CellResult { cell, target, rgb_full, rgb_subspace: None, delta_e_full, delta_e_subspace: None, status };
+        r.set_subspace(basis, e, s, colorimetry);
+        r
+    }
+
+    /// Set (or, without a basis, clear) the subspace colour and its ΔE00 for light `e` on reflectance `s`.
+    pub fn set_subspace(&mut self, basis: Option<&Basis>, e: &Spectrum, s: &Spectrum, colorimetry: &Colorimetry) {
+        self.rgb_subspace = basis.map(|b| b.rgb_factor(e, s));
+        self.delta_e_subspace =
+            self.rgb_subspace.map(|r| finite_or(colorimetry.delta_e00_under(&self.target, &r, e), f64::MAX));
+    }
+}
+
 /// Colours and errors of every cell of the palette at `v`.
 pub fn cell_results(
     palette: &Palette,
@@ -39,15 +83,9 @@ pub fn cell_results(
         .par_iter()
         .enumerate()
         .map(|(k, c)| {
-            let e = &v.lights[c.light];
-            let s = &v.reflectances[c.reflectance];
             let target = c.free.map(|g| v.free[g]).unwrap_or(c.target);
-            let rgb_full = colorimetry.rgb(e, s);
-            let rgb_subspace = basis.map(|b| b.rgb_factor(e, s));
-            let delta_e_full = finite_or(colorimetry.delta_e00_under(&target, &rgb_full, e), f64::MAX);
-            let delta_e_subspace =
-                rgb_subspace.map(|r| finite_or(colorimetry.delta_e00_under(&target, &r, e), f64::MAX));
-            CellResult { cell: k, target, rgb_full, rgb_subspace, delta_e_full, delta_e_subspace }
+            let pair = (&v.lights[c.light], &v.reflectances[c.reflectance]);
+            CellResult::new(k, target, pair, c.is_active(), basis, colorimetry)
         })
         .collect()
 }
@@ -246,7 +284,7 @@ type ReachKey = (bool, usize, Form);
 pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells: &[CellResult]) -> Vec<Diagnostic> {
     let p = design.palette;
     let mut out = Vec::new();
-    let say = |cell: Option<usize>, message: String| Diagnostic { cell, message };
+    let say = |cell: Option<usize>, kind: DiagnosticKind, message: String| Diagnostic { cell, kind, message };
     // Designed spectra without any colour criterion.
     let mut light_used = vec![false; p.lights.len()];
     let mut refl_used = vec![false; p.reflectances.len()];
@@ -259,6 +297,7 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
             if e.design && !used[i] {
                 out.push(say(
                     None,
+                    DiagnosticKind::Unused,
                     format!(
                         "{kind} \"{}\" is designed but no active colour cell uses it: only smoothness acts on it",
                         e.name
@@ -276,6 +315,7 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
         if let Some(&j) = first.get(&(c.light, c.reflectance)) {
             out.push(say(
                 Some(k),
+                DiagnosticKind::Duplicate,
                 format!(
                     "cell {} × {} appears twice (colours[{j}] and colours[{k}]): both count, so the solution is their weighted compromise",
                     p.lights[c.light].name, p.reflectances[c.reflectance].name
@@ -298,6 +338,7 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
         if c.is_active() && is_zero(&v.lights[c.light]) {
             out.push(say(
                 Some(r.cell),
+                DiagnosticKind::Unmet,
                 format!(
                     "cell {} × {} not met: light \"{}\" is zero, so every reflectance is black under it (target {})",
                     p.lights[c.light].name,
@@ -310,10 +351,7 @@ pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells
     }
     let unmet: Vec<&CellResult> = cells
         .iter()
-        .filter(|r| {
-            let c = &p.colours[r.cell];
-            c.is_active() && r.delta_e_full > MET_DELTA_E && !is_zero(&v.lights[c.light])
-        })
+        .filter(|r| r.status == CellStatus::Unmet && !is_zero(&v.lights[p.colours[r.cell].light]))
         .collect();
     // The form of each cell's colour rows, and the reachability data of each fixed partner, built once.
     let mut form_of = vec![Form::Full; p.colours.len()];
@@ -363,7 +401,7 @@ fn unmet_reason(
     by_reflectance: &[Vec<usize>],
 ) -> Diagnostic {
     let p = design.palette;
-    let say = |cell: Option<usize>, message: String| Diagnostic { cell, message };
+    let say = |cell: Option<usize>, message: String| Diagnostic { cell, kind: DiagnosticKind::Unmet, message };
     {
         let c = &p.colours[r.cell];
         let light = &p.lights[c.light];
@@ -438,79 +476,5 @@ fn unmet_reason(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
-    }
-
-    /// Reachable targets are hit (colour within the walk's tolerance); for the others the closest colour is
-    /// no farther than the bounded least-squares solve of the colour rows finds.
-    #[test]
-    fn closest_reachable_colours() {
-        let col = Colorimetry::default();
-        let palette = crate::design::random::batch_palette(1, 3, &col);
-        let design = Design::new(&palette, None, &col).unwrap();
-        let bounds = Bounds::new(0.0, 1.0);
-        let mut seed = 5u64;
-        let (mut hits, mut misses) = (0, 0);
-        for light in &palette.lights {
-            let reach = Reach::new(&design, Form::Full, &light.spectrum);
-            for k in 0..60 {
-                let truth = Spectrum(crate::spectrum::Samples::from_fn(|_, _| lcg(&mut seed)));
-                let start = Spectrum(crate::spectrum::Samples::from_fn(|_, _| lcg(&mut seed).round()));
-                // Every third target is pushed out of reach (scaled past what [0, 1] allows, or negative).
-                let mut target = reach.op * truth.0;
-                if k % 3 == 1 {
-                    target *= 2.5;
-                } else if k % 3 == 2 {
-                    target[1] = -0.1;
-                }
-                let got = reach.closest(&start, bounds, &target);
-                if k % 3 == 0 {
-                    assert!((got - target).amax() <= EXACT_HIT_TOLERANCE * (1.0 + target.amax()), "{got} vs {target}");
-                    hits += 1;
-                } else {
-                    let sys = LinearSystem {
-                        a: DMatrix::from_fn(3, SAMPLES, |r, c| reach.op[(r, c)]),
-                        b: DVector::from_column_slice(target.as_slice()),
-                        lower: DVector::zeros(SAMPLES),
-                        upper: DVector::from_element(SAMPLES, 1.0),
-                    };
-                    let best = lsq::solve_system(&sys);
-                    let reference = reach.op * nalgebra::SVector::<f64, SAMPLES>::from_column_slice(best.x.as_slice());
-                    // The ridge (1e-4) may cost a little distance; far less than a ΔE00 of 0.01.
-                    assert!((got - target).norm() <= (reference - target).norm() + 1e-6, "{got} vs {reference}");
-                    misses += 1;
-                }
-            }
-        }
-        assert!(hits > 50 && misses > 100);
-    }
-
-    #[test]
-    fn fixed_prints_as_the_standard_formatter() {
-        let mut seed = 11u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            seed
-        };
-        let mut values =
-            vec![0.0, -0.0, 0.5, -0.5, 0.125, 2.675, 1e-9, -1e-9, 0.00005, 0.99995, 1e12, 123.456, f64::NAN];
-        values.extend([f64::INFINITY, f64::NEG_INFINITY, 0.015, 0.025, -0.005, 1.0 / 3.0, 5e-5, 4.99995]);
-        for _ in 0..20000 {
-            let bits = next();
-            let scale = 10f64.powi((next() % 14) as i32 - 6);
-            values.push(((bits >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * scale);
-            values.push(f64::from_bits(next()));
-        }
-        for x in values {
-            for d in 0..8 {
-                assert_eq!(Fixed(x, d).to_string(), format!("{x:.d$}"), "{x:e} with {d} decimals");
-            }
-            assert_eq!(format!("{:>9}", Fixed(x, 2)), format!("{x:>9.2}"));
-        }
-    }
-}
+#[path = "report_tests.rs"]
+mod tests;

@@ -55,7 +55,7 @@ pub struct BlockReport {
     pub bounds_active: bool,
     /// Joint blocks: objective after each accepted stage (non-increasing).
     pub history: Vec<f64>,
-    pub stopped: Option<String>,
+    pub stopped: Option<crate::optimize::Termination>,
     /// New values of the block's units.
     pub values: Vec<(Unit, Vec<f64>)>,
 }

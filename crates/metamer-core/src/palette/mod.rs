@@ -157,7 +157,7 @@ pub struct Settings {
 impl Default for Settings {
     fn default() -> Self {
         Settings {
-            basis_dimension: 7,
+            basis_dimension: crate::basis::DEFAULT_DIMENSION,
             smoothness: 0.001,
             subspace_error: 0.0,
             fit_in_subspace: false,

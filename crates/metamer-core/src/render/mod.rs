@@ -21,7 +21,6 @@ pub mod text;
 
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
-use crate::spectrum::SAMPLES;
 use raycast::{BrickMap, ChannelImage, RaycastOptions, RaycastStats, raycast};
 use relight::{ColourModel, Mode};
 use scene::Scene;
@@ -126,7 +125,7 @@ pub fn scene_basis(scene: &Scene) -> Result<Basis, RenderError> {
 /// As [`scene_basis`], with the basis's report (its accuracy on the palette's own pairs and
 /// [`crate::basis::Report::poor_model`]).
 pub fn scene_basis_report(scene: &Scene) -> Result<crate::basis::policy::Resolved, RenderError> {
-    let m = scene.palette.settings.basis_dimension.clamp(1, SAMPLES);
+    let m = crate::basis::clamp_dimension(scene.palette.settings.basis_dimension);
     let sidecar = scene.palette_path.as_deref().map(crate::basis::store::sidecar_path);
     let err =
         |e: crate::basis::store::StoreError| RenderError::Invalid(format!("palette `{}`: {e}", scene.palette.name));

@@ -247,9 +247,7 @@ pub struct Trained {
 /// orthonormal 31×m matrix, padded with band vectors when the signals have lower rank. Returns the basis
 /// and the signals' rank. Columns are signed so that their sum is non-negative (deterministic output).
 pub fn principal_components(signals: &DMatrix<f64>, m: usize) -> Result<(DMatrix<f64>, usize), TrainError> {
-    if m == 0 || m > SAMPLES {
-        return Err(TrainError::BadDimension(m));
-    }
+    super::check_dimension(m).map_err(|_| TrainError::BadDimension(m))?;
     let mut cols: Vec<DVector<f64>> = Vec::with_capacity(m);
     let mut rank = 0;
     if signals.ncols() > 0 {

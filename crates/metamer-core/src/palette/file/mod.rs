@@ -311,7 +311,7 @@ impl PaletteFile {
     pub fn record_inputs(&self, role: &str, outputs: &mut crate::fsio::Outputs) {
         if let Some(path) = &self.path {
             outputs.input(role, path);
-            let base = folder_of(path);
+            let base = crate::fsio::folder_of(path);
             for csv in self.csv_raw.keys() {
                 outputs.input("CSV spectrum", &base.join(csv));
             }
@@ -353,8 +353,8 @@ impl PaletteFile {
 
     /// Run `f` with what a save to `path` needs: CSV sources are rebased from this file's folder to `path`'s.
     fn with_save_context<T>(&self, path: &Path, f: impl FnOnce(&write::SaveContext) -> T) -> T {
-        let new_base = folder_of(path);
-        let old_base = self.path.as_deref().map(folder_of);
+        let new_base = crate::fsio::folder_of(path);
+        let old_base = self.path.as_deref().map(crate::fsio::folder_of);
         f(&write::SaveContext {
             old_base: old_base.as_deref(),
             new_base: &new_base,
@@ -388,14 +388,6 @@ impl PaletteFile {
             );
         }
         Some(saved)
-    }
-}
-
-/// The folder a file lives in (`.` for a bare file name).
-fn folder_of(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
     }
 }
 

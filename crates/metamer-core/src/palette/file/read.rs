@@ -129,7 +129,7 @@ fn type_name(v: &Value) -> &'static str {
 
 impl<'a> Reader<'a> {
     pub(super) fn new(path: &'a Path, luminance: Samples) -> Reader<'a> {
-        let base_dir = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p }.to_path_buf());
+        let base_dir = Some(crate::fsio::folder_of(path));
         Reader { path, base_dir, luminance, warnings: Vec::new(), csv_raw: HashMap::new() }
     }
 
@@ -276,10 +276,10 @@ impl<'a> Reader<'a> {
         if let Some(v) = t.value("basis_dimension") {
             let key = "settings.basis_dimension";
             let m = integer_of(v).ok_or_else(|| self.wrong_type(key, "an integer", v))?;
-            if !(1..=SAMPLES as i64).contains(&m) {
+            let Some(m) = usize::try_from(m).ok().and_then(|m| crate::basis::check_dimension(m).ok()) else {
                 return Err(self.invalid(key, format!("must be between 1 and {SAMPLES}, got {m}")));
-            }
-            s.basis_dimension = m as usize;
+            };
+            s.basis_dimension = m;
         }
         for (k, slot) in [("smoothness", &mut s.smoothness), ("subspace_error", &mut s.subspace_error)] {
             if let Some(v) = t.value(k) {

@@ -5,44 +5,20 @@
 //! * [`batch_palette`]: many independent designed reflectances under 3 fixed lights with `[0, 1]` bounds;
 //! * [`convex_palette`]: random mixes of designed lights or reflectances (never both in one cell), free
 //!   groups, weights across decades and bounds, for checking optimality against an independent solver.
+//!
+//! A test helper, not part of the library: `tests/it` has it as `common::random`; the domain's unit tests,
+//! the benchmarks in `benches/` and `metamer bench` (`src/bench`) include this file with `#[path]`. Its
+//! paths name the domain crate as `metamer_core`, which resolves in all of them.
+#![allow(dead_code)]
 
-use crate::colorimetry::Colorimetry;
-use crate::palette::{Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation};
-use crate::spectrum::{Normalize, SAMPLES, Spectrum};
+use metamer_core::colorimetry::Colorimetry;
+use metamer_core::palette::{
+    Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation,
+};
+use metamer_core::spectrum::{Normalize, SAMPLES, Spectrum};
 use nalgebra::Vector3;
 
-/// SplitMix64: a small, good-enough deterministic generator.
-#[derive(Clone, Debug)]
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Rng {
-        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Uniform in [a, b).
-    pub fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.uniform()
-    }
-
-    /// Uniform index below n (n > 0).
-    pub fn index(&mut self, n: usize) -> usize {
-        (self.uniform() * n as f64) as usize % n.max(1)
-    }
-}
+pub use metamer_core::optimize::Rng;
 
 /// A smooth random spectrum in [0, 1]: a constant plus three Gaussian bumps, clipped.
 pub fn smooth_spectrum(rng: &mut Rng) -> Spectrum {
@@ -316,36 +292,5 @@ pub fn convex_palette(seed: u64, colorimetry: &Colorimetry) -> Palette {
         reflectances,
         colours,
         free,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn capacity_variants_share_targets_and_differ_in_starts() {
-        let col = Colorimetry::default();
-        let base = capacity_palette(6, 3, &col);
-        assert_eq!(base, capacity_palette_with(6, 3, &col, &CapacityOptions::default()));
-        for options in [
-            CapacityOptions { start: CapacityStart::Flat, ..Default::default() },
-            CapacityOptions { start: CapacityStart::Random, light_scale: CapacityLightScale::L2, ..Default::default() },
-            CapacityOptions {
-                light_scale: CapacityLightScale::Raw,
-                reflectances_below_one: true,
-                ..Default::default()
-            },
-        ] {
-            let p = capacity_palette_with(6, 3, &col, &options);
-            assert_eq!(p.colours, base.colours, "{options:?}");
-            assert_ne!(p.lights, base.lights, "{options:?}");
-            assert_eq!(p.settings.reflectance_bounds.upper == 1.0, options.reflectances_below_one);
-            assert!(p.lights.iter().chain(&p.reflectances).all(|e| e.design && e.spectrum.0.min() >= 0.0));
-        }
-        // Luminance-normalised lights have Y = 1.
-        for l in &base.lights {
-            assert!((col.luminance().dot(&l.spectrum.0) - 1.0).abs() < 1e-12);
-        }
     }
 }

@@ -1,0 +1,385 @@
+//! The kernels of the exact active-set finish in `lsq.rs`: the small dense helpers, the variable status,
+//! the Cholesky factor of `H_FF` kept in step with the free list, and the Householder QR of the free
+//! columns for ill-conditioned systems.
+
+use super::*;
+/// `aᵀb` with four partial sums (vectorises; the rounding is the same order as a plain sum).
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0f64; 4];
+    let mut ca = a.chunks_exact(4);
+    let mut cb = b.chunks_exact(4);
+    for (x, y) in (&mut ca).zip(&mut cb) {
+        acc[0] += x[0] * y[0];
+        acc[1] += x[1] * y[1];
+        acc[2] += x[2] * y[2];
+        acc[3] += x[3] * y[3];
+    }
+    let tail: f64 = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// `y += α·x`.
+pub(super) fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+    for (t, v) in y.iter_mut().zip(x) {
+        *t += alpha * v;
+    }
+}
+
+/// Column j of a column-major matrix as a slice.
+pub(super) fn column(m: &DMatrix<f64>, j: usize) -> &[f64] {
+    let r = m.nrows();
+    &m.as_slice()[j * r..(j + 1) * r]
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Status {
+    Free,
+    Lower,
+    Upper,
+}
+
+/// The Cholesky factor `L Lᵀ = H_FF` of the free variables' block of `H = AᵀA`, kept in step with the free
+/// list: a released variable appends a row (one forward substitution), a bound one is deleted with Givens
+/// rotations — O(n²) per change instead of a new O(n³) factorisation. `ok` turns false for good when a new
+/// pivot is not clearly positive; [`Cholesky::well_conditioned`] flags `cond(H_FF) ≳ 1e12`. Either sends
+/// the finish to QR.
+pub(super) struct Cholesky {
+    pub(super) n: usize,
+    /// Row-major n×n storage of L (only the leading |free|×|free| part is used).
+    pub(super) l: Vec<f64>,
+    pub(super) ok: bool,
+}
+
+impl Cholesky {
+    pub(super) fn new(n: usize, ok: bool) -> Cholesky {
+        Cholesky { n, l: if ok { vec![0.0; n * n] } else { Vec::new() }, ok }
+    }
+
+    /// Append variable j after the free variables `free` (which do not include j).
+    pub(super) fn add(&mut self, h: &DMatrix<f64>, free: &[usize], j: usize) {
+        if !self.ok {
+            return;
+        }
+        let (n, k) = (self.n, free.len());
+        let mut yy = 0.0;
+        for i in 0..k {
+            let v = h[(free[i], j)] - dot(&self.l[i * n..i * n + i], &self.l[k * n..k * n + i]);
+            let y = v / self.l[i * n + i];
+            self.l[k * n + i] = y;
+            yy += y * y;
+        }
+        let d2 = h[(j, j)] - yy;
+        if d2.is_finite() && d2 > 1e-13 * h[(j, j)].abs() && d2 > 0.0 {
+            self.l[k * n + k] = d2.sqrt();
+        } else {
+            self.ok = false;
+        }
+    }
+
+    /// Delete position k of a free list that had `nf` entries.
+    pub(super) fn remove(&mut self, k: usize, nf: usize) {
+        if !self.ok {
+            return;
+        }
+        let n = self.n;
+        for i in k..nf - 1 {
+            for p in 0..=i + 1 {
+                self.l[i * n + p] = self.l[(i + 1) * n + p];
+            }
+        }
+        for i in k..nf - 1 {
+            let (a, b) = (self.l[i * n + i], self.l[i * n + i + 1]);
+            let r = (a * a + b * b).sqrt();
+            if r == 0.0 || !r.is_finite() {
+                self.ok = false;
+                return;
+            }
+            let (c, s) = (a / r, b / r);
+            for row in i..nf - 1 {
+                let (x, y) = (self.l[row * n + i], self.l[row * n + i + 1]);
+                self.l[row * n + i] = c * x + s * y;
+                self.l[row * n + i + 1] = -s * x + c * y;
+            }
+            self.l[i * n + i + 1] = 0.0;
+        }
+        for p in 0..n {
+            self.l[(nf - 1) * n + p] = 0.0;
+        }
+    }
+
+    pub(super) fn well_conditioned(&self, nf: usize) -> bool {
+        let n = self.n;
+        let (mut dmin, mut dmax) = (f64::INFINITY, 0.0f64);
+        for i in 0..nf {
+            let d = self.l[i * n + i].abs();
+            dmin = dmin.min(d);
+            dmax = dmax.max(d);
+        }
+        dmin > 1e-6 * dmax
+    }
+
+    /// Solve `H_FF z = rhs` in place (rhs in the order of the free list).
+    pub(super) fn solve_in_place(&self, z: &mut [f64]) {
+        let (n, nf) = (self.n, z.len());
+        let l = &self.l;
+        for k in 0..nf {
+            let row = &l[k * n..k * n + k];
+            let v = z[k] - row.iter().zip(z.iter()).map(|(a, b)| a * b).sum::<f64>();
+            z[k] = v / l[k * n + k];
+        }
+        for k in (0..nf).rev() {
+            let mut v = z[k];
+            for p in k + 1..nf {
+                v -= l[p * n + k] * z[p];
+            }
+            z[k] = v / l[k * n + k];
+        }
+    }
+}
+
+/// Householder QR of the free columns of A for ill-conditioned systems (Powell & Reid 1969; Cox & Higham
+/// 1998): rows sorted by decreasing size, so that heavy rows are eliminated first and the rounding that
+/// reaches the light rows stays relative to them; column pivoting by remaining norm. A column whose
+/// remaining norm falls to `4·max(m, n_F)·ε` of its own norm is numerically dependent on the pivoted ones
+/// and keeps its current value (the subproblem's objective is the same: the free least squares is solved
+/// over the independent columns). One step of iterative refinement on the residual follows.
+#[derive(Default)]
+pub(super) struct Qr {
+    /// Row order (Powell–Reid sorting by the largest entry of each row).
+    pub(super) order: Vec<usize>,
+    /// `|A|`, for the rounding level of the multipliers.
+    pub(super) abs_a: DMatrix<f64>,
+    /// Column-major m × (n_F + 1) work matrix: the free columns then the right-hand side.
+    pub(super) w: Vec<f64>,
+    /// Right-hand side before the reflections (for the refinement).
+    pub(super) rhs0: Vec<f64>,
+    /// Householder β per column, R's diagonal, column permutation (positions in the free list).
+    pub(super) beta: Vec<f64>,
+    pub(super) rdiag: Vec<f64>,
+    pub(super) perm: Vec<usize>,
+    pub(super) norm0: Vec<f64>,
+    pub(super) s: Vec<f64>,
+    pub(super) y: Vec<f64>,
+    /// Bound variables (columns after the right-hand side), the transformed residual below the pivoted rows,
+    /// and the multipliers (with their rounding level) of the last solve, indexed by variable.
+    pub(super) bound: Vec<usize>,
+    pub(super) t: Vec<f64>,
+    pub(super) mult: Vec<f64>,
+    pub(super) mult_noise: Vec<f64>,
+}
+
+impl Qr {
+    pub(super) fn prepare(&mut self, a: &DMatrix<f64>) {
+        if !self.order.is_empty() && self.order.len() == a.nrows() && self.abs_a.shape() == a.shape() {
+            return;
+        }
+        let m = a.nrows();
+        let row_size: Vec<f64> = (0..m).map(|i| a.row(i).amax()).collect();
+        self.order = (0..m).collect();
+        self.order.sort_by(|&i, &j| row_size[j].total_cmp(&row_size[i]));
+        self.abs_a = a.abs();
+    }
+
+    pub(super) fn swap_columns(&mut self, m: usize, c: usize, d: usize) {
+        if c == d {
+            return;
+        }
+        for i in 0..m {
+            self.w.swap(c * m + i, d * m + i);
+        }
+        self.perm.swap(c, d);
+        self.norm0.swap(c, d);
+    }
+
+    /// Apply reflectors `0..rank` to the vector `v` (length m, sorted rows).
+    pub(super) fn reflect(w: &[f64], beta: &[f64], m: usize, rank: usize, v: &mut [f64]) {
+        for k in 0..rank {
+            let col = &w[k * m..(k + 1) * m];
+            let dot: f64 = (k..m).map(|i| col[i] * v[i]).sum();
+            let t = beta[k] * dot;
+            if t != 0.0 {
+                for i in k..m {
+                    v[i] -= t * col[i];
+                }
+            }
+        }
+    }
+
+    /// Back substitution with R's leading `rank`×`rank` block: `y = R⁻¹ c` (c = first rank entries).
+    pub(super) fn back_substitute(&mut self, m: usize, rank: usize, c: &[f64]) {
+        self.y.clear();
+        self.y.resize(rank, 0.0);
+        for k in (0..rank).rev() {
+            let mut v = c[k];
+            for j in k + 1..rank {
+                v -= self.w[j * m + k] * self.y[j];
+            }
+            self.y[k] = v / self.rdiag[k];
+        }
+    }
+
+    /// Least squares over `free` with the other variables held at x; writes z in the order of `free`.
+    /// Returns false when the result is not finite.
+    pub(super) fn solve(
+        &mut self,
+        sys: &LinearSystem,
+        x: &[f64],
+        free: &[usize],
+        is_free: &[bool],
+        z: &mut Vec<f64>,
+    ) -> bool {
+        let a = &sys.a;
+        let (m, n, nf) = (a.nrows(), a.ncols(), free.len());
+        self.prepare(a);
+        let nb = n - nf;
+        self.w.clear();
+        self.w.resize(m * (nf + 1 + nb), 0.0);
+        self.norm0.clear();
+        for (k, &j) in free.iter().enumerate() {
+            let col = a.column(j);
+            let dst = &mut self.w[k * m..(k + 1) * m];
+            for (d, &r) in dst.iter_mut().zip(&self.order) {
+                *d = col[r];
+            }
+            self.norm0.push(dst.iter().map(|v| v * v).sum::<f64>().sqrt());
+        }
+        {
+            let rhs = &mut self.w[nf * m..];
+            for (d, &r) in rhs.iter_mut().zip(&self.order) {
+                *d = sys.b[r];
+            }
+            for j in 0..n {
+                if !is_free[j] && x[j] != 0.0 {
+                    let col = a.column(j);
+                    for (d, &r) in rhs.iter_mut().zip(&self.order) {
+                        *d -= col[r] * x[j];
+                    }
+                }
+            }
+            self.rhs0.clear();
+            self.rhs0.extend_from_slice(rhs);
+        }
+        // The bound columns after the right-hand side: the reflections carry them along for the multipliers.
+        self.bound.clear();
+        self.bound.extend((0..n).filter(|&j| !is_free[j]));
+        for (q, &j) in self.bound.iter().enumerate() {
+            let col = a.column(j);
+            let dst = &mut self.w[(nf + 1 + q) * m..(nf + 2 + q) * m];
+            for (d, &r) in dst.iter_mut().zip(&self.order) {
+                *d = col[r];
+            }
+        }
+        self.perm.clear();
+        self.perm.extend(0..nf);
+        self.beta.clear();
+        self.rdiag.clear();
+        let dep = 4.0 * (m.max(nf) as f64) * f64::EPSILON;
+        let mut active = nf;
+        let mut k = 0;
+        while k < active && k < m {
+            // Pivot: the largest remaining column; columns at rounding level of their own norm go last.
+            let (mut p, mut pn) = (usize::MAX, -1.0);
+            let mut c = k;
+            while c < active {
+                let rem = self.w[c * m + k..(c + 1) * m].iter().map(|v| v * v).sum::<f64>().sqrt();
+                if rem.is_nan() || rem <= dep * self.norm0[c] || rem == 0.0 {
+                    active -= 1;
+                    self.swap_columns(m, c, active);
+                    continue;
+                }
+                if rem > pn {
+                    (p, pn) = (c, rem);
+                }
+                c += 1;
+            }
+            if p == usize::MAX {
+                break;
+            }
+            self.swap_columns(m, k, p);
+            let head = self.w[k * m + k];
+            let alpha = if head >= 0.0 { -pn } else { pn };
+            let v0 = head - alpha;
+            self.w[k * m + k] = v0;
+            // vᵀv = ‖x‖² − head² + v0² = 2‖x‖² − 2·head·alpha... computed directly for accuracy.
+            let vtv: f64 = v0 * v0 + self.w[k * m + k + 1..(k + 1) * m].iter().map(|v| v * v).sum::<f64>();
+            let beta = if vtv > 0.0 { 2.0 / vtv } else { 0.0 };
+            self.beta.push(beta);
+            self.rdiag.push(alpha);
+            let (left, right) = self.w.split_at_mut((k + 1) * m);
+            let vcol = &left[k * m..];
+            for col in right.chunks_mut(m) {
+                let dot: f64 = (k..m).map(|i| vcol[i] * col[i]).sum();
+                let t = beta * dot;
+                if t != 0.0 {
+                    for i in k..m {
+                        col[i] -= t * vcol[i];
+                    }
+                }
+            }
+            k += 1;
+        }
+        let rank = k;
+        // Multipliers of the bound variables at the subproblem's optimum: with Qᵀ(A x − b) = (0, −t) below the
+        // pivoted rows, g_j = a_jᵀ(A x − b) = −Σ_{i ≥ rank} (Qᵀa_j)_i t_i. Rows sorted by weight keep both
+        // factors at the light rows' own rounding level, which the residual's heavy rows would swamp.
+        self.t.clear();
+        self.t.extend_from_slice(&self.w[nf * m + rank..(nf + 1) * m]);
+        for d in rank..nf {
+            let xd = x[free[self.perm[d]]];
+            if xd != 0.0 {
+                for (t, wv) in self.t.iter_mut().zip(&self.w[d * m + rank..(d + 1) * m]) {
+                    *t -= wv * xd;
+                }
+            }
+        }
+        self.mult.resize(n, 0.0);
+        self.mult_noise.resize(n, 0.0);
+        for (q, &j) in self.bound.iter().enumerate() {
+            let col = &self.w[(nf + 1 + q) * m + rank..(nf + 2 + q) * m];
+            self.mult[j] = -dot(col, &self.t);
+            let size: f64 = col.iter().zip(&self.t).map(|(a, b)| (a * b).abs()).sum();
+            self.mult_noise[j] = 4.0 * (m as f64) * f64::EPSILON * size;
+        }
+        // c₁ − R₁₂ x_dependent, then back substitution.
+        let mut c1: Vec<f64> = self.w[nf * m..nf * m + rank].to_vec();
+        for d in rank..nf {
+            let xd = x[free[self.perm[d]]];
+            if xd != 0.0 {
+                for (kk, ck) in c1.iter_mut().enumerate() {
+                    *ck -= self.w[d * m + kk] * xd;
+                }
+            }
+        }
+        self.back_substitute(m, rank, &c1);
+        z.clear();
+        z.resize(nf, 0.0);
+        for d in 0..nf {
+            let pos = self.perm[d];
+            z[pos] = if d < rank { self.y[d] } else { x[free[pos]] };
+        }
+        // One step of iterative refinement: s = rhs − A_F z, correction from the same factorisation.
+        self.s.clear();
+        self.s.extend_from_slice(&self.rhs0);
+        for (k, &j) in free.iter().enumerate() {
+            let col = a.column(j);
+            let zk = z[k];
+            if zk != 0.0 {
+                for (s, &r) in self.s.iter_mut().zip(&self.order) {
+                    *s -= col[r] * zk;
+                }
+            }
+        }
+        let mut s = std::mem::take(&mut self.s);
+        Self::reflect(&self.w, &self.beta, m, rank, &mut s);
+        c1.clear();
+        c1.extend_from_slice(&s[..rank]);
+        self.s = s;
+        self.back_substitute(m, rank, &c1);
+        for d in 0..rank {
+            z[self.perm[d]] += self.y[d];
+        }
+        z.iter().all(|v| v.is_finite())
+    }
+}

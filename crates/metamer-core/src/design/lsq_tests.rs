@@ -1,0 +1,114 @@
+//! Unit tests of `lsq.rs` (a sibling file to keep `lsq.rs` about the code).
+
+use super::*;
+
+fn lcg(seed: &mut u64) -> f64 {
+    *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
+}
+
+/// Brute force over all 3^n active sets for tiny n: the exact optimum of a bounded LS.
+fn brute_force(sys: &LinearSystem) -> f64 {
+    let n = sys.a.ncols();
+    let mut best = f64::INFINITY;
+    for code in 0..3usize.pow(n as u32) {
+        let mut c = code;
+        let mut x = DVector::zeros(n);
+        let mut free = Vec::new();
+        for i in 0..n {
+            match c % 3 {
+                0 => free.push(i),
+                1 => x[i] = sys.lower[i],
+                _ => x[i] = sys.upper[i],
+            }
+            c /= 3;
+        }
+        if !free.is_empty() {
+            // The free columns' least squares by nalgebra's SVD, independently of the engine.
+            let af = DMatrix::from_fn(sys.a.nrows(), free.len(), |r, c| sys.a[(r, free[c])]);
+            let rb = &sys.b - &sys.a * &x;
+            let z = af.svd(true, true).solve(&rb, 1e-14).expect("svd solve");
+            for (k, &i) in free.iter().enumerate() {
+                x[i] = z[k];
+            }
+        }
+        if (0..n).all(|i| x[i] >= sys.lower[i] - 1e-12 && x[i] <= sys.upper[i] + 1e-12) {
+            best = best.min((&sys.a * &x - &sys.b).norm_squared());
+        }
+    }
+    best
+}
+
+#[test]
+fn matches_brute_force_on_small_random_systems() {
+    let mut seed = 7u64;
+    for _ in 0..40 {
+        let (m, n) = (4 + (lcg(&mut seed) * 4.0) as usize, 2 + (lcg(&mut seed) * 4.0) as usize);
+        let a = DMatrix::from_fn(m, n, |_, _| lcg(&mut seed) * 2.0 - 1.0);
+        let b = DVector::from_fn(m, |_, _| lcg(&mut seed) * 4.0 - 2.0);
+        let lower = DVector::from_fn(n, |_, _| -lcg(&mut seed) * 0.5);
+        let upper = DVector::from_fn(n, |_, _| lcg(&mut seed) * 0.5);
+        let sys = LinearSystem { a, b, lower, upper };
+        let out = solve_system(&sys);
+        let best = brute_force(&sys);
+        assert!(out.objective <= best * (1.0 + 1e-9) + 1e-14, "{} vs {best}", out.objective);
+        assert!((0..n).all(|i| out.x[i] >= sys.lower[i] && out.x[i] <= sys.upper[i]));
+        assert!(out.kkt < 1e-9, "kkt {}", out.kkt);
+    }
+}
+
+#[test]
+fn qr_path_matches_brute_force_on_wide_and_graded_systems() {
+    // Fewer rows than unknowns (cond = ∞) and rows weighted over 10 decades (cond ≫ 1e6): both take the
+    // QR path; the brute force (normwise SVD per active set) can only be worse, so the check is one-sided.
+    let mut seed = 11u64;
+    for case in 0..40 {
+        let graded = case % 2 == 1;
+        let n = 2 + (lcg(&mut seed) * 4.0) as usize;
+        let m = if graded {
+            n + 2 + (lcg(&mut seed) * 3.0) as usize
+        } else {
+            1 + (lcg(&mut seed) * (n - 1) as f64) as usize
+        };
+        // Graded: n − 1 rows of weight ~1e7, the rest 1e-3…1 (only they determine the last direction).
+        let w: Vec<f64> = (0..m)
+            .map(|r| match (graded, r + 1 < n) {
+                (false, _) => 1.0,
+                (true, true) => 1e7 * (1.0 + lcg(&mut seed)),
+                (true, false) => 10f64.powf(-3.0 * lcg(&mut seed)),
+            })
+            .collect();
+        let a = DMatrix::from_fn(m, n, |r, _| w[r] * (lcg(&mut seed) * 2.0 - 1.0));
+        let b = DVector::from_fn(m, |r, _| w[r] * (lcg(&mut seed) * 4.0 - 2.0));
+        let lower = DVector::from_fn(n, |_, _| -lcg(&mut seed) * 0.5);
+        let upper = DVector::from_fn(n, |_, _| lcg(&mut seed) * 0.5);
+        let sys = LinearSystem { a, b, lower, upper };
+        assert!(Factor::new(&sys.a).needs_qr(), "case {case} should take the QR path");
+        let out = solve_system(&sys);
+        let best = brute_force(&sys);
+        assert!(out.objective <= best * (1.0 + 1e-9) + 1e-14, "case {case}: {} vs {best}", out.objective);
+        assert!((0..n).all(|i| out.x[i] >= sys.lower[i] && out.x[i] <= sys.upper[i]));
+        assert!(out.kkt < 1e-9, "case {case}: kkt {}", out.kkt);
+    }
+}
+
+#[test]
+fn feasible_unconstrained_solution_is_returned_directly() {
+    let a = DMatrix::identity(3, 3);
+    let b = DVector::from_vec(vec![0.1, 0.2, 0.3]);
+    let sys = LinearSystem { a, b: b.clone(), lower: DVector::zeros(3), upper: DVector::from_element(3, 1.0) };
+    let out = solve_system(&sys);
+    assert!(!out.bounds_active);
+    assert!((out.x - b).amax() < 1e-15);
+}
+
+#[test]
+fn rank_deficient_gives_minimum_norm() {
+    // Two identical columns: the minimum-norm solution splits evenly.
+    let a = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
+    let b = DVector::from_vec(vec![2.0, 2.0]);
+    let inf = f64::INFINITY;
+    let sys = LinearSystem { a, b, lower: DVector::from_element(2, -inf), upper: DVector::from_element(2, inf) };
+    let out = solve_system(&sys);
+    assert!((out.x[0] - 1.0).abs() < 1e-12 && (out.x[1] - 1.0).abs() < 1e-12);
+}

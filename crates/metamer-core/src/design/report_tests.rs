@@ -1,0 +1,75 @@
+//! Unit tests of `report.rs` (a sibling file to keep `report.rs` about the code).
+
+use super::*;
+
+fn lcg(seed: &mut u64) -> f64 {
+    *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
+}
+
+/// Reachable targets are hit (colour within the walk's tolerance); for the others the closest colour is
+/// no farther than the bounded least-squares solve of the colour rows finds.
+#[test]
+fn closest_reachable_colours() {
+    let col = Colorimetry::default();
+    let palette = crate::design::random::batch_palette(1, 3, &col);
+    let design = Design::new(&palette, None, &col).unwrap();
+    let bounds = Bounds::new(0.0, 1.0);
+    let mut seed = 5u64;
+    let (mut hits, mut misses) = (0, 0);
+    for light in &palette.lights {
+        let reach = Reach::new(&design, Form::Full, &light.spectrum);
+        for k in 0..60 {
+            let truth = Spectrum(crate::spectrum::Samples::from_fn(|_, _| lcg(&mut seed)));
+            let start = Spectrum(crate::spectrum::Samples::from_fn(|_, _| lcg(&mut seed).round()));
+            // Every third target is pushed out of reach (scaled past what [0, 1] allows, or negative).
+            let mut target = reach.op * truth.0;
+            if k % 3 == 1 {
+                target *= 2.5;
+            } else if k % 3 == 2 {
+                target[1] = -0.1;
+            }
+            let got = reach.closest(&start, bounds, &target);
+            if k % 3 == 0 {
+                assert!((got - target).amax() <= EXACT_HIT_TOLERANCE * (1.0 + target.amax()), "{got} vs {target}");
+                hits += 1;
+            } else {
+                let sys = LinearSystem {
+                    a: DMatrix::from_fn(3, SAMPLES, |r, c| reach.op[(r, c)]),
+                    b: DVector::from_column_slice(target.as_slice()),
+                    lower: DVector::zeros(SAMPLES),
+                    upper: DVector::from_element(SAMPLES, 1.0),
+                };
+                let best = lsq::solve_system(&sys);
+                let reference = reach.op * nalgebra::SVector::<f64, SAMPLES>::from_column_slice(best.x.as_slice());
+                // The ridge (1e-4) may cost a little distance; far less than a ΔE00 of 0.01.
+                assert!((got - target).norm() <= (reference - target).norm() + 1e-6, "{got} vs {reference}");
+                misses += 1;
+            }
+        }
+    }
+    assert!(hits > 50 && misses > 100);
+}
+
+#[test]
+fn fixed_prints_as_the_standard_formatter() {
+    let mut seed = 11u64;
+    let mut next = || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        seed
+    };
+    let mut values = vec![0.0, -0.0, 0.5, -0.5, 0.125, 2.675, 1e-9, -1e-9, 0.00005, 0.99995, 1e12, 123.456, f64::NAN];
+    values.extend([f64::INFINITY, f64::NEG_INFINITY, 0.015, 0.025, -0.005, 1.0 / 3.0, 5e-5, 4.99995]);
+    for _ in 0..20000 {
+        let bits = next();
+        let scale = 10f64.powi((next() % 14) as i32 - 6);
+        values.push(((bits >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * scale);
+        values.push(f64::from_bits(next()));
+    }
+    for x in values {
+        for d in 0..8 {
+            assert_eq!(Fixed(x, d).to_string(), format!("{x:.d$}"), "{x:e} with {d} decimals");
+        }
+        assert_eq!(format!("{:>9}", Fixed(x, 2)), format!("{x:>9.2}"));
+    }
+}
