@@ -6,7 +6,7 @@ use nalgebra::{Matrix3, SMatrix, Vector3};
 use palette::color_difference::Ciede2000;
 
 /// 3×31 matrix taking a colour signal to a tristimulus.
-pub type Q31 = SMatrix<f64, 3, SAMPLES>;
+pub(crate) type Q31 = SMatrix<f64, 3, SAMPLES>;
 
 /// The observer and display: CIE 1931 2° point-sampled, linear sRGB (IEC 61966-2-1).
 #[derive(Clone, Debug, PartialEq)]
@@ -29,7 +29,7 @@ impl Default for Colorimetry {
 
 impl Colorimetry {
     /// The pipeline pinned by DESIGN_SPEC §1.
-    pub fn cie1931_srgb() -> Colorimetry {
+    pub(crate) fn cie1931_srgb() -> Colorimetry {
         let cmf = &tables::CIE1931_2DEG;
         let y_sum: f64 = cmf[1].iter().sum();
         let q_xyz = Q31::from_fn(|r, c| cmf[r][c] / y_sum);
@@ -51,7 +51,7 @@ impl Colorimetry {
     }
 
     /// Linear sRGB of a colour signal.
-    pub fn rgb_of_signal(&self, signal: &Spectrum) -> Vector3<f64> {
+    pub(crate) fn rgb_of_signal(&self, signal: &Spectrum) -> Vector3<f64> {
         self.q_rgb * signal.0
     }
 
@@ -63,15 +63,6 @@ impl Colorimetry {
     /// XYZ of light `e` on reflectance `s`.
     pub fn xyz(&self, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
         self.q_xyz * e.0.component_mul(&s.0)
-    }
-
-    /// `Q_rgb,31 · diag(p)`: the linear map from the designed partner's samples to RGB.
-    pub fn q_rgb_diag(&self, p: &Spectrum) -> Q31 {
-        let mut m = self.q_rgb;
-        for (c, v) in p.0.iter().enumerate() {
-            m.column_mut(c).scale_mut(*v);
-        }
-        m
     }
 
     /// XYZ of a linear sRGB colour.
@@ -106,7 +97,7 @@ impl Colorimetry {
 }
 
 /// Lights whose white has a luminance Y at or below this have no usable CIELAB white of their own.
-pub const DARK_LIGHT_Y: f64 = 1e-12;
+pub(crate) const DARK_LIGHT_Y: f64 = 1e-12;
 
 /// sRGB transfer function: linear → display (IEC 61966-2-1). Negative input maps to negative output
 /// (odd extension) so out-of-gamut values stay ordered.

@@ -95,14 +95,14 @@ pub enum FsError {
 
 impl FsError {
     /// The message without the leading file name (for callers that name the file themselves).
-    pub fn reason(&self) -> String {
+    pub(crate) fn reason(&self) -> String {
         let text = self.to_string();
         let prefix = format!("{}: ", show(self.path()));
         text.strip_prefix(&prefix).map(str::to_string).unwrap_or(text)
     }
 
     /// The file the error is about.
-    pub fn path(&self) -> &Path {
+    pub(crate) fn path(&self) -> &Path {
         match self {
             FsError::Read { path, .. }
             | FsError::NotRegularInput { path, .. }
@@ -284,7 +284,7 @@ pub fn read_capped(path: &Path, kind: Kind, cap: u64) -> Result<Vec<u8>, FsError
 /// The first `max` bytes (at most) of a regular file of kind `kind` and the file's size: for formats whose
 /// header says how much more may be read (a NRRD file), so a huge file is never read whole to find that
 /// out. The size must be within the kind's cap.
-pub fn read_head(path: &Path, kind: Kind, max: u64) -> Result<(Vec<u8>, u64), FsError> {
+pub(crate) fn read_head(path: &Path, kind: Kind, max: u64) -> Result<(Vec<u8>, u64), FsError> {
     let io = |source| FsError::Read { path: path.to_path_buf(), kind, source };
     note_read(path, kind);
     let before = std::fs::metadata(path).map_err(io)?;
@@ -321,20 +321,6 @@ pub fn read_to_string(path: &Path, kind: Kind) -> Result<String, FsError> {
     })
 }
 
-/// Size and modification time of a file: how the designer notices outside changes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Stamp {
-    pub len: u64,
-    pub modified: Option<std::time::SystemTime>,
-    id: Option<(u64, u64)>,
-}
-
-/// The [`Stamp`] of `path` now (None when it cannot be read).
-pub fn stamp(path: &Path) -> Option<Stamp> {
-    let meta = std::fs::metadata(path).ok()?;
-    Some(Stamp { len: meta.len(), modified: meta.modified().ok(), id: inode(&meta) })
-}
-
 #[cfg(unix)]
 fn inode(meta: &Metadata) -> Option<(u64, u64)> {
     use std::os::unix::fs::MetadataExt;
@@ -348,7 +334,7 @@ fn inode(_meta: &Metadata) -> Option<(u64, u64)> {
 
 /// Which file a path names, whether or not it exists yet.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Identity {
+pub(crate) enum Identity {
     /// An existing file: device and inode (links and different spellings agree).
     Inode(u64, u64),
     /// A file that does not exist yet: its canonical folder and name.
@@ -356,7 +342,7 @@ pub enum Identity {
 }
 
 /// The [`Identity`] of `path` (None when neither it nor its folder can be resolved).
-pub fn identity(path: &Path) -> Option<Identity> {
+pub(crate) fn identity(path: &Path) -> Option<Identity> {
     if let Ok(meta) = std::fs::metadata(path)
         && let Some((dev, ino)) = inode(&meta)
     {
@@ -538,11 +524,6 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FsError> {
         let _ = d.sync_all();
     }
     Ok(())
-}
-
-/// Create the folder `dir` (and its parents) for outputs; an existing non-folder is an error.
-pub fn create_dir_all(dir: &Path) -> Result<(), FsError> {
-    std::fs::create_dir_all(dir).map_err(|source| FsError::Write { path: dir.to_path_buf(), source })
 }
 
 /// The folder a file lives in: its parent, or `.` for a bare file name (relative paths in a file, its

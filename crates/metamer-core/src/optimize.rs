@@ -9,15 +9,15 @@ use nalgebra::DVector;
 use std::time::Instant;
 
 /// The argmin state of a minimisation over `DVector<f64>` with a gradient (L-BFGS-B and L-BFGS).
-pub type VecState = IterState<DVector<f64>, DVector<f64>, (), (), (), f64>;
+pub(crate) type VecState = IterState<DVector<f64>, DVector<f64>, (), (), (), f64>;
 
 /// The `TerminationReason::SolverExit` text of a solver that could not decrease the cost along any
 /// direction it tried (L-BFGS-B's line search, even from steepest descent).
-pub const NO_DECREASE: &str = "line search found no decrease";
+pub(crate) const NO_DECREASE: &str = "line search found no decrease";
 
 /// Why an iterative minimisation (or a stage of one) stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Termination {
+pub(crate) enum Termination {
     /// The solver's own convergence test held.
     Converged,
     /// The iteration cap was reached.
@@ -36,7 +36,7 @@ pub enum Termination {
 
 impl Termination {
     /// The typed reason of an argmin termination status.
-    pub fn of(status: &TerminationStatus) -> Termination {
+    pub(crate) fn of(status: &TerminationStatus) -> Termination {
         match status {
             TerminationStatus::NotTerminated => Termination::Other,
             TerminationStatus::Terminated(reason) => match reason {
@@ -73,36 +73,36 @@ impl std::fmt::Display for Termination {
 
 /// The limits of one run.
 #[derive(Clone, Copy, Debug)]
-pub struct Limits {
-    pub max_iters: u64,
+pub(crate) struct Limits {
+    pub(crate) max_iters: u64,
     /// Stop once this instant has passed (checked after every iteration); `None`: no deadline.
-    pub deadline: Option<Instant>,
+    pub(crate) deadline: Option<Instant>,
     /// Stop once the cost is at most this.
-    pub target_cost: Option<f64>,
+    pub(crate) target_cost: Option<f64>,
 }
 
 impl Limits {
     /// At most `max_iters` iterations, no deadline, no target cost.
-    pub fn iterations(max_iters: u64) -> Limits {
+    pub(crate) fn iterations(max_iters: u64) -> Limits {
         Limits { max_iters, deadline: None, target_cost: None }
     }
 }
 
 /// The end of a run: argmin's final state and why it stopped.
-pub struct Run {
-    pub state: VecState,
-    pub termination: Termination,
+pub(crate) struct Run {
+    pub(crate) state: VecState,
+    pub(crate) termination: Termination,
 }
 
 impl Run {
     /// Iterations done.
-    pub fn iterations(&self) -> u64 {
+    pub(crate) fn iterations(&self) -> u64 {
         self.state.get_iter()
     }
 }
 
 /// Minimise `problem` with `solver` from `x0` within `limits` through argmin's `Executor`.
-pub fn run<O, S>(problem: O, solver: S, x0: DVector<f64>, limits: &Limits) -> Result<Run, Error>
+pub(crate) fn run<O, S>(problem: O, solver: S, x0: DVector<f64>, limits: &Limits) -> Result<Run, Error>
 where
     S: Solver<O, VecState>,
 {

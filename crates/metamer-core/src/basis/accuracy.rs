@@ -51,7 +51,7 @@ impl Model<'_> {
 
 /// JSON has no infinity: serde_json writes a non-finite f64 as `null`, read back here as +∞ (how
 /// [`ErrorStats`] counts a non-finite error).
-pub fn f64_or_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+pub(crate) fn f64_or_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     let v: Option<f64> = serde::Deserialize::deserialize(d)?;
     Ok(v.unwrap_or(f64::INFINITY))
 }
@@ -89,7 +89,7 @@ impl ErrorStats {
 
 /// ΔE00 of a model against full colour for every light × reflectance pair whose light has positive luminance
 /// (a dark light has no CIELAB white), light-major.
-pub fn errors(set: &TrainingSet, model: Model<'_>, colorimetry: &Colorimetry) -> Vec<f64> {
+pub(crate) fn errors(set: &TrainingSet, model: Model<'_>, colorimetry: &Colorimetry) -> Vec<f64> {
     let mut out = Vec::with_capacity(set.pairs());
     for e in &set.lights {
         if colorimetry.xyz_of_signal(e)[1] <= f64::MIN_POSITIVE {
@@ -123,7 +123,7 @@ pub struct LambdaMass {
 }
 
 /// Off-diagonal mass of Λ for a basis, measured on the reflectances of `set`.
-pub fn lambda_mass(basis: &Basis, set: &TrainingSet) -> LambdaMass {
+pub(crate) fn lambda_mass(basis: &Basis, set: &TrainingSet) -> LambdaMass {
     let m = basis.dimension();
     let (mut diag, mut off) = (0.0, 0.0);
     for (k, g) in basis.products.iter().enumerate() {

@@ -35,11 +35,11 @@ use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// The basis dimension m of a palette that does not set `basis_dimension` (the "V7" model).
-pub const DEFAULT_DIMENSION: usize = 7;
+pub(crate) const DEFAULT_DIMENSION: usize = 7;
 
 /// The basis dimensions allowed everywhere (palette files, `metamer basis --dimension`, the designer, a
 /// basis matrix): 1 ..= 31, one per sample at most.
-pub const DIMENSIONS: std::ops::RangeInclusive<usize> = 1..=SAMPLES;
+pub(crate) const DIMENSIONS: std::ops::RangeInclusive<usize> = 1..=SAMPLES;
 
 /// The basis-dimension rule, in one place: `Ok(m)` when m is in [`DIMENSIONS`], else
 /// [`BasisError::BadDimension`].
@@ -76,14 +76,14 @@ pub struct Basis {
     pub q_rgb_m: DMatrix<f64>,
     /// `products[k]` is the m×m matrix `G_·,·,k` with `G_ijk = B⁺_i (B_j ∘ B_k)`, so
     /// `Λ(x) = Σ_k x_k products[k]` (seed Eq. 7).
-    pub products: Vec<DMatrix<f64>>,
+    pub(crate) products: Vec<DMatrix<f64>>,
     /// `P = B B⁺ = U Uᵀ` (31×31, U an orthonormal basis of span B): the orthogonal projector onto the
     /// subspace. The full-Λ model depends on B only through it — `B Λ(B⁺p) B⁺ x = P (Pp ∘ Px)` — so it is
     /// evaluated that way, independent of how B's columns are scaled (the coefficient route loses ~1e-7
     /// relative when the columns' norms differ by 10³, as trained bases' can).
-    pub projector: DMatrix<f64>,
+    pub(crate) projector: DMatrix<f64>,
     /// `Q_rgb,31 P`: 3×31.
-    pub q_rgb_projector: DMatrix<f64>,
+    pub(crate) q_rgb_projector: DMatrix<f64>,
 }
 
 impl Basis {
@@ -146,7 +146,7 @@ impl Basis {
     /// when its partner is `p` (DESIGN_SPEC §2, "colour in the subspace").
     ///
     /// Evaluated as `Q_rgb,31 P diag(P p) P` (the same map, see [`Basis::projector`]).
-    pub fn subspace_operator(&self, p: &Spectrum) -> Q31 {
+    pub(crate) fn subspace_operator(&self, p: &Spectrum) -> Q31 {
         let pp = &self.projector * DVector::from_column_slice(p.as_slice());
         let mut q = self.q_rgb_projector.clone();
         for (mut col, v) in q.column_iter_mut().zip(pp.iter()) {
@@ -159,7 +159,8 @@ impl Basis {
     /// `Q_rgb,m diag(Q_m,31 p) Q_m,31`: the 3×31 map from the designed spectrum to its colour in the spectral
     /// factor model (Eq. 15, Λ replaced by its diagonal) when its partner is `p` — exactly what
     /// post-illumination renders.
-    pub fn factor_operator(&self, p: &Spectrum) -> Q31 {
+    #[cfg(test)]
+    pub(crate) fn factor_operator(&self, p: &Spectrum) -> Q31 {
         let mut q = self.q_rgb_m.clone();
         for (mut col, pk) in q.column_iter_mut().zip(self.coefficients(p).iter()) {
             col *= *pk;
@@ -171,7 +172,7 @@ impl Basis {
     /// Colour of light `e` on reflectance `s` in the subspace model with the full Λ (Eq. 7).
     ///
     /// Evaluated as `Q_rgb,31 P (Pe ∘ Ps)` (the same colour, see [`Basis::projector`]).
-    pub fn rgb_lambda(&self, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
+    pub(crate) fn rgb_lambda(&self, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
         let pe = &self.projector * DVector::from_column_slice(e.as_slice());
         let ps = &self.projector * DVector::from_column_slice(s.as_slice());
         let v = &self.q_rgb_projector * pe.component_mul(&ps);

@@ -24,7 +24,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 pub const POOR_MODEL_MEAN_DE00: f64 = 1.0;
 
 /// At most this many bases are kept in memory (the oldest go first).
-pub const MEMORY_ENTRIES: usize = 64;
+pub(crate) const MEMORY_ENTRIES: usize = 64;
 
 /// A basis and its report, shared.
 pub type Resolved = Arc<(Basis, Report)>;

@@ -35,7 +35,7 @@ use std::sync::Mutex;
 const METRIC_PROBE_DELTA_E: f64 = 0.5;
 /// Refinement stops once the objective (mean squared ΔE00) is below this: an RMS error of 0.01 ΔE00 is a
 /// hundredth of a just-noticeable difference, and small palettes reach it long before the iteration limit.
-pub const TARGET_COST: f64 = 1e-4;
+pub(crate) const TARGET_COST: f64 = 1e-4;
 /// L-BFGS history length.
 const LBFGS_MEMORY: usize = 12;
 
@@ -51,7 +51,7 @@ struct PairTerm {
 
 /// The perceptually weighted factor-model error over a training set.
 #[derive(Clone, Debug)]
-pub struct Objective {
+pub(crate) struct Objective {
     /// 31×L and its transpose.
     lights: DMatrix<f64>,
     lights_t: DMatrix<f64>,
@@ -112,37 +112,30 @@ impl Objective {
     /// squared condition number of the column-balanced B as columns become dependent: a soft barrier that
     /// keeps `B⁺` stable in double precision. Gradient: `2ρ B (diag K − K N K)`, `K = (BᵀB)⁻¹`,
     /// `N = diag(‖b_k‖²)`.
-    pub fn with_conditioning_weight(mut self, rho: f64) -> Objective {
+    pub(crate) fn with_conditioning_weight(mut self, rho: f64) -> Objective {
         self.conditioning_weight = if rho.is_finite() { rho.max(0.0) } else { 0.0 };
         self
     }
 
-    /// The conditioning term alone (see [`Objective::with_conditioning_weight`]); `+∞` for a rank-deficient B.
-    pub fn conditioning_of(b: &DMatrix<f64>) -> f64 {
-        let Some(chol) = (b.transpose() * b).cholesky() else { return f64::INFINITY };
-        let k = chol.inverse();
-        b.column_iter().enumerate().map(|(j, c)| c.norm_squared() * k[(j, j)]).sum::<f64>() - b.ncols() as f64
-    }
-
     /// Also weigh the colour error of the full-Λ model (seed Eq. 7, `Q_rgb,31 B B⁺(B e ∘ B s)`) by `mu`, so
     /// that refining B keeps its span good for Λ too (the design criteria of DESIGN_SPEC §2 use Λ).
-    pub fn with_lambda_weight(mut self, mu: f64) -> Objective {
+    pub(crate) fn with_lambda_weight(mut self, mu: f64) -> Objective {
         self.lambda_weight = if mu.is_finite() { mu.max(0.0) } else { 0.0 };
         self
     }
 
     /// Number of pairs in the objective.
-    pub fn pairs(&self) -> usize {
+    pub(crate) fn pairs(&self) -> usize {
         self.pairs.len()
     }
 
     /// f(B); `+∞` when B does not have full column rank.
-    pub fn cost_of(&self, b: &DMatrix<f64>) -> f64 {
+    pub(crate) fn cost_of(&self, b: &DMatrix<f64>) -> f64 {
         self.evaluate(b, false).map_or(f64::INFINITY, |(c, _)| c)
     }
 
     /// f(B) and ∂f/∂B (31×m); `None` when B does not have full column rank or the result is not finite.
-    pub fn cost_and_gradient(&self, b: &DMatrix<f64>) -> Option<(f64, DMatrix<f64>)> {
+    pub(crate) fn cost_and_gradient(&self, b: &DMatrix<f64>) -> Option<(f64, DMatrix<f64>)> {
         self.evaluate(b, true).map(|(c, g)| (c, g.unwrap_or_else(|| DMatrix::zeros(b.nrows(), b.ncols()))))
     }
 
@@ -318,7 +311,7 @@ impl Objective {
 
 /// The 3×3 W with `WᵀW ≈ H`, the local quadratic form of ΔE00² around the linear colour `rgb` seen under
 /// `light` (see the module docs).
-pub fn local_metric(colorimetry: &Colorimetry, rgb: &Vector3<f64>, light: &Spectrum) -> Matrix3<f64> {
+pub(crate) fn local_metric(colorimetry: &Colorimetry, rgb: &Vector3<f64>, light: &Spectrum) -> Matrix3<f64> {
     let white_y = colorimetry.xyz_of_signal(light)[1].abs().max(f64::MIN_POSITIVE);
     let de = |d: Vector3<f64>| colorimetry.delta_e00_under(rgb, &(rgb + d), light);
     // Choose the probe step so that the largest axis step gives ΔE00 ≈ METRIC_PROBE_DELTA_E.
@@ -353,9 +346,9 @@ pub fn local_metric(colorimetry: &Colorimetry, rgb: &Vector3<f64>, light: &Spect
 
 /// What a refinement stage produced.
 #[derive(Clone, Debug)]
-pub enum RefineOutcome {
-    /// A better matrix (T or B), its objective and the iterations taken.
-    Improved { value: DMatrix<f64>, cost: f64, iterations: u64 },
+pub(crate) enum RefineOutcome {
+    /// A better matrix (T or B) and the iterations taken.
+    Improved { value: DMatrix<f64>, iterations: u64 },
     /// Nothing better was found; the reason.
     Kept { reason: String },
 }
@@ -473,18 +466,23 @@ fn run(objective: &Objective, b0: Option<&DMatrix<f64>>, start: &DMatrix<f64>, i
                 Some(_) => DMatrix::from_column_slice(m, m, x.as_slice()),
                 None => DMatrix::from_column_slice(SAMPLES, m, x.as_slice()),
             };
-            RefineOutcome::Improved { value, cost, iterations: iters }
+            RefineOutcome::Improved { value, iterations: iters }
         }
         _ => RefineOutcome::Kept { reason: aborted.unwrap_or_else(|| "no improvement".into()) },
     }
 }
 
 /// Refine T for `B = B0 T`, starting from `t0`, with at most `iterations` L-BFGS iterations.
-pub fn refine_transform(objective: &Objective, b0: &DMatrix<f64>, t0: &DMatrix<f64>, iterations: u64) -> RefineOutcome {
+pub(crate) fn refine_transform(
+    objective: &Objective,
+    b0: &DMatrix<f64>,
+    t0: &DMatrix<f64>,
+    iterations: u64,
+) -> RefineOutcome {
     run(objective, Some(b0), t0, iterations)
 }
 
 /// Refine all of B (31×m), starting from `b`, with at most `iterations` L-BFGS iterations.
-pub fn refine_basis(objective: &Objective, b: &DMatrix<f64>, iterations: u64) -> RefineOutcome {
+pub(crate) fn refine_basis(objective: &Objective, b: &DMatrix<f64>, iterations: u64) -> RefineOutcome {
     run(objective, None, b, iterations)
 }

@@ -23,10 +23,10 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use std::ops::Range;
 
 /// T is rejected (and refinement starts from the PCA basis) when its condition number exceeds this.
-pub const MAX_CONDITION: f64 = 1e8;
+pub(crate) const MAX_CONDITION: f64 = 1e8;
 
 /// The 31 samples cut into m contiguous bands of (nearly) equal width, the wider ones first.
-pub fn equal_bands(m: usize) -> Vec<Range<usize>> {
+pub(crate) fn equal_bands(m: usize) -> Vec<Range<usize>> {
     let m = super::clamp_dimension(m);
     let base = SAMPLES / m;
     let extra = SAMPLES % m;
@@ -44,12 +44,12 @@ pub fn equal_bands(m: usize) -> Vec<Range<usize>> {
 /// The sharpening transform T (m×m) for the basis `b0` (31×m) with equal-width bands, columns scaled so that
 /// `(B0 T)⁺ 1 = 1`. `None` when the eigenproblems are singular or T is ill-conditioned
 /// (condition number above [`MAX_CONDITION`]).
-pub fn interval_transform(b0: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+pub(crate) fn interval_transform(b0: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     interval_transform_with_bands(b0, &equal_bands(b0.ncols()))
 }
 
 /// As [`interval_transform`], with explicit bands (one per column).
-pub fn interval_transform_with_bands(b0: &DMatrix<f64>, bands: &[Range<usize>]) -> Option<DMatrix<f64>> {
+pub(crate) fn interval_transform_with_bands(b0: &DMatrix<f64>, bands: &[Range<usize>]) -> Option<DMatrix<f64>> {
     let m = b0.ncols();
     if bands.len() != m || b0.nrows() != SAMPLES {
         return None;
@@ -79,14 +79,14 @@ pub fn interval_transform_with_bands(b0: &DMatrix<f64>, bands: &[Range<usize>]) 
 
 /// Box band indicators (31×m, 1 inside band k, 0 outside; [`equal_bands`]): non-negative and perfectly
 /// sharp (`B⁺(B_j ∘ B_k) = δ_jk e_k`), a flat spectrum has unit coefficients.
-pub fn positive_bands(m: usize) -> DMatrix<f64> {
+pub(crate) fn positive_bands(m: usize) -> DMatrix<f64> {
     let bands = equal_bands(m);
     DMatrix::from_fn(SAMPLES, bands.len(), |i, k| if bands[k].contains(&i) { 1.0 } else { 0.0 })
 }
 
 /// The least-squares projection of the box band indicators onto the span of an orthonormal `b0`:
 /// `T = B0ᵀ Box`, then scaled as [`normalise_to_flat`]. `None` when ill-conditioned.
-pub fn projected_bands_transform(b0: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+pub(crate) fn projected_bands_transform(b0: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     if b0.nrows() != SAMPLES {
         return None;
     }
@@ -96,7 +96,7 @@ pub fn projected_bands_transform(b0: &DMatrix<f64>) -> Option<DMatrix<f64>> {
 
 /// Scale the columns of T so that `(B0 T)⁺ 1 = 1`; columns whose flat coefficient is (nearly) zero are
 /// instead scaled to unit L1 norm with a non-negative sum. `None` if T is ill-conditioned.
-pub fn normalise_to_flat(b0: &DMatrix<f64>, mut t: DMatrix<f64>) -> Option<DMatrix<f64>> {
+pub(crate) fn normalise_to_flat(b0: &DMatrix<f64>, mut t: DMatrix<f64>) -> Option<DMatrix<f64>> {
     let sv = t.clone().singular_values();
     let (smax, smin) = (sv.max(), sv.min());
     if !(smax.is_finite() && smin > smax / MAX_CONDITION) {

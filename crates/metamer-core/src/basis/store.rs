@@ -34,9 +34,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Identifies the sidecar format.
-pub const FORMAT: &str = "metamer-basis-cache/1";
+pub(crate) const FORMAT: &str = "metamer-basis-cache/1";
 /// At most this many trained bases are kept per sidecar (the most recent ones).
-pub const MAX_ENTRIES: usize = 8;
+pub(crate) const MAX_ENTRIES: usize = 8;
 
 /// Why a palette's basis cannot be had.
 #[derive(Debug, thiserror::Error)]
@@ -84,7 +84,7 @@ pub struct AccuracyReport {
 
 impl AccuracyReport {
     /// Measure a basis (and the PCA basis it came from) on a training set.
-    pub fn measure(
+    pub(crate) fn measure(
         set: &TrainingSet,
         basis: &Basis,
         pca_span: Option<&Basis>,

@@ -140,46 +140,46 @@ impl Gradient for NonlinearProblem<'_> {
 
 /// What a joint solve did.
 #[derive(Clone, Debug, Default)]
-pub struct JointOutcome {
+pub(crate) struct JointOutcome {
     /// The block objective after each accepted stage (alternating rounds and the L-BFGS-B run), starting
     /// with the start value; non-increasing.
-    pub history: Vec<f64>,
+    pub(crate) history: Vec<f64>,
     /// Scaled projected-gradient norm at the end.
-    pub kkt: f64,
+    pub(crate) kkt: f64,
     /// Alternating rounds, summed over all starts.
-    pub alternating_rounds: usize,
-    pub lbfgsb_iterations: u64,
+    pub(crate) alternating_rounds: usize,
+    pub(crate) lbfgsb_iterations: u64,
     /// Why it stopped early, if it did ([`Termination::TimeLimit`] or [`Termination::Cancelled`]).
-    pub stopped: Option<Termination>,
+    pub(crate) stopped: Option<Termination>,
 }
 
 /// Default number of starts of a joint solve ([`JointLimits::starts`]).
-pub const DEFAULT_STARTS: usize = 8;
+pub(crate) const DEFAULT_STARTS: usize = 8;
 
 /// Default of [`JointLimits::multi_start_min_cells`]: up to about 8×8 a single start already fits the
 /// capacity palettes to ΔE*ab ≈ 0, and the terminal designer re-solves such palettes on every edit.
-pub const MULTI_START_MIN_CELLS: usize = 64;
+pub(crate) const MULTI_START_MIN_CELLS: usize = 64;
 
 /// Limits of the joint solve.
 #[derive(Clone, Debug)]
 pub struct JointLimits {
     pub deadline: Instant,
-    pub cancel: Option<Arc<AtomicBool>>,
+    pub(crate) cancel: Option<Arc<AtomicBool>>,
     /// Alternating rounds before L-BFGS-B.
-    pub first_rounds: usize,
+    pub(crate) first_rounds: usize,
     /// L-BFGS-B iteration cap.
-    pub lbfgsb_iterations: u64,
+    pub(crate) lbfgsb_iterations: u64,
     /// Alternating rounds after L-BFGS-B.
-    pub last_rounds: usize,
+    pub(crate) last_rounds: usize,
     /// Stop a stage when the relative decrease per round stays below this (3 rounds in a row).
-    pub rel_tol: f64,
+    pub(crate) rel_tol: f64,
     /// … or the objective is below this.
-    pub abs_tol: f64,
+    pub(crate) abs_tol: f64,
     /// Starts of the first alternating stage (the given one and `starts − 1` deterministic perturbations
     /// of it), run in parallel; the lowest objective after it goes on. 1 = the given start only.
-    pub starts: usize,
+    pub(crate) starts: usize,
     /// Blocks with fewer bilinear cells than this run the given start only.
-    pub multi_start_min_cells: usize,
+    pub(crate) multi_start_min_cells: usize,
 }
 
 impl JointLimits {
@@ -235,7 +235,7 @@ type NormalEntry = (DMatrix<f64>, Arc<DMatrix<f64>>);
 
 /// `AᵀA` shared between components with the same A within one half-step.
 #[derive(Default)]
-pub struct NormalCache {
+pub(crate) struct NormalCache {
     map: std::sync::Mutex<Vec<NormalEntry>>,
 }
 
@@ -374,7 +374,7 @@ fn perturbed_start(design: &Design, block: &Block, v: &Values, k: usize) -> Valu
 /// last alternating stage ([`finish`]). The history is the given start's first stage, then the winner's
 /// objective when another start won, then the finishing stages, so it never rises. Which start wins does
 /// not depend on timing unless the time cap or the cancel flag stops the solves.
-pub fn solve_block(design: &Design, block: &Block, v: &mut Values, limits: &JointLimits) -> JointOutcome {
+pub(crate) fn solve_block(design: &Design, block: &Block, v: &mut Values, limits: &JointLimits) -> JointOutcome {
     lift_zero_starts(design, block, v);
     let first_stage = |w: &mut Values, parallel: bool| {
         let mut out = JointOutcome { history: vec![design.block_objective(block, w)], ..Default::default() };
@@ -455,6 +455,10 @@ fn finish(design: &Design, block: &Block, v: &mut Values, limits: &JointLimits, 
         let run_limits = Limits { deadline: Some(limits.deadline), ..Limits::iterations(limits.lbfgsb_iterations) };
         if let Ok(res) = crate::optimize::run(problem, solver, x0, &run_limits) {
             out.lbfgsb_iterations = res.iterations();
+            // The executor's own reason when the deadline or a cancel ended the run.
+            if matches!(res.termination, Termination::TimeLimit | Termination::Cancelled) {
+                out.stopped = Some(res.termination);
+            }
             if let Some(x) = res.state.param.as_ref() {
                 let mut trial = v.clone();
                 layout.scatter(x, &mut trial);

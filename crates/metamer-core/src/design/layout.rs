@@ -18,7 +18,7 @@ pub struct Block {
 /// Where each unit's unknowns sit in a stacked vector.
 #[derive(Clone, Debug)]
 pub struct Layout {
-    pub units: Vec<(Unit, usize)>,
+    pub(crate) units: Vec<(Unit, usize)>,
     len: usize,
 }
 
@@ -36,16 +36,12 @@ impl Layout {
         Layout { units, len: off }
     }
 
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.len
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
     /// Offset of a unit, if it is in the layout.
-    pub fn offset(&self, unit: Unit) -> Option<usize> {
+    pub(crate) fn offset(&self, unit: Unit) -> Option<usize> {
         // Layouts are small (a few dozen units at most in practice); a linear scan beats hashing.
         self.units.iter().find(|(u, _)| *u == unit).map(|(_, o)| *o)
     }
@@ -60,7 +56,7 @@ impl Layout {
     }
 
     /// Scatter `x` into `v`.
-    pub fn scatter(&self, x: &DVector<f64>, v: &mut Values) {
+    pub(crate) fn scatter(&self, x: &DVector<f64>, v: &mut Values) {
         for (u, o) in &self.units {
             v.set(*u, x.rows(*o, u.len()).as_slice());
         }
@@ -95,6 +91,6 @@ impl Layout {
 pub struct LinearSystem {
     pub a: DMatrix<f64>,
     pub b: DVector<f64>,
-    pub lower: DVector<f64>,
-    pub upper: DVector<f64>,
+    pub(crate) lower: DVector<f64>,
+    pub(crate) upper: DVector<f64>,
 }

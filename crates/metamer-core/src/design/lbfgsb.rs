@@ -27,7 +27,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The argmin state L-BFGS-B runs on.
-pub type LbState = IterState<DVector<f64>, DVector<f64>, (), (), (), f64>;
+pub(crate) type LbState = IterState<DVector<f64>, DVector<f64>, (), (), (), f64>;
 
 /// L-BFGS-B with box bounds (`-inf`/`inf` for a missing side).
 #[derive(Clone, Debug)]
@@ -67,26 +67,26 @@ impl LBfgsB {
     }
 
     /// Number of correction pairs (default 7).
-    pub fn with_memory(mut self, m: usize) -> Self {
+    pub(crate) fn with_memory(mut self, m: usize) -> Self {
         self.memory = m.max(1);
         self
     }
 
     /// Projected-gradient tolerance (default 1e-10).
-    pub fn with_pg_tol(mut self, tol: f64) -> Self {
+    pub(crate) fn with_pg_tol(mut self, tol: f64) -> Self {
         self.pg_tol = tol;
         self
     }
 
     /// Relative-decrease tolerance (default 1e-15) and the floor of its denominator (default 0).
-    pub fn with_f_tol(mut self, tol: f64, floor: f64) -> Self {
+    pub(crate) fn with_f_tol(mut self, tol: f64, floor: f64) -> Self {
         self.f_tol = tol;
         self.f_floor = floor;
         self
     }
 
     /// Stop (with `TerminationReason::Interrupt`) when the flag becomes true.
-    pub fn with_cancel(mut self, cancel: Option<Arc<AtomicBool>>) -> Self {
+    pub(crate) fn with_cancel(mut self, cancel: Option<Arc<AtomicBool>>) -> Self {
         self.cancel = cancel;
         self
     }
@@ -310,7 +310,12 @@ impl LBfgsB {
 }
 
 /// Projected gradient `x − P(x − g)` in the infinity norm.
-pub fn projected_gradient_norm(x: &DVector<f64>, g: &DVector<f64>, lower: &DVector<f64>, upper: &DVector<f64>) -> f64 {
+pub(crate) fn projected_gradient_norm(
+    x: &DVector<f64>,
+    g: &DVector<f64>,
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+) -> f64 {
     let mut m: f64 = 0.0;
     for i in 0..x.len() {
         let p = (x[i] - g[i]).max(lower[i]).min(upper[i]);

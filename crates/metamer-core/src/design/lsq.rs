@@ -30,7 +30,7 @@ use nalgebra::{DMatrix, DVector};
 
 /// L-BFGS-B iterations before the active-set finish. Its generalised Cauchy points identify most of the
 /// active bounds within a few iterations; the exact finish then needs only a few releases.
-pub const LBFGSB_ITERATIONS: u64 = 2;
+pub(crate) const LBFGSB_ITERATIONS: u64 = 2;
 
 /// Largest `cond(A)` (σ_max/σ_min from the SVD of [`Factor::new`]) for which the active-set finish works
 /// on the normal equations `H = AᵀA` (incremental Cholesky of `H_FF`, multipliers `Hx − Aᵀb`). Below it
@@ -38,7 +38,7 @@ pub const LBFGSB_ITERATIONS: u64 = 2;
 /// `1e12·ε ≈ 2e-4` relative in the weakest direction — a change of the objective far below rounding — and the
 /// multipliers are exact to `ε·‖H‖‖x‖`, the same as from the residual. Above it (weights over many decades,
 /// nearly dependent rows, fewer rows than unknowns) the finish works on A itself by QR (see the module docs).
-pub const NORMAL_EQUATIONS_MAX_COND: f64 = 1e6;
+pub(crate) const NORMAL_EQUATIONS_MAX_COND: f64 = 1e6;
 
 /// Reusable factorisation of A.
 #[derive(Clone, Debug)]
@@ -46,9 +46,9 @@ pub struct Factor {
     /// Minimum-norm pseudo-inverse A⁺ (n×rows).
     pub pinv: DMatrix<f64>,
     /// `AᵀA`.
-    pub h: DMatrix<f64>,
+    pub(crate) h: DMatrix<f64>,
     /// `σ_max/σ_min` of A; infinite when A has fewer rows than columns or a zero singular value.
-    pub cond: f64,
+    pub(crate) cond: f64,
 }
 
 impl Factor {
@@ -58,14 +58,9 @@ impl Factor {
     }
 
     /// Whether the bounded solve must work on A rather than on `AᵀA` (see [`NORMAL_EQUATIONS_MAX_COND`]).
-    pub fn needs_qr(&self) -> bool {
+    pub(crate) fn needs_qr(&self) -> bool {
         self.cond.is_nan() || self.cond > NORMAL_EQUATIONS_MAX_COND
     }
-}
-
-/// Minimum-norm pseudo-inverse by SVD; never fails (non-finite input gives a zero matrix).
-pub fn pseudo_inverse(a: &DMatrix<f64>) -> DMatrix<f64> {
-    svd_pseudo_inverse(a).0
 }
 
 /// The pseudo-inverse (singular values below `max(rows, n) · ε · σ_max` dropped, LAPACK `gelsd`'s default)
@@ -91,11 +86,11 @@ fn svd_pseudo_inverse(a: &DMatrix<f64>) -> (DMatrix<f64>, f64) {
 pub struct LsqOutcome {
     pub x: DVector<f64>,
     /// `‖A x − b‖²`, computed from the residual.
-    pub objective: f64,
+    pub(crate) objective: f64,
     /// `‖x − P(x − ∇f)‖∞ / (1 + ‖∇f(0)‖∞)` with `∇f = 2Aᵀ(Ax − b)` computed from the residual.
-    pub kkt: f64,
+    pub(crate) kkt: f64,
     /// False when the unconstrained solution already satisfied the bounds.
-    pub bounds_active: bool,
+    pub(crate) bounds_active: bool,
     /// L-BFGS-B iterations and active-set steps used.
     pub lbfgsb_iterations: u64,
     pub active_set_steps: usize,
@@ -601,7 +596,7 @@ impl Work {
 /// finish from `x0` projected onto the box, without SVD or L-BFGS-B. On a convex problem it ends at an
 /// exact minimiser (the minimum-norm one is not guaranteed when A is rank deficient). It works on `h = AᵀA`
 /// while the Cholesky factors of its free blocks stay well conditioned, else on A by QR.
-pub fn solve_from(sys: &LinearSystem, h: &DMatrix<f64>, x0: &DVector<f64>) -> LsqOutcome {
+pub(crate) fn solve_from(sys: &LinearSystem, h: &DMatrix<f64>, x0: &DVector<f64>) -> LsqOutcome {
     let atb = sys.a.tr_mul(&sys.b);
     let (steps, x) = with_work(sys, false, |work| {
         let steps = work.finish(sys, h, &atb, x0);
@@ -614,7 +609,7 @@ pub fn solve_from(sys: &LinearSystem, h: &DMatrix<f64>, x0: &DVector<f64>) -> Ls
 }
 
 /// Plain entry for tests and benchmarks: factor and solve in one call.
-pub fn solve_system(sys: &LinearSystem) -> LsqOutcome {
+pub(crate) fn solve_system(sys: &LinearSystem) -> LsqOutcome {
     solve(sys, &Factor::new(&sys.a))
 }
 

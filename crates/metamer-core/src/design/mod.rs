@@ -56,7 +56,7 @@ impl Default for SolveOptions {
 
 /// Whether a cell's target is met.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CellStatus {
+pub(crate) enum CellStatus {
     /// The cell is not used (weight 0 or `use = false`): it has no say in the design.
     NotUsed,
     /// Its full colour is within [`report::MET_DELTA_E`] (CIEDE2000) of its target.
@@ -80,12 +80,12 @@ pub struct CellResult {
     /// CIEDE2000 of the full colour from the target (under the cell's light); `f64::MAX` when not finite.
     pub delta_e_full: f64,
     pub delta_e_subspace: Option<f64>,
-    pub status: CellStatus,
+    pub(crate) status: CellStatus,
 }
 
 /// What a [`Diagnostic`] is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DiagnosticKind {
+pub(crate) enum DiagnosticKind {
     /// A cell whose target is not met (ΔE00 above [`report::MET_DELTA_E`], or its light is zero), with the
     /// reason and, where one is known, the closest reachable colour.
     Unmet,
@@ -104,7 +104,7 @@ pub enum DiagnosticKind {
 pub struct Diagnostic {
     /// Index into `palette.colours` when it is about one cell.
     pub cell: Option<usize>,
-    pub kind: DiagnosticKind,
+    pub(crate) kind: DiagnosticKind,
     /// The sentence shown to the user (the table's remark, the report's `message`).
     pub message: String,
 }
@@ -302,24 +302,4 @@ fn far_future(from: Instant) -> Instant {
         }
         d /= 2;
     }
-}
-
-/// The pinned objective (DESIGN_SPEC §2) of a palette as it stands, with the given free colours (one
-/// per group). Errors as [`solve()`] for invalid palettes.
-pub fn objective_of(
-    palette: &Palette,
-    basis: Option<&Basis>,
-    colorimetry: &Colorimetry,
-    free: &[Vector3<f64>],
-) -> Result<f64, DesignError> {
-    let design = system::Design::new(palette, basis, colorimetry)?;
-    let mut v = design.start_values();
-    if free.len() != v.free.len() {
-        return Err(DesignError::Invalid(format!("{} free colours given for {} groups", free.len(), v.free.len())));
-    }
-    v.free.copy_from_slice(free);
-    // start_values clamps designed spectra into their bounds; evaluate the palette exactly as given.
-    v.lights = palette.lights.iter().map(|e| e.spectrum).collect();
-    v.reflectances = palette.reflectances.iter().map(|e| e.spectrum).collect();
-    Ok(design.objective(&v))
 }

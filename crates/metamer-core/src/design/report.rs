@@ -18,10 +18,10 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// A cell counts as met when its full colour is within this CIEDE2000 of its target.
-pub const MET_DELTA_E: f64 = 1.0;
+pub(crate) const MET_DELTA_E: f64 = 1.0;
 
 /// Two lights count as nearly identical when `‖E_a − E_b‖ ≤ NEAR_IDENTICAL · max(‖E_a‖, ‖E_b‖)`.
-pub const NEAR_IDENTICAL: f64 = 1e-3;
+pub(crate) const NEAR_IDENTICAL: f64 = 1e-3;
 
 fn finite_or(v: f64, d: f64) -> f64 {
     if v.is_finite() { v } else { d }
@@ -72,7 +72,7 @@ impl CellResult {
 }
 
 /// Colours and errors of every cell of the palette at `v`.
-pub fn cell_results(
+pub(crate) fn cell_results(
     palette: &Palette,
     basis: Option<&Basis>,
     colorimetry: &Colorimetry,
@@ -281,7 +281,12 @@ const EXACT_HIT_TOLERANCE: f64 = 1e-9;
 type ReachKey = (bool, usize, Form);
 
 /// Diagnostics about the palette and the solution.
-pub fn diagnostics(design: &Design, colorimetry: &Colorimetry, v: &Values, cells: &[CellResult]) -> Vec<Diagnostic> {
+pub(crate) fn diagnostics(
+    design: &Design,
+    colorimetry: &Colorimetry,
+    v: &Values,
+    cells: &[CellResult],
+) -> Vec<Diagnostic> {
     let p = design.palette;
     let mut out = Vec::new();
     let say = |cell: Option<usize>, kind: DiagnosticKind, message: String| Diagnostic { cell, kind, message };

@@ -15,7 +15,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 /// its whole matrix. A cache serves systems assembled from one [`Values`] only (the key names the fixed
 /// spectra by index).
 #[derive(Default)]
-pub struct FactorCache {
+pub(crate) struct FactorCache {
     map: Mutex<HashMap<Vec<u64>, Slot>>,
 }
 
@@ -33,35 +33,26 @@ impl FactorCache {
         };
         slot.get_or_init(|| Arc::new(Factor::new(a))).clone()
     }
-
-    /// Number of distinct factorisations computed.
-    pub fn len(&self) -> usize {
-        self.map.lock().map(|m| m.values().filter(|s| s.get().is_some()).count()).unwrap_or(0)
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
 }
 
 /// How one block was solved.
 #[derive(Clone, Debug)]
 pub struct BlockReport {
-    pub units: Vec<Unit>,
+    pub(crate) units: Vec<Unit>,
     pub bilinear: bool,
     /// The block's part of the objective at the end.
-    pub objective: f64,
+    pub(crate) objective: f64,
     pub kkt: f64,
-    pub bounds_active: bool,
+    pub(crate) bounds_active: bool,
     /// Joint blocks: objective after each accepted stage (non-increasing).
     pub history: Vec<f64>,
-    pub stopped: Option<crate::optimize::Termination>,
+    pub(crate) stopped: Option<crate::optimize::Termination>,
     /// New values of the block's units.
-    pub values: Vec<(Unit, Vec<f64>)>,
+    pub(crate) values: Vec<(Unit, Vec<f64>)>,
 }
 
 /// Solve one block starting from `v` (which holds the fixed spectra too).
-pub fn solve_block(
+pub(crate) fn solve_block(
     design: &Design,
     block: &Block,
     v: &Values,

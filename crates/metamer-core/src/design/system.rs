@@ -33,20 +33,6 @@ pub fn smoothness_scale() -> f64 {
     1.0 / ((SAMPLES as f64).sqrt() * 6f64.sqrt())
 }
 
-/// The 31×31 smoothness matrix `D/(√31·√6)` (2 on the diagonal, −1 beside it, then scaled).
-pub fn smoothness_matrix() -> DMatrix<f64> {
-    let s = smoothness_scale();
-    DMatrix::from_fn(SAMPLES, SAMPLES, |i, j| {
-        if i == j {
-            2.0 * s
-        } else if i.abs_diff(j) == 1 {
-            -s
-        } else {
-            0.0
-        }
-    })
-}
-
 /// A group of unknowns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Unit {
@@ -57,22 +43,17 @@ pub enum Unit {
 
 impl Unit {
     /// Number of unknowns in the unit.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         match self {
             Unit::Free(_) => 3,
             _ => SAMPLES,
         }
     }
-
-    /// Never empty; present for clippy's `len_without_is_empty`.
-    pub fn is_empty(&self) -> bool {
-        false
-    }
 }
 
 /// Which bilinear form a row block uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Form {
+pub(crate) enum Form {
     /// `Q_rgb,31 (E ∘ S)`.
     Full,
     /// `Q_rgb,m Λ(Q_m,31 E) Q_m,31 S`.
@@ -86,17 +67,17 @@ pub enum Form {
 pub struct CellTerm {
     /// Index into `palette.colours`.
     pub cell: usize,
-    pub light: usize,
-    pub reflectance: usize,
-    pub free: Option<usize>,
+    pub(crate) light: usize,
+    pub(crate) reflectance: usize,
+    pub(crate) free: Option<usize>,
     /// Linear-RGB target (unused for a free cell).
-    pub target: Vector3<f64>,
+    pub(crate) target: Vector3<f64>,
     /// ω/√3.
     pub scale: f64,
     /// Full or subspace colour rows.
-    pub form: Form,
+    pub(crate) form: Form,
     /// ω_F·ω/√3, 0 when there are no subspace-error rows.
-    pub error_scale: f64,
+    pub(crate) error_scale: f64,
 }
 
 /// Current values of every spectrum and free colour.
@@ -118,7 +99,7 @@ impl Values {
     }
 
     /// Overwrite a unit's values.
-    pub fn set(&mut self, unit: Unit, v: &[f64]) {
+    pub(crate) fn set(&mut self, unit: Unit, v: &[f64]) {
         match unit {
             Unit::Light(i) => self.lights[i].0.copy_from_slice(v),
             Unit::Reflectance(i) => self.reflectances[i].0.copy_from_slice(v),
@@ -178,15 +159,6 @@ impl<'a> Design<'a> {
         Ok(Design { palette, basis, q_rgb: colorimetry.q_rgb, terms, smoothness: s.smoothness })
     }
 
-    /// Is this unit an unknown of the design?
-    pub fn is_designed(&self, unit: Unit) -> bool {
-        match unit {
-            Unit::Light(i) => self.palette.lights[i].design,
-            Unit::Reflectance(i) => self.palette.reflectances[i].design,
-            Unit::Free(_) => true,
-        }
-    }
-
     /// Every unknown unit, in a fixed order (lights, reflectances, free groups).
     pub fn units(&self) -> Vec<Unit> {
         let p = self.palette;
@@ -239,7 +211,7 @@ impl<'a> Design<'a> {
     }
 
     /// The 3×31 linear map `x ↦ form(partner, x)` (the bilinear forms are symmetric).
-    pub fn operator(&self, form: Form, partner: &Spectrum) -> Q31 {
+    pub(crate) fn operator(&self, form: Form, partner: &Spectrum) -> Q31 {
         match (form, self.basis) {
             (Form::Full, _) => diag_right(&self.q_rgb, partner),
             (Form::Subspace, Some(b)) => b.subspace_operator(partner),
@@ -250,7 +222,7 @@ impl<'a> Design<'a> {
     }
 
     /// `form(E, S)`.
-    pub fn apply(&self, form: Form, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
+    pub(crate) fn apply(&self, form: Form, e: &Spectrum, s: &Spectrum) -> Vector3<f64> {
         let full = || self.q_rgb * e.0.component_mul(&s.0);
         match (form, self.basis) {
             (Form::Full, _) => full(),
@@ -261,7 +233,7 @@ impl<'a> Design<'a> {
     }
 
     /// The colour residual `ω/√3 (T(E,S) − c)` and the error residual of one term.
-    pub fn term_residuals(&self, t: &CellTerm, v: &Values) -> (Vector3<f64>, Vector3<f64>) {
+    pub(crate) fn term_residuals(&self, t: &CellTerm, v: &Values) -> (Vector3<f64>, Vector3<f64>) {
         let e = &v.lights[t.light];
         let s = &v.reflectances[t.reflectance];
         let c = t.free.map(|g| v.free[g]).unwrap_or(t.target);
@@ -281,7 +253,7 @@ impl<'a> Design<'a> {
     }
 
     /// The smoothness part of the objective.
-    pub fn smoothness_objective(&self, v: &Values) -> f64 {
+    pub(crate) fn smoothness_objective(&self, v: &Values) -> f64 {
         if self.smoothness <= 0.0 {
             return 0.0;
         }
@@ -290,7 +262,7 @@ impl<'a> Design<'a> {
     }
 
     /// The units each term touches (designed spectra and its free group).
-    pub fn term_units(&self, t: &CellTerm) -> Vec<Unit> {
+    pub(crate) fn term_units(&self, t: &CellTerm) -> Vec<Unit> {
         let mut u = Vec::with_capacity(3);
         if self.palette.lights[t.light].design {
             u.push(Unit::Light(t.light));
@@ -305,7 +277,7 @@ impl<'a> Design<'a> {
     }
 
     /// Is the term bilinear (light and reflectance both designed)?
-    pub fn is_bilinear(&self, t: &CellTerm) -> bool {
+    pub(crate) fn is_bilinear(&self, t: &CellTerm) -> bool {
         self.palette.lights[t.light].design && self.palette.reflectances[t.reflectance].design
     }
 
@@ -318,7 +290,7 @@ impl<'a> Design<'a> {
     /// Connected components of `units` through `terms` (indices into [`Design::terms`]); units outside
     /// `units` count as fixed and connect nothing. Each term goes to the component of its first unit in
     /// the set (terms touching none of `units` are dropped).
-    pub fn components(&self, units: &[Unit], terms: &[usize]) -> Vec<Block> {
+    pub(crate) fn components(&self, units: &[Unit], terms: &[usize]) -> Vec<Block> {
         let index: HashMap<Unit, usize> = units.iter().enumerate().map(|(i, u)| (*u, i)).collect();
         let mut parent: Vec<usize> = (0..units.len()).collect();
         fn find(parent: &mut [usize], mut i: usize) -> usize {
@@ -365,7 +337,7 @@ impl<'a> Design<'a> {
     }
 
     /// The part of the objective a block owns: its terms and its spectra's smoothness.
-    pub fn block_objective(&self, block: &Block, v: &Values) -> f64 {
+    pub(crate) fn block_objective(&self, block: &Block, v: &Values) -> f64 {
         let mut f = 0.0;
         for &ti in &block.terms {
             let (c, e) = self.term_residuals(&self.terms[ti], v);
@@ -387,7 +359,7 @@ impl<'a> Design<'a> {
     /// unknowns, the form, the scales and the free colour's columns. Two systems assembled from the same
     /// [`Values`] with equal keys have bit-identical A (A is a deterministic function of exactly these), so
     /// a factorisation can be shared by key without hashing or comparing A itself.
-    pub fn matrix_key(&self, layout: &Layout, terms: &[usize]) -> Vec<u64> {
+    pub(crate) fn matrix_key(&self, layout: &Layout, terms: &[usize]) -> Vec<u64> {
         const NONE: u64 = u64::MAX;
         let opt = |o: Option<usize>| o.map_or(NONE, |o| o as u64);
         let mut key = Vec::with_capacity(2 + layout.units.len() + 7 * terms.len());
@@ -496,7 +468,7 @@ impl<'a> Design<'a> {
 }
 
 /// `‖w D x‖²` with D the unscaled 2/−1 tridiagonal.
-pub fn smoothness_sq(x: &[f64], w: f64) -> f64 {
+pub(crate) fn smoothness_sq(x: &[f64], w: f64) -> f64 {
     let n = x.len();
     let mut f = 0.0;
     for i in 0..n {
@@ -513,7 +485,7 @@ pub fn smoothness_sq(x: &[f64], w: f64) -> f64 {
 }
 
 /// `2 w² DᵀD x` added into `g` (the gradient of [`smoothness_sq`]).
-pub fn smoothness_grad(x: &[f64], w: f64, g: &mut [f64]) {
+pub(crate) fn smoothness_grad(x: &[f64], w: f64, g: &mut [f64]) {
     let n = x.len();
     let mut d = vec![0.0; n];
     for i in 0..n {

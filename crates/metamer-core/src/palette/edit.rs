@@ -3,7 +3,7 @@
 //! a spectrum's source, normalisation or scale re-resolves its samples.
 
 use super::source::{SourceError, finish, spectra_agree};
-use super::{Bounds, ColourCell, FreeGroup, Kind, Palette, Source, SpectrumEntry, TargetNotation};
+use super::{ColourCell, FreeGroup, Kind, Palette, Source, SpectrumEntry, TargetNotation};
 use crate::colorimetry::Colorimetry;
 use crate::spectrum::{Normalize, NormalizeError, Spectrum};
 use nalgebra::Vector3;
@@ -132,30 +132,11 @@ impl Palette {
         Ok(())
     }
 
-    /// Open or close a spectrum to design.
-    pub fn set_design(&mut self, kind: Kind, index: usize, design: bool) -> Result<(), EditError> {
-        self.entry_mut(kind, index)?.design = design;
-        Ok(())
-    }
-
     /// Flip whether a spectrum is designed; returns the new state.
     pub fn toggle_design(&mut self, kind: Kind, index: usize) -> Result<bool, EditError> {
         let e = self.entry_mut(kind, index)?;
         e.design = !e.design;
         Ok(e.design)
-    }
-
-    /// Set (or clear) a spectrum's own bounds.
-    pub fn set_bounds(&mut self, kind: Kind, index: usize, bounds: Option<Bounds>) -> Result<(), EditError> {
-        if let Some(b) = bounds {
-            check_number("a bound", "a number (not NaN)", b.lower, !b.lower.is_nan())?;
-            check_number("a bound", "a number (not NaN)", b.upper, !b.upper.is_nan())?;
-            if b.lower > b.upper {
-                return Err(EditError::InvertedBounds { lower: b.lower, upper: b.upper });
-            }
-        }
-        self.entry_mut(kind, index)?.bounds = bounds;
-        Ok(())
     }
 
     /// Make a spectrum a Planck black body at `kelvin` (keeping its normalisation and scale).
@@ -182,12 +163,14 @@ impl Palette {
     }
 
     /// Normalise a light to luminance 1 (before its scale).
-    pub fn normalize_luminance(&mut self, index: usize, colorimetry: &Colorimetry) -> Result<(), EditError> {
+    #[cfg(test)]
+    pub(crate) fn normalize_luminance(&mut self, index: usize, colorimetry: &Colorimetry) -> Result<(), EditError> {
         self.set_normalize(index, Normalize::Luminance, colorimetry)
     }
 
     /// Normalise a light to unit L2 norm (before its scale).
-    pub fn normalize_l2(&mut self, index: usize, colorimetry: &Colorimetry) -> Result<(), EditError> {
+    #[cfg(test)]
+    pub(crate) fn normalize_l2(&mut self, index: usize, colorimetry: &Colorimetry) -> Result<(), EditError> {
         self.set_normalize(index, Normalize::L2, colorimetry)
     }
 
@@ -249,7 +232,8 @@ impl Palette {
     }
 
     /// Remove the cell at (light, reflectance) — its target, weight and free group — if there is one.
-    pub fn clear_cell(&mut self, light: usize, reflectance: usize) -> Option<ColourCell> {
+    #[cfg(test)]
+    pub(crate) fn clear_cell(&mut self, light: usize, reflectance: usize) -> Option<ColourCell> {
         self.cell_index(light, reflectance).map(|i| self.colours.remove(i))
     }
 
@@ -316,7 +300,12 @@ impl Palette {
     }
 
     /// The linear sRGB colour the current spectra give at (light, reflectance).
-    pub fn colour_of(&self, light: usize, reflectance: usize, colorimetry: &Colorimetry) -> Option<Vector3<f64>> {
+    pub(crate) fn colour_of(
+        &self,
+        light: usize,
+        reflectance: usize,
+        colorimetry: &Colorimetry,
+    ) -> Option<Vector3<f64>> {
         let e = self.lights.get(light)?;
         let s = self.reflectances.get(reflectance)?;
         Some(colorimetry.rgb(&e.spectrum, &s.spectrum))
@@ -331,7 +320,8 @@ impl Palette {
     }
 
     /// Set every existing cell's target to what the current spectra produce.
-    pub fn fit_all(&mut self, colorimetry: &Colorimetry) {
+    #[cfg(test)]
+    pub(crate) fn fit_all(&mut self, colorimetry: &Colorimetry) {
         for i in 0..self.colours.len() {
             let (l, r) = (self.colours[i].light, self.colours[i].reflectance);
             if let Some(rgb) = self.colour_of(l, r, colorimetry) {

@@ -182,14 +182,14 @@ pub struct Palette {
 /// The objective multiplies weights, samples, colour-matching values and targets and squares the result;
 /// below this bound every such product stays far inside `f64` (1e15⁴ = 1e60), above it the SVD meets
 /// infinities and NaN. Larger values are input errors, named by their key.
-pub const MAX_MAGNITUDE: f64 = 1e15;
+pub(crate) const MAX_MAGNITUDE: f64 = 1e15;
 
 /// A number the design cannot use: its key (e.g. `lights[0].samples`, `colours[2].weight`) and why.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{key}: {reason}")]
-pub struct ScaleError {
-    pub key: String,
-    pub reason: String,
+pub(crate) struct ScaleError {
+    pub(crate) key: String,
+    pub(crate) reason: String,
 }
 
 fn too_large(key: String, what: &str, v: f64) -> ScaleError {
@@ -227,7 +227,7 @@ fn check_bounds(key: impl Fn() -> String, lower: f64, upper: f64) -> Result<(), 
 impl Palette {
     /// Check that every number the design uses is finite and at most [`MAX_MAGNITUDE`] in magnitude (bounds
     /// may be infinite on their open side): the first one that is not, by key.
-    pub fn check_scale(&self) -> Result<(), ScaleError> {
+    pub(crate) fn check_scale(&self) -> Result<(), ScaleError> {
         let s = &self.settings;
         check_value(|| "settings.smoothness".into(), "smoothness", s.smoothness)?;
         check_value(|| "settings.subspace_error".into(), "subspace_error", s.subspace_error)?;
@@ -277,7 +277,7 @@ impl Palette {
     }
 
     /// Index of a light by name.
-    pub fn light_index(&self, name: &str) -> Option<usize> {
+    pub(crate) fn light_index(&self, name: &str) -> Option<usize> {
         self.lights.iter().position(|e| e.name == name)
     }
 

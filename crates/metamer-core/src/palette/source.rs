@@ -41,11 +41,11 @@ impl Source {
     }
 
     /// All source keys a palette file may use.
-    pub const KEYS: [&'static str; 6] = ["illuminant", "colorchecker", "planck", "flat", "samples", "csv"];
+    pub(crate) const KEYS: [&'static str; 6] = ["illuminant", "colorchecker", "planck", "flat", "samples", "csv"];
 
     /// The raw samples the source names, before any normalisation or scale. A CSV path is taken relative to
     /// `base_dir` (the palette file's folder); without one a CSV source is an error.
-    pub fn raw_spectrum(&self, base_dir: Option<&Path>) -> Result<Spectrum, SourceError> {
+    pub(crate) fn raw_spectrum(&self, base_dir: Option<&Path>) -> Result<Spectrum, SourceError> {
         let spectrum = match self {
             Source::Illuminant(name) => Spectrum::illuminant(name).ok_or_else(|| SourceError::UnknownIlluminant {
                 name: name.clone(),
@@ -70,7 +70,7 @@ impl Source {
 }
 
 /// Apply a spectrum's normalisation (lights only; reflectances are never normalised) and then its scale.
-pub fn finish(
+pub(crate) fn finish(
     raw: &Spectrum,
     kind: Kind,
     normalize: Normalize,
@@ -85,18 +85,12 @@ pub fn finish(
     if out.is_finite() { Ok(out) } else { Err(NormalizeError::NotFinite) }
 }
 
-impl SpectrumEntry {
-    /// The samples this entry's source, normalisation and scale produce (ignoring any designed samples).
-    pub fn resolve(&self, base_dir: Option<&Path>, luminance_weights: &Samples) -> Result<Spectrum, SourceError> {
-        let raw = self.source.raw_spectrum(base_dir)?;
-        Ok(finish(&raw, self.kind, self.normalize, self.scale, luminance_weights)?)
-    }
-}
+impl SpectrumEntry {}
 
 /// True when two spectra agree to a relative tolerance of 1e-12 of the larger magnitude (plus 1e-300
 /// absolute so all-zero spectra compare equal): the threshold below which a spectrum counts as "as its
 /// source resolves" rather than "designed or edited".
-pub fn spectra_agree(a: &Spectrum, b: &Spectrum) -> bool {
+pub(crate) fn spectra_agree(a: &Spectrum, b: &Spectrum) -> bool {
     let scale = a.0.amax().max(b.0.amax());
     (a.0 - b.0).amax() <= 1e-12 * scale + 1e-300
 }

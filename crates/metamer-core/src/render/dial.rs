@@ -32,7 +32,7 @@
 use crate::spectrum::Spectrum;
 
 /// The exponent of the Shepard inverse-distance weights: `u_i = 1/d_i^SHEPARD_EXPONENT`.
-pub const SHEPARD_EXPONENT: f64 = 2.0;
+pub(crate) const SHEPARD_EXPONENT: f64 = 2.0;
 
 /// Distances below this (in dial units) count as "at the vertex".
 const AT_VERTEX: f64 = 1e-9;
@@ -172,7 +172,7 @@ impl DialState {
     }
 
     /// The Shepard weights of every light at point `p`.
-    pub fn weights_at(&self, p: [f64; 2]) -> Vec<f64> {
+    pub(crate) fn weights_at(&self, p: [f64; 2]) -> Vec<f64> {
         let n = self.lights.len();
         let dist = |l: &DialLight| ((p[0] - l.position[0]).powi(2) + (p[1] - l.position[1]).powi(2)).sqrt();
         let at: Vec<bool> = self.lights.iter().map(|l| l.on && dist(l) < AT_VERTEX).collect();
@@ -268,7 +268,7 @@ impl Dial {
     }
 
     /// A dial moving through `keyframes` (at least one; each over the same lights as `base`).
-    pub fn keyframes(base: DialState, keyframes: Vec<DialState>) -> Result<Dial, DialError> {
+    pub(crate) fn keyframes(base: DialState, keyframes: Vec<DialState>) -> Result<Dial, DialError> {
         if keyframes.is_empty() {
             return Err(DialError::NoLights);
         }
@@ -276,7 +276,7 @@ impl Dial {
     }
 
     /// A dial without lights (its light is black everywhere).
-    pub fn empty() -> Dial {
+    pub(crate) fn empty() -> Dial {
         Dial {
             base: DialState { lights: Vec::new(), slider: [0.0; 2], fixed_weights: None },
             sweep: Sweep::Keyframes(Vec::new()),
@@ -285,7 +285,7 @@ impl Dial {
     }
 
     /// Position of frame `k` of `n` along the sweep, in [0, 1] (`k/(n−1)`, 0 for a single frame).
-    pub fn position(k: usize, n: usize) -> f64 {
+    pub(crate) fn position(k: usize, n: usize) -> f64 {
         if n <= 1 { 0.0 } else { (k as f64 / (n - 1) as f64).clamp(0.0, 1.0) }
     }
 

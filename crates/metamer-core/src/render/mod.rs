@@ -118,7 +118,7 @@ pub fn render_views(
 /// dimension `settings.basis_dimension` decided by the one basis policy ([`crate::basis::basis_for`]),
 /// read from / stored in the palette's `.basis.json` sidecar when the scene came from files, so repeated
 /// renders skip training.
-pub fn scene_basis(scene: &Scene) -> Result<Basis, RenderError> {
+pub(crate) fn scene_basis(scene: &Scene) -> Result<Basis, RenderError> {
     Ok(scene_basis_report(scene)?.0.clone())
 }
 

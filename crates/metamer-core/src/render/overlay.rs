@@ -13,7 +13,7 @@ use crate::spectrum::Spectrum;
 use tiny_skia::{Color, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
 /// Frames smaller than this (pixels, the shorter side) get no dial: it would not be legible.
-pub const MIN_FRAME: usize = 96;
+pub(crate) const MIN_FRAME: usize = 96;
 
 /// Everything about a sweep's dial drawing that does not change between frames.
 #[derive(Clone, Debug)]
@@ -28,7 +28,7 @@ pub struct DialOverlay {
 }
 
 /// A light's colour on a white reflectance as 8-bit sRGB, scaled so its brightest channel is 1.
-pub fn light_colour(colorimetry: &Colorimetry, light: &Spectrum) -> [u8; 3] {
+pub(crate) fn light_colour(colorimetry: &Colorimetry, light: &Spectrum) -> [u8; 3] {
     let rgb = colorimetry.rgb(light, &Spectrum::flat(1.0));
     let peak = rgb.max();
     if !(peak.is_finite() && peak > 1e-12) {
@@ -75,7 +75,7 @@ impl DialOverlay {
     }
 
     /// Whether a frame of this size gets a dial.
-    pub fn fits(&self, width: usize, height: usize) -> bool {
+    pub(crate) fn fits(&self, width: usize, height: usize) -> bool {
         width.min(height) >= MIN_FRAME && self.side > 0
     }
 

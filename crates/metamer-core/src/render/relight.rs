@@ -58,7 +58,7 @@ pub struct ColourModel {
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameMatrix {
     pub channels: usize,
-    pub m: Vec<f32>,
+    pub(crate) m: Vec<f32>,
 }
 
 impl ColourModel {
@@ -142,7 +142,7 @@ impl SrgbLut {
 
     /// A table with a display gamma: linear `x` is encoded as sRGB of `x^(1/gamma)` (gamma > 1 lifts
     /// dark values; 1, or anything not positive and finite, is plain sRGB).
-    pub fn with_gamma(gamma: f64) -> SrgbLut {
+    pub(crate) fn with_gamma(gamma: f64) -> SrgbLut {
         let g = if gamma.is_finite() && gamma > 0.0 { gamma } else { 1.0 };
         let table = (0..Self::N)
             .map(|i| {
@@ -154,7 +154,7 @@ impl SrgbLut {
     }
 
     #[inline(always)]
-    pub fn encode(&self, v: f32) -> u8 {
+    pub(crate) fn encode(&self, v: f32) -> u8 {
         // NaN maps to 0 through the saturating cast.
         let i = (v.clamp(0.0, 1.0) * (Self::N - 1) as f32 + 0.5) as usize;
         self.table[i.min(Self::N - 1)]
@@ -162,7 +162,7 @@ impl SrgbLut {
 }
 
 /// Apply a frame matrix to every pixel: linear RGB, 3 values per pixel.
-pub fn relight_linear(image: &ChannelImage, frame: &FrameMatrix) -> Vec<f32> {
+pub(crate) fn relight_linear(image: &ChannelImage, frame: &FrameMatrix) -> Vec<f32> {
     let mut out = vec![0f32; image.width * image.height * 3];
     relight_with(image, frame, |i, rgb| out[3 * i..3 * i + 3].copy_from_slice(&rgb));
     out

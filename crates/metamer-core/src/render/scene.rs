@@ -59,7 +59,7 @@ pub struct Material {
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneSettings {
     pub step: f64,
-    pub ambient: f64,
+    pub(crate) ambient: f64,
     pub shading: Shading,
     /// Per-pixel ray-start jitter.
     pub jitter: bool,
@@ -324,7 +324,11 @@ impl Scene {
 /// scene's `volume` key relative to the scene file's folder, else the key's file name in the data folder
 /// named by `METAMER_DATA` (the file itself or under `volumes/`). A missing file is an error naming the
 /// scene's `volume` key (or `--volume`), where it was looked for and how to get the dataset.
-pub fn resolve_volume_path(scene: &Path, key: &str, volume_override: Option<&Path>) -> Result<PathBuf, RenderError> {
+pub(crate) fn resolve_volume_path(
+    scene: &Path,
+    key: &str,
+    volume_override: Option<&Path>,
+) -> Result<PathBuf, RenderError> {
     use crate::volume::data;
     // Paths are quoted and their control characters escaped (Debug) in the messages.
     let q = |p: &Path| format!("{:?}", p.display().to_string());
@@ -692,11 +696,11 @@ fn entry(name: &str, kind: Kind, source: crate::palette::Source, spectrum: Spect
 }
 
 /// The designed engine palette (`volumes/engine_palette.toml`), embedded for the default scene.
-pub const BUILTIN_PALETTE_TOML: &str = include_str!("../../../../volumes/engine_palette.toml");
+pub(crate) const BUILTIN_PALETTE_TOML: &str = include_str!("../../../../volumes/engine_palette.toml");
 
 /// The built-in palette of the embedded default scene: the designed engine palette (smoke, block, inner;
 /// lights hide, split, glow).
-pub fn builtin_palette() -> Result<Palette, RenderError> {
+pub(crate) fn builtin_palette() -> Result<Palette, RenderError> {
     let origin = Path::new("volumes/engine_palette.toml (embedded)");
     crate::palette::file::PaletteFile::parse(BUILTIN_PALETTE_TOML, origin)
         .map(|f| f.palette)
@@ -712,7 +716,7 @@ pub fn builtin_scene(size: usize) -> Result<Scene, RenderError> {
 /// The accuracy-check scene of issue 5: four fixed ColorChecker materials (dark skin, foliage, orange,
 /// purplish blue) over value ranges of `volume`, dial D65 → A → F11. `ranges` and `opacities` give the
 /// transfer function (value ranges in the volume's units).
-pub fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities: [f32; 4]) -> Scene {
+pub(crate) fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities: [f32; 4]) -> Scene {
     let names = [("m1", "dark_skin"), ("m2", "foliage"), ("m3", "orange"), ("m4", "purplish_blue")];
     let palette = colorchecker_palette("check", &["D65", "A", "F11"], &names).unwrap_or_default();
     let materials = palette

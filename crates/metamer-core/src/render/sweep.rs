@@ -84,7 +84,7 @@ pub fn encode_png(rgb: &[u8], width: usize, height: usize) -> Result<Vec<u8>, St
 }
 
 /// The fraction of covered pixels of the brightest frame that [`percentile_exposure`] keeps below 1.
-pub const EXPOSURE_PERCENTILE: f64 = 0.995;
+pub(crate) const EXPOSURE_PERCENTILE: f64 = 0.995;
 
 /// The exposure `metamer render` gives a sweep of `frames` frames of this picture — the one rule the
 /// renderer and the designer's live preview share: the percentile exposure ([`percentile_exposure`] at
@@ -116,7 +116,7 @@ const EXPOSURE_FRAMES: usize = 17;
 /// channel over the pixels the volume covers (sampled on a grid of at most about 256² pixels); the
 /// brightest frame's value is put at 1, times `scale`. None when no pixel is covered or every covered
 /// pixel is black.
-pub fn percentile_exposure(
+pub(crate) fn percentile_exposure(
     image: &ChannelImage,
     model: &ColourModel,
     dial: &Dial,
@@ -303,7 +303,7 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
 
 /// The two-line label of frame k of N on a contact sheet: `frame 12 · t 0.26` and the light mix
 /// `hide 48% split 52%` (the lights with a weight of at least 0.5 %).
-pub fn frame_label(dial: &Dial, k: usize, frames: usize) -> String {
+pub(crate) fn frame_label(dial: &Dial, k: usize, frames: usize) -> String {
     let t = Dial::position(k, frames);
     let state = dial.state_at(t);
     let mix: Vec<String> = state
@@ -317,7 +317,7 @@ pub fn frame_label(dial: &Dial, k: usize, frames: usize) -> String {
 }
 
 /// Write a finished contact sheet as PNG (creating its folder).
-pub fn write_contact_sheet_image(path: &Path, sheet: &RgbImage) -> Result<(), RenderError> {
+pub(crate) fn write_contact_sheet_image(path: &Path, sheet: &RgbImage) -> Result<(), RenderError> {
     let png = encode_png(sheet.as_raw(), sheet.width() as usize, sheet.height() as usize)
         .map_err(|reason| RenderError::Output { path: path.to_path_buf(), reason })?;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -327,30 +327,19 @@ pub fn write_contact_sheet_image(path: &Path, sheet: &RgbImage) -> Result<(), Re
     write_file(path, &png)
 }
 
-/// A grid of unlabelled thumbnails (about 1600 pixels wide at most) of the given full-size frames, in
-/// order (kept for callers that hold frames; [`write_sweep`] builds its labelled sheet from thumbnails).
-pub fn contact_sheet(frames: &[Vec<u8>], width: usize, height: usize) -> Option<RgbImage> {
-    if frames.is_empty() || width == 0 || height == 0 {
-        return None;
-    }
-    let layout = SheetLayout::new(frames.len(), width, height);
-    let thumbs: Option<Vec<RgbImage>> = frames.iter().map(|f| layout.thumbnail(f, width, height)).collect();
-    Some(layout.assemble(&thumbs?, &[], None))
-}
-
 /// Geometry of a contact sheet: columns, tile size, label band, gaps.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SheetLayout {
-    pub count: usize,
-    pub cols: usize,
-    pub rows: usize,
-    pub tile_w: u32,
-    pub tile_h: u32,
-    pub gap: u32,
+pub(crate) struct SheetLayout {
+    pub(crate) count: usize,
+    pub(crate) cols: usize,
+    pub(crate) rows: usize,
+    pub(crate) tile_w: u32,
+    pub(crate) tile_h: u32,
+    pub(crate) gap: u32,
     /// Height of the label band under every tile.
-    pub label_h: u32,
+    pub(crate) label_h: u32,
     /// Height of the title band (used when a title is given).
-    pub title_h: u32,
+    pub(crate) title_h: u32,
 }
 
 /// Label text size in pixels.
@@ -368,14 +357,14 @@ impl SheetLayout {
     }
 
     /// Shrink one 8-bit RGB frame to a tile.
-    pub fn thumbnail(&self, rgb: &[u8], width: usize, height: usize) -> Option<RgbImage> {
+    pub(crate) fn thumbnail(&self, rgb: &[u8], width: usize, height: usize) -> Option<RgbImage> {
         let img = image::ImageBuffer::<image::Rgb<u8>, &[u8]>::from_raw(width as u32, height as u32, rgb)?;
         Some(image::imageops::resize(&img, self.tile_w, self.tile_h, image::imageops::FilterType::Triangle))
     }
 
     /// The sheet: tiles in rows (a short last row centred), each with its label below, and the title
     /// on top.
-    pub fn assemble(&self, tiles: &[RgbImage], labels: &[String], title: Option<&str>) -> RgbImage {
+    pub(crate) fn assemble(&self, tiles: &[RgbImage], labels: &[String], title: Option<&str>) -> RgbImage {
         let label_h = if labels.is_empty() { 0 } else { self.label_h };
         let top = if title.is_some() { self.title_h } else { 0 };
         let cell_w = self.tile_w + self.gap;

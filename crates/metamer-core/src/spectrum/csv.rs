@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 pub struct SpectrumCsvError {
     /// The file (as given).
     pub path: PathBuf,
-    pub kind: CsvErrorKind,
+    pub(crate) kind: CsvErrorKind,
 }
 
 /// The reason a spectrum CSV file was rejected.
@@ -42,7 +42,7 @@ pub enum CsvErrorKind {
 }
 
 /// Read a spectrum CSV file and resample it onto the standard grid.
-pub fn read_spectrum_csv(path: &Path) -> Result<Spectrum, SpectrumCsvError> {
+pub(crate) fn read_spectrum_csv(path: &Path) -> Result<Spectrum, SpectrumCsvError> {
     let wrap = |kind| SpectrumCsvError { path: path.to_path_buf(), kind };
     let bytes = crate::fsio::read(path, crate::fsio::Kind::Csv).map_err(|e| wrap(CsvErrorKind::Io(e)))?;
     parse_spectrum_csv_bytes(&bytes).map_err(wrap)

@@ -20,8 +20,8 @@ pub type Samples = SVector<f64, SAMPLES>;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Grid {
     pub start_nm: f64,
-    pub step_nm: f64,
-    pub count: usize,
+    pub(crate) step_nm: f64,
+    pub(crate) count: usize,
 }
 
 impl Grid {

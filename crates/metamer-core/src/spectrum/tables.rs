@@ -4,7 +4,7 @@
 
 // Provenance (cie1931_2deg_10nm.csv): CIE 1931 2-degree colour matching functions, point samples at 10 nm, 400-700 nm
 /// CIE 1931 2° colour matching functions x̄, ȳ, z̄ (rows), point-sampled at 400..=700 nm.
-pub const CIE1931_2DEG: [[f64; 31]; 3] = [
+pub(crate) const CIE1931_2DEG: [[f64; 31]; 3] = [
     [
         0.01431, 0.04351, 0.13438, 0.2839, 0.34828, 0.3362, 0.2908, 0.19536, 0.09564, 0.03201, 0.0049, 0.0093, 0.06327,
         0.1655, 0.2904, 0.4334499, 0.5945, 0.7621, 0.9163, 1.0263, 1.0622, 1.0026, 0.8544499, 0.6424, 0.4479, 0.2835,
@@ -52,7 +52,7 @@ pub const CIE1931_2DEG: [[f64; 31]; 3] = [
 
 // Provenance (illuminants_10nm.csv): CIE illuminant relative spectral power, point samples at 10 nm (HP1 = high-pressure sodium). Unnormalised, as published.
 /// CIE illuminants, relative spectral power as published (unnormalised).
-pub const ILLUMINANTS: [(&str, [f64; 31]); 9] = [
+pub(crate) const ILLUMINANTS: [(&str, [f64; 31]); 9] = [
     (
         "D65",
         [
@@ -124,7 +124,7 @@ pub const ILLUMINANTS: [(&str, [f64; 31]); 9] = [
 
 // Provenance (colorchecker24_10nm.csv): ColorChecker Classic 24 patches, BabelColor average spectral reflectance, point samples at 10 nm
 /// ColorChecker Classic 24, BabelColor average spectral reflectance.
-pub const COLORCHECKER24: [(&str, [f64; 31]); 24] = [
+pub(crate) const COLORCHECKER24: [(&str, [f64; 31]); 24] = [
     (
         "dark_skin",
         [
@@ -316,5 +316,5 @@ pub const COLORCHECKER24: [(&str, [f64; 31]); 24] = [
 
 // Provenance (srgb_xyz_to_linear_rgb.txt): XYZ (Y=1 white) to linear sRGB, IEC 61966-2-1 (D65 white)
 /// XYZ (Y = 1 white) to linear sRGB, row-major.
-pub const XYZ_TO_LINEAR_SRGB: [[f64; 3]; 3] =
+pub(crate) const XYZ_TO_LINEAR_SRGB: [[f64; 3]; 3] =
     [[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.204, 1.057]];

@@ -6,10 +6,10 @@ use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 
 /// The environment variable naming the data folder.
-pub const DATA_ENV: &str = "METAMER_DATA";
+pub(crate) const DATA_ENV: &str = "METAMER_DATA";
 
 /// The data folder from `METAMER_DATA`, when set and not empty.
-pub fn data_dir() -> Option<PathBuf> {
+pub(crate) fn data_dir() -> Option<PathBuf> {
     std::env::var_os(DATA_ENV).filter(|v| !v.is_empty()).map(PathBuf::from)
 }
 

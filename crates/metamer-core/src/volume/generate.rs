@@ -7,13 +7,13 @@ use super::Volume;
 use std::path::Path;
 
 /// Value ranges of the generated engine's parts (inclusive), for scenes over it.
-pub const SMOKE_RANGE: [f32; 2] = [18.0, 75.0];
-pub const BLOCK_RANGE: [f32; 2] = [105.0, 175.0];
-pub const INNER_RANGE: [f32; 2] = [200.0, 255.0];
+pub(crate) const SMOKE_RANGE: [f32; 2] = [18.0, 75.0];
+pub(crate) const BLOCK_RANGE: [f32; 2] = [105.0, 175.0];
+pub(crate) const INNER_RANGE: [f32; 2] = [200.0, 255.0];
 
 /// An engine-like block of `size × size × size/2` voxels (size clamped to 16..=512), 8-bit values.
 /// The same size always gives the same volume.
-pub fn engine_like(size: usize) -> Volume {
+pub(crate) fn engine_like(size: usize) -> Volume {
     let n = size.clamp(16, 512);
     let dims = [n, n, (n / 2).max(8)];
     let scale = [1.0 / (dims[0] - 1) as f64, 1.0 / (dims[1] - 1) as f64, 1.0 / (dims[2] - 1) as f64];

@@ -36,8 +36,8 @@ impl VolumeError {
 }
 
 /// The smallest and largest voxel spacing accepted (any unit: only ratios matter to the renderer).
-pub const MIN_SPACING: f64 = 1e-9;
-pub const MAX_SPACING: f64 = 1e9;
+pub(crate) const MIN_SPACING: f64 = 1e-9;
+pub(crate) const MAX_SPACING: f64 = 1e9;
 /// The largest ratio of the largest to the smallest spacing: the renderer steps by the smallest spacing,
 /// so this ratio bounds how many steps a ray takes per voxel of the coarsest axis.
 pub const MAX_ANISOTROPY: f64 = 100.0;
@@ -57,7 +57,7 @@ pub enum ScalarType {
 
 impl ScalarType {
     /// Bytes per value.
-    pub fn size(self) -> usize {
+    pub(crate) fn size(self) -> usize {
         match self {
             ScalarType::U8 | ScalarType::I8 => 1,
             ScalarType::U16 | ScalarType::I16 => 2,
@@ -197,13 +197,9 @@ impl Volume {
     }
 
     /// Number of voxels.
-    pub fn len(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn len(&self) -> usize {
         self.data.len()
-    }
-
-    /// True when the volume holds no voxels (never for a volume built by [`Volume::new`]).
-    pub fn is_empty(&self) -> bool {
-        self.data.is_empty()
     }
 
     /// Value of voxel (x, y, z).

@@ -31,7 +31,7 @@ struct Header {
 
 /// The longest header read: real NRRD headers are a few hundred bytes. Only this much of a file is read
 /// before its header says how many data bytes may follow.
-pub const HEADER_CAP: u64 = 1 << 20;
+pub(crate) const HEADER_CAP: u64 = 1 << 20;
 
 /// Read a `.nhdr` or `.nrrd` file. Reads are bounded by what the header says: first at most
 /// [`HEADER_CAP`] bytes (the header must end within them), then the data (attached, or the detached `data

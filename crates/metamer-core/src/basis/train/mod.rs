@@ -43,31 +43,31 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 /// Bumped whenever a change to training changes its result (it is part of the cache key).
-pub const TRAINING_VERSION: u32 = 5;
+pub(crate) const TRAINING_VERSION: u32 = 5;
 
 /// Default weight μ of the full-Λ colour error while refining all of B. On ColorChecker × 7 lights, m = 7,
 /// μ = 0.3 brings the full-Λ model (Eq. 7, which DESIGN_SPEC §2's subspace criteria use) from mean ΔE00
 /// ≈ 10 to ≈ 0.2 while the factor model stays at ≈ 0.3 (see the module docs).
-pub const DEFAULT_LAMBDA_WEIGHT: f64 = 0.3;
+pub(crate) const DEFAULT_LAMBDA_WEIGHT: f64 = 0.3;
 
 /// How much worse (mean, p95 ΔE00) the factor model may get when refining all of B with the full-Λ term,
 /// compared with the T-only basis, before that refinement is rejected.
-pub const FACTOR_SLACK: (f64, f64) = (0.05, 0.1);
+pub(crate) const FACTOR_SLACK: (f64, f64) = (0.05, 0.1);
 
 /// Default weight ρ of the conditioning term (sum of the columns' variance inflation factors, see
 /// [`Objective::with_conditioning_weight`]): negligible for a balanced condition number up to ~10³ (VIF ≤
 /// 10⁶ costs 10⁻³ of mean squared ΔE00), dominant beyond ~10⁵.
-pub const DEFAULT_CONDITIONING_WEIGHT: f64 = 1e-9;
+pub(crate) const DEFAULT_CONDITIONING_WEIGHT: f64 = 1e-9;
 
 /// Iterations per stage when screening the starts (see [`TrainOptions::screen_iterations`]).
-pub const DEFAULT_SCREEN_ITERATIONS: u64 = 300;
+pub(crate) const DEFAULT_SCREEN_ITERATIONS: u64 = 300;
 
 /// A singular value counts towards the rank of the colour signals when it exceeds this fraction of the
 /// largest one (the signals are f64 products of tabulated spectra; 1e-9 is far above rounding noise).
-pub const RANK_TOLERANCE: f64 = 1e-9;
+pub(crate) const RANK_TOLERANCE: f64 = 1e-9;
 
 /// The lights of [`TrainingSet::colorchecker_seven_lights`].
-pub const REFERENCE_LIGHTS: [&str; 7] = ["D65", "A", "F2", "F7", "F11", "LED_B3", "D50"];
+pub(crate) const REFERENCE_LIGHTS: [&str; 7] = ["D65", "A", "F2", "F7", "F11", "LED_B3", "D50"];
 
 /// Why a basis cannot be trained.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -172,7 +172,7 @@ pub enum Start {
 
 impl Start {
     /// The stage that reports the unrefined start.
-    pub fn stage(self) -> Stage {
+    pub(crate) fn stage(self) -> Stage {
         match self {
             Start::Pca => Stage::Pca,
             Start::IntervalSharpening => Stage::IntervalSharpening,
@@ -229,16 +229,16 @@ pub struct Trained {
     /// `B0 T` after stages 2–3, before all of B was refined (equal to `basis.b` when stage 4 did not run).
     pub transform_only: DMatrix<f64>,
     /// Rank of the colour signals (≤ m; padding fills the rest).
-    pub signal_rank: usize,
+    pub(crate) signal_rank: usize,
     /// Number of padded columns (`m − min(rank, m)`).
-    pub padded: usize,
-    pub stages: Vec<StageResult>,
+    pub(crate) padded: usize,
+    pub(crate) stages: Vec<StageResult>,
     /// Anything the user should know (padding, a stage that was skipped or failed).
-    pub notes: Vec<String>,
+    pub(crate) notes: Vec<String>,
     /// The start the accepted basis was refined from.
     pub start: Start,
     /// Every candidate tried, in order (the last is the unrefined PCA basis).
-    pub candidates: Vec<CandidateSummary>,
+    pub(crate) candidates: Vec<CandidateSummary>,
     /// Condition number of the accepted B with unit-norm columns.
     pub condition: f64,
 }
@@ -246,7 +246,7 @@ pub struct Trained {
 /// The m leading principal components of the colour signals (uncentred: the signals' own span), as an
 /// orthonormal 31×m matrix, padded with band vectors when the signals have lower rank. Returns the basis
 /// and the signals' rank. Columns are signed so that their sum is non-negative (deterministic output).
-pub fn principal_components(signals: &DMatrix<f64>, m: usize) -> Result<(DMatrix<f64>, usize), TrainError> {
+pub(crate) fn principal_components(signals: &DMatrix<f64>, m: usize) -> Result<(DMatrix<f64>, usize), TrainError> {
     super::check_dimension(m).map_err(|_| TrainError::BadDimension(m))?;
     let mut cols: Vec<DVector<f64>> = Vec::with_capacity(m);
     let mut rank = 0;

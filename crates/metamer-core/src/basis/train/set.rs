@@ -46,12 +46,12 @@ impl TrainingSet {
     }
 
     /// Number of light × reflectance pairs.
-    pub fn pairs(&self) -> usize {
+    pub(crate) fn pairs(&self) -> usize {
         self.lights.len() * self.reflectances.len()
     }
 
     /// The colour signals `E_l ∘ S_r` as the columns of a 31×(lights·reflectances) matrix, light-major.
-    pub fn signals(&self) -> DMatrix<f64> {
+    pub(crate) fn signals(&self) -> DMatrix<f64> {
         let mut x = DMatrix::zeros(SAMPLES, self.pairs());
         let mut col = 0;
         for e in &self.lights {
@@ -64,7 +64,7 @@ impl TrainingSet {
     }
 
     /// A stable 64-bit hash (FNV-1a over the IEEE bit patterns) of the spectra, in order.
-    pub fn content_hash(&self) -> u64 {
+    pub(crate) fn content_hash(&self) -> u64 {
         let mut h = Fnv1a::new();
         h.write(&(self.lights.len() as u64).to_le_bytes());
         h.write(&(self.reflectances.len() as u64).to_le_bytes());

@@ -38,7 +38,7 @@ impl RegionCache {
 /// The feasibility of one cell's target.
 #[derive(Clone, Debug)]
 pub struct CellFeasibility {
-    pub cell: usize,
+    pub(crate) cell: usize,
     pub target: Vector3<f64>,
     pub achieved: Vector3<f64>,
     pub verdict: Verdict,
@@ -49,9 +49,9 @@ pub struct CellFeasibility {
     /// several partners move together — then [`CellFeasibility::together`] is true).
     pub blockers: Vec<usize>,
     /// Reachable alone, but no single partner's release suffices.
-    pub together: bool,
+    pub(crate) together: bool,
     /// Active cells on the spectrum not modelled (their other side is designed too).
-    pub joint: Vec<usize>,
+    pub(crate) joint: Vec<usize>,
     pub region: Arc<Region>,
 }
 
@@ -153,7 +153,7 @@ pub fn describe(palette: &Palette, f: &CellFeasibility, tolerance: f64) -> Strin
 /// What the designer draws for one cell: the region's slice at the target's L*, the marks, the numbers.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Panel {
-    pub cell: usize,
+    pub(crate) cell: usize,
     /// "light × reflectance".
     pub label: String,
     pub tolerance: f64,

@@ -137,7 +137,7 @@ const LAB_EPS: f64 = 216.0 / 24389.0;
 const LAB_KAPPA: f64 = 24389.0 / 27.0;
 
 /// The Jacobian of linear sRGB → CIELAB at `rgb` against reference white `white` (XYZ).
-pub fn lab_jacobian(rgb_to_xyz: &Matrix3<f64>, white: &Vector3<f64>, rgb: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn lab_jacobian(rgb_to_xyz: &Matrix3<f64>, white: &Vector3<f64>, rgb: &Vector3<f64>) -> Matrix3<f64> {
     let xyz = rgb_to_xyz * rgb;
     let df = |v: f64, w: f64| {
         let t = if w.abs() > f64::MIN_POSITIVE { v / w } else { 0.0 };
@@ -167,7 +167,7 @@ fn y_of_l(l: f64, yn: f64) -> f64 {
 #[derive(Clone, Debug)]
 pub struct Partner {
     /// Index into `palette.colours`.
-    pub cell: usize,
+    pub(crate) cell: usize,
     /// Its 3×31 operator on the designed spectrum.
     pub op: Q31,
     /// Its current colour (linear sRGB).
@@ -175,9 +175,9 @@ pub struct Partner {
     /// CIELAB Jacobian at that colour under its light.
     pub lab: Matrix3<f64>,
     /// Its target (what the solve's "met" criterion compares it with).
-    pub target: Vector3<f64>,
+    pub(crate) target: Vector3<f64>,
     /// Its outer box around the target ([`met_box`]): contains every colour within ΔE00 τ of it.
-    pub outer: MetBox,
+    pub(crate) outer: MetBox,
 }
 
 /// The feasibility problem of one cell: its operator, the bounds of the designed spectrum and the
@@ -187,7 +187,7 @@ pub struct Problem {
     /// Index into `palette.colours`.
     pub cell: usize,
     /// The designed spectrum.
-    pub unit: Unit,
+    pub(crate) unit: Unit,
     /// x ↦ the cell's colour.
     pub op: Q31,
     pub lower: f64,
@@ -199,8 +199,8 @@ pub struct Problem {
     /// The cell's target (a free cell's target is its group's colour).
     pub target: Vector3<f64>,
     /// CIELAB reference white (XYZ) of the cell's light.
-    pub white: Vector3<f64>,
-    pub rgb_to_xyz: Matrix3<f64>,
+    pub(crate) white: Vector3<f64>,
+    pub(crate) rgb_to_xyz: Matrix3<f64>,
     pub partners: Vec<Partner>,
     /// τ (ΔE): each partner's box has half-width τ/√3 per CIELAB component.
     pub tolerance: f64,
@@ -210,7 +210,7 @@ pub struct Problem {
 }
 
 /// A support value and the colour attaining it.
-pub type Support = (f64, Vector3<f64>);
+pub(crate) type Support = (f64, Vector3<f64>);
 
 /// The result of one LP or QP.
 enum Outcome {
@@ -221,7 +221,7 @@ enum Outcome {
 
 /// How the partner cells are held.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Hold {
+pub(crate) enum Hold {
     /// In the box of half-width τ/√3 around the current colour (inscribed in the ΔE*ab ball of radius τ):
     /// what this region reaches is reached with every partner kept near where it is.
     Inner,

@@ -95,7 +95,7 @@ impl Problem {
     }
 
     /// The same problem without the partner at index `i` of [`Problem::partners`].
-    pub fn without(&self, i: usize) -> Problem {
+    pub(crate) fn without(&self, i: usize) -> Problem {
         let mut p = self.clone();
         if i < p.partners.len() {
             p.partners.remove(i);
@@ -293,7 +293,7 @@ impl Problem {
     /// puts the cell in the [`met_box`] of the target (which contains every colour within ΔE00 τ
     /// of it) and every partner in its outer box. False is a
     /// guarantee: no solution has this cell and every partner within ΔE00 τ of their targets.
-    pub fn may_meet(&self, target: &Vector3<f64>) -> Result<bool, FeasibilityError> {
+    pub(crate) fn may_meet(&self, target: &Vector3<f64>) -> Result<bool, FeasibilityError> {
         let b = met_box(&self.rgb_to_xyz, &self.white, target, self.tolerance);
         let centre = b.rows * target;
         let lp = if b.half == Vector3::zeros() {
@@ -323,7 +323,7 @@ impl Problem {
     }
 
     /// The reachable colour closest to `target` in CIELAB linearised at the target, and that distance.
-    pub fn closest(&self, target: &Vector3<f64>) -> Result<(Vector3<f64>, f64), FeasibilityError> {
+    pub(crate) fn closest(&self, target: &Vector3<f64>) -> Result<(Vector3<f64>, f64), FeasibilityError> {
         let j = self.jacobian(target);
         let m = j * self.op;
         let h = m.transpose() * m * 2.0;
@@ -354,7 +354,7 @@ impl Problem {
     }
 
     /// Can the cell reach `target` exactly (within the QP's accuracy)?
-    pub fn reaches(&self, target: &Vector3<f64>) -> Result<bool, FeasibilityError> {
+    pub(crate) fn reaches(&self, target: &Vector3<f64>) -> Result<bool, FeasibilityError> {
         Ok(self.closest(target)?.1 <= REACH_EPS)
     }
 }

@@ -4,7 +4,7 @@
 use super::*;
 
 /// `n` unit vectors spread over the sphere (Fibonacci lattice).
-pub fn sphere_directions(n: usize) -> Vec<Vector3<f64>> {
+pub(crate) fn sphere_directions(n: usize) -> Vec<Vector3<f64>> {
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
     (0..n)
         .map(|i| {
@@ -24,7 +24,7 @@ pub struct Region {
     /// Directions in linear sRGB.
     pub directions: Vec<Vector3<f64>>,
     /// Support values (`+∞` where unbounded).
-    pub support: Vec<f64>,
+    pub(crate) support: Vec<f64>,
     /// The support points (one per bounded direction).
     pub points: Vec<Vector3<f64>>,
     /// Support values of the outer region ([`Hold::Outer`]) in the same directions (`+∞` where
@@ -186,7 +186,7 @@ pub struct Verdict {
     pub closest: Vector3<f64>,
     /// The nearest boundary point found (linear sRGB): the closest colour outside, the foot on the
     /// nearest supporting plane inside.
-    pub boundary: Vector3<f64>,
+    pub(crate) boundary: Vector3<f64>,
 }
 
 /// Place `target` against the region of `problem`.
@@ -269,7 +269,7 @@ pub fn slice(
 }
 
 /// [`slice`] of the inner or the outer region.
-pub fn slice_held(
+pub(crate) fn slice_held(
     problem: &Problem,
     hold: Hold,
     l_star: f64,

@@ -14,27 +14,27 @@ const ARRAY: u64 = 512;
 const VALUE: u64 = 160;
 
 /// The largest estimated parse of a text of `len` bytes: 64 MiB plus 48 bytes per byte of input.
-pub fn budget(len: usize) -> u64 {
+pub(crate) fn budget(len: usize) -> u64 {
     (64u64 << 20) + 48 * len as u64
 }
 
 /// What the text holds, counted outside strings and comments.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Counts {
-    pub tables: u64,
-    pub arrays: u64,
-    pub values: u64,
+pub(crate) struct Counts {
+    pub(crate) tables: u64,
+    pub(crate) arrays: u64,
+    pub(crate) values: u64,
 }
 
 impl Counts {
     /// The estimated parse memory, bytes.
-    pub fn cost(&self) -> u64 {
+    pub(crate) fn cost(&self) -> u64 {
         self.tables * TABLE + self.arrays * ARRAY + self.values * VALUE
     }
 }
 
 /// Count tables (`{`, and `[` at the start of a line), arrays (other `[`) and values (`=` and `,`).
-pub fn count(text: &str) -> Counts {
+pub(crate) fn count(text: &str) -> Counts {
     let b = text.as_bytes();
     let mut c = Counts::default();
     let mut i = 0;

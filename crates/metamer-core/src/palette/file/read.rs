@@ -39,11 +39,11 @@ const FREE_KEYS: &[&str] = &["name", "lower", "upper"];
 
 /// What reading a palette produces besides the model.
 pub(super) struct ReadOutcome {
-    pub palette: Palette,
+    pub(crate) palette: Palette,
     /// Non-fatal remarks (unknown keys kept as they are).
-    pub warnings: Vec<String>,
+    pub(crate) warnings: Vec<String>,
     /// Raw (unnormalised) samples of every CSV source read, by the path as written.
-    pub csv_raw: HashMap<String, Spectrum>,
+    pub(crate) csv_raw: HashMap<String, Spectrum>,
 }
 
 /// A spectrum as read, and its CSV file's raw samples when it has one.

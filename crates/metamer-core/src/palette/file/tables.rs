@@ -104,19 +104,19 @@ impl Tables {
 
 /// A save written table by table: the new text and what the file now says.
 pub(super) struct Saved {
-    pub text: String,
-    pub palette: Palette,
-    pub tables: Tables,
+    pub(crate) text: String,
+    pub(crate) palette: Palette,
+    pub(crate) tables: Tables,
 }
 
 /// What the file as read says, and how it is laid out.
 pub(super) struct Layout<'a> {
-    pub text: &'a str,
-    pub tables: &'a Tables,
-    pub crlf: bool,
+    pub(crate) text: &'a str,
+    pub(crate) tables: &'a Tables,
+    pub(crate) crlf: bool,
     /// Some lines end in CRLF and some in LF (the whole document's print changes some of them).
-    pub mixed_newlines: bool,
-    pub no_final_newline: bool,
+    pub(crate) mixed_newlines: bool,
+    pub(crate) no_final_newline: bool,
 }
 
 /// Entries of the two palettes that only differ in how their spectrum is given.

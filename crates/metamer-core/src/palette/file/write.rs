@@ -16,12 +16,12 @@ use toml_edit::{Array, ArrayOfTables, DocumentMut, InlineTable, Item, Table, Tab
 /// What the update needs besides the two palettes.
 pub(super) struct SaveContext<'a> {
     /// Folder the document's relative CSV paths are relative to now (`None` for a new document).
-    pub old_base: Option<&'a Path>,
+    pub(crate) old_base: Option<&'a Path>,
     /// Folder of the file being written.
-    pub new_base: &'a Path,
+    pub(crate) new_base: &'a Path,
     /// Raw samples of CSV sources already read, by path as written.
-    pub csv_raw: &'a HashMap<String, Spectrum>,
-    pub luminance: Samples,
+    pub(crate) csv_raw: &'a HashMap<String, Spectrum>,
+    pub(crate) luminance: Samples,
 }
 
 /// Why the document cannot take the model.

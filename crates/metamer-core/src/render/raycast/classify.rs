@@ -79,12 +79,12 @@ impl Classifier {
 /// every trilinear cell starting inside a brick is bounded by it).
 pub struct BrickMap {
     /// Edge in voxels, a power of two.
-    pub size: usize,
+    pub(crate) size: usize,
     /// log2 of `size`.
-    pub shift: u32,
-    pub counts: [usize; 3],
-    pub min: Vec<f32>,
-    pub max: Vec<f32>,
+    pub(crate) shift: u32,
+    pub(crate) counts: [usize; 3],
+    pub(crate) min: Vec<f32>,
+    pub(crate) max: Vec<f32>,
 }
 
 impl BrickMap {

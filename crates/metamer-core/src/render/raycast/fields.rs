@@ -55,11 +55,11 @@ pub(super) enum Kind {
 /// One brick's block.
 pub(super) struct Block {
     /// `S3` gradient triples (empty when no gradients are needed).
-    pub grad: Vec<[i16; 3]>,
+    pub(crate) grad: Vec<[i16; 3]>,
     /// Materials (0-based) with some occupancy in the block (label mode).
-    pub mats: Vec<u8>,
+    pub(crate) mats: Vec<u8>,
     /// `mats.len() × S3` occupancies in 1/255 (label mode).
-    pub occ: Vec<u8>,
+    pub(crate) occ: Vec<u8>,
 }
 
 /// The lazily built per-brick blocks of one raycast.
@@ -71,7 +71,7 @@ pub(super) struct Fields<'a> {
     counts: [usize; 3],
     blocks: Vec<OnceLock<Block>>,
     /// Field units per stored gradient unit.
-    pub scale: f32,
+    pub(crate) scale: f32,
     kernel: [f32; 2 * LABEL_RADIUS + 1],
     bytes: AtomicU64,
     built: AtomicU64,
@@ -112,19 +112,19 @@ impl<'a> Fields<'a> {
     }
 
     /// Blocks built so far and their bytes.
-    pub fn usage(&self) -> (u64, u64) {
+    pub(crate) fn usage(&self) -> (u64, u64) {
         (self.built.load(Ordering::Relaxed), self.bytes.load(Ordering::Relaxed))
     }
 
     /// The brick holding cell start `i`.
     #[inline(always)]
-    pub fn brick_of(&self, i: [usize; 3]) -> [usize; 3] {
+    pub(crate) fn brick_of(&self, i: [usize; 3]) -> [usize; 3] {
         [0, 1, 2].map(|a| (i[a] >> SHIFT).min(self.counts[a] - 1))
     }
 
     /// The block of the brick holding cell start `i`, and the local index of `i` in it.
     #[inline(always)]
-    pub fn block(&self, i: [usize; 3]) -> (&Block, usize) {
+    pub(crate) fn block(&self, i: [usize; 3]) -> (&Block, usize) {
         let b = self.brick_of(i);
         let l = [0, 1, 2].map(|a| i[a] - (b[a] << SHIFT));
         let bi = b[0] + self.counts[0] * (b[1] + self.counts[1] * b[2]);
@@ -135,7 +135,7 @@ impl<'a> Fields<'a> {
     /// The trilinear interpolation of the block's gradients at local index `base` and fractions `f`
     /// (field units per voxel).
     #[inline(always)]
-    pub fn gradient(&self, block: &Block, base: usize, f: [f32; 3]) -> [f32; 3] {
+    pub(crate) fn gradient(&self, block: &Block, base: usize, f: [f32; 3]) -> [f32; 3] {
         if block.grad.is_empty() {
             return [0.0; 3];
         }

@@ -44,17 +44,17 @@ impl Cell {
 }
 
 pub(super) struct RayContext<'a> {
-    pub volume: &'a Volume,
-    pub classifier: &'a Classifier,
+    pub(crate) volume: &'a Volume,
+    pub(crate) classifier: &'a Classifier,
     /// The lazily built per-brick fields: smooth gradients and, in label mode, smoothed occupancy
     /// (None when neither is needed).
-    pub fields: Option<&'a Fields<'a>>,
-    pub bricks: Option<(&'a BrickMap, &'a [bool])>,
-    pub view: &'a View,
-    pub options: &'a RaycastOptions,
-    pub n_mat: usize,
-    pub width: usize,
-    pub height: usize,
+    pub(crate) fields: Option<&'a Fields<'a>>,
+    pub(crate) bricks: Option<(&'a BrickMap, &'a [bool])>,
+    pub(crate) view: &'a View,
+    pub(crate) options: &'a RaycastOptions,
+    pub(crate) n_mat: usize,
+    pub(crate) width: usize,
+    pub(crate) height: usize,
 }
 
 impl RayContext<'_> {
@@ -221,7 +221,7 @@ impl RayContext<'_> {
     }
 
     /// March the ray of pixel (px, py), accumulating material weights into `out`.
-    pub fn trace(&self, px: usize, py: usize, out: &mut [f32], stats: &mut RaycastStats) {
+    pub(crate) fn trace(&self, px: usize, py: usize, out: &mut [f32], stats: &mut RaycastStats) {
         let view = self.view;
         let vol = self.volume;
         let sx = ((px as f64 + 0.5) / self.width as f64 * 2.0 - 1.0) * view.half_extent;

@@ -90,7 +90,7 @@ pub struct MaterialClass {
     /// Inclusive value range in the volume's units.
     pub range: [f32; 2],
     /// Opacity per step of one voxel, in [0, 1].
-    pub opacity: f32,
+    pub(crate) opacity: f32,
     /// False for an emissive-only material: it adds its colour without attenuating the ray.
     pub absorbs: bool,
 }
@@ -103,19 +103,19 @@ impl MaterialClass {
 }
 
 /// Most materials a transfer function may hold.
-pub const MAX_MATERIALS: usize = 64;
+pub(crate) const MAX_MATERIALS: usize = 64;
 
 /// View direction and framing of the orthographic camera. Azimuth turns about the volume's z axis
 /// (0° looks along +y), elevation lifts the camera towards +z.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub azimuth_deg: f64,
-    pub elevation_deg: f64,
+    pub(crate) elevation_deg: f64,
     /// 1 frames the view's target (see `fit`) with a small margin; larger values magnify.
-    pub zoom: f64,
+    pub(crate) zoom: f64,
     /// Frame the bounding box of the voxels that belong to a material (centred on its projection),
     /// instead of the bounding sphere of the whole grid.
-    pub fit_materials: bool,
+    pub(crate) fit_materials: bool,
 }
 
 impl Default for Camera {
@@ -217,10 +217,10 @@ pub struct RaycastStats {
     /// Steps jumped over inside empty bricks.
     pub skipped: u64,
     /// Rays stopped early by low transmittance.
-    pub terminated: u64,
+    pub(crate) terminated: u64,
     /// Per-brick field blocks built (smooth gradients, smoothed label occupancy) and their bytes.
-    pub field_blocks: u64,
-    pub field_bytes: u64,
+    pub(crate) field_blocks: u64,
+    pub(crate) field_bytes: u64,
 }
 
 mod classify;
@@ -371,7 +371,7 @@ fn dilate_occupied(empty: &[bool], counts: [usize; 3], k: usize) -> Vec<bool> {
 /// Interleaved gradient noise (Jimenez 2014) of a pixel: a deterministic value in [0, 1) whose
 /// neighbours differ strongly, so ray-start offsets show no structure at 1:1.
 #[inline(always)]
-pub fn interleaved_gradient_noise(px: usize, py: usize) -> f64 {
+pub(crate) fn interleaved_gradient_noise(px: usize, py: usize) -> f64 {
     let f = 0.06711056 * px as f64 + 0.00583715 * py as f64;
     (52.9829189 * f.fract()).fract()
 }
