@@ -26,10 +26,10 @@ use std::time::Instant;
 pub struct BenchOptions {
     pub dimensions: RangeInclusive<usize>,
     /// Pixels per timed relighting frame.
-    pub pixels: usize,
+    pub(crate) pixels: usize,
     /// Timed frames per dimension (after one warm-up).
-    pub runs: usize,
-    pub training: TrainOptions,
+    pub(crate) runs: usize,
+    pub(crate) training: TrainOptions,
 }
 
 impl Default for BenchOptions {
@@ -41,17 +41,17 @@ impl Default for BenchOptions {
 /// One dimension's results.
 #[derive(Clone, Debug)]
 pub struct Row {
-    pub dimension: usize,
+    pub(crate) dimension: usize,
     /// The basis after refining T only (B in the PCA span).
-    pub transform_only: ErrorStats,
+    pub(crate) transform_only: ErrorStats,
     /// The basis after refining all of B (what `metamer basis` returns).
-    pub full: ErrorStats,
-    pub training_seconds: f64,
+    pub(crate) full: ErrorStats,
+    pub(crate) training_seconds: f64,
     /// Relighting time per frame.
     pub relight: Timing,
     /// Relighting cost in nanoseconds per pixel-frame: the fastest timed frame (the least disturbed by other
     /// work on the machine; the spread is in `relight`).
-    pub relight_ns_per_pixel: f64,
+    pub(crate) relight_ns_per_pixel: f64,
 }
 
 /// The whole benchmark.
@@ -61,7 +61,7 @@ pub struct Results {
     /// The RGB factor model's error on the same set and its (m = 3) relighting cost.
     pub rgb: ErrorStats,
     pub rgb_relight_ns_per_pixel: f64,
-    pub pixels: usize,
+    pub(crate) pixels: usize,
 }
 
 /// Why the benchmark failed.
@@ -79,7 +79,7 @@ pub enum BenchError {
 
 /// The post-illumination kernel: for every pixel's m coefficients `s`, `rgb = Q (e ∘ s)` with `q` the 3×m
 /// matrix `Q_rgb,m` in row-major order. `coefficients.len()` must be `pixels · m` and `out.len()` `pixels · 3`.
-pub fn relight(coefficients: &[f32], light: &[f32], q: &[f32], out: &mut [f32]) {
+pub(crate) fn relight(coefficients: &[f32], light: &[f32], q: &[f32], out: &mut [f32]) {
     let m = light.len();
     if m == 0 {
         return;
@@ -157,7 +157,7 @@ pub fn run(options: &BenchOptions) -> Result<Results, BenchError> {
 }
 
 /// The results as a Markdown table.
-pub fn markdown(results: &Results) -> String {
+pub(crate) fn markdown(results: &Results) -> String {
     let f = |v: f64| format!("{v:.2}");
     let mut rows: Vec<Vec<String>> = results
         .rows
@@ -192,7 +192,7 @@ pub fn markdown(results: &Results) -> String {
 }
 
 /// Draw the error plot (ΔE00 against m) and the cost plot (ns per pixel-frame against m).
-pub fn plots(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, BenchError> {
+pub(crate) fn plots(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, BenchError> {
     let dims = |f: &dyn Fn(&Row) -> f64| -> Vec<(f64, f64)> {
         results.rows.iter().map(|r| (r.dimension as f64, f(r))).collect()
     };
@@ -240,7 +240,8 @@ pub fn plots(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, BenchError> 
 }
 
 /// Run, write `basis.md` and the two plots into `dir`, and return the Markdown.
-pub fn run_and_write(options: &BenchOptions, dir: &Path) -> Result<String, BenchError> {
+#[cfg(test)]
+pub(crate) fn run_and_write(options: &BenchOptions, dir: &Path) -> Result<String, BenchError> {
     let results = run(options)?;
     let md = markdown(&results);
     let path = dir.join("basis.md");

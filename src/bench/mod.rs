@@ -40,7 +40,7 @@ pub struct Timing {
 
 impl Timing {
     /// Summarise a set of samples (seconds). `None` when there are none.
-    pub fn from_samples(samples: &[f64]) -> Option<Timing> {
+    pub(crate) fn from_samples(samples: &[f64]) -> Option<Timing> {
         let mut s: Vec<f64> = samples.iter().copied().filter(|v| v.is_finite()).collect();
         if s.is_empty() {
             return None;
@@ -55,14 +55,14 @@ impl Timing {
     }
 
     /// "1.23 ms (1.20–1.31)" — median with the interquartile range.
-    pub fn display(&self) -> String {
+    pub(crate) fn display(&self) -> String {
         format!("{} ({}–{})", format_seconds(self.median), format_seconds(self.q1), format_seconds(self.q3))
     }
 }
 
 /// Time `f` `runs` times (after one warm-up call) and summarise. The closure's result is returned from the
 /// last run so the work cannot be optimised away.
-pub fn time_runs<T>(runs: usize, mut f: impl FnMut() -> T) -> (Timing, T) {
+pub(crate) fn time_runs<T>(runs: usize, mut f: impl FnMut() -> T) -> (Timing, T) {
     let mut last = f();
     let mut samples = Vec::with_capacity(runs.max(1));
     for _ in 0..runs.max(1) {
@@ -76,7 +76,7 @@ pub fn time_runs<T>(runs: usize, mut f: impl FnMut() -> T) -> (Timing, T) {
 }
 
 /// Human-readable seconds with a unit that fits.
-pub fn format_seconds(s: f64) -> String {
+pub(crate) fn format_seconds(s: f64) -> String {
     let a = s.abs();
     if a >= 1.0 {
         format!("{s:.3} s")
@@ -90,12 +90,12 @@ pub fn format_seconds(s: f64) -> String {
 }
 
 /// `v` with `digits` decimals, or "n/a" when it is not finite (tables never show NaN or inf).
-pub fn fixed(v: f64, digits: usize) -> String {
+pub(crate) fn fixed(v: f64, digits: usize) -> String {
     if v.is_finite() { format!("{v:.digits$}") } else { "n/a".into() }
 }
 
 /// A Markdown table.
-pub fn markdown_table(headers: &[&str], rows: &[Vec<String>]) -> String {
+pub(crate) fn markdown_table(headers: &[&str], rows: &[Vec<String>]) -> String {
     let mut out = String::new();
     out.push_str(&format!("| {} |\n", headers.join(" | ")));
     out.push_str(&format!("|{}|\n", headers.iter().map(|_| "---").collect::<Vec<_>>().join("|")));
@@ -106,7 +106,7 @@ pub fn markdown_table(headers: &[&str], rows: &[Vec<String>]) -> String {
 }
 
 /// Indices of the points on the Pareto front of (cost, error), both to be minimised, sorted by cost.
-pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
+pub(crate) fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
     let mut idx: Vec<usize> =
         (0..points.len()).filter(|&i| points[i].0.is_finite() && points[i].1.is_finite()).collect();
     idx.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0).then(points[a].1.total_cmp(&points[b].1)));

@@ -20,18 +20,18 @@ fn register_font() {
 /// One series of points; `spread` optionally gives an x-interval (e.g. interquartile range of a timing)
 /// drawn as a horizontal bar through each point.
 #[derive(Clone, Debug, Default)]
-pub struct Series {
-    pub label: String,
-    pub points: Vec<(f64, f64)>,
-    pub spread: Option<Vec<(f64, f64)>>,
+pub(crate) struct Series {
+    pub(crate) label: String,
+    pub(crate) points: Vec<(f64, f64)>,
+    pub(crate) spread: Option<Vec<(f64, f64)>>,
     /// Join the points with a line (in the given order).
-    pub line: bool,
+    pub(crate) line: bool,
     /// The workload the points were measured on: Pareto fronts join only points of the same workload
     /// (None: a workload of its own).
-    pub workload: Option<String>,
+    pub(crate) workload: Option<String>,
     /// Per point, its workload when the points of one series were measured on different work
     /// (overrides `workload`; empty = not given).
-    pub point_workloads: Vec<String>,
+    pub(crate) point_workloads: Vec<String>,
 }
 
 impl Series {
@@ -43,22 +43,22 @@ impl Series {
 
 /// Axis scaling.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Scale {
+pub(crate) enum Scale {
     Linear,
     Log,
 }
 
 /// A scatter/line plot description.
 #[derive(Clone, Debug)]
-pub struct XyPlot {
-    pub title: String,
-    pub x_label: String,
-    pub y_label: String,
-    pub x_scale: Scale,
-    pub y_scale: Scale,
-    pub series: Vec<Series>,
+pub(crate) struct XyPlot {
+    pub(crate) title: String,
+    pub(crate) x_label: String,
+    pub(crate) y_label: String,
+    pub(crate) x_scale: Scale,
+    pub(crate) y_scale: Scale,
+    pub(crate) series: Vec<Series>,
     /// Mark the Pareto front (minimise both x and y) of each workload's points.
-    pub pareto: bool,
+    pub(crate) pareto: bool,
 }
 
 /// Errors while drawing a plot.
@@ -85,7 +85,7 @@ const COLOURS: [RGBColor; 8] = [
 const MARKERS: usize = 5;
 
 /// Colour and marker shape of series `i`.
-pub fn style_of(i: usize) -> (RGBColor, usize) {
+pub(crate) fn style_of(i: usize) -> (RGBColor, usize) {
     (COLOURS[i % COLOURS.len()], i % MARKERS)
 }
 
@@ -114,7 +114,7 @@ fn marker<DB: DrawingBackend>(
 
 /// A tick label with at most three significant digits and no float noise (`0.001`, `2.5`, `1e-5`,
 /// `3.2e6`), short enough never to be clipped.
-pub fn tick_label(v: f64) -> String {
+pub(crate) fn tick_label(v: f64) -> String {
     if v == 0.0 {
         return "0".into();
     }
@@ -166,7 +166,7 @@ const LEGEND_W: u32 = 260;
 /// Draw `plot` to a PNG of `width`×`height` pixels at `path`: the chart on the left, the legend in a
 /// column of its own on the right (never over data), and a note under the legend counting the points
 /// left out because they are not finite (or not positive on a log axis).
-pub fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Result<(), PlotError> {
+pub(crate) fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Result<(), PlotError> {
     register_font();
     let err = |e: &dyn std::fmt::Display| PlotError::Draw { path: path.display().to_string(), reason: e.to_string() };
     let (xs, ys) = (plot.x_scale, plot.y_scale);

@@ -16,7 +16,7 @@ use super::{format_seconds, markdown_table, time_runs};
 use crate::colorimetry::Colorimetry;
 use crate::render::accuracy::{AccuracyReport, ModelError, compare_models};
 use crate::render::overlay::DialOverlay;
-use crate::render::raycast::{BrickMap, ChannelImage};
+use crate::render::raycast::BrickMap;
 use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
 use crate::render::scene::{Scene, engine_check_scene, generated_check_scene};
 use crate::render::sweep::{SweepOptions, sweep_exposure, write_sweep};
@@ -30,17 +30,17 @@ use std::time::Instant;
 pub struct RenderBenchOptions {
     pub out_dir: PathBuf,
     /// Timed repetitions of each raycast (relighting repeats 20× as many).
-    pub runs: usize,
+    pub(crate) runs: usize,
     /// Raycast image size (the figure is 512).
-    pub raycast_size: usize,
+    pub(crate) raycast_size: usize,
     /// Sweep image size and frame count (the figures are 384 and 48).
-    pub sweep_size: usize,
-    pub sweep_frames: usize,
+    pub(crate) sweep_size: usize,
+    pub(crate) sweep_frames: usize,
     /// Image size and frames of the accuracy comparison.
-    pub accuracy_size: usize,
-    pub accuracy_frames: usize,
+    pub(crate) accuracy_size: usize,
+    pub(crate) accuracy_frames: usize,
     /// Use this volume instead of looking for the shared engine.
-    pub volume: Option<PathBuf>,
+    pub(crate) volume: Option<PathBuf>,
 }
 
 impl Default for RenderBenchOptions {
@@ -60,38 +60,38 @@ impl Default for RenderBenchOptions {
 
 /// One raycast configuration's timing.
 #[derive(Clone, Debug)]
-pub struct RaycastRow {
-    pub accel: Acceleration,
-    pub median_s: f64,
+pub(crate) struct RaycastRow {
+    pub(crate) accel: Acceleration,
+    pub(crate) median_s: f64,
     /// Process CPU time per raycast (all threads; Linux only, from /proc/self/stat), when known.
-    pub cpu_s: Option<f64>,
-    pub samples: u64,
-    pub skipped: u64,
+    pub(crate) cpu_s: Option<f64>,
+    pub(crate) samples: u64,
+    pub(crate) skipped: u64,
 }
 
 /// One relight model's timing.
 #[derive(Clone, Debug)]
-pub struct RelightRow {
-    pub mode: Mode,
-    pub channels: usize,
-    pub size: usize,
-    pub median_s: f64,
+pub(crate) struct RelightRow {
+    pub(crate) mode: Mode,
+    pub(crate) channels: usize,
+    pub(crate) size: usize,
+    pub(crate) median_s: f64,
     /// Process CPU time per frame (one thread working; Linux only), when known.
-    pub cpu_s: Option<f64>,
+    pub(crate) cpu_s: Option<f64>,
     /// Bytes read and written per frame ÷ measured bandwidth.
-    pub bound_s: f64,
+    pub(crate) bound_s: f64,
 }
 
 /// One sampling-quality configuration's raycast time.
 #[derive(Clone, Debug)]
-pub struct QualityRow {
-    pub what: String,
-    pub median_s: f64,
+pub(crate) struct QualityRow {
+    pub(crate) what: String,
+    pub(crate) median_s: f64,
 }
 
 impl RenderBenchReport {
     /// The per-frame cost as text (the fit's slope, or why there is none).
-    pub fn per_frame_text(&self) -> String {
+    pub(crate) fn per_frame_text(&self) -> String {
         match self.per_frame_s {
             Some(s) => {
                 format!("{} per extra frame (fit over {} frame counts)", format_seconds(s), self.sweep_points.len())
@@ -102,7 +102,7 @@ impl RenderBenchReport {
 }
 
 /// Least-squares slope of y over x (None with fewer than two distinct x).
-pub fn slope(points: &[(f64, f64)]) -> Option<f64> {
+pub(crate) fn slope(points: &[(f64, f64)]) -> Option<f64> {
     let n = points.len() as f64;
     let (mx, my) = (points.iter().map(|p| p.0).sum::<f64>() / n, points.iter().map(|p| p.1).sum::<f64>() / n);
     let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
@@ -114,41 +114,41 @@ pub fn slope(points: &[(f64, f64)]) -> Option<f64> {
 #[derive(Clone, Debug)]
 pub struct RenderBenchReport {
     pub volume: String,
-    pub threads: usize,
+    pub(crate) threads: usize,
     /// 1-minute load average when the benchmark started (other processes compete for the cores).
-    pub load_average: Option<f64>,
-    pub brick_build_s: f64,
-    pub raycast: Vec<RaycastRow>,
-    pub bandwidth_bytes_per_s: f64,
-    pub relight: Vec<RelightRow>,
-    pub one_frame_s: f64,
-    pub sweep_s: f64,
+    pub(crate) load_average: Option<f64>,
+    pub(crate) brick_build_s: f64,
+    pub(crate) raycast: Vec<RaycastRow>,
+    pub(crate) bandwidth_bytes_per_s: f64,
+    pub(crate) relight: Vec<RelightRow>,
+    pub(crate) one_frame_s: f64,
+    pub(crate) sweep_s: f64,
     /// Median wall time of drawing the light dial into one frame at the sweep size (single thread).
-    pub overlay_s: f64,
+    pub(crate) overlay_s: f64,
     /// Median sweep time (raycast included) at each frame count measured.
-    pub sweep_points: Vec<(usize, f64)>,
+    pub(crate) sweep_points: Vec<(usize, f64)>,
     /// The marginal cost of a frame: the least-squares slope of sweep time over the frame counts,
     /// None when timing noise makes it come out ≤ 0.
-    pub per_frame_s: Option<f64>,
+    pub(crate) per_frame_s: Option<f64>,
     /// Raycasts made per sweep (one per view: frames only relight).
-    pub raycasts_per_sweep: usize,
+    pub(crate) raycasts_per_sweep: usize,
     /// The cost of each sampling-quality step.
-    pub quality: Vec<QualityRow>,
-    pub sweep_frames: usize,
-    pub sweep_size: usize,
-    pub accuracy: AccuracyReport,
-    pub markdown: String,
+    pub(crate) quality: Vec<QualityRow>,
+    pub(crate) sweep_frames: usize,
+    pub(crate) sweep_size: usize,
+    pub(crate) accuracy: AccuracyReport,
+    pub(crate) markdown: String,
 }
 
 /// The engine CT: `engine.nhdr` in the folder named by `METAMER_DATA` (or its `volumes/`), else
 /// `../shared/volumes/engine.nhdr` from the working folder (a checkout with the data folder beside it).
-pub fn find_shared_engine() -> Option<PathBuf> {
+pub(crate) fn find_shared_engine() -> Option<PathBuf> {
     let name = std::ffi::OsStr::new("engine.nhdr");
     crate::volume::data::find_in_data_dir(name).or_else(|| crate::volume::data::find_in(Path::new("../shared"), name))
 }
 
 /// User + system CPU seconds of this process so far (Linux `/proc/self/stat`, 100 ticks per second).
-pub fn process_cpu_seconds() -> Option<f64> {
+pub(crate) fn process_cpu_seconds() -> Option<f64> {
     let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
     // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
     let rest = &stat[stat.rfind(')')? + 2..];
@@ -158,12 +158,12 @@ pub fn process_cpu_seconds() -> Option<f64> {
 }
 
 /// The 1-minute load average (Linux), to judge how contended the timings were.
-pub fn load_average() -> Option<f64> {
+pub(crate) fn load_average() -> Option<f64> {
     std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
 }
 
 /// Streaming bandwidth of this machine (one thread, read + write of a 64 MiB buffer, best of 3), bytes/s.
-pub fn measure_bandwidth() -> f64 {
+pub(crate) fn measure_bandwidth() -> f64 {
     let n = 16 << 20;
     let src: Vec<f32> = (0..n).map(|i| i as f32).collect();
     let mut dst = vec![0f32; n];
@@ -581,17 +581,4 @@ fn plots(r: &RenderBenchReport, dir: &Path) -> Result<(), RenderError> {
     )
     .map_err(|e| plot_err(&p, e))?;
     Ok(())
-}
-
-/// Relight-kernel input for criterion: a factor-model image of the generated engine.
-pub fn sample_image(size: usize) -> (ChannelImage, ColourModel, Scene) {
-    let scene = generated_check_scene(128);
-    let col = Colorimetry::default();
-    let model = colour_model(&scene, Mode::Factor, &col).unwrap_or_else(|_| ColourModel::full(col.clone()));
-    let view = render_views(&scene, vec![model], size, size, Acceleration::default(), None).pop();
-    let (image, model) = match view {
-        Some(v) => (v.image, v.model),
-        None => (ChannelImage { width: 0, height: 0, channels: 31, data: vec![] }, ColourModel::full(col)),
-    };
-    (image, model, scene)
 }

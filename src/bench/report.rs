@@ -20,7 +20,7 @@ pub enum Suite {
 impl Suite {
     pub const ALL: [Suite; 3] = [Suite::Solve, Suite::Basis, Suite::Render];
 
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Suite::Solve => "solve",
             Suite::Basis => "basis",
@@ -62,15 +62,15 @@ pub enum ReportError {
 #[derive(Clone, Debug)]
 pub struct Headline {
     pub what: String,
-    pub figure: String,
-    pub against: String,
+    pub(crate) figure: String,
+    pub(crate) against: String,
     /// Whether the measured figure meets the aim in `against` (None: no aim, a comparison only).
-    pub met: Option<bool>,
+    pub(crate) met: Option<bool>,
 }
 
 impl Headline {
     /// The table row: what, measured (prefixed ✓ or ✗ when there is an aim), against.
-    pub fn row(&self) -> Vec<String> {
+    pub(crate) fn row(&self) -> Vec<String> {
         let mark = match self.met {
             Some(true) => "✓ ",
             Some(false) => "✗ ",
@@ -154,7 +154,7 @@ pub const README_END: &str = "<!-- metamer bench: end -->";
 
 /// Replace the text between [`README_BEGIN`] and [`README_END`] in `readme` with the report's headline
 /// table and its Pareto plots (image paths relative to the README's folder); atomic (temp file + rename).
-pub fn splice_readme(readme: &Path, report: &BenchReport, out_dir: &Path) -> Result<(), ReportError> {
+pub(crate) fn splice_readme(readme: &Path, report: &BenchReport, out_dir: &Path) -> Result<(), ReportError> {
     let text = crate::fsio::read_to_string(readme, crate::fsio::Kind::Text).map_err(ReportError::File)?;
     let missing = || ReportError::Readme { path: readme.to_path_buf() };
     let begin = text.find(README_BEGIN).ok_or_else(missing)?;

@@ -24,15 +24,15 @@ pub struct Config {
     /// Repetitions per timed case (medians are reported).
     pub runs: usize,
     /// Batch sizes (independent bounded single-reflectance designs under 3 lights).
-    pub batches: Vec<usize>,
+    pub(crate) batches: Vec<usize>,
     /// Joint palette sizes n (n lights × n reflectances, all designed).
-    pub joint_sizes: Vec<usize>,
+    pub(crate) joint_sizes: Vec<usize>,
     /// Seeds per joint size (errors and times are averaged over them).
-    pub joint_seeds: u64,
+    pub(crate) joint_seeds: u64,
     /// Time cap per joint solve.
-    pub time_limit: Duration,
+    pub(crate) time_limit: Duration,
     /// Designs in the batch file the whole process is timed on against scipy (`None`: not measured).
-    pub versus_scipy: Option<usize>,
+    pub(crate) versus_scipy: Option<usize>,
 }
 
 impl Default for Config {
@@ -50,7 +50,7 @@ impl Default for Config {
 
 impl Config {
     /// A quick configuration (for smoke tests of the benchmark code itself).
-    pub fn quick() -> Config {
+    pub(crate) fn quick() -> Config {
         Config {
             runs: 1,
             batches: vec![1, 10],
@@ -66,18 +66,18 @@ impl Config {
 #[derive(Clone, Debug)]
 pub struct Row {
     pub group: String,
-    pub case: String,
+    pub(crate) case: String,
     /// Designs (spectra solved) in the case.
-    pub designs: usize,
-    pub timing: Timing,
+    pub(crate) designs: usize,
+    pub(crate) timing: Timing,
     /// Median time per designed spectrum.
-    pub per_design: f64,
-    pub mean_delta_e_ab: f64,
+    pub(crate) per_design: f64,
+    pub(crate) mean_delta_e_ab: f64,
     /// Capacity rows: the worst over seeds of the per-palette mean ΔE*ab (`mean_delta_e_ab` is then the
     /// mean over seeds).
-    pub worst_delta_e_ab: Option<f64>,
-    pub mean_delta_e00: f64,
-    pub objective: f64,
+    pub(crate) worst_delta_e_ab: Option<f64>,
+    pub(crate) mean_delta_e00: f64,
+    pub(crate) objective: f64,
 }
 
 /// The whole `metamer solve` process against scipy's BVLS, or why it was not measured.
@@ -101,7 +101,7 @@ pub enum VersusScipy {
 
 impl VersusScipy {
     /// One Markdown paragraph.
-    pub fn markdown(&self) -> String {
+    pub(crate) fn markdown(&self) -> String {
         match self {
             VersusScipy::Measured {
                 designs,
@@ -147,7 +147,7 @@ impl Report {
     }
 
     /// The Markdown table.
-    pub fn table(&self) -> String {
+    pub(crate) fn table(&self) -> String {
         let rows: Vec<Vec<String>> = self
             .rows
             .iter()
@@ -174,7 +174,7 @@ impl Report {
     }
 
     /// Draw run time against mean ΔE*ab, one series per group.
-    pub fn plot(&self, path: &Path) -> Result<(), plot::PlotError> {
+    pub(crate) fn plot(&self, path: &Path) -> Result<(), plot::PlotError> {
         let mut groups: Vec<String> = Vec::new();
         for r in &self.rows {
             if !groups.contains(&r.group) {
@@ -211,7 +211,7 @@ impl Report {
 }
 
 /// Mean ΔE*ab and ΔE00 over the active cells of a solution.
-pub fn mean_errors(palette: &Palette, sol: &Solution, colorimetry: &Colorimetry) -> (f64, f64) {
+pub(crate) fn mean_errors(palette: &Palette, sol: &Solution, colorimetry: &Colorimetry) -> (f64, f64) {
     let (mut ab, mut e00, mut n) = (0.0, 0.0, 0usize);
     for c in &sol.cells {
         let cell = &palette.colours[c.cell];
@@ -288,7 +288,7 @@ fn measure(
 }
 
 /// Batches of independent bounded designs (and the same unbounded).
-pub fn batches(cfg: &Config) -> Vec<Row> {
+pub(crate) fn batches(cfg: &Config) -> Vec<Row> {
     let col = Colorimetry::default();
     let options = SolveOptions::default();
     let mut rows = Vec::new();
@@ -302,7 +302,7 @@ pub fn batches(cfg: &Config) -> Vec<Row> {
 }
 
 /// Blocks (parallel, shared factorisations) against one dense stacked system, for modest batches.
-pub fn blocks_vs_dense(cfg: &Config) -> Vec<Row> {
+pub(crate) fn blocks_vs_dense(cfg: &Config) -> Vec<Row> {
     let col = Colorimetry::default();
     let mut rows = Vec::new();
     for n in [5usize, 20] {
@@ -340,15 +340,15 @@ pub fn blocks_vs_dense(cfg: &Config) -> Vec<Row> {
 }
 
 /// Capacity row labels: which CIELAB white the ΔE*ab column uses.
-pub const CAPACITY_LIGHT_WHITE: &str = "each light's white";
-pub const CAPACITY_DISPLAY_WHITE: &str = "sRGB white";
+pub(crate) const CAPACITY_LIGHT_WHITE: &str = "each light's white";
+pub(crate) const CAPACITY_DISPLAY_WHITE: &str = "sRGB white";
 
 /// The capacity protocol: n×n palettes, everything designed, over `joint_seeds` seeds. Two rows per size
 /// from the same solves: ΔE*ab against each solved light's white (DESIGN_SPEC §1, the contract's CIELAB)
 /// and against the fixed sRGB white ([`capacity_errors`]; mean over seeds of the per-palette mean, and the
 /// worst palette); ΔE00 is the cell reports' (light white); the time is the median over seeds of one solve
 /// each.
-pub fn joint(cfg: &Config) -> Vec<Row> {
+pub(crate) fn joint(cfg: &Config) -> Vec<Row> {
     let col = Colorimetry::default();
     let options = SolveOptions { time_limit: cfg.time_limit, cancel: None };
     let mut rows = Vec::new();
@@ -392,7 +392,7 @@ pub fn joint(cfg: &Config) -> Vec<Row> {
 }
 
 /// `8 seeds`, `1 seed`, or `7 of 8 seeds` when some solves failed.
-pub fn seeds_text(solved: usize, asked: u64) -> String {
+pub(crate) fn seeds_text(solved: usize, asked: u64) -> String {
     let plural = |n: u64| if n == 1 { "seed" } else { "seeds" };
     if solved as u64 == asked {
         format!("{solved} {}", plural(asked))
@@ -415,7 +415,7 @@ fn metamer_binary() -> Option<std::path::PathBuf> {
 
 /// Time the whole `metamer solve` process on a file of `designs` bounded single-reflectance designs against
 /// scipy's BVLS solving them one by one (benches/scipy_bvls.py, which also checks the objectives agree).
-pub fn versus_scipy(designs: usize) -> VersusScipy {
+pub(crate) fn versus_scipy(designs: usize) -> VersusScipy {
     let skip = |why: String| VersusScipy::Skipped(why);
     // Relative to the working folder (the bench runs from a checkout): no build machine's path is compiled in.
     let script = Path::new("benches").join("scipy_bvls.py");

@@ -19,7 +19,7 @@ use std::path::Path;
 
 /// Run time against mean ΔE*ab for every solver path, one point per case with its interquartile range,
 /// the Pareto front over all points marked.
-pub fn solve_tradeoff_plot(report: &solve::Report, path: &Path) -> Result<(), PlotError> {
+pub(crate) fn solve_tradeoff_plot(report: &solve::Report, path: &Path) -> Result<(), PlotError> {
     let mut groups: Vec<&str> = Vec::new();
     for r in &report.rows {
         if !groups.contains(&r.group.as_str()) {
@@ -58,7 +58,7 @@ pub fn solve_tradeoff_plot(report: &solve::Report, path: &Path) -> Result<(), Pl
 }
 
 /// The solver's cases on the Pareto front of (median time, mean ΔE*ab).
-pub fn solve_pareto_cases(report: &solve::Report) -> Vec<String> {
+pub(crate) fn solve_pareto_cases(report: &solve::Report) -> Vec<String> {
     let rows: Vec<&solve::Row> = report.rows.iter().filter(|r| r.mean_delta_e_ab.is_finite()).collect();
     let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.timing.median, r.mean_delta_e_ab)).collect();
     pareto_front(&pts).into_iter().map(|i| format!("{} / {}", rows[i].group, rows[i].case)).collect()
@@ -66,19 +66,19 @@ pub fn solve_pareto_cases(report: &solve::Report) -> Vec<String> {
 
 /// One ratio against an in-process baseline.
 #[derive(Clone, Debug)]
-pub struct Ratio {
-    pub what: String,
-    pub measured: String,
-    pub baseline: String,
+pub(crate) struct Ratio {
+    pub(crate) what: String,
+    pub(crate) measured: String,
+    pub(crate) baseline: String,
     /// baseline time ÷ measured time (> 1: faster than the baseline).
-    pub speedup: f64,
+    pub(crate) speedup: f64,
     /// Relative objective gap `(f − f_baseline) / max(|f_baseline|, tiny)`, when objectives are comparable.
-    pub objective_gap: Option<f64>,
+    pub(crate) objective_gap: Option<f64>,
 }
 
 /// Ratios from the solver suite: blocks against one dense system (same palette), bounded against unbounded
 /// (same batch).
-pub fn solve_ratios(report: &solve::Report) -> Vec<Ratio> {
+pub(crate) fn solve_ratios(report: &solve::Report) -> Vec<Ratio> {
     let find = |group: &str, case: &str| report.rows.iter().find(|r| r.group == group && r.case == case);
     let mut out = Vec::new();
     // (baseline group, measured group, label, whether the objectives are comparable)
@@ -104,7 +104,7 @@ pub fn solve_ratios(report: &solve::Report) -> Vec<Ratio> {
 
 /// Ratios from the renderer suite at the sweep size: relighting time of the factor and RGB models against
 /// the full 31-sample model (with their ΔE00 against the full frames).
-pub fn render_ratios(report: &RenderBenchReport) -> Vec<Ratio> {
+pub(crate) fn render_ratios(report: &RenderBenchReport) -> Vec<Ratio> {
     let at = |mode: Mode| report.relight.iter().find(|r| r.mode == mode && r.size == report.sweep_size);
     let Some(full) = at(Mode::Full) else { return Vec::new() };
     let mut out = Vec::new();
@@ -128,7 +128,7 @@ pub fn render_ratios(report: &RenderBenchReport) -> Vec<Ratio> {
 }
 
 /// Markdown table of ratios.
-pub fn ratios_markdown(ratios: &[Ratio]) -> String {
+pub(crate) fn ratios_markdown(ratios: &[Ratio]) -> String {
     let rows: Vec<Vec<String>> = ratios
         .iter()
         .map(|r| {
@@ -149,7 +149,7 @@ const BASIS_WORKLOAD: &str = "ColorChecker × 7 lights";
 
 /// Relighting cost against factor-model error for each basis dimension and the RGB model, Pareto front
 /// marked (what a renderer pays per pixel-frame for each ΔE00).
-pub fn basis_tradeoff_plot(results: &basis::Results, path: &Path) -> Result<(), PlotError> {
+pub(crate) fn basis_tradeoff_plot(results: &basis::Results, path: &Path) -> Result<(), PlotError> {
     let mut series: Vec<Series> = results
         .rows
         .iter()
@@ -199,7 +199,7 @@ pub fn basis_tradeoff_plot(results: &basis::Results, path: &Path) -> Result<(), 
 }
 
 /// The basis dimensions on the Pareto front of (relight cost, mean ΔE00), "RGB" for the RGB model.
-pub fn basis_pareto_dimensions(results: &basis::Results) -> Vec<String> {
+pub(crate) fn basis_pareto_dimensions(results: &basis::Results) -> Vec<String> {
     let mut pts: Vec<(f64, f64)> = results.rows.iter().map(|r| (r.relight_ns_per_pixel, r.full.mean)).collect();
     pts.push((results.rgb_relight_ns_per_pixel, results.rgb.mean));
     pareto_front(&pts)
@@ -210,7 +210,7 @@ pub fn basis_pareto_dimensions(results: &basis::Results) -> Vec<String> {
 
 /// Relighting time per frame against mean ΔE00 of the render modes (full = 0 by definition, drawn at the
 /// plot floor), Pareto front marked.
-pub fn render_tradeoff_plot(report: &RenderBenchReport, path: &Path) -> Result<(), PlotError> {
+pub(crate) fn render_tradeoff_plot(report: &RenderBenchReport, path: &Path) -> Result<(), PlotError> {
     let floor = 1e-3;
     let err = |mode: Mode| match mode {
         Mode::Factor => report.accuracy.factor.mean,
@@ -250,17 +250,17 @@ pub fn render_tradeoff_plot(report: &RenderBenchReport, path: &Path) -> Result<(
 
 /// Condition numbers of the linear design systems of one palette.
 #[derive(Clone, Debug)]
-pub struct ConditionRow {
-    pub palette: String,
+pub(crate) struct ConditionRow {
+    pub(crate) palette: String,
     /// Linear blocks measured (bilinear blocks are measured with their lights held at the start values).
-    pub blocks: usize,
+    pub(crate) blocks: usize,
     /// Largest `σ_max / σ_min` over the blocks (σ_min: the smallest singular value above
     /// `σ_max · n · ε`; rank-deficient directions are what the minimum-norm SVD solve drops).
-    pub condition: f64,
+    pub(crate) condition: f64,
     /// Largest number of numerically zero singular values in a block.
-    pub rank_deficiency: usize,
+    pub(crate) rank_deficiency: usize,
     /// Smallest and largest row weight (ω/√3) seen.
-    pub weight_range: (f64, f64),
+    pub(crate) weight_range: (f64, f64),
 }
 
 /// `σ_max / σ_min` (above the relative cut-off `n · ε`) and the count of singular values below it.
@@ -282,7 +282,7 @@ pub fn condition_number(a: &nalgebra::DMatrix<f64>) -> (f64, usize) {
 
 /// Condition numbers of every block of a palette's design (bilinear blocks: the reflectance subproblem with
 /// the lights at their start values, which is what the alternating start solves).
-pub fn palette_conditions(name: &str, palette: &Palette) -> Option<ConditionRow> {
+pub(crate) fn palette_conditions(name: &str, palette: &Palette) -> Option<ConditionRow> {
     let col = Colorimetry::default();
     let design = Design::new(palette, None, &col).ok()?;
     let v = design.start_values();
@@ -315,7 +315,7 @@ pub fn palette_conditions(name: &str, palette: &Palette) -> Option<ConditionRow>
 /// The palettes whose conditioning the report shows: the benchmark's batch design, random convex palettes,
 /// weights across 16 decades, near-identical lights, a spiky light, and the joint capacity palettes
 /// (5×5, 10×10, 15×15; only 5×5 when `quick`).
-pub fn condition_survey(quick: bool) -> Vec<ConditionRow> {
+pub(crate) fn condition_survey(quick: bool) -> Vec<ConditionRow> {
     let col = Colorimetry::default();
     let mut out = Vec::new();
     out.extend(palette_conditions("batch: 1 design, 3 lights, [0,1]", &random::batch_palette(1, 0, &col)));
@@ -357,7 +357,7 @@ pub fn condition_survey(quick: bool) -> Vec<ConditionRow> {
 }
 
 /// Markdown table of condition numbers.
-pub fn conditions_markdown(rows: &[ConditionRow]) -> String {
+pub(crate) fn conditions_markdown(rows: &[ConditionRow]) -> String {
     let body: Vec<Vec<String>> = rows
         .iter()
         .map(|r| {

@@ -29,13 +29,13 @@ pub struct Args {
     pub palette: PathBuf,
     /// Basis dimension m (default: the palette's `basis_dimension`).
     #[arg(long, short = 'm', value_name = "M")]
-    pub dimension: Option<usize>,
+    pub(crate) dimension: Option<usize>,
     /// Print JSON instead of a table.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
     /// Neither read nor write the NAME.basis.json sidecar: always train.
     #[arg(long)]
-    pub no_cache: bool,
+    pub(crate) no_cache: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -78,7 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// The `--json` document: DESIGN_SPEC §5's `dimension` and `basis` (columns of B), then the report
 /// (keys print sorted; see `run`).
 #[derive(serde::Serialize)]
-pub struct BasisJson<'a> {
+pub(crate) struct BasisJson<'a> {
     dimension: usize,
     /// The columns of the sharpened B, 31 samples each.
     basis: Vec<Vec<f64>>,
@@ -129,7 +129,7 @@ impl<'a> BasisJson<'a> {
 }
 
 /// The human-readable report.
-pub fn table(report: &Report, palette: &Path, cache: Option<&Path>) -> String {
+pub(crate) fn table(report: &Report, palette: &Path, cache: Option<&Path>) -> String {
     let a = &report.accuracy;
     let origin = match (report.from_cache, cache) {
         (true, Some(c)) => format!("loaded from {} (trained in {:.2} s)", c.display(), report.training_seconds),

@@ -28,21 +28,21 @@ pub struct Args {
     pub output: PathBuf,
     /// A small, fast version of every suite (smoke test; figures are not meaningful).
     #[arg(long)]
-    pub quick: bool,
+    pub(crate) quick: bool,
     /// Timed repetitions per measurement (default: each suite's own).
     #[arg(long)]
-    pub runs: Option<usize>,
+    pub(crate) runs: Option<usize>,
     /// Also replace the generated block of this README's "Performance and accuracy" section with the
     /// headline table and the Pareto plots.
     #[arg(long)]
-    pub readme: Option<PathBuf>,
+    pub(crate) readme: Option<PathBuf>,
     /// Renderer benchmark: volume to use instead of engine.nhdr from METAMER_DATA or ../shared/volumes.
     #[arg(long)]
-    pub volume: Option<PathBuf>,
+    pub(crate) volume: Option<PathBuf>,
 }
 
 /// The most timed repetitions `--runs` asks for (a huge count would run for ever).
-pub const MAX_RUNS: usize = 1000;
+pub(crate) const MAX_RUNS: usize = 1000;
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(r) = args.runs

@@ -29,7 +29,7 @@ pub struct Args {
     pub palettes: Vec<PathBuf>,
     /// When to print colour swatches (auto: when stdout is a terminal and NO_COLOR is not set).
     #[arg(long, value_enum, default_value_t = ColorChoice::Auto, value_name = "WHEN")]
-    pub color: ColorChoice,
+    pub(crate) color: ColorChoice,
 }
 
 /// Whether to print truecolor swatches for `--color` (clap's own auto / always / never).
@@ -75,7 +75,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// One line describing a palette's size.
-pub fn summary(p: &Palette) -> String {
+pub(crate) fn summary(p: &Palette) -> String {
     let designed = |es: &[SpectrumEntry]| es.iter().filter(|e| e.design).count();
     let in_groups = p.colours.iter().filter(|c| c.free.is_some()).count();
     let off = p.colours.iter().filter(|c| !c.enabled).count();
@@ -171,7 +171,7 @@ fn name_label(e: &SpectrumEntry) -> String {
 }
 
 /// The design matrix of a palette as text (with ANSI truecolor swatches when `colour`).
-pub fn render_matrix(p: &Palette, colorimetry: &Colorimetry, colour: bool) -> String {
+pub(crate) fn render_matrix(p: &Palette, colorimetry: &Colorimetry, colour: bool) -> String {
     let white = Spectrum::flat(1.0);
     let mut out = String::new();
     let row = |out: &mut String, side: Cell, cells: Vec<Cell>| {

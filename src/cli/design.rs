@@ -37,38 +37,38 @@ pub struct Args {
     pub input: PathBuf,
     /// Run this key script headless (no terminal needed) instead of opening the designer.
     #[arg(long, value_name = "KEYS.txt")]
-    pub replay: Option<PathBuf>,
+    pub(crate) replay: Option<PathBuf>,
     /// With --replay: write the final screen here as text (default: standard output).
     #[arg(long, value_name = "OUT.txt", requires = "replay")]
-    pub screen: Option<PathBuf>,
+    pub(crate) screen: Option<PathBuf>,
     /// With --replay: the screen size, WIDTHxHEIGHT.
     #[arg(long, value_name = "WxH", default_value = "100x30", value_parser = parse_size, requires = "replay")]
-    pub size: (u16, u16),
+    pub(crate) size: (u16, u16),
     /// With --replay: write every frame, not only the last.
     #[arg(long, requires = "replay")]
-    pub every_frame: bool,
+    pub(crate) every_frame: bool,
     /// Colours: `truecolor` or `256` (default: truecolor when COLORTERM says truecolor or 24bit).
     #[arg(long, value_name = "MODE", value_parser = parse_colours)]
-    pub colours: Option<ColourMode>,
+    pub(crate) colours: Option<ColourMode>,
     /// Cap on one solve, in seconds.
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
-    pub time_limit: f64,
+    pub(crate) time_limit: f64,
     /// Do not train the spectral factor basis: no subspace colours (palettes that fit in the subspace then
     /// cannot be solved).
     #[arg(long)]
-    pub no_basis: bool,
+    pub(crate) no_basis: bool,
     /// Train the basis without reading or writing its sidecar cache (PALETTE.basis.json).
     #[arg(long, conflicts_with = "no_basis")]
-    pub no_basis_cache: bool,
+    pub(crate) no_basis_cache: bool,
     /// Show a preview of this scene (docs/formats/scene.md; `builtin` = the embedded generated engine), raycast
     /// once at the panel's size and relit live with the designed spectra as the light dial moves (`v`
     /// switches between preview and spectra).
     #[arg(long, value_name = "SCENE.toml")]
-    pub scene: Option<PathBuf>,
+    pub(crate) scene: Option<PathBuf>,
     /// How the preview is drawn: `auto` (ask the terminal for kitty / sixel / iTerm2 graphics, else half
     /// blocks), `halfblocks`, `kitty`, `sixel` or `iterm2`. Replays draw half blocks unless told otherwise.
     #[arg(long, value_name = "MODE", default_value = "auto", value_parser = parse_preview)]
-    pub preview: PreviewMode,
+    pub(crate) preview: PreviewMode,
 }
 
 fn parse_preview(text: &str) -> Result<PreviewMode, String> {

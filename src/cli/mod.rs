@@ -12,7 +12,7 @@ pub mod render;
 pub mod solve;
 
 /// Where the file formats are documented, for `--help`.
-pub const FORMATS_HELP: &str = "\
+pub(crate) const FORMATS_HELP: &str = "\
 File formats (reference pages in the source repository):
   docs/formats/palette.md   palettes: lights, reflectances, colours, free groups, settings; the .basis.json sidecar
   docs/formats/scene.md     scenes for `render` and `design --scene`: palette, volume, materials, camera, dial
@@ -27,11 +27,11 @@ METAMER_DATA (README, section Data, says where each public dataset comes from)."
 #[command(name = "metamer", version, about, long_about = None, propagate_version = true, after_help = FORMATS_HELP)]
 pub struct Cli {
     #[command(subcommand)]
-    pub command: Command,
+    pub(crate) command: Command,
 }
 
 #[derive(Debug, Subcommand)]
-pub enum Command {
+pub(crate) enum Command {
     /// Validate a palette and print its design matrix with truecolor swatches.
     Check(check::Args),
     /// Solve a palette's design headless: write the solved palette and a JSON report.

@@ -45,74 +45,74 @@ pub struct Args {
     pub scene: Option<PathBuf>,
     /// Render the embedded default scene.
     #[arg(long)]
-    pub builtin: bool,
+    pub(crate) builtin: bool,
     /// The volume file to render, instead of the scene's `volume` key (which is otherwise looked for beside
     /// the scene file, then by file name in the folder named by METAMER_DATA or its volumes/).
     #[arg(long, value_name = "PATH")]
-    pub volume: Option<PathBuf>,
+    pub(crate) volume: Option<PathBuf>,
     /// Frames in the whole sweep (N): frame k sits at t = k/(N−1) along the dial's path or keyframes
     /// (keyframes: the slider moves at constant speed).
     #[arg(long, default_value_t = 48)]
-    pub frames: usize,
+    pub(crate) frames: usize,
     /// Render exactly one frame per dial keyframe (or path light), ignoring --frames.
     #[arg(long)]
-    pub keyframes: bool,
+    pub(crate) keyframes: bool,
     /// Do not draw the light dial into the frames.
     #[arg(long)]
-    pub no_dial: bool,
+    pub(crate) no_dial: bool,
     /// Image width and height in pixels.
     #[arg(long, default_value_t = 384)]
-    pub size: usize,
+    pub(crate) size: usize,
     /// Output folder for frame_0000.png … (created; `frames/` is ignored by git in a checkout).
     #[arg(short, long, default_value = "frames")]
-    pub output: PathBuf,
+    pub(crate) output: PathBuf,
     /// Colour model: factor (m-D spectral factor model), full (31 samples, reference) or rgb (RGB factor model).
     #[arg(long, value_enum, default_value_t = ModeArg::Factor)]
-    pub mode: ModeArg,
+    pub(crate) mode: ModeArg,
     /// Also write a contact sheet of the written frames.
     #[arg(long)]
-    pub contact_sheet: Option<PathBuf>,
+    pub(crate) contact_sheet: Option<PathBuf>,
     /// Render only frames A..B (end exclusive) of the N; numbering and exposure stay those of the whole
     /// sweep, so split runs combine.
     #[arg(long, value_name = "A..B")]
-    pub frame_range: Option<String>,
+    pub(crate) frame_range: Option<String>,
     /// Size of the generated volume of the built-in scene (voxels along x and y).
     #[arg(long, default_value_t = 160)]
-    pub builtin_volume_size: usize,
+    pub(crate) builtin_volume_size: usize,
     /// Supersampling: raycast SS× larger in each direction and average down (1 = off; 2 for
     /// publication frames, about 4× the raycast time, same per-frame cost).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4))]
-    pub ss: u32,
+    pub(crate) ss: u32,
     /// Display gamma before sRGB encoding (1 = plain sRGB; 1.5–2.2 lifts dark, thin tissue).
     #[arg(long, default_value_t = 1.0)]
-    pub gamma: f64,
+    pub(crate) gamma: f64,
     /// Title line on the contact sheet.
     #[arg(long)]
-    pub title: Option<String>,
+    pub(crate) title: Option<String>,
     /// Shading: key (a key light above left of the eye, the default), headlight, or unshaded (the
     /// seed's look). Overrides the scene's `render.shading`.
     #[arg(long, value_parser = ["key", "headlight", "unshaded"])]
-    pub shading: Option<String>,
+    pub(crate) shading: Option<String>,
     /// Turn off the per-pixel ray-start jitter (fixed-phase sampling, shows banding).
     #[arg(long)]
-    pub no_jitter: bool,
+    pub(crate) no_jitter: bool,
     /// Shade with the faceted gradient of each trilinear cell instead of the smooth central differences.
     #[arg(long)]
-    pub cell_gradient: bool,
+    pub(crate) cell_gradient: bool,
     /// Every material emits without absorbing (nothing hides what is behind it, so a material that is
     /// black under the current light vanishes instead of darkening). Still one raycast per view.
     #[arg(long)]
-    pub emissive_only: bool,
+    pub(crate) emissive_only: bool,
     /// Expose for the brightest possible material colour (never clips, darker) instead of the 99.5th
     /// percentile of the brightest frame.
     #[arg(long)]
-    pub conservative_exposure: bool,
+    pub(crate) conservative_exposure: bool,
     /// Turn off early ray termination (for benchmarking).
     #[arg(long)]
-    pub no_early_termination: bool,
+    pub(crate) no_early_termination: bool,
     /// Turn off empty-space skipping (for benchmarking).
     #[arg(long)]
-    pub no_empty_space_skipping: bool,
+    pub(crate) no_empty_space_skipping: bool,
 }
 
 /// Parse `A..B` (end exclusive); either end may be omitted.
@@ -134,7 +134,7 @@ fn parse_range(s: &str, frames: usize) -> anyhow::Result<std::ops::Range<usize>>
 
 /// `--mode`: the renderer's colour models ([`Mode`]) as command-line values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ModeArg {
+pub(crate) enum ModeArg {
     // (no doc comments: clap would list them in --help instead of `[possible values: …]`)
     Factor,
     Full,

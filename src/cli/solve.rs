@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 
 /// Palettes with at most this many spectra get subspace colours in the report by default (training a basis
 /// for thousands of spectra would dominate a batch solve).
-pub const AUTO_SUBSPACE_SPECTRA: usize = 100;
+pub(crate) const AUTO_SUBSPACE_SPECTRA: usize = 100;
 
 #[derive(Debug, clap::Args)]
 #[command(
@@ -41,30 +41,30 @@ pub struct Args {
     pub input: PathBuf,
     /// Where to write the solved palette (may be IN). Without it nothing is written but the report.
     #[arg(short = 'o', long = "output", value_name = "OUT.toml")]
-    pub output: Option<PathBuf>,
+    pub(crate) output: Option<PathBuf>,
     /// Write a JSON report here.
     #[arg(long, value_name = "REPORT.json")]
-    pub report: Option<PathBuf>,
+    pub(crate) report: Option<PathBuf>,
     /// Always report subspace colours (trains the basis if needed).
     #[arg(long, conflicts_with = "no_subspace")]
-    pub subspace: bool,
+    pub(crate) subspace: bool,
     /// Never train a basis just for reporting subspace colours.
     #[arg(long)]
-    pub no_subspace: bool,
+    pub(crate) no_subspace: bool,
     /// Wall-clock cap in seconds for the iterative parts (joint design).
     #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
-    pub time_limit: f64,
+    pub(crate) time_limit: f64,
     /// Print only the summary and the unmet cells, not the per-cell table.
     #[arg(short, long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     /// For every unmet cell, say whether its target is reachable at all while the other cells of its
     /// designed spectrum keep their colours (the cell's metamer mismatch region), how far it is, and the
     /// closest reachable colour.
     #[arg(long)]
-    pub feasibility: bool,
+    pub(crate) feasibility: bool,
     /// How far (ΔE) the other cells may move for --feasibility.
     #[arg(long, default_value_t = design::feasibility::DEFAULT_TOLERANCE, value_name = "DELTA_E", requires = "feasibility")]
-    pub tolerance: f64,
+    pub(crate) tolerance: f64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -176,7 +176,7 @@ fn pad(w: &mut String, from: usize, width: usize) {
 }
 
 /// What the table's columns and remarks mean, printed above it.
-pub const TABLE_LEGEND: &str = "\
+pub(crate) const TABLE_LEGEND: &str = "\
 columns: light, reflectance = the cell; target = its target as #rrggbb (display sRGB) and as linear sRGB;
   full = the achieved linear sRGB of the full 31-sample model, then its CIEDE2000 (ΔE00) from the target;
   subspace = the same in the m-D spectral factor model the renderer uses (- without a basis).
@@ -190,7 +190,7 @@ const PHYSICAL_SLACK: f64 = 1e-6;
 
 /// The (lowest, highest) sample of a designed spectrum that is not physical: a reflectance outside [0, 1] or
 /// a light below 0. `None` for fixed spectra (the user's own data) and for physical designs.
-pub fn unphysical_range(e: &SpectrumEntry) -> Option<(f64, f64)> {
+pub(crate) fn unphysical_range(e: &SpectrumEntry) -> Option<(f64, f64)> {
     if !e.design {
         return None;
     }
@@ -403,7 +403,7 @@ struct DiagnosticJson<'a> {
 /// The JSON report (DESIGN_SPEC §5) plus `kkt_residual`, `diagnostics`, per-cell `weight`/`enabled` and
 /// `unphysical` on spectra and cells.
 #[derive(serde::Serialize)]
-pub struct Report<'a> {
+pub(crate) struct Report<'a> {
     palette: &'a str,
     objective: f64,
     /// Wall time to read and solve the palette (writing the outputs not included).
@@ -426,7 +426,7 @@ pub struct Report<'a> {
 
 /// The feasibility of one unmet cell's target (`--feasibility`).
 #[derive(serde::Serialize)]
-pub struct FeasibilityJson {
+pub(crate) struct FeasibilityJson {
     light: String,
     reflectance: String,
     /// "inside" (in the inner region: reachable with the other cells held), "on" (within 0.05 ΔE00 of

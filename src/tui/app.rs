@@ -29,7 +29,7 @@ pub struct Selection {
 
 /// What the selection points at.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Target {
+pub(crate) enum Target {
     /// The cell of light `light` on reflectance `reflectance` (whether or not it has a colour criterion).
     Cell { light: usize, reflectance: usize },
     /// A light's swatch across the top.
@@ -42,7 +42,7 @@ pub enum Target {
 
 /// The sliders of the selected cell.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Slider {
+pub(crate) enum Slider {
     Red,
     Green,
     Blue,
@@ -50,12 +50,12 @@ pub enum Slider {
 }
 
 impl Slider {
-    pub const ALL: [Slider; 4] = [Slider::Red, Slider::Green, Slider::Blue, Slider::Weight];
+    pub(crate) const ALL: [Slider; 4] = [Slider::Red, Slider::Green, Slider::Blue, Slider::Weight];
 }
 
 /// The fields of the settings row, in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SettingField {
+pub(crate) enum SettingField {
     Bounds,
     ReflectanceLower,
     ReflectanceUpper,
@@ -68,7 +68,7 @@ pub enum SettingField {
 }
 
 impl SettingField {
-    pub const ALL: [SettingField; 9] = [
+    pub(crate) const ALL: [SettingField; 9] = [
         SettingField::Bounds,
         SettingField::ReflectanceLower,
         SettingField::ReflectanceUpper,
@@ -107,7 +107,7 @@ impl SpectrumOp {
 
 /// What a text prompt's answer is for.
 #[derive(Clone, Debug, PartialEq)]
-pub enum PromptPurpose {
+pub(crate) enum PromptPurpose {
     /// `#rrggbb` target of the cell at (light, reflectance), created if absent.
     Hex { light: usize, reflectance: usize },
     /// Weight of a cell.
@@ -134,9 +134,9 @@ pub enum PromptPurpose {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Prompt {
     pub title: String,
-    pub hint: String,
-    pub input: String,
-    pub purpose: PromptPurpose,
+    pub(crate) hint: String,
+    pub(crate) input: String,
+    pub(crate) purpose: PromptPurpose,
     /// Why the last answer was refused (rendered by the view).
     pub error: Option<crate::tui::edits::Refusal>,
 }
@@ -205,7 +205,7 @@ pub struct Message {
 
 /// Groups consecutive edits of one slider of one cell into one undo step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum EditKey {
+pub(crate) enum EditKey {
     Slider { light: usize, reflectance: usize, slider: usize },
     Other,
 }
@@ -214,13 +214,13 @@ pub enum EditKey {
 #[derive(Clone, Debug, Default)]
 pub struct History {
     pub undo: Vec<Palette>,
-    pub redo: Vec<Palette>,
-    pub last_edit: Option<EditKey>,
+    pub(crate) redo: Vec<Palette>,
+    pub(crate) last_edit: Option<EditKey>,
 }
 
 impl History {
     /// Most undo steps kept.
-    pub const LIMIT: usize = 500;
+    pub(crate) const LIMIT: usize = 500;
 }
 
 /// The latest solve, as far as the view is concerned.
@@ -231,25 +231,25 @@ pub struct SolveStatus {
     /// The generation now being solved, if any.
     pub running: Option<u64>,
     /// Solve requests sent so far (the ticket of the newest); only the newest one's reply counts.
-    pub tickets: u64,
+    pub(crate) tickets: u64,
     /// When the newest solve was asked for (the progress line's clock).
-    pub started: Option<std::time::Instant>,
+    pub(crate) started: Option<std::time::Instant>,
     /// The key of the newest basis asked for (the same spectra are not asked for twice).
-    pub basis_asked: Option<String>,
+    pub(crate) basis_asked: Option<String>,
     /// How long the running solve has been going (updated on ticks; shown as progress).
-    pub running_for: Duration,
+    pub(crate) running_for: Duration,
     /// The latest solution and the generation it belongs to.
     pub solution: Option<(u64, Arc<Solution>)>,
     /// The latest solve's failure, if it failed.
     pub error: Option<DesignError>,
     /// Wall-clock time of the latest finished solve.
-    pub last_time: Option<Duration>,
+    pub(crate) last_time: Option<Duration>,
     /// A basis is being trained.
-    pub training: bool,
+    pub(crate) training: bool,
     /// Generation of the palette the shown basis was trained for.
-    pub basis_generation: u64,
+    pub(crate) basis_generation: u64,
     /// Why the basis could not be trained.
-    pub basis_error: Option<String>,
+    pub(crate) basis_error: Option<String>,
     /// The factor model's mean ΔE00 on the shown spectra's own pairs, when it is poor (above
     /// [`crate::basis::POOR_MODEL_MEAN_DE00`], [`crate::basis::Report::poor_model`]).
     pub basis_poor: Option<f64>,
@@ -266,14 +266,14 @@ impl SolveStatus {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Import {
     /// Which import this is (a reply to an older, cancelled one is dropped).
-    pub id: u64,
+    pub(crate) id: u64,
     /// The path as typed.
-    pub path: String,
-    pub kind: Kind,
+    pub(crate) path: String,
+    pub(crate) kind: Kind,
     /// The name the new spectrum gets.
-    pub name: String,
+    pub(crate) name: String,
     /// The palette the import was started from (a reply for another palette is dropped).
-    pub before: Palette,
+    pub(crate) before: Palette,
 }
 
 /// The whole model of the designer.
@@ -286,7 +286,7 @@ pub struct State {
     /// The palette being edited.
     pub palette: Palette,
     /// The outside change was shown and the user may now overwrite it (the next save does).
-    pub overwrite_armed: bool,
+    pub(crate) overwrite_armed: bool,
     pub colorimetry: Colorimetry,
     /// The CSV import being read, if any (Esc cancels it).
     pub import: Option<Import>,
@@ -295,18 +295,18 @@ pub struct State {
     /// Imports started so far (the id of the newest).
     pub imports: u64,
     /// A save, save-as, reload or recovery copy is under way (its outcome comes back as a message).
-    pub file_busy: bool,
+    pub(crate) file_busy: bool,
     /// The terminal's size in cells (the preview is raycast at its panel's pixel size).
-    pub screen: (u16, u16),
+    pub(crate) screen: (u16, u16),
     /// The preview size being raycast, if any.
-    pub preview_pending: Option<(usize, usize)>,
+    pub(crate) preview_pending: Option<(usize, usize)>,
     /// The spectral factor basis for subspace colours and the key of the spectra it is for (the derived
     /// colours use it only while the shown spectra have that key).
     pub basis: Option<(String, crate::basis::policy::Resolved)>,
     pub selection: Selection,
     pub focus: Focus,
     pub slider: usize,
-    pub setting: usize,
+    pub(crate) setting: usize,
     pub popup: Option<Popup>,
     pub history: History,
     pub solve: SolveStatus,
@@ -321,20 +321,20 @@ pub struct State {
     pub quit: bool,
     /// The designer was ended by SIGTERM/SIGHUP: where unsaved work was written (`Some(None)` when there was
     /// none to write, or it could not be written).
-    pub terminated: Option<Option<std::path::PathBuf>>,
+    pub(crate) terminated: Option<Option<std::path::PathBuf>>,
     /// Frames drawn so far (spinner phase).
     pub ticks: u64,
     /// The scene preview (`--scene`), its dial position in [0, 1], whether it is shown, and its pixels
     /// under the current spectra (sRGB, 3 bytes per pixel at the preview's size; recomputed with the
     /// derived colours and on every dial change).
     pub preview: Option<crate::tui::preview::Preview>,
-    pub dial: f64,
-    pub show_preview: bool,
+    pub(crate) dial: f64,
+    pub(crate) show_preview: bool,
     pub preview_frame: Vec<u8>,
     /// A scene waiting for its first raycast (off the UI thread); the progress line says so.
-    pub preview_scene: Option<Arc<crate::render::scene::Scene>>,
+    pub(crate) preview_scene: Option<Arc<crate::render::scene::Scene>>,
     /// What the preview is being raycast at, for the progress line.
-    pub preview_loading: Option<String>,
+    pub(crate) preview_loading: Option<String>,
     /// How the preview reaches the terminal: half blocks, or a graphics protocol at real pixels.
     pub graphics: crate::tui::graphics::Graphics,
     /// The live light dial (lights, vertices, on/off, intensities, slider) the preview is lit by.
@@ -342,22 +342,22 @@ pub struct State {
     /// The dial panel has the keys ([`crate::tui::keymap::DIAL`]).
     pub dial_keys: bool,
     /// What the dial keys move: the slider (`None`) or light i's vertex.
-    pub dial_selected: Option<usize>,
+    pub(crate) dial_selected: Option<usize>,
     /// Keyframes added this session (written into the scene by the dial's save).
     pub keyframes: Vec<crate::render::dial::DialState>,
     /// The mismatch-region overlay of the selected cell is shown (`m`).
-    pub show_feasibility: bool,
+    pub(crate) show_feasibility: bool,
     /// The latest region computed by the worker for the overlay.
-    pub feasibility: Option<FeasibilityView>,
+    pub(crate) feasibility: Option<FeasibilityView>,
 }
 
 /// A mismatch region computed off the UI thread, for the palette of `generation`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct FeasibilityView {
-    pub generation: u64,
+pub(crate) struct FeasibilityView {
+    pub(crate) generation: u64,
     /// Index into `palette.colours`.
-    pub cell: usize,
-    pub result: Result<Arc<crate::design::feasibility::Panel>, String>,
+    pub(crate) cell: usize,
+    pub(crate) result: Result<Arc<crate::design::feasibility::Panel>, String>,
 }
 
 impl State {
@@ -486,17 +486,17 @@ impl State {
     }
 
     /// The scene of the preview (attached or on its way).
-    pub fn scene(&self) -> Option<&crate::render::scene::Scene> {
+    pub(crate) fn scene(&self) -> Option<&crate::render::scene::Scene> {
         self.preview.as_ref().map(|p| p.scene.as_ref()).or(self.preview_scene.as_deref())
     }
 
     /// True when a scene preview is attached or on its way.
-    pub fn has_scene(&self) -> bool {
+    pub(crate) fn has_scene(&self) -> bool {
         self.preview.is_some() || self.preview_scene.is_some()
     }
 
     /// What the selection points at.
-    pub fn target(&self) -> Target {
+    pub(crate) fn target(&self) -> Target {
         let (nl, nr) = (self.palette.lights.len(), self.palette.reflectances.len());
         let Selection { col, row } = self.selection;
         match (col, row) {
@@ -509,7 +509,7 @@ impl State {
     }
 
     /// The light and reflectance whose spectra the plot shows: the selected cell's, or the selected swatch.
-    pub fn plotted(&self) -> (Option<usize>, Option<usize>) {
+    pub(crate) fn plotted(&self) -> (Option<usize>, Option<usize>) {
         match self.target() {
             Target::Cell { light, reflectance } => (Some(light), Some(reflectance)),
             Target::Light(l) => (Some(l), None),
@@ -519,7 +519,7 @@ impl State {
     }
 
     /// Keep the selection inside the matrix (after removing a spectrum, or on an empty palette).
-    pub fn clamp_selection(&mut self) {
+    pub(crate) fn clamp_selection(&mut self) {
         let (nl, nr) = (self.palette.lights.len(), self.palette.reflectances.len());
         let s = &mut self.selection;
         s.col = s.col.min(nl);
@@ -535,7 +535,7 @@ impl State {
 
     /// Record the palette before an edit so it can be undone. Consecutive edits with the same
     /// slider key coalesce into one step.
-    pub fn remember(&mut self, key: EditKey) {
+    pub(crate) fn remember(&mut self, key: EditKey) {
         let coalesce = key != EditKey::Other && self.history.last_edit == Some(key);
         if !coalesce {
             self.history.undo.push(self.palette.clone());
@@ -548,17 +548,17 @@ impl State {
     }
 
     /// Show a message until the next key.
-    pub fn say(&mut self, text: impl Into<String>) {
+    pub(crate) fn say(&mut self, text: impl Into<String>) {
         self.message = Some(Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: false });
     }
 
     /// Show an error until the next key.
-    pub fn complain(&mut self, text: impl Into<String>) {
+    pub(crate) fn complain(&mut self, text: impl Into<String>) {
         self.message = Some(Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: true });
     }
 
     /// The palette file's folder (CSV paths are relative to it).
-    pub fn base_dir(&self) -> PathBuf {
+    pub(crate) fn base_dir(&self) -> PathBuf {
         crate::fsio::folder_of(self.path())
     }
 
@@ -571,7 +571,7 @@ impl State {
     }
 
     /// The cell whose mismatch region the overlay wants: the selected cell, when the overlay is on.
-    pub fn feasibility_cell(&self) -> Option<usize> {
+    pub(crate) fn feasibility_cell(&self) -> Option<usize> {
         match (self.show_feasibility, self.target()) {
             (true, Target::Cell { light, reflectance }) => self.cell_index(light, reflectance),
             _ => None,
@@ -579,7 +579,7 @@ impl State {
     }
 
     /// The index into `palette.colours` of the cell at (light, reflectance).
-    pub fn cell_index(&self, light: usize, reflectance: usize) -> Option<usize> {
+    pub(crate) fn cell_index(&self, light: usize, reflectance: usize) -> Option<usize> {
         self.palette.colours.iter().position(|c| c.light == light && c.reflectance == reflectance)
     }
 }

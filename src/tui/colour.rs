@@ -14,7 +14,7 @@ pub enum ColourMode {
 
 impl ColourMode {
     /// Decide from the value of `COLORTERM` (None when unset).
-    pub fn from_colorterm(value: Option<&str>) -> ColourMode {
+    pub(crate) fn from_colorterm(value: Option<&str>) -> ColourMode {
         match value {
             Some(v) if v.contains("truecolor") || v.contains("24bit") => ColourMode::TrueColor,
             _ => ColourMode::Indexed256,
@@ -22,12 +22,12 @@ impl ColourMode {
     }
 
     /// Decide from the environment.
-    pub fn detect() -> ColourMode {
+    pub(crate) fn detect() -> ColourMode {
         ColourMode::from_colorterm(std::env::var("COLORTERM").ok().as_deref())
     }
 
     /// The terminal colour of a display sRGB 8-bit triple.
-    pub fn color(self, rgb: [u8; 3]) -> Color {
+    pub(crate) fn color(self, rgb: [u8; 3]) -> Color {
         match self {
             ColourMode::TrueColor => Color::Rgb(rgb[0], rgb[1], rgb[2]),
             ColourMode::Indexed256 => Color::Indexed(nearest_xterm256(rgb)),
@@ -35,7 +35,7 @@ impl ColourMode {
     }
 
     /// The terminal colour of a linear sRGB colour (clamped to the gamut).
-    pub fn linear(self, rgb: &Vector3<f64>) -> Color {
+    pub(crate) fn linear(self, rgb: &Vector3<f64>) -> Color {
         self.color(linear_to_srgb8(rgb))
     }
 }

@@ -26,22 +26,22 @@ pub struct CellView {
     pub full: Vector3<f64>,
     /// The colour in the spectral factor model (`Basis::rgb_factor`, what post-illumination renders and
     /// what the solver reports), when a basis is available.
-    pub subspace: Option<Vector3<f64>>,
+    pub(crate) subspace: Option<Vector3<f64>>,
     pub delta_e_full: Option<f64>,
     pub delta_e_subspace: Option<f64>,
     /// The cell has a colour criterion in the palette.
-    pub has_criterion: bool,
+    pub(crate) has_criterion: bool,
     /// The criterion contributes to the objective (use colour on, weight > 0).
-    pub active: bool,
+    pub(crate) active: bool,
     /// The free-colour group of the cell.
-    pub free: Option<usize>,
+    pub(crate) free: Option<usize>,
 }
 
 /// Derived colours of a palette.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Derived {
-    pub lights: usize,
-    pub reflectances: usize,
+    pub(crate) lights: usize,
+    pub(crate) reflectances: usize,
     /// Row-major: `cells[reflectance * lights + light]`.
     pub cells: Vec<CellView>,
     /// Each light on a flat white reflectance.
@@ -52,7 +52,7 @@ pub struct Derived {
     pub light_spectra: Vec<Spectrum>,
     pub reflectance_spectra: Vec<Spectrum>,
     /// Largest full-model CIEDE2000 over the active cells.
-    pub worst_delta_e: Option<f64>,
+    pub(crate) worst_delta_e: Option<f64>,
     /// True when the shown spectra come from a solution.
     pub solved: bool,
     /// The basis key of the shown spectra and m ([`crate::basis::store::cache_key`]): the subspace colours
@@ -87,7 +87,7 @@ fn same_names(a: &[SpectrumEntry], b: &[SpectrumEntry]) -> bool {
 impl Derived {
     /// Derive the view of `palette`, taking the spectra from `solution` when it solved a palette with the
     /// same lights and reflectances (a stale solution keeps the matrix steady while the next one runs).
-    pub fn compute(
+    pub(crate) fn compute(
         palette: &Palette,
         solution: Option<&Solution>,
         colorimetry: &Colorimetry,

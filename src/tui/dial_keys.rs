@@ -10,11 +10,11 @@ use std::path::Path;
 use toml_edit::{Array, ArrayOfTables, DocumentMut, InlineTable, Item, Table, value};
 
 /// A small step of the slider or a vertex, as a fraction of the dial's extent; a large step is ten.
-pub const SMALL_STEP: f64 = 0.02;
-pub const LARGE_STEP: f64 = 0.2;
+pub(crate) const SMALL_STEP: f64 = 0.02;
+pub(crate) const LARGE_STEP: f64 = 0.2;
 /// Intensity change per `+`/`-`, and its range.
-pub const INTENSITY_STEP: f64 = 0.1;
-pub const MAX_INTENSITY: f64 = 10.0;
+pub(crate) const INTENSITY_STEP: f64 = 0.1;
+pub(crate) const MAX_INTENSITY: f64 = 10.0;
 
 /// Carry out a dial action (the caller routes only dial actions here).
 pub fn update(state: &mut State, action: Action) {

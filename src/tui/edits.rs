@@ -66,14 +66,19 @@ impl From<EditError> for Refusal {
 }
 
 /// The outcome of an edit.
-pub type EditResult = Result<(), EditError>;
+pub(crate) type EditResult = Result<(), EditError>;
 
 fn text(e: crate::palette::edit::EditError) -> EditError {
     EditError::Palette(e)
 }
 
 /// Make sure (light, reflectance) has a colour criterion, created in use with target `initial` when absent.
-pub fn ensure_cell(palette: &mut Palette, light: usize, reflectance: usize, initial: Vector3<f64>) -> EditResult {
+pub(crate) fn ensure_cell(
+    palette: &mut Palette,
+    light: usize,
+    reflectance: usize,
+    initial: Vector3<f64>,
+) -> EditResult {
     if palette.cell_index(light, reflectance).is_none() {
         palette.set_target(light, reflectance, initial).map_err(text)?;
     }
@@ -81,12 +86,12 @@ pub fn ensure_cell(palette: &mut Palette, light: usize, reflectance: usize, init
 }
 
 /// Set the target of a cell (created if absent).
-pub fn set_target(palette: &mut Palette, light: usize, reflectance: usize, rgb: Vector3<f64>) -> EditResult {
+pub(crate) fn set_target(palette: &mut Palette, light: usize, reflectance: usize, rgb: Vector3<f64>) -> EditResult {
     palette.set_target(light, reflectance, rgb).map_err(text)
 }
 
 /// Set the weight of a cell (created with target `initial` if absent).
-pub fn set_weight(
+pub(crate) fn set_weight(
     palette: &mut Palette,
     light: usize,
     reflectance: usize,
@@ -98,7 +103,7 @@ pub fn set_weight(
 }
 
 /// Toggle "use colour"; a cell without a criterion gets one with target `current` (its colour now).
-pub fn toggle_use(palette: &mut Palette, light: usize, reflectance: usize, current: Vector3<f64>) -> EditResult {
+pub(crate) fn toggle_use(palette: &mut Palette, light: usize, reflectance: usize, current: Vector3<f64>) -> EditResult {
     match palette.cell(light, reflectance).map(|c| c.enabled) {
         Some(enabled) => palette.set_enabled(light, reflectance, !enabled).map_err(text),
         None => ensure_cell(palette, light, reflectance, current),
@@ -107,7 +112,7 @@ pub fn toggle_use(palette: &mut Palette, light: usize, reflectance: usize, curre
 
 /// Put a cell into free-colour group `name` (created with bounds [0, 1] per channel when new), or take it
 /// out of its group with `None`.
-pub fn set_free(
+pub(crate) fn set_free(
     palette: &mut Palette,
     light: usize,
     reflectance: usize,
@@ -136,7 +141,12 @@ pub fn set_free(
 }
 
 /// Set the per-channel bounds (linear sRGB) of a free group.
-pub fn set_free_bounds(palette: &mut Palette, group: usize, lower: Vector3<f64>, upper: Vector3<f64>) -> EditResult {
+pub(crate) fn set_free_bounds(
+    palette: &mut Palette,
+    group: usize,
+    lower: Vector3<f64>,
+    upper: Vector3<f64>,
+) -> EditResult {
     if let Some(k) = (0..3).find(|&k| lower[k].is_nan() || upper[k].is_nan() || lower[k] > upper[k]) {
         return Err(EditError::FreeBounds { channel: k + 1, lower: lower[k], upper: upper[k] });
     }
@@ -147,27 +157,33 @@ pub fn set_free_bounds(palette: &mut Palette, group: usize, lower: Vector3<f64>,
 }
 
 /// Open a spectrum to design, or fix it again.
-pub fn toggle_design(palette: &mut Palette, kind: Kind, index: usize) -> EditResult {
+pub(crate) fn toggle_design(palette: &mut Palette, kind: Kind, index: usize) -> EditResult {
     palette.toggle_design(kind, index).map(|_| ()).map_err(text)
 }
 
 /// Make a light a Planck black body at `kelvin`.
-pub fn make_planck(palette: &mut Palette, light: usize, kelvin: f64, colorimetry: &Colorimetry) -> EditResult {
+pub(crate) fn make_planck(palette: &mut Palette, light: usize, kelvin: f64, colorimetry: &Colorimetry) -> EditResult {
     palette.make_planck(Kind::Light, light, kelvin, colorimetry).map_err(text)
 }
 
 /// Normalise a light (luminance 1 or unit L2 norm, before its scale).
-pub fn normalise(palette: &mut Palette, light: usize, how: Normalize, colorimetry: &Colorimetry) -> EditResult {
+pub(crate) fn normalise(palette: &mut Palette, light: usize, how: Normalize, colorimetry: &Colorimetry) -> EditResult {
     palette.set_normalize(light, how, colorimetry).map_err(text)
 }
 
 /// Set a spectrum's scale (the spectrum is its normalised source times the scale).
-pub fn scale(palette: &mut Palette, kind: Kind, index: usize, scale: f64, colorimetry: &Colorimetry) -> EditResult {
+pub(crate) fn scale(
+    palette: &mut Palette,
+    kind: Kind,
+    index: usize,
+    scale: f64,
+    colorimetry: &Colorimetry,
+) -> EditResult {
     palette.set_scale(kind, index, scale, colorimetry).map_err(text)
 }
 
 /// Add a light or reflectance. A CSV path is read relative to `base_dir` (the palette file's folder).
-pub fn add(
+pub(crate) fn add(
     palette: &mut Palette,
     kind: Kind,
     name: &str,
@@ -179,12 +195,12 @@ pub fn add(
 }
 
 /// Remove a light or reflectance with its cells.
-pub fn remove(palette: &mut Palette, kind: Kind, index: usize) -> EditResult {
+pub(crate) fn remove(palette: &mut Palette, kind: Kind, index: usize) -> EditResult {
     palette.remove_spectrum(kind, index).map(|_| ()).map_err(text)
 }
 
 /// A name not yet used on that side of the palette: `base`, else `base_2`, `base_3`…
-pub fn unique_name(palette: &Palette, kind: Kind, base: &str) -> String {
+pub(crate) fn unique_name(palette: &Palette, kind: Kind, base: &str) -> String {
     let taken = |n: &str| palette.entries(kind).iter().any(|e| e.name == n);
     if !taken(base) {
         return base.to_string();

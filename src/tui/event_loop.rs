@@ -341,8 +341,3 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
         }
     }
 }
-
-/// The screen of a buffer as text (re-exported for callers of the loop).
-pub fn screen_text(buf: &Buffer) -> String {
-    crate::tui::ui::buffer_text(buf)
-}

@@ -27,7 +27,7 @@ pub enum PreviewMode {
 }
 
 impl PreviewMode {
-    pub fn parse(text: &str) -> Option<PreviewMode> {
+    pub(crate) fn parse(text: &str) -> Option<PreviewMode> {
         Some(match text {
             "auto" => PreviewMode::Auto,
             "halfblocks" | "half-blocks" => PreviewMode::Halfblocks,
@@ -89,7 +89,7 @@ impl Graphics {
     /// Choose for a real terminal (call after entering the alternate screen, before reading events):
     /// `auto` queries it; a forced protocol still queries for the font size, assuming 10×20 when it
     /// does not answer.
-    pub fn for_terminal(mode: PreviewMode) -> (Graphics, Option<String>) {
+    pub(crate) fn for_terminal(mode: PreviewMode) -> (Graphics, Option<String>) {
         if mode == PreviewMode::Halfblocks {
             return (Graphics::halfblocks(), None);
         }
@@ -113,12 +113,12 @@ impl Graphics {
     }
 
     /// True for half blocks.
-    pub fn is_halfblocks(&self) -> bool {
+    pub(crate) fn is_halfblocks(&self) -> bool {
         self.picker.is_none()
     }
 
     /// The protocol's name, for the panel title.
-    pub fn name(&self) -> &'static str {
+    pub(crate) fn name(&self) -> &'static str {
         match self.picker.as_ref().map(Picker::protocol_type) {
             None | Some(ProtocolType::Halfblocks) => "half blocks",
             Some(ProtocolType::Kitty) => "kitty",
@@ -128,7 +128,7 @@ impl Graphics {
     }
 
     /// Pixels per cell (half blocks: 1 × 2).
-    pub fn cell_pixels(&self) -> (usize, usize) {
+    pub(crate) fn cell_pixels(&self) -> (usize, usize) {
         match &self.picker {
             None => (1, 2),
             Some(p) => {
@@ -147,7 +147,7 @@ impl Graphics {
     }
 
     /// Encode a relit frame (3 bytes per pixel, `size` pixels) for the protocol (half blocks: nothing).
-    pub fn encode(&mut self, rgb: &[u8], size: (usize, usize)) {
+    pub(crate) fn encode(&mut self, rgb: &[u8], size: (usize, usize)) {
         self.encoded = None;
         let Some(picker) = &self.picker else { return };
         let (w, h) = size;
@@ -168,12 +168,12 @@ impl Graphics {
     }
 
     /// The encoded frame's size in cells, if there is one.
-    pub fn encoded_cells(&self) -> Option<Size> {
+    pub(crate) fn encoded_cells(&self) -> Option<Size> {
         self.encoded.as_ref().map(Protocol::size)
     }
 
     /// Draw the encoded frame at the top left of `area` (false when there is none or it does not fit).
-    pub fn render(&self, area: Rect, buf: &mut Buffer) -> bool {
+    pub(crate) fn render(&self, area: Rect, buf: &mut Buffer) -> bool {
         match &self.encoded {
             Some(p) => {
                 let s = p.size();

@@ -7,9 +7,9 @@ use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 
 /// A key with its modifiers (Shift is folded into the character for letter keys).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Key {
-    pub code: KeyCode,
-    pub modifiers: KeyModifiers,
+pub(crate) struct Key {
+    pub(crate) code: KeyCode,
+    pub(crate) modifiers: KeyModifiers,
 }
 
 const fn plain(code: KeyCode) -> Key {
@@ -27,8 +27,8 @@ const fn ctrl(c: char) -> Key {
 /// One line of the keymap: the keys, the action and what the help says.
 #[derive(Clone, Copy, Debug)]
 pub struct Binding {
-    pub keys: &'static [Key],
-    pub action: Action,
+    pub(crate) keys: &'static [Key],
+    pub(crate) action: Action,
     pub help: &'static str,
 }
 
@@ -116,7 +116,7 @@ pub const DIAL: &[Binding] = &[
 ];
 
 /// A text prompt: printable keys type.
-pub const PROMPT: &[Binding] = &[
+pub(crate) const PROMPT: &[Binding] = &[
     bind(&[plain(K::Enter)], A::Submit, "accept"),
     bind(&[plain(K::Esc)], A::Back, "cancel"),
     bind(&[plain(K::Backspace)], A::Backspace, "delete"),
@@ -124,7 +124,7 @@ pub const PROMPT: &[Binding] = &[
 ];
 
 /// A list to pick from.
-pub const PICK: &[Binding] = &[
+pub(crate) const PICK: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "previous"),
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "next"),
     bind(&[plain(K::PageUp)], A::BigStep { up: true }, "page up"),
@@ -134,21 +134,21 @@ pub const PICK: &[Binding] = &[
 ];
 
 /// Light or reflectance of the selected cell.
-pub const CHOOSE: &[Binding] = &[
+pub(crate) const CHOOSE: &[Binding] = &[
     bind(&[ch('l')], A::ChooseLight, "the cell's light"),
     bind(&[ch('r')], A::ChooseReflectance, "the cell's reflectance"),
     bind(&[plain(K::Esc)], A::Back, "cancel"),
 ];
 
 /// Quitting with unsaved changes.
-pub const CONFIRM_QUIT: &[Binding] = &[
+pub(crate) const CONFIRM_QUIT: &[Binding] = &[
     bind(&[ch('s')], A::SaveAndQuit, "save and quit"),
     bind(&[ch('y')], A::Discard, "quit without saving"),
     bind(&[ch('n'), plain(K::Esc)], A::Back, "stay"),
 ];
 
 /// The palette file changed on disk since it was opened or saved.
-pub const CONFLICT: &[Binding] = &[
+pub(crate) const CONFLICT: &[Binding] = &[
     bind(&[ctrl('s'), ch('o')], A::Save, "overwrite the file with your version"),
     bind(&[ctrl('r'), ch('r')], A::Reload, "reload the file (z undoes it)"),
     bind(&[ctrl('w'), ch('a')], A::SaveAs, "save as… another file"),
@@ -156,21 +156,21 @@ pub const CONFLICT: &[Binding] = &[
 ];
 
 /// The help popup.
-pub const HELP: &[Binding] = &[
+pub(crate) const HELP: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
     bind(&[plain(K::Esc), ch('?')], A::Back, "close (other keys act on the main screen)"),
 ];
 
 /// The diagnostics list.
-pub const DIAGNOSTICS: &[Binding] = &[
+pub(crate) const DIAGNOSTICS: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
     bind(&[plain(K::Esc), ch('!')], A::Back, "close (other keys act on the main screen)"),
 ];
 
 /// Every table with its title, in the order the help shows them.
-pub const TABLES: &[(&str, &[Binding])] = &[
+pub(crate) const TABLES: &[(&str, &[Binding])] = &[
     ("main screen", MAIN),
     ("light dial (g)", DIAL),
     ("prompts", PROMPT),
@@ -183,7 +183,7 @@ pub const TABLES: &[(&str, &[Binding])] = &[
 ];
 
 /// The table in force for the state's popup.
-pub fn table_for(state: &State) -> &'static [Binding] {
+pub(crate) fn table_for(state: &State) -> &'static [Binding] {
     match state.popup {
         None if state.dial_keys => DIAL,
         None => MAIN,
@@ -198,7 +198,7 @@ pub fn table_for(state: &State) -> &'static [Binding] {
 }
 
 /// Fold Shift into letters (terminals report `F` as Shift+`F`) and drop key releases.
-pub fn normalise(event: KeyEvent) -> Option<Key> {
+pub(crate) fn normalise(event: KeyEvent) -> Option<Key> {
     if event.kind == KeyEventKind::Release {
         return None;
     }
@@ -210,7 +210,7 @@ pub fn normalise(event: KeyEvent) -> Option<Key> {
 }
 
 /// The action a key asks for in the current mode.
-pub fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
+pub(crate) fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
     let key = normalise(event)?;
     let table = table_for(state);
     if let Some(b) = table.iter().find(|b| b.keys.contains(&key)) {
@@ -231,7 +231,7 @@ pub fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
 }
 
 /// How a key is written in the help and in replay scripts.
-pub fn key_label(key: &Key) -> String {
+pub(crate) fn key_label(key: &Key) -> String {
     let base = match key.code {
         K::Char(' ') => "Space".to_string(),
         K::Char(c) => c.to_string(),
@@ -260,7 +260,7 @@ pub fn key_label(key: &Key) -> String {
 }
 
 /// All keys of a binding, as the help shows them.
-pub fn keys_label(binding: &Binding) -> String {
+pub(crate) fn keys_label(binding: &Binding) -> String {
     if let Action::DialToggle(_) = binding.action {
         return "1…9".to_string();
     }

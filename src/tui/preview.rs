@@ -18,17 +18,16 @@ use crate::render::raycast::{ChannelImage, MaterialWeights, raycast};
 use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
 use crate::render::scene::Scene;
 use crate::render::sweep::render_exposure;
-use crate::render::{Acceleration, RenderError, colour_model, raycast_options};
+use crate::render::{Acceleration, colour_model, raycast_options};
 use crate::spectrum::Spectrum;
 use crate::tui::derived::Derived;
-use std::path::Path;
 use std::sync::Arc;
 use std::sync::mpsc::{self, Sender};
 use std::time::Instant;
 
 /// Pixels of the raycast before the panel's size is known (and of [`Preview::from_scene`]).
-pub const PREVIEW_WIDTH: usize = 120;
-pub const PREVIEW_HEIGHT: usize = 72;
+pub(crate) const PREVIEW_WIDTH: usize = 120;
+pub(crate) const PREVIEW_HEIGHT: usize = 72;
 /// Largest raycast edge for the preview (graphics protocols on very large panels).
 pub const MAX_PREVIEW_EDGE: usize = 1024;
 /// The exposure is the one `metamer render` uses for a sweep of this many frames (its default).
@@ -42,12 +41,12 @@ pub struct Preview {
     pub model: ColourModel,
     pub weights: MaterialWeights,
     /// `weights` projected onto the model with the current reflectances.
-    pub image: ChannelImage,
+    pub(crate) image: ChannelImage,
     /// The reflectance spectra `image` was projected with (to re-project only when they change).
     projected: Vec<Spectrum>,
     /// Each material's reflectance name, and the scene's own spectrum for it (used when the palette being
     /// designed has no reflectance of that name).
-    pub materials: Vec<(String, Spectrum)>,
+    pub(crate) materials: Vec<(String, Spectrum)>,
 
     /// The exposure of `metamer render` for this scene (sweep of [`EXPOSURE_FRAMES`] frames) with the
     /// spectra it was last computed for.
@@ -84,12 +83,6 @@ pub fn cast(scene: &Scene, width: usize, height: usize) -> MaterialWeights {
 }
 
 impl Preview {
-    /// Load a scene and raycast it once (on this thread).
-    pub fn load(path: &Path, colorimetry: &Colorimetry) -> Result<Preview, RenderError> {
-        let scene = Scene::load(path)?;
-        Ok(Preview::from_scene(&scene, colorimetry))
-    }
-
     /// Raycast a loaded scene once at [`PREVIEW_WIDTH`] × [`PREVIEW_HEIGHT`] (on this thread).
     pub fn from_scene(scene: &Scene, colorimetry: &Colorimetry) -> Preview {
         let model = preview_model(scene, colorimetry);
@@ -123,7 +116,7 @@ impl Preview {
 
     /// The scene as saved (same volume, materials and camera: the raycast stays); the next frame takes
     /// the exposure `metamer render` now uses for its sweep.
-    pub fn rescene(&mut self, scene: Arc<Scene>, colorimetry: &Colorimetry) {
+    pub(crate) fn rescene(&mut self, scene: Arc<Scene>, colorimetry: &Colorimetry) {
         self.scene = scene;
         self.colorimetry = colorimetry.clone();
         self.exposed = None;
@@ -173,7 +166,7 @@ impl Preview {
     /// Only for the factor model, and only when the designer's palette has the scene palette's lights and
     /// reflectances (by name, in order), so the training set is the one render would build. Returns true
     /// when the model changed (the picture is then re-projected and re-exposed by the next frame).
-    pub fn follow_basis(&mut self, palette: &Palette, key: &str, basis: &Basis) -> bool {
+    pub(crate) fn follow_basis(&mut self, palette: &Palette, key: &str, basis: &Basis) -> bool {
         let names = |e: &[crate::palette::SpectrumEntry]| e.iter().map(|e| e.name.clone()).collect::<Vec<_>>();
         let same_set = names(&palette.lights) == names(&self.scene.palette.lights)
             && names(&palette.reflectances) == names(&self.scene.palette.reflectances);
@@ -224,7 +217,7 @@ impl Preview {
     }
 
     /// `dial` with the designer's current light spectra (lights the palette lacks keep theirs).
-    pub fn current_dial(&self, palette: &Palette, derived: &Derived, dial: &DialState) -> DialState {
+    pub(crate) fn current_dial(&self, palette: &Palette, derived: &Derived, dial: &DialState) -> DialState {
         let mut d = dial.clone();
         for l in &mut d.lights {
             l.spectrum = current(&palette.lights, &derived.light_spectra, &l.name, &l.spectrum);
@@ -233,13 +226,13 @@ impl Preview {
     }
 
     /// The light of `dial` with the designer's current light spectra.
-    pub fn light_at(&self, palette: &Palette, derived: &Derived, dial: &DialState) -> Spectrum {
+    pub(crate) fn light_at(&self, palette: &Palette, derived: &Derived, dial: &DialState) -> Spectrum {
         self.current_dial(palette, derived, dial).light()
     }
 
     /// Relight under light `e`: sRGB, 3 bytes per pixel (row-major), with the render's exposure — the
     /// renderer's frame matrix and relight kernel.
-    pub fn relight(&self, e: &Spectrum, lut: &SrgbLut) -> Vec<u8> {
+    pub(crate) fn relight(&self, e: &Spectrum, lut: &SrgbLut) -> Vec<u8> {
         let matrix = self.model.frame_matrix(e, self.exposure);
         let mut out = vec![0u8; self.image.width * self.image.height * 3];
         if self.image.channels == matrix.channels {
@@ -274,15 +267,15 @@ struct LoadRequest {
 /// A finished raycast.
 pub struct Loaded {
     pub scene: Arc<Scene>,
-    pub model: ColourModel,
-    pub weights: MaterialWeights,
+    pub(crate) model: ColourModel,
+    pub(crate) weights: MaterialWeights,
     pub seconds: f64,
 }
 
 /// Raycasts the preview off the UI thread: one request at a time, always the newest. Each finished
 /// raycast is handed to the deliverer given to [`PreviewLoader::start`] (the designer's loop sends it on
 /// its one channel).
-pub struct PreviewLoader {
+pub(crate) struct PreviewLoader {
     requests: Sender<LoadRequest>,
 }
 

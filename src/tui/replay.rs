@@ -31,7 +31,7 @@ use std::io;
 #[error("line {line}: {reason}")]
 pub struct ScriptError {
     pub line: usize,
-    pub reason: String,
+    pub(crate) reason: String,
 }
 
 /// One step of a script.
@@ -161,7 +161,7 @@ pub fn parse_script(text: &str) -> Result<Vec<Step>, ScriptError> {
 }
 
 /// A script as an input source: every step in order, then the end; solves are synchronous.
-pub struct ScriptEvents {
+pub(crate) struct ScriptEvents {
     steps: std::vec::IntoIter<Step>,
 }
 

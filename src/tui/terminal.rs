@@ -12,15 +12,15 @@ use std::sync::mpsc::Sender;
 use std::time::Duration;
 
 /// Owns the terminal while the designer runs; restores it when dropped.
-pub struct TerminalGuard {
-    pub terminal: DefaultTerminal,
+pub(crate) struct TerminalGuard {
+    pub(crate) terminal: DefaultTerminal,
 }
 
 impl TerminalGuard {
     /// Enter raw mode and the alternate screen; installs a panic hook that restores the terminal first.
     /// Without a terminal on both standard input and output it fails before writing anything (no stray
     /// escape sequences in a redirected output).
-    pub fn enter() -> io::Result<TerminalGuard> {
+    pub(crate) fn enter() -> io::Result<TerminalGuard> {
         use std::io::IsTerminal;
         if !(io::stdin().is_terminal() && io::stdout().is_terminal()) {
             return Err(io::Error::other("standard input and output are not both a terminal"));
@@ -45,7 +45,7 @@ impl Drop for TerminalGuard {
 /// Keys and resizes from the terminal, and the end signals (SIGTERM, SIGHUP) as [`Msg::Terminated`], sent
 /// on the loop's channel by two threads: the input thread (crossterm's blocking read, woken now and then
 /// only to see whether the loop has ended) and the signal thread (signal-hook's iterator).
-pub struct TerminalEvents {
+pub(crate) struct TerminalEvents {
     #[cfg(unix)]
     signals: Option<signal_hook::iterator::Signals>,
     #[cfg(unix)]

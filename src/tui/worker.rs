@@ -188,7 +188,7 @@ fn serve_bases(requests: Receiver<BasisRequest>, deliver: Deliver, sidecar: Opti
 }
 
 /// The message of a caught panic, for the status line.
-pub fn panic_message(panic: &Box<dyn std::any::Any + Send>) -> String {
+pub(crate) fn panic_message(panic: &Box<dyn std::any::Any + Send>) -> String {
     let what = panic
         .downcast_ref::<&str>()
         .map(|s| s.to_string())
@@ -226,7 +226,7 @@ impl Worker {
 
     /// Start the worker threads; every reply is handed to `deliver` (the designer's loop sends it on its
     /// one channel), which returns false when nobody listens any more (the threads then end).
-    pub fn start_delivering(
+    pub(crate) fn start_delivering(
         config: WorkerConfig,
         deliver: impl Fn(Reply) -> bool + Send + Sync + 'static,
     ) -> std::io::Result<Worker> {
@@ -285,11 +285,6 @@ impl Worker {
         sent
     }
 
-    /// True when this worker trains bases at all (not [`BasisMode::Off`]).
-    pub fn trains_bases(&self) -> bool {
-        self.bases.is_some()
-    }
-
     /// Have the basis of dimension m for these spectra (key `key`) trained or loaded, unless it was the
     /// last one asked for. The reply is a [`Reply::Trained`] with the key.
     pub fn request_basis(&mut self, generation: u64, key: String, set: TrainingSet, m: usize) {
@@ -301,7 +296,7 @@ impl Worker {
 
     /// Have the basis of these spectra trained or loaded (the caller decides that it is new). False when
     /// the basis thread is off or gone.
-    pub fn train(&mut self, generation: u64, key: String, set: TrainingSet, m: usize) -> bool {
+    pub(crate) fn train(&mut self, generation: u64, key: String, set: TrainingSet, m: usize) -> bool {
         if let Some(tx) = &self.bases {
             let request = BasisRequest { generation, key: key.clone(), set, m };
             if tx.send(request).is_ok() {
@@ -311,16 +306,6 @@ impl Worker {
             }
         }
         false
-    }
-
-    /// Have every following solve also compute the mismatch region of `cell` (None: none).
-    pub fn set_feasibility(&mut self, cell: Option<usize>) {
-        self.feasibility = cell;
-    }
-
-    /// The generation being solved, if any.
-    pub fn solving(&self) -> Option<u64> {
-        self.pending_solve
     }
 
     /// True while a basis is being trained.

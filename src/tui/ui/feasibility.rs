@@ -15,11 +15,11 @@ use ratatui::widgets::canvas::{Canvas, Line as CanvasLine};
 use ratatui::widgets::{Block, Clear, Widget};
 
 /// Width and height of the overlay (clipped to the screen).
-pub const WIDTH: u16 = 46;
-pub const HEIGHT: u16 = 18;
+pub(crate) const WIDTH: u16 = 46;
+pub(crate) const HEIGHT: u16 = 18;
 
 /// The overlay, drawn in the bottom-right corner of `area` (over the spectra panel).
-pub struct FeasibilityOverlay<'a>(pub &'a State);
+pub(crate) struct FeasibilityOverlay<'a>(pub &'a State);
 
 impl Widget for FeasibilityOverlay<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
@@ -71,7 +71,7 @@ impl Widget for FeasibilityOverlay<'_> {
 }
 
 /// The three lines under the canvas.
-pub fn summary(panel: &Panel, stale: bool) -> Vec<String> {
+pub(crate) fn summary(panel: &Panel, stale: bool) -> Vec<String> {
     let (lo, hi) = panel.l_range;
     let range = format!("L* {:.1}…{:.1}, slice at target L* {:.1}", lo, hi, panel.target_lab[0]);
     let place = match panel.placement {

@@ -12,10 +12,10 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::widgets::Widget;
 
 /// The matrix panel of a state.
-pub struct Matrix<'a>(pub &'a State);
+pub(crate) struct Matrix<'a>(pub &'a State);
 
 /// Width of a matrix column: `[`, four cell characters, `]`, the marker, a gap.
-pub const MIN_COLUMN: usize = 8;
+pub(crate) const MIN_COLUMN: usize = 8;
 /// Columns and the name column grow to show whole names up to these widths, space permitting.
 const MAX_COLUMN: usize = 25;
 const MIN_NAME: usize = 5;
@@ -32,13 +32,13 @@ fn column_width(state: &State, j: usize) -> usize {
 }
 
 /// Rows the matrix needs with two rows per reflectance (`compact`: one).
-pub fn rows_needed(state: &State, compact: bool) -> u16 {
+pub(crate) fn rows_needed(state: &State, compact: bool) -> u16 {
     let n = state.palette.reflectances.len() as u16;
     2 + if compact { n } else { 2 * n }
 }
 
 /// Columns the whole matrix needs to show every light with its whole name.
-pub fn width_needed(state: &State) -> u16 {
+pub(crate) fn width_needed(state: &State) -> u16 {
     let columns: usize = (0..state.palette.lights.len()).map(|j| column_width(state, j)).sum();
     (ideal_name_width(state) + 6 + columns) as u16
 }
@@ -49,12 +49,12 @@ pub struct Geometry {
     /// Width of the reflectance-name part of the left column.
     pub name_width: usize,
     /// Width of the whole left column (name, swatch, marker).
-    pub left_width: usize,
+    pub(crate) left_width: usize,
     /// The lights shown: (light index, x offset in the panel, column width).
-    pub columns: Vec<(usize, usize, usize)>,
+    pub(crate) columns: Vec<(usize, usize, usize)>,
     /// First reflectance shown and how many rows fit.
-    pub first_reflectance: usize,
-    pub visible_reflectances: usize,
+    pub(crate) first_reflectance: usize,
+    pub(crate) visible_reflectances: usize,
     /// Screen rows per reflectance: 2 (square-ish cells), or 1 when that shows more names.
     pub row_height: usize,
 }

@@ -19,21 +19,21 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::widgets::{Block, Borders, Widget};
 
 /// Rows the full sliders panel needs.
-pub const SLIDERS_ROWS: u16 = 8;
+pub(crate) const SLIDERS_ROWS: u16 = 8;
 /// Columns the full sliders panel needs; narrower screens get the one-line sliders.
-pub const SLIDERS_COLS: u16 = 38;
+pub(crate) const SLIDERS_COLS: u16 = 38;
 /// Smallest spectra panel worth drawing (rows, with its top rule).
-pub const SPECTRA_MIN: u16 = 5;
+pub(crate) const SPECTRA_MIN: u16 = 5;
 
 /// The panels' rectangles for a screen of `area`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Areas {
     pub matrix: Rect,
     /// Full sliders to the right of the matrix, or one line under it.
-    pub sliders: Rect,
-    pub sliders_compact: bool,
-    pub settings: Rect,
-    pub spectra: Rect,
+    pub(crate) sliders: Rect,
+    pub(crate) sliders_compact: bool,
+    pub(crate) settings: Rect,
+    pub(crate) spectra: Rect,
 }
 
 /// Lay the panels out inside the outer border.
@@ -70,7 +70,7 @@ pub fn areas(state: &State, inner: Rect) -> Areas {
 }
 
 /// Columns of the dial panel beside the preview image (when the panel is wide enough).
-pub const DIAL_COLS: u16 = 34;
+pub(crate) const DIAL_COLS: u16 = 34;
 
 /// The preview panel's parts: the image and, to its right, the dial.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,7 +144,7 @@ impl Widget for &State {
 }
 
 /// A number as the screen shows it: short, `inf` for infinities.
-pub fn num(v: f64) -> String {
+pub(crate) fn num(v: f64) -> String {
     if v == f64::INFINITY {
         "inf".into()
     } else if v == f64::NEG_INFINITY {
@@ -159,7 +159,7 @@ pub fn num(v: f64) -> String {
 }
 
 /// A number to four significant digits (scientific below 1e-3 and from 1e5).
-pub fn sig4(v: f64) -> String {
+pub(crate) fn sig4(v: f64) -> String {
     if !v.is_finite() || v == 0.0 {
         return num(v);
     }
@@ -172,22 +172,22 @@ pub fn sig4(v: f64) -> String {
 }
 
 /// Style of the selection brackets (the seed's green border).
-pub fn selected_style() -> Style {
+pub(crate) fn selected_style() -> Style {
     Style::new().fg(Color::LightGreen).add_modifier(Modifier::BOLD)
 }
 
 /// Style of a designed-spectrum marker (the seed's red border).
-pub fn design_style() -> Style {
+pub(crate) fn design_style() -> Style {
     Style::new().fg(Color::LightRed).add_modifier(Modifier::BOLD)
 }
 
 /// Foreground-only style of a colour swatch.
-pub fn swatch(mode: ColourMode, rgb: &nalgebra::Vector3<f64>) -> Style {
+pub(crate) fn swatch(mode: ColourMode, rgb: &nalgebra::Vector3<f64>) -> Style {
     Style::new().fg(mode.linear(rgb))
 }
 
 /// Write `text` clipped to `area`'s row `dy`, starting at column `dx`; returns the column after it.
-pub fn put(buf: &mut Buffer, area: Rect, dx: u16, dy: u16, text: &str, style: Style) -> u16 {
+pub(crate) fn put(buf: &mut Buffer, area: Rect, dx: u16, dy: u16, text: &str, style: Style) -> u16 {
     if dy >= area.height || dx >= area.width {
         return dx;
     }
@@ -196,7 +196,7 @@ pub fn put(buf: &mut Buffer, area: Rect, dx: u16, dy: u16, text: &str, style: St
 }
 
 /// Truncate `text` to `width` characters, marking a cut with `…`.
-pub fn fit(text: &str, width: usize) -> String {
+pub(crate) fn fit(text: &str, width: usize) -> String {
     if text.chars().count() <= width {
         text.to_string()
     } else if width == 0 {

@@ -10,7 +10,7 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::widgets::{Block, Clear, Widget};
 
 /// The open popup of a state.
-pub struct PopupView<'a>(pub &'a State);
+pub(crate) struct PopupView<'a>(pub &'a State);
 
 /// A rectangle of at most `width`×`height` centred in `area`.
 fn centred(area: Rect, width: u16, height: u16) -> Rect {
@@ -58,7 +58,7 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
 
 /// One row of the help.
 #[derive(Clone, Debug, PartialEq)]
-pub enum HelpRow {
+pub(crate) enum HelpRow {
     Heading(&'static str),
     /// Up to two (keys, what they do) pairs side by side.
     Keys(Vec<(String, &'static str)>),
@@ -68,7 +68,7 @@ pub enum HelpRow {
 
 /// The help's rows for a popup `width` wide: every binding of the main screen (two columns when wide),
 /// then each popup's keys on one line (`TABLES[0]` is the main screen's).
-pub fn help_rows(width: u16) -> Vec<HelpRow> {
+pub(crate) fn help_rows(width: u16) -> Vec<HelpRow> {
     let columns = if width >= 90 { 2 } else { 1 };
     let mut rows = Vec::new();
     // The main screen's and the light dial's keys in columns; `TABLES[0..2]` are these two.

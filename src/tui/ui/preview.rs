@@ -16,7 +16,7 @@ use ratatui::widgets::canvas::{Canvas, Line as CanvasLine};
 mod labels;
 
 /// The lights that light the dial now, strongest first, as `name 70% · name 30%`.
-pub fn caption(dial: &DialState) -> String {
+pub(crate) fn caption(dial: &DialState) -> String {
     let w = dial.weights();
     let mut lit: Vec<(usize, f64)> = w.iter().copied().enumerate().filter(|(_, v)| *v >= 0.005).collect();
     lit.sort_by(|a, b| b.1.total_cmp(&a.1));
@@ -30,14 +30,14 @@ pub fn caption(dial: &DialState) -> String {
         .join(" · ")
 }
 /// The panel's title: where the dial is, the keys, the protocol.
-pub fn title(state: &State) -> String {
+pub(crate) fn title(state: &State) -> String {
     let caption = state.dial_state.as_ref().map_or_else(|| "no lights".to_string(), caption);
     let keys = if state.dial_keys { "Esc leave" } else { "g dial keys" };
     format!(" light dial: {caption} · {keys} · {} ", state.graphics.name())
 }
 
 /// The preview image of a state (a progress line while it is raycast).
-pub struct PreviewPanel<'a>(pub &'a State);
+pub(crate) struct PreviewPanel<'a>(pub &'a State);
 
 impl Widget for PreviewPanel<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
@@ -106,7 +106,7 @@ fn light_colour(state: &State, e: &Spectrum) -> Color {
 /// The light dial beside the preview image (seed §5.1's 2D dial): each light's vertex in its colour with
 /// its number and name (hollow when off), the outline through the vertices, the slider point; under it
 /// one intensity slider per light.
-pub struct DialPanel<'a>(pub &'a State);
+pub(crate) struct DialPanel<'a>(pub &'a State);
 
 impl Widget for DialPanel<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {

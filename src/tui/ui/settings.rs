@@ -10,10 +10,10 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::widgets::Widget;
 
 /// The settings row of a state.
-pub struct SettingsRow<'a>(pub &'a State);
+pub(crate) struct SettingsRow<'a>(pub &'a State);
 
 /// The text of each field, in [`SettingField::ALL`] order; `short` abbreviates for narrow screens.
-pub fn field_texts(state: &State, short: bool) -> Vec<String> {
+pub(crate) fn field_texts(state: &State, short: bool) -> Vec<String> {
     let s = &state.palette.settings;
     let check = |on: bool| if on { "[x]" } else { "[ ]" };
     let label = |long: &'static str, abbreviated: &'static str| if short { abbreviated } else { long };

@@ -11,13 +11,13 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::widgets::Widget;
 
 /// The full sliders panel.
-pub struct Sliders<'a>(pub &'a State);
+pub(crate) struct Sliders<'a>(pub &'a State);
 
 /// The one-line sliders of narrow screens.
-pub struct CompactSliders<'a>(pub &'a State);
+pub(crate) struct CompactSliders<'a>(pub &'a State);
 
 /// Values of the selected cell's sliders: display sRGB target (0–1) and weight.
-pub fn slider_values(state: &State, light: usize, reflectance: usize) -> [f64; 4] {
+pub(crate) fn slider_values(state: &State, light: usize, reflectance: usize) -> [f64; 4] {
     let cell = state.palette.cell(light, reflectance);
     let target = cell.map(|c| c.target).or_else(|| state.derived.cell(light, reflectance).map(|c| c.full));
     let t = target.unwrap_or_default();

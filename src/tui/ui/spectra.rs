@@ -11,7 +11,7 @@ use ratatui::text::Span;
 use ratatui::widgets::{Axis, Chart, Dataset, GraphType, LegendPosition, Widget};
 
 /// The spectrum plot of a state.
-pub struct SpectraPlot<'a>(pub &'a State);
+pub(crate) struct SpectraPlot<'a>(pub &'a State);
 
 fn points(s: &Spectrum) -> Vec<(f64, f64)> {
     s.as_slice().iter().enumerate().map(|(i, v)| (Grid::STANDARD.wavelength(i), *v)).collect()

@@ -10,7 +10,7 @@ use ratatui::text::{Line, Span};
 const SPINNER: [&str; 8] = ["⠋", "⠙", "⠹", "⠸", "⠼", "⠴", "⠦", "⠧"];
 
 /// `metamer ─ palettes/x.toml ●` (and `256 colours` without truecolor); `compact` drops the program name.
-pub fn title_left(state: &State, compact: bool) -> Line<'static> {
+pub(crate) fn title_left(state: &State, compact: bool) -> Line<'static> {
     let mut spans = Vec::new();
     if !compact {
         spans.push(Span::styled(" metamer ", Style::new().add_modifier(Modifier::BOLD)));
@@ -34,7 +34,7 @@ fn time_text(seconds: f64) -> String {
 }
 
 /// The live objective, worst ΔE00 and solve time, or the solve's progress or failure; `compact` abbreviates.
-pub fn title_right(state: &State, compact: bool) -> Line<'static> {
+pub(crate) fn title_right(state: &State, compact: bool) -> Line<'static> {
     let s = &state.solve;
     let spin = SPINNER[(state.ticks as usize) % SPINNER.len()];
     let elapsed = if state.hide_times { String::new() } else { format!(" {}", time_text(s.running_for.as_secs_f64())) };
@@ -82,7 +82,7 @@ pub fn title_right(state: &State, compact: bool) -> Line<'static> {
 }
 
 /// Draw the title row (over the top border of `area`): left and right parts, abbreviated to fit.
-pub fn draw_title(state: &State, area: ratatui::layout::Rect, buf: &mut ratatui::buffer::Buffer) {
+pub(crate) fn draw_title(state: &State, area: ratatui::layout::Rect, buf: &mut ratatui::buffer::Buffer) {
     let room = usize::from(area.width.saturating_sub(4));
     let fits = |l: &Line, r: &Line| l.width() + r.width() < room;
     let mut choice = (title_left(state, true), title_right(state, true));
@@ -117,7 +117,7 @@ const HINTS: &[&str] = &[
 const ALWAYS: &str = "^s save · ? help · q quit";
 
 /// A message when there is one, else the key hints that fit in `width`.
-pub fn bottom_line(state: &State, width: u16) -> Line<'static> {
+pub(crate) fn bottom_line(state: &State, width: u16) -> Line<'static> {
     let width = usize::from(width);
     if let Some(m) = &state.message {
         let style = if m.is_error { Style::new().fg(Color::LightRed) } else { Style::new().fg(Color::LightGreen) };

@@ -16,17 +16,17 @@ use nalgebra::Vector3;
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Wants {
     /// The palette changed: solve it again (cancelling any running solve).
-    pub solve: bool,
+    pub(crate) solve: bool,
     /// Write the palette to its file.
-    pub save: bool,
+    pub(crate) save: bool,
     /// Quit once the save succeeded.
-    pub quit_after_save: bool,
+    pub(crate) quit_after_save: bool,
     /// Read the palette file again.
-    pub reload: bool,
+    pub(crate) reload: bool,
     /// Save the palette to this path, which becomes the palette file.
-    pub save_as: Option<std::path::PathBuf>,
+    pub(crate) save_as: Option<std::path::PathBuf>,
     /// Start the CSV import recorded in `state.import`.
-    pub import: bool,
+    pub(crate) import: bool,
 }
 
 impl Wants {

@@ -9,10 +9,10 @@ use ratatui::text::Span;
 
 /// A label placed at column `x`, row `y` (cells, relative to the dial's area).
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Placed {
-    pub x: u16,
-    pub y: u16,
-    pub text: String,
+pub(crate) struct Placed {
+    pub(crate) x: u16,
+    pub(crate) y: u16,
+    pub(crate) text: String,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,7 +38,7 @@ fn width(text: &str) -> usize {
 }
 
 /// `name` cut to at most `cols` columns, ending in `…` when cut (`None` when not even one letter fits).
-pub fn shorten(name: &str, cols: usize) -> Option<String> {
+pub(crate) fn shorten(name: &str, cols: usize) -> Option<String> {
     if width(name) <= cols {
         return Some(name.to_string());
     }
@@ -70,7 +70,7 @@ fn variants(number: usize, name: &str, side: Side) -> Vec<String> {
 /// called `names[i]`) around `centre`; `others` are further marks no label may cover (the slider).
 /// Vertices are labelled in order; each takes the longest text that fits on any of its sides, in the
 /// order of [`sides`].
-pub fn layout(
+pub(crate) fn layout(
     area: (u16, u16),
     marks: &[(u16, u16)],
     others: &[(u16, u16)],
