@@ -116,9 +116,9 @@ pub enum FeasibilityError {
     Design(#[from] DesignError),
 }
 
-/// `name` with control characters escaped (names come from user files).
+/// `name` with control characters escaped (names come from user files): the one escaping helper.
 fn escaped(name: &str) -> String {
-    name.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
+    crate::fsio::escape(name).into_owned()
 }
 
 /// "light × reflectance" of a cell, escaped.
