@@ -5,12 +5,14 @@
 //! missing palette.
 //!
 //! One parser, one writer. Reading ([`read`]) walks the tree of `toml`'s borrowing parser (spans kept for
-//! messages, no document built). Writing ([`write`]) updates a `toml_edit` document of the text so only
+//! messages, no document built; a long text is parsed in pieces on several threads, [`pieces`]).
+//! Writing ([`write`]) updates a `toml_edit` document of the text so only
 //! what changed is rewritten; the document is parsed when a save needs it. A save that only changes
 //! spectra (what a solve does) updates a document of each changed table instead of one of the whole
 //! file ([`tables`]); it is the same writer, applied to less text.
 
 mod budget;
+mod pieces;
 mod read;
 mod tables;
 mod write;
@@ -175,12 +177,12 @@ impl PaletteFile {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
             PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
         };
-        let spanned = DeTable::parse(text).map_err(|e| syntax(e.message(), e.span()))?;
-        let root = spanned.get_ref();
         // The parser keeps numbers as text; one TOML cannot represent is a syntax error, as in `toml_edit`.
-        if let Some((span, message)) = root.values().find_map(read::check_numbers) {
-            return Err(syntax(message, Some(span)));
-        }
+        let spanned = pieces::parse(text).map_err(|e| match e {
+            pieces::Failure::Syntax(e) => syntax(e.message(), e.span()),
+            pieces::Failure::Number(span, message) => syntax(message, Some(span)),
+        })?;
+        let root = spanned.get_ref();
         let colorimetry = Colorimetry::default();
         let outcome = read::Reader::new(path, colorimetry.luminance()).read(root).map_err(|e| match e {
             PaletteError::Invalid { path, key, reason, line: None } => {

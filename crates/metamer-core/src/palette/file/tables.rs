@@ -15,7 +15,7 @@
 //! A source value the writer replaces (a solve's old samples, most of a designed table's text) is not
 //! parsed: the table is parsed with a placeholder in its place, at the span the reader saw.
 
-use super::write::{SaveContext, sync_spectrum, written_source};
+use super::write::{SaveContext, source_value, sync_spectrum, written_source};
 use crate::palette::{Kind, Palette, Source, SpectrumEntry};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -214,11 +214,61 @@ fn rewrite(
         return None;
     }
     let (source, normalize, scale) = written_source(new, ctx);
+    let text = match &span.source_value {
+        // Only the source's value changes (a solve's new samples): what `sync_spectrum` does to the
+        // document is to replace that value, keeping the key and the text around it, so the writer's value
+        // ([`source_value`]) goes in at the span the reader saw and no document of the table is built.
+        Some(v) if only_the_value_changes(old, new, &source, normalize, scale) => {
+            let value = source_value(&source).to_string();
+            let value = if layout.crlf { value.replace('\n', "\r\n") } else { value };
+            format!("{}{value}{}", piece.get(..v.start)?, piece.get(v.end..)?)
+        }
+        _ => rewrite_document(layout, span, old, new, ctx, &source)?,
+    };
+    // The entry as reading the new table gives it: the written source, resolved as the reader resolves
+    // it (debug builds read the whole text back and compare).
+    let raw = match &source {
+        Source::Csv(file) => ctx.csv_raw.get(file).copied().or_else(|| source.raw_spectrum(ctx.old_base).ok())?,
+        other => other.raw_spectrum(None).ok()?,
+    };
+    let normalize = if new.kind == Kind::Light { normalize } else { crate::spectrum::Normalize::default() };
+    let spectrum = crate::palette::source::finish(&raw, new.kind, normalize, scale, &ctx.luminance).ok()?;
+    Some((text, SpectrumEntry { source, normalize, scale, spectrum, ..new.clone() }))
+}
+
+/// True when `sync_spectrum` would change nothing in the table of `old` but its source's value: the same
+/// source key, name, normalisation and scale (the other keys are the same, see [`same_but_spectrum`]).
+fn only_the_value_changes(
+    old: &SpectrumEntry,
+    new: &SpectrumEntry,
+    source: &Source,
+    normalize: crate::spectrum::Normalize,
+    scale: f64,
+) -> bool {
+    old.source != *source
+        && old.source.key() == source.key()
+        && old.name == new.name
+        && (old.kind != Kind::Light || old.normalize == normalize)
+        && old.scale == scale
+        && same_but_spectrum(old, new)
+}
+
+/// The new text of the table at `span` through a `toml_edit` document of it, updated by `sync_spectrum`
+/// (line endings as the whole document is printed).
+fn rewrite_document(
+    layout: &Layout,
+    span: &TableSpan,
+    old: &SpectrumEntry,
+    new: &SpectrumEntry,
+    ctx: &SaveContext,
+    source: &Source,
+) -> Option<String> {
+    let piece = layout.text.get(span.range.clone())?;
     // A source the writer replaces need not be parsed: its value (a solve's old samples, most of the
     // table's text) is read as a placeholder; the key and the text around the value are kept.
     let placeholder;
     let piece = match &span.source_value {
-        Some(v) if old.source != source => {
+        Some(v) if old.source != *source => {
             placeholder = format!("{}0{}", piece.get(..v.start)?, piece.get(v.end..)?);
             placeholder.as_str()
         }
@@ -236,21 +286,10 @@ fn rewrite(
     sync_spectrum(aot.get_mut(0)?, Some(old), new, ctx);
     // As the whole document is printed: the file's final newline (or none) and line endings.
     let mut text = document.to_string();
-    if range.end == layout.text.len() && layout.no_final_newline && text.ends_with('\n') {
+    if span.range.end == layout.text.len() && layout.no_final_newline && text.ends_with('\n') {
         text.pop();
     }
-    if layout.crlf {
-        text = text.replace("\r\n", "\n").replace('\n', "\r\n");
-    }
-    // The entry as reading the new table gives it: the written source, resolved as the reader resolves
-    // it (debug builds read the whole text back and compare).
-    let raw = match &source {
-        Source::Csv(file) => ctx.csv_raw.get(file).copied().or_else(|| source.raw_spectrum(ctx.old_base).ok())?,
-        other => other.raw_spectrum(None).ok()?,
-    };
-    let normalize = if new.kind == Kind::Light { normalize } else { crate::spectrum::Normalize::default() };
-    let spectrum = crate::palette::source::finish(&raw, new.kind, normalize, scale, &ctx.luminance).ok()?;
-    Some((text, SpectrumEntry { source, normalize, scale, spectrum, ..new.clone() }))
+    Some(if layout.crlf { text.replace("\r\n", "\n").replace('\n', "\r\n") } else { text })
 }
 
 #[cfg(test)]

@@ -320,7 +320,8 @@ fn relative_path(target: &Path, base: &Path) -> Option<PathBuf> {
     Some(out)
 }
 
-fn source_value(source: &Source) -> Value {
+/// A source's value as the writer writes it.
+pub(super) fn source_value(source: &Source) -> Value {
     match source {
         Source::Illuminant(s) | Source::ColorChecker(s) | Source::Csv(s) => Value::from(s.as_str()),
         Source::Planck(x) | Source::Flat(x) => Value::from(*x),

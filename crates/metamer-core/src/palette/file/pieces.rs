@@ -1,0 +1,232 @@
+//! The one parse, on several threads. A palette of thousands of spectra is mostly a run of `[[lights]]`,
+//! `[[reflectances]]` and `[[colours]]` tables, and `toml`'s parser runs on one thread: the text is cut
+//! into pieces at such header lines, each piece is parsed by the same parser on its own thread, spans are
+//! moved to count from the start of the whole text, and the arrays of tables are joined in order. A short
+//! text is one piece. The tree is the one the whole text parses to, so the one walker ([`super::read`])
+//! reads it.
+//!
+//! Cuts are only made where the whole-text parse would start a new table element: at a line that opens a
+//! `[[name]]` header (a bare key, no dots) outside any string, comment or array, after the last header of
+//! any other shape (so a later piece holds nothing but `[[name]]` tables, which can refer to no earlier
+//! table). When a piece does not parse, or the join finds a key that the `[[name]]` tables of a later
+//! piece cannot continue, the text is parsed as one piece, so errors (line, column, message) are exactly
+//! those of the whole-text parse.
+
+use super::read;
+use rayon::prelude::*;
+use std::ops::Range;
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+/// Texts shorter than this are one piece (a thread's start costs more than parsing them).
+const MIN_PIECE: usize = 64 * 1024;
+
+/// Why a text does not parse: a syntax error, or a number TOML cannot hold (span and reason).
+pub(super) enum Failure {
+    Syntax(toml::de::Error),
+    Number(Range<usize>, &'static str),
+}
+
+/// Parse `text` (in pieces when it is long) and check its numbers ([`read::check_numbers`]).
+pub(super) fn parse(text: &str) -> Result<Spanned<DeTable<'_>>, Failure> {
+    let pieces = (text.len() / MIN_PIECE).min(4 * rayon::current_num_threads());
+    let starts = cuts(text, pieces);
+    if starts.len() > 1
+        && let Some(root) = parse_pieces(text, &starts)
+    {
+        return Ok(root);
+    }
+    parse_one(text)
+}
+
+/// The whole text as one piece.
+fn parse_one(text: &str) -> Result<Spanned<DeTable<'_>>, Failure> {
+    let root = DeTable::parse(text).map_err(Failure::Syntax)?;
+    if let Some((span, message)) = root.get_ref().values().find_map(read::check_numbers) {
+        return Err(Failure::Number(span, message));
+    }
+    Ok(root)
+}
+
+/// The pieces starting at `starts` (the first at 0), parsed and joined; `None` when a piece fails or the
+/// join is not what the whole text says (the caller then parses it whole for the error).
+fn parse_pieces<'i>(text: &'i str, starts: &[usize]) -> Option<Spanned<DeTable<'i>>> {
+    let bounds: Vec<Range<usize>> =
+        starts.iter().enumerate().map(|(i, &a)| a..starts.get(i + 1).copied().unwrap_or(text.len())).collect();
+    let parsed: Vec<(Range<usize>, DeTable<'i>)> = bounds
+        .par_iter()
+        .map(|range| {
+            let piece = text.get(range.clone())?;
+            let root = DeTable::parse(piece).ok()?;
+            let span = moved(root.span(), range.start);
+            let root = root.into_inner();
+            if root.values().any(|v| read::check_numbers(v).is_some()) {
+                return None;
+            }
+            Some((span, if range.start == 0 { root } else { shift_table(root, range.start) }))
+        })
+        .collect::<Option<_>>()?;
+    let mut parsed = parsed.into_iter();
+    let (span, mut root) = parsed.next()?;
+    // Keys whose arrays are known to be made of `[[key]]` tables.
+    let mut continued: Vec<String> = Vec::new();
+    let headed = |items: &[Spanned<DeValue>]| {
+        items.iter().all(|e| e.get_ref().is_table() && text.get(e.span()).is_some_and(|h| h.starts_with("[[")))
+    };
+    for (_, piece) in parsed {
+        for (key, value) in piece {
+            let span = value.span();
+            let DeValue::Array(items) = value.into_inner() else { return None };
+            if !headed(&items) {
+                return None;
+            }
+            let name: &str = key.get_ref();
+            match root.get_mut(name) {
+                Some(existing) => {
+                    let DeValue::Array(list) = existing.get_mut() else { return None };
+                    if !continued.iter().any(|c| c == name) {
+                        if !headed(list) {
+                            return None;
+                        }
+                        continued.push(name.to_string());
+                    }
+                    for item in items {
+                        list.push(item);
+                    }
+                }
+                None => {
+                    continued.push(name.to_string());
+                    root.insert(key, Spanned::new(span, DeValue::Array(items)));
+                }
+            }
+        }
+    }
+    Some(Spanned::new(span, root))
+}
+
+fn moved(span: Range<usize>, by: usize) -> Range<usize> {
+    span.start + by..span.end + by
+}
+
+/// A piece's table with its spans counted from `by` bytes earlier.
+fn shift_table(table: DeTable<'_>, by: usize) -> DeTable<'_> {
+    table.into_iter().map(|(k, v)| (Spanned::new(moved(k.span(), by), k.into_inner()), shift(v, by))).collect()
+}
+
+fn shift(value: Spanned<DeValue<'_>>, by: usize) -> Spanned<DeValue<'_>> {
+    let span = moved(value.span(), by);
+    let inner = match value.into_inner() {
+        DeValue::Array(mut items) => {
+            for item in items.iter_mut() {
+                let v = std::mem::replace(item, Spanned::new(0..0, DeValue::Boolean(false)));
+                *item = shift(v, by);
+            }
+            DeValue::Array(items)
+        }
+        DeValue::Table(t) => DeValue::Table(shift_table(t, by)),
+        other => other,
+    };
+    Spanned::new(span, inner)
+}
+
+/// Where the pieces start (the first at 0): about `len / pieces` apart, at lines opening a `[[name]]`
+/// header outside strings, comments and arrays, after the last header of another shape.
+fn cuts(text: &str, pieces: usize) -> Vec<usize> {
+    let mut out = vec![0];
+    if pieces < 2 {
+        return out;
+    }
+    let headers = simple_headers(text);
+    let step = text.len() / pieces;
+    let mut next = step;
+    for at in headers {
+        if at >= next {
+            out.push(at);
+            next = at + step;
+        }
+    }
+    out
+}
+
+/// Starts of the lines opening a `[[name]]` header (bare key) after the last header of another shape,
+/// found by a scan that skips strings, comments and the insides of arrays and inline tables.
+fn simple_headers(text: &str) -> Vec<usize> {
+    let b = text.as_bytes();
+    let mut out = Vec::new();
+    let mut depth = 0usize;
+    let mut line_start = true;
+    let mut i = 0;
+    while i < b.len() {
+        match b[i] {
+            b'#' => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+                continue;
+            }
+            q @ (b'"' | b'\'') => {
+                let triple = b.get(i..i + 3).is_some_and(|s| s == [q, q, q]);
+                i += if triple { 3 } else { 1 };
+                while i < b.len() {
+                    if q == b'"' && b[i] == b'\\' {
+                        i += 2;
+                        continue;
+                    }
+                    if !triple && b[i] == b'\n' {
+                        break;
+                    }
+                    if b[i] == q && (!triple || b.get(i..i + 3).is_some_and(|s| s == [q, q, q])) {
+                        i += if triple { 3 } else { 1 };
+                        // A triple-quoted string may end in up to two more quotes.
+                        while triple && b.get(i) == Some(&q) {
+                            i += 1;
+                        }
+                        break;
+                    }
+                    i += 1;
+                }
+                line_start = false;
+                continue;
+            }
+            b'\n' => line_start = true,
+            b' ' | b'\t' | b'\r' => {}
+            b'[' if line_start && depth == 0 => {
+                let line_end = b[i..].iter().position(|&c| c == b'\n').map_or(b.len(), |p| i + p);
+                let line = &b[i..line_end];
+                if is_simple_header(line) {
+                    // The cut is at the start of the line (its indentation goes with the header).
+                    let start = b[..i].iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
+                    out.push(start);
+                } else {
+                    out.clear();
+                }
+                // A header's line holds nothing else but a comment.
+                i = line_end;
+                continue;
+            }
+            ch => {
+                match ch {
+                    b'[' | b'{' => depth += 1,
+                    b']' | b'}' => depth = depth.saturating_sub(1),
+                    _ => {}
+                }
+                line_start = false;
+            }
+        }
+        i += 1;
+    }
+    out
+}
+
+/// `[[name]]` with a bare key, then only blanks or a comment.
+fn is_simple_header(line: &[u8]) -> bool {
+    let Some(rest) = line.strip_prefix(b"[[") else { return false };
+    let key_len = rest.iter().take_while(|c| c.is_ascii_alphanumeric() || **c == b'_' || **c == b'-').count();
+    let Some(after) = rest.get(key_len..).and_then(|r| r.strip_prefix(b"]]")) else { return false };
+    let after = after.trim_ascii_start();
+    key_len > 0 && (after.is_empty() || after.starts_with(b"#"))
+}
+
+#[cfg(test)]
+#[path = "pieces_tests.rs"]
+mod tests;
