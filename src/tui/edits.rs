@@ -41,6 +41,9 @@ pub enum EditError {
     BoundsCount,
     #[error("give a path")]
     NoPath,
+    /// Save-as onto a file that exists (and is not the palette itself): asked once, Enter again replaces it.
+    #[error("{0} exists: press Enter again to replace it, or change the path")]
+    Exists(String),
     /// The CSV reader thread could not be started.
     #[error("cannot start the reader: {0}")]
     Reader(String),

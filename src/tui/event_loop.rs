@@ -120,6 +120,10 @@ impl Saver for FileSaver {
         // Never onto what the palette reads (its CSV spectra); onto the palette file itself it is a save.
         let mut files = crate::fsio::Outputs::new();
         file.record_inputs("palette", &mut files);
+        if let Some(own) = &file.path {
+            // Its basis sidecar is the tool's cache, read on the next open: not a place for a palette.
+            files.input("basis sidecar", &crate::basis::store::sidecar_path(own));
+        }
         match file.path.clone() {
             Some(own) => files.output_except("palette", path, &own).map(|_| ()),
             None => files.output("palette", path).map(|_| ()),

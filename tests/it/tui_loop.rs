@@ -213,3 +213,36 @@ fn the_outside_change_popup_offers_save_as() {
     assert_eq!(s.path(), mine);
     assert_eq!(PaletteFile::load(&mine).unwrap().palette.colours[0].target, s.palette.colours[0].target);
 }
+
+#[test]
+fn save_as_onto_an_existing_file_asks_first_and_never_onto_the_sidecar() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, _) = setup(dir.path());
+    let file = PaletteFile::load(&path).unwrap();
+    let mut s = State::with_file(file, ColourMode::TrueColor);
+    let mut saver = FileSaver;
+    // The palette's basis sidecar is refused outright.
+    let sidecar = dir.path().join("p.basis.json");
+    std::fs::write(&sidecar, "{}").unwrap();
+    let screen = replay_file(&mut s, &mut saver, &format!("Ctrl-w\nCtrl-u\n\"{}\"\nEnter", sidecar.display()));
+    assert!(matches!(s.popup, Some(Popup::Prompt(_))), "{screen}");
+    assert_eq!(std::fs::read_to_string(&sidecar).unwrap(), "{}", "the sidecar is untouched");
+    replay_file(&mut s, &mut saver, "Esc");
+    // Another user file: the first Enter asks, the file stays as it was; the second replaces it.
+    let other = dir.path().join("notes.toml");
+    std::fs::write(&other, "# mine\n").unwrap();
+    let screen = replay_file(&mut s, &mut saver, &format!("Ctrl-w\nCtrl-u\n\"{}\"\nEnter", other.display()));
+    match &s.popup {
+        Some(Popup::Prompt(p)) => {
+            let error = p.error.as_ref().map(|e| e.0.to_string()).unwrap_or_default();
+            assert!(error.contains("exists") && error.contains("Enter again"), "{error}");
+        }
+        _ => panic!("the prompt asks first\n{screen}"),
+    }
+    assert_eq!(std::fs::read_to_string(&other).unwrap(), "# mine\n", "asked, not replaced");
+    assert_eq!(s.path(), path);
+    let screen = replay_file(&mut s, &mut saver, "Enter");
+    assert!(screen.contains("saved as"), "{screen}");
+    assert_eq!(s.path(), other);
+    assert!(PaletteFile::load(&other).is_ok(), "the second Enter replaced it with the palette");
+}

@@ -341,6 +341,12 @@ pub(crate) enum Identity {
     Path(PathBuf),
 }
 
+/// Do `a` and `b` name the same file (same device and inode, or the same canonical path for a file not
+/// yet made)? False when either cannot be resolved.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    matches!((identity(a), identity(b)), (Some(x), Some(y)) if x == y)
+}
+
 /// The [`Identity`] of `path` (None when neither it nor its folder can be resolved).
 pub(crate) fn identity(path: &Path) -> Option<Identity> {
     if let Ok(meta) = std::fs::metadata(path)

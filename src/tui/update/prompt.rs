@@ -85,7 +85,19 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Wants {
                 if input.is_empty() {
                     return Err(EditError::NoPath);
                 }
-                Wants { save_as: Some(std::path::PathBuf::from(&input)), ..Wants::NONE }
+                let path = std::path::PathBuf::from(&input);
+                // Nothing the user made is replaced unasked: an existing file other than the palette
+                // itself is refused once, with the question; Enter on the same path again replaces it.
+                // (Inputs and files that are not regular are left to the saver, which refuses them.)
+                let own = state.file.path.as_deref().is_some_and(|own| crate::fsio::same_file(own, &path));
+                let mut inputs = crate::fsio::Outputs::new();
+                state.file.record_inputs("palette", &mut inputs);
+                let an_input = inputs.check("palette", &path).is_err();
+                let asked = matches!(prompt.error.as_ref().map(|r| &*r.0), Some(EditError::Exists(p)) if *p == input);
+                if path.is_file() && !own && !an_input && !asked {
+                    return Err(EditError::Exists(input.clone()));
+                }
+                Wants { save_as: Some(path), ..Wants::NONE }
             }
             PromptPurpose::Setting(field) => {
                 let v = parse_number(&input)?;
