@@ -41,30 +41,10 @@ pub(crate) fn count(text: &str) -> Counts {
     let mut line_start = true;
     while i < b.len() {
         match b[i] {
-            b'#' => {
-                while i < b.len() && b[i] != b'\n' {
-                    i += 1;
-                }
-                continue;
-            }
-            q @ (b'"' | b'\'') => {
-                let triple = b.get(i..i + 3).is_some_and(|s| s == [q, q, q]);
-                i += if triple { 3 } else { 1 };
-                while i < b.len() {
-                    if q == b'"' && b[i] == b'\\' {
-                        i += 2;
-                        continue;
-                    }
-                    if !triple && b[i] == b'\n' {
-                        break;
-                    }
-                    if b[i] == q && (!triple || b.get(i..i + 3).is_some_and(|s| s == [q, q, q])) {
-                        i += if triple { 3 } else { 1 };
-                        break;
-                    }
-                    i += 1;
-                }
-                line_start = false;
+            b'#' | b'"' | b'\'' => {
+                // Comments keep the line's start; a string ends it.
+                line_start &= b[i] == b'#';
+                i = skip_literal(b, i);
                 continue;
             }
             b'\n' => line_start = true,
@@ -89,6 +69,45 @@ pub(crate) fn count(text: &str) -> Counts {
         i += 1;
     }
     c
+}
+
+/// The index just past the comment or string that starts at `b[i]` (`#`, `"`, `'`, or their triple
+/// forms), for the byte scans over palette text (this budget's count and the parse's cuts in `pieces.rs`):
+/// a comment ends before its line feed; an unterminated string at its line's end (single-line forms) or
+/// the text's end. `b[i]` that starts neither is returned as `i + 1`.
+pub(super) fn skip_literal(b: &[u8], mut i: usize) -> usize {
+    match b.get(i) {
+        Some(b'#') => {
+            while i < b.len() && b[i] != b'\n' {
+                i += 1;
+            }
+            i
+        }
+        Some(&q @ (b'"' | b'\'')) => {
+            let triple = b.get(i..i + 3).is_some_and(|s| s == [q, q, q]);
+            i += if triple { 3 } else { 1 };
+            while i < b.len() {
+                if q == b'"' && b[i] == b'\\' {
+                    i += 2;
+                    continue;
+                }
+                if !triple && b[i] == b'\n' {
+                    break;
+                }
+                if b[i] == q && (!triple || b.get(i..i + 3).is_some_and(|s| s == [q, q, q])) {
+                    i += if triple { 3 } else { 1 };
+                    // A triple-quoted string may end in up to two more quotes.
+                    while triple && b.get(i) == Some(&q) {
+                        i += 1;
+                    }
+                    break;
+                }
+                i += 1;
+            }
+            i
+        }
+        _ => i + 1,
+    }
 }
 
 #[cfg(test)]

@@ -158,34 +158,10 @@ fn simple_headers(text: &str) -> Vec<usize> {
     let mut i = 0;
     while i < b.len() {
         match b[i] {
-            b'#' => {
-                while i < b.len() && b[i] != b'\n' {
-                    i += 1;
-                }
-                continue;
-            }
-            q @ (b'"' | b'\'') => {
-                let triple = b.get(i..i + 3).is_some_and(|s| s == [q, q, q]);
-                i += if triple { 3 } else { 1 };
-                while i < b.len() {
-                    if q == b'"' && b[i] == b'\\' {
-                        i += 2;
-                        continue;
-                    }
-                    if !triple && b[i] == b'\n' {
-                        break;
-                    }
-                    if b[i] == q && (!triple || b.get(i..i + 3).is_some_and(|s| s == [q, q, q])) {
-                        i += if triple { 3 } else { 1 };
-                        // A triple-quoted string may end in up to two more quotes.
-                        while triple && b.get(i) == Some(&q) {
-                            i += 1;
-                        }
-                        break;
-                    }
-                    i += 1;
-                }
-                line_start = false;
+            b'#' | b'"' | b'\'' => {
+                // Comments keep the line's start; a string ends it.
+                line_start &= b[i] == b'#';
+                i = super::budget::skip_literal(b, i);
                 continue;
             }
             b'\n' => line_start = true,
