@@ -397,7 +397,22 @@ struct CellName<'a> {
 #[derive(serde::Serialize)]
 struct DiagnosticJson<'a> {
     cell: Option<CellName<'a>>,
+    /// [`crate::design::DiagnosticKind::name`].
+    kind: &'static str,
+    /// Why a joint block stopped early (`stopped_early` only): "time limit", "cancelled", …
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stopped: Option<&'static str>,
     message: &'a str,
+}
+
+impl<'a> DiagnosticJson<'a> {
+    fn new(d: &'a crate::design::Diagnostic, cell: Option<CellName<'a>>) -> Self {
+        let stopped = match d.kind {
+            crate::design::DiagnosticKind::StoppedEarly(why) => Some(why.as_str()),
+            _ => None,
+        };
+        DiagnosticJson { cell, kind: d.kind.name(), stopped, message: &d.message }
+    }
 }
 
 /// The JSON report (DESIGN_SPEC §5) plus `kkt_residual`, `diagnostics`, per-cell `weight`/`enabled` and
@@ -540,11 +555,7 @@ impl<'a> Report<'a> {
                     }
                 })
                 .collect(),
-            diagnostics: s
-                .diagnostics
-                .iter()
-                .map(|d| DiagnosticJson { cell: d.cell.map(names), message: &d.message })
-                .collect(),
+            diagnostics: s.diagnostics.iter().map(|d| DiagnosticJson::new(d, d.cell.map(names))).collect(),
             basis_warning: None,
             feasibility: None,
         }

@@ -89,3 +89,63 @@ fn help_names_the_format_pages_and_they_exist() {
     assert!(help(&["render", "--help"]).contains("docs/formats/scene.md"));
     assert!(top.contains("METAMER_DATA"));
 }
+
+#[test]
+fn report_diagnostics_carry_their_kind() {
+    let dir = tempfile::tempdir().unwrap();
+    // Bounded reflectances: a pure green under D65 and pure magenta under A of one surface cannot both be
+    // met (unmet); "spare" is designed but used by no cell (unused).
+    let text = r#"
+[settings]
+reflectance_bounds = [0.0, 1.0]
+
+[[lights]]
+name = "day"
+illuminant = "D65"
+
+[[lights]]
+name = "lamp"
+illuminant = "A"
+
+[[reflectances]]
+name = "paint"
+flat = 0.5
+design = true
+
+[[reflectances]]
+name = "spare"
+flat = 0.5
+design = true
+
+[[colours]]
+light = "day"
+reflectance = "paint"
+target = [0.0, 0.9, 0.0]
+
+[[colours]]
+light = "lamp"
+reflectance = "paint"
+target = [0.9, 0.0, 0.9]
+"#;
+    let palette = dir.path().join("p.toml");
+    std::fs::write(&palette, text).unwrap();
+    let report = dir.path().join("r.json");
+    let table = solve(&palette, &report);
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let diagnostics = r["diagnostics"].as_array().unwrap();
+    let kinds: Vec<&str> = diagnostics.iter().map(|d| d["kind"].as_str().unwrap()).collect();
+    for kind in ["unmet", "unused"] {
+        assert!(kinds.contains(&kind), "no {kind} in {kinds:?}\n{table}");
+    }
+    for d in diagnostics {
+        let kind = d["kind"].as_str().unwrap();
+        assert!(d.get("stopped").is_none(), "{d}");
+        // The table tags exactly the unmet remarks UNMET.
+        let message = d["message"].as_str().unwrap();
+        let line = table.lines().find(|l| l.ends_with(message)).unwrap_or_else(|| panic!("{message}\n{table}"));
+        assert_eq!(line.starts_with("UNMET: "), kind == "unmet", "{line}");
+        if kind == "unused" {
+            assert!(d["cell"].is_null() && message.contains("spare"), "{d}");
+        }
+    }
+}

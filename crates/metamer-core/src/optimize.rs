@@ -17,7 +17,7 @@ pub(crate) const NO_DECREASE: &str = "line search found no decrease";
 
 /// Why an iterative minimisation (or a stage of one) stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Termination {
+pub enum Termination {
     /// The solver's own convergence test held.
     Converged,
     /// The iteration cap was reached.

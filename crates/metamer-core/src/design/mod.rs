@@ -85,7 +85,7 @@ pub struct CellResult {
 
 /// What a [`Diagnostic`] is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum DiagnosticKind {
+pub enum DiagnosticKind {
     /// A cell whose target is not met (ΔE00 above [`report::MET_DELTA_E`], or its light is zero), with the
     /// reason and, where one is known, the closest reachable colour.
     Unmet,
@@ -99,12 +99,26 @@ pub(crate) enum DiagnosticKind {
     StoppedEarly(crate::optimize::Termination),
 }
 
+impl DiagnosticKind {
+    /// The kind's name in the JSON report (`kind`: `unmet`, `duplicate`, `unused`, `non_finite`,
+    /// `stopped_early`).
+    pub fn name(self) -> &'static str {
+        match self {
+            DiagnosticKind::Unmet => "unmet",
+            DiagnosticKind::Duplicate => "duplicate",
+            DiagnosticKind::Unused => "unused",
+            DiagnosticKind::NonFinite => "non_finite",
+            DiagnosticKind::StoppedEarly(_) => "stopped_early",
+        }
+    }
+}
+
 /// Something the user should know about a design: a cell that cannot be met and why, a degenerate input…
 #[derive(Clone, Debug, PartialEq)]
 pub struct Diagnostic {
     /// Index into `palette.colours` when it is about one cell.
     pub cell: Option<usize>,
-    pub(crate) kind: DiagnosticKind,
+    pub kind: DiagnosticKind,
     /// The sentence shown to the user (the table's remark, the report's `message`).
     pub message: String,
 }

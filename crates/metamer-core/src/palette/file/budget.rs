@@ -33,10 +33,28 @@ impl Counts {
     }
 }
 
-/// Count tables (`{`, and `[` at the start of a line), arrays (other `[`) and values (`=` and `,`).
+/// What one pass over a palette's text finds: the [`Counts`] of the parse budget, and where the lines opening
+/// a `[[name]]` header (bare key, at the top level) start, after the last header of another shape (where the
+/// parse may cut the text into pieces, see [`super::pieces`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Scan {
+    pub(crate) counts: Counts,
+    pub(crate) headers: Vec<usize>,
+}
+
+/// Count tables (`{`, and `[` at the start of a line), arrays (other `[`) and values (`=` and `,`), outside
+/// strings and comments ([`count`]).
 pub(crate) fn count(text: &str) -> Counts {
+    scan(text).counts
+}
+
+/// The one scan of a palette's text, skipping strings and comments ([`skip_literal`]) and tracking the
+/// depth of arrays and inline tables, so that a line starting with `[` inside an array is no header.
+pub(crate) fn scan(text: &str) -> Scan {
     let b = text.as_bytes();
     let mut c = Counts::default();
+    let mut headers = Vec::new();
+    let mut depth = 0usize;
     let mut i = 0;
     let mut line_start = true;
     while i < b.len() {
@@ -51,15 +69,33 @@ pub(crate) fn count(text: &str) -> Counts {
             b' ' | b'\t' | b'\r' => {}
             ch => {
                 match ch {
-                    b'{' => c.tables += 1,
-                    b'[' if line_start => {
+                    b'{' => {
                         c.tables += 1;
-                        // `[[x]]` is one table.
+                        depth += 1;
+                    }
+                    b'[' if line_start => {
+                        if depth == 0 {
+                            let line_end = b[i..].iter().position(|&c| c == b'\n').map_or(b.len(), |p| i + p);
+                            if is_simple_header(&b[i..line_end]) {
+                                // The cut is at the start of the line (its indentation goes with the header).
+                                headers.push(b[..i].iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1));
+                            } else {
+                                headers.clear();
+                            }
+                        }
+                        // `[[x]]` is one table (its brackets still count for the depth).
+                        c.tables += 1;
+                        depth += 1;
                         if b.get(i + 1) == Some(&b'[') {
+                            depth += 1;
                             i += 1;
                         }
                     }
-                    b'[' => c.arrays += 1,
+                    b'[' => {
+                        c.arrays += 1;
+                        depth += 1;
+                    }
+                    b']' | b'}' => depth = depth.saturating_sub(1),
                     b'=' | b',' => c.values += 1,
                     _ => {}
                 }
@@ -68,14 +104,23 @@ pub(crate) fn count(text: &str) -> Counts {
         }
         i += 1;
     }
-    c
+    Scan { counts: c, headers }
+}
+
+/// `[[name]]` with a bare key, then only blanks or a comment.
+fn is_simple_header(line: &[u8]) -> bool {
+    let Some(rest) = line.strip_prefix(b"[[") else { return false };
+    let key_len = rest.iter().take_while(|c| c.is_ascii_alphanumeric() || **c == b'_' || **c == b'-').count();
+    let Some(after) = rest.get(key_len..).and_then(|r| r.strip_prefix(b"]]")) else { return false };
+    let after = after.trim_ascii_start();
+    key_len > 0 && (after.is_empty() || after.starts_with(b"#"))
 }
 
 /// The index just past the comment or string that starts at `b[i]` (`#`, `"`, `'`, or their triple
-/// forms), for the byte scans over palette text (this budget's count and the parse's cuts in `pieces.rs`):
+/// forms), for the byte scan over palette text ([`scan`]):
 /// a comment ends before its line feed; an unterminated string at its line's end (single-line forms) or
 /// the text's end. `b[i]` that starts neither is returned as `i + 1`.
-pub(super) fn skip_literal(b: &[u8], mut i: usize) -> usize {
+fn skip_literal(b: &[u8], mut i: usize) -> usize {
     match b.get(i) {
         Some(b'#') => {
             while i < b.len() && b[i] != b'\n' {

@@ -162,7 +162,8 @@ impl PaletteFile {
             return Err(PaletteError::Empty { path: path.to_path_buf() });
         }
         // Parse memory is bounded by the input size (see [`budget`]): refused before any parse.
-        let counts = budget::count(text);
+        let scan = budget::scan(text);
+        let counts = scan.counts;
         if counts.cost() > budget::budget(text.len()) {
             return Err(PaletteError::TooComplex {
                 path: path.to_path_buf(),
@@ -178,7 +179,7 @@ impl PaletteFile {
             PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
         };
         // The parser keeps numbers as text; one TOML cannot represent is a syntax error, as in `toml_edit`.
-        let spanned = pieces::parse(text).map_err(|e| match e {
+        let spanned = pieces::parse(text, &scan.headers).map_err(|e| match e {
             pieces::Failure::Syntax(e) => syntax(e.message(), e.span()),
             pieces::Failure::Number(span, message) => syntax(message, Some(span)),
         })?;

@@ -27,10 +27,11 @@ pub(super) enum Failure {
     Number(Range<usize>, &'static str),
 }
 
-/// Parse `text` (in pieces when it is long) and check its numbers ([`read::check_numbers`]).
-pub(super) fn parse(text: &str) -> Result<Spanned<DeTable<'_>>, Failure> {
+/// Parse `text` (in pieces when it is long, cut at some of its `[[name]]` header lines `headers`, see
+/// [`super::budget::Scan`]) and check its numbers ([`read::check_numbers`]).
+pub(super) fn parse<'i>(text: &'i str, headers: &[usize]) -> Result<Spanned<DeTable<'i>>, Failure> {
     let pieces = (text.len() / MIN_PIECE).min(4 * rayon::current_num_threads());
-    let starts = cuts(text, pieces);
+    let starts = cuts(text, pieces, headers);
     if starts.len() > 1
         && let Some(root) = parse_pieces(text, &starts)
     {
@@ -129,78 +130,23 @@ fn shift(value: Spanned<DeValue<'_>>, by: usize) -> Spanned<DeValue<'_>> {
     Spanned::new(span, inner)
 }
 
-/// Where the pieces start (the first at 0): about `len / pieces` apart, at lines opening a `[[name]]`
-/// header outside strings, comments and arrays, after the last header of another shape.
-fn cuts(text: &str, pieces: usize) -> Vec<usize> {
+/// Where the pieces start (the first at 0): about `len / pieces` apart, at the `[[name]]` header lines
+/// `headers` (from [`super::budget::scan`]: outside strings, comments and arrays, after the last header of
+/// another shape).
+fn cuts(text: &str, pieces: usize, headers: &[usize]) -> Vec<usize> {
     let mut out = vec![0];
     if pieces < 2 {
         return out;
     }
-    let headers = simple_headers(text);
     let step = text.len() / pieces;
     let mut next = step;
-    for at in headers {
+    for &at in headers {
         if at >= next {
             out.push(at);
             next = at + step;
         }
     }
     out
-}
-
-/// Starts of the lines opening a `[[name]]` header (bare key) after the last header of another shape,
-/// found by a scan that skips strings, comments and the insides of arrays and inline tables.
-fn simple_headers(text: &str) -> Vec<usize> {
-    let b = text.as_bytes();
-    let mut out = Vec::new();
-    let mut depth = 0usize;
-    let mut line_start = true;
-    let mut i = 0;
-    while i < b.len() {
-        match b[i] {
-            b'#' | b'"' | b'\'' => {
-                // Comments keep the line's start; a string ends it.
-                line_start &= b[i] == b'#';
-                i = super::budget::skip_literal(b, i);
-                continue;
-            }
-            b'\n' => line_start = true,
-            b' ' | b'\t' | b'\r' => {}
-            b'[' if line_start && depth == 0 => {
-                let line_end = b[i..].iter().position(|&c| c == b'\n').map_or(b.len(), |p| i + p);
-                let line = &b[i..line_end];
-                if is_simple_header(line) {
-                    // The cut is at the start of the line (its indentation goes with the header).
-                    let start = b[..i].iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
-                    out.push(start);
-                } else {
-                    out.clear();
-                }
-                // A header's line holds nothing else but a comment.
-                i = line_end;
-                continue;
-            }
-            ch => {
-                match ch {
-                    b'[' | b'{' => depth += 1,
-                    b']' | b'}' => depth = depth.saturating_sub(1),
-                    _ => {}
-                }
-                line_start = false;
-            }
-        }
-        i += 1;
-    }
-    out
-}
-
-/// `[[name]]` with a bare key, then only blanks or a comment.
-fn is_simple_header(line: &[u8]) -> bool {
-    let Some(rest) = line.strip_prefix(b"[[") else { return false };
-    let key_len = rest.iter().take_while(|c| c.is_ascii_alphanumeric() || **c == b'_' || **c == b'-').count();
-    let Some(after) = rest.get(key_len..).and_then(|r| r.strip_prefix(b"]]")) else { return false };
-    let after = after.trim_ascii_start();
-    key_len > 0 && (after.is_empty() || after.starts_with(b"#"))
 }
 
 #[cfg(test)]

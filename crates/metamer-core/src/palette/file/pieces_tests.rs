@@ -27,6 +27,10 @@ fn long_palette(n: usize) -> String {
     t
 }
 
+fn headers(text: &str) -> Vec<usize> {
+    super::super::budget::scan(text).headers
+}
+
 fn debug_of(r: Result<Spanned<DeTable<'_>>, Failure>) -> String {
     match r {
         Ok(t) => format!("{t:?}"),
@@ -38,7 +42,7 @@ fn debug_of(r: Result<Spanned<DeTable<'_>>, Failure>) -> String {
 #[test]
 fn pieces_give_the_tree_of_the_whole_text() {
     let text = long_palette(1500);
-    let starts = cuts(&text, 8);
+    let starts = cuts(&text, 8, &headers(&text));
     assert!(starts.len() >= 6, "cut into {} pieces", starts.len());
     for &s in &starts[1..] {
         assert!(text[s..].starts_with("[[reflectances]]\nname") || text[s..].starts_with("[[colours]]\nlight"));
@@ -51,7 +55,7 @@ fn pieces_give_the_tree_of_the_whole_text() {
 fn no_cut_before_a_header_of_another_shape() {
     let mut text = long_palette(600);
     text += "[settings2]\nx = 1\n[[colours]]\nlight = \"a\"\nreflectance = \"r0\"\n";
-    let starts = cuts(&text, 8);
+    let starts = cuts(&text, 8, &headers(&text));
     let last_other = text.find("[settings2]").unwrap();
     assert!(starts.len() == 2 && starts[1] > last_other, "cuts {starts:?}, [settings2] at {last_other}");
 }
@@ -71,8 +75,8 @@ fn errors_are_those_of_the_whole_text() {
         format!("{}light = \"b\"\n{}", &base[..late], &base[late..]),
     ];
     for text in &cases {
-        assert!(cuts(text, 8).len() > 2);
-        let pieces = debug_of(parse(text));
+        assert!(cuts(text, 8, &headers(text)).len() > 2);
+        let pieces = debug_of(parse(text, &headers(text)));
         assert!(!pieces.starts_with("Spanned"), "{pieces}");
         assert_eq!(pieces, debug_of(parse_one(text)));
     }
@@ -80,6 +84,6 @@ fn errors_are_those_of_the_whole_text() {
 
 #[test]
 fn short_texts_are_one_piece() {
-    assert_eq!(cuts(&long_palette(3), 1), vec![0]);
-    assert_eq!(debug_of(parse(&long_palette(3))), debug_of(parse_one(&long_palette(3))));
+    assert_eq!(cuts(&long_palette(3), 1, &headers(&long_palette(3))), vec![0]);
+    assert_eq!(debug_of(parse(&long_palette(3), &headers(&long_palette(3)))), debug_of(parse_one(&long_palette(3))));
 }

@@ -15,7 +15,7 @@
 //! A source value the writer replaces (a solve's old samples, most of a designed table's text) is not
 //! parsed: the table is parsed with a placeholder in its place, at the span the reader saw.
 
-use super::write::{SaveContext, source_value, sync_spectrum, written_source};
+use super::write::{SaveContext, source_text, sync_spectrum, written_source};
 use crate::palette::{Kind, Palette, Source, SpectrumEntry};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -179,10 +179,19 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
         .iter()
         .map(|&k| (rewritten[k].0.clone(), rewritten[k].1.len() as isize - rewritten[k].0.len() as isize))
         .collect();
+    // Edits are disjoint and sorted: what the tables before a start grew by is a prefix sum.
+    let mut grown = Vec::with_capacity(edits.len() + 1);
+    grown.push(0isize);
+    for (_, d) in &edits {
+        grown.push(grown[grown.len() - 1] + d);
+    }
     let shift = |t: &TableSpan| -> TableSpan {
         let r = &t.range;
-        let before: isize = edits.iter().take_while(|(e, _)| e.end <= r.start).map(|(_, d)| d).sum();
-        let own = edits.iter().find(|(e, _)| e == r).map(|(_, d)| *d);
+        let before = grown[edits.partition_point(|(e, _)| e.end <= r.start)];
+        let own = edits
+            .binary_search_by_key(&r.start, |(e, _)| e.start)
+            .ok()
+            .and_then(|k| (edits[k].0 == *r).then_some(edits[k].1));
         let start = (r.start as isize + before) as usize;
         let range = start..(r.end as isize + before + own.unwrap_or(0)) as usize;
         TableSpan { range, source_value: if own.is_some() { None } else { t.source_value.clone() } }
@@ -217,9 +226,9 @@ fn rewrite(
     let text = match &span.source_value {
         // Only the source's value changes (a solve's new samples): what `sync_spectrum` does to the
         // document is to replace that value, keeping the key and the text around it, so the writer's value
-        // ([`source_value`]) goes in at the span the reader saw and no document of the table is built.
+        // ([`source_text`]) goes in at the span the reader saw and no document of the table is built.
         Some(v) if only_the_value_changes(old, new, &source, normalize, scale) => {
-            let value = source_value(&source).to_string();
+            let value = source_text(&source);
             let value = if layout.crlf { value.replace('\n', "\r\n") } else { value };
             format!("{}{value}{}", piece.get(..v.start)?, piece.get(v.end..)?)
         }

@@ -198,19 +198,32 @@ fn float_array(values: &[f64]) -> Value {
     Value::Array(a)
 }
 
-/// Samples written eight to a line, like a table.
-fn samples_array(values: &[f64]) -> Value {
-    let mut a = Array::new();
+/// Samples written eight to a line, like a table: `[`, each line of eight indented by four spaces, a
+/// trailing comma and `]` on its own line. The numbers are written by `toml_writer` (the formatter
+/// `toml_edit` itself prints floats with), straight into one string.
+pub(super) fn samples_text(values: &[f64]) -> String {
+    use toml_writer::TomlWrite;
+    let mut w = String::with_capacity(16 * values.len() + 4);
+    // Writing to a `String` cannot fail.
+    let _ = w.open_array();
     for (i, &x) in values.iter().enumerate() {
-        let mut v = Value::from(x);
-        let prefix = if i % 8 == 0 { "\n    " } else { " " };
-        v.decor_mut().set_prefix(prefix);
-        v.decor_mut().set_suffix("");
-        a.push_formatted(v);
+        if i > 0 {
+            let _ = w.val_sep();
+        }
+        w.push_str(if i % 8 == 0 { "\n    " } else { " " });
+        let _ = w.value(x);
     }
-    a.set_trailing("\n");
-    a.set_trailing_comma(true);
-    Value::Array(a)
+    if !values.is_empty() {
+        let _ = w.val_sep();
+    }
+    w.push('\n');
+    let _ = w.close_array();
+    w
+}
+
+/// The samples as a document value: [`samples_text`] read by `toml_edit`, which keeps the text as it is.
+fn samples_array(values: &[f64]) -> Value {
+    samples_text(values).parse().expect("toml_writer writes every f64 as a TOML float, so the array parses")
 }
 
 fn bounds_value(b: Bounds) -> Value {
@@ -318,6 +331,15 @@ fn relative_path(target: &Path, base: &Path) -> Option<PathBuf> {
         out.push(c.as_os_str());
     }
     Some(out)
+}
+
+/// The text of a source's value as the writer writes it ([`source_value`] printed; samples without
+/// building a document value).
+pub(super) fn source_text(source: &Source) -> String {
+    match source {
+        Source::Samples(v) => samples_text(v),
+        other => source_value(other).to_string(),
+    }
 }
 
 /// A source's value as the writer writes it.
@@ -447,4 +469,56 @@ fn sync_colour(t: &mut dyn TableLike, old: Option<(&ColourCell, &Palette)>, new:
         }
     }
     sync_value(t, "use", old.map(|(c, _)| c.enabled), new.enabled, true, Value::from);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The samples array as `toml_edit` prints one built value by value (the oracle for [`samples_text`]).
+    fn built(values: &[f64]) -> String {
+        let mut a = Array::new();
+        for (i, &x) in values.iter().enumerate() {
+            let mut v = Value::from(x);
+            v.decor_mut().set_prefix(if i % 8 == 0 { "\n    " } else { " " });
+            v.decor_mut().set_suffix("");
+            a.push_formatted(v);
+        }
+        a.set_trailing("\n");
+        a.set_trailing_comma(true);
+        Value::Array(a).to_string()
+    }
+
+    #[test]
+    fn samples_text_is_what_toml_edit_prints() {
+        let awkward = [
+            0.0,
+            -0.0,
+            1.0,
+            -3.0,
+            0.1,
+            1e-7,
+            2.5e-300,
+            1e22,
+            123456789.0,
+            f64::MIN_POSITIVE,
+            std::f64::consts::FRAC_1_SQRT_2,
+        ];
+        let mut x = 0.37f64;
+        let random: Vec<f64> = (0..200)
+            .map(|_| {
+                x = (x * 3.7 + 0.123).fract();
+                (x - 0.3) * 10f64.powi((x * 12.0) as i32 - 6)
+            })
+            .collect();
+        for values in [&awkward[..], &random[..31], &random[..], &[], &[0.5]] {
+            let text = samples_text(values);
+            assert_eq!(text, built(values), "{values:?}");
+            // The document value is that text, and reads back as the same numbers.
+            let value = samples_array(values);
+            assert_eq!(value.to_string(), text);
+            let back: Vec<f64> = value.as_array().unwrap().iter().map(|v| v.as_float().unwrap()).collect();
+            assert_eq!(back, values);
+        }
+    }
 }
