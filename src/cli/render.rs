@@ -207,7 +207,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     if mode == Mode::Factor {
         let resolved = crate::render::scene_basis_report(&scene)?;
         if let Some(w) = resolved.1.poor_model() {
-            eprintln!("warning: palette `{}`: {w}", scene.palette.name.escape_debug());
+            eprintln!("warning: palette `{}`: {w}", crate::fsio::escape(&scene.palette.name));
         }
     }
     // No output may be the scene, its volume (header or data file), its palette, the palette's CSV sources

@@ -11,7 +11,6 @@ use metamer::basis::train::{self, TrainOptions, TrainingSet, balanced_condition}
 use metamer::basis::{Basis, POOR_MODEL_MEAN_DE00};
 use metamer::colorimetry::Colorimetry;
 use metamer::palette::file::PaletteFile;
-use metamer::render::scene::colorchecker_palette;
 use metamer::spectrum::{Normalize, Spectrum};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
@@ -125,46 +124,19 @@ proptest! {
 #[test]
 fn engine_sweep_factor_mode_tracks_full_mode() {
     use metamer::render::accuracy::compare_models;
-    use metamer::render::dial::{Dial, DialLight, DialState, default_position};
-    use metamer::render::raycast::{Camera, MaterialClass};
-    use metamer::render::scene::{Material, Scene, SceneSettings};
     let Some(volumes) = crate::common::data::volumes_or_skip("basis_policy::engine_sweep_factor_mode_tracks_full_mode")
     else {
         return;
     };
     let volume = metamer::volume::Volume::open(&volumes.join("engine.nhdr")).expect("engine.nhdr reads");
-    let names = [("smoke", "cyan"), ("inner", "orange"), ("block", "green"), ("hot", "red")];
-    let palette = colorchecker_palette("issue11", &["D65", "A", "F11"], &names).expect("palette");
-    let classes = [([20.0, 90.0], 0.02), ([91.0, 127.0], 0.1), ([128.0, 175.0], 0.3), ([176.0, 255.0], 0.6)];
-    let materials = palette
-        .reflectances
-        .iter()
-        .zip(classes)
-        .map(|(r, (range, opacity))| Material {
-            reflectance: r.name.clone(),
-            spectrum: r.spectrum,
-            class: MaterialClass::new(range, opacity),
-        })
-        .collect();
-    let n = palette.lights.len();
-    let lights: Vec<DialLight> = palette
-        .lights
-        .iter()
-        .enumerate()
-        .map(|(i, l)| DialLight::new(l.name.clone(), l.spectrum, default_position(i, n)))
-        .collect();
-    let dial = Dial::path(DialState::new(lights).expect("dial"), (0..n).collect()).expect("dial");
-    let scene = Scene {
-        path: None,
-        palette_path: None,
-        volume_path: None,
-        palette,
-        volume,
-        materials,
-        camera: Camera::default(),
-        dial,
-        settings: SceneSettings::default(),
-    };
+    let materials = [
+        ("smoke", "cyan", [20.0, 90.0], 0.02),
+        ("inner", "orange", [91.0, 127.0], 0.1),
+        ("block", "green", [128.0, 175.0], 0.3),
+        ("hot", "red", [176.0, 255.0], 0.6),
+    ];
+    let scene = metamer::render::scene::colorchecker_scene("issue11", volume, &["D65", "A", "F11"], &materials)
+        .expect("built-in lights and patches");
     let r = compare_models(&scene, &Colorimetry::default(), 128, 9).expect("renders");
     println!(
         "engine sweep D65 → A → F11, 4 ColorChecker materials, m = {}: factor vs full mean ΔE00 {:.3} p95 {:.3} \

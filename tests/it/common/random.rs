@@ -35,15 +35,8 @@ pub fn smooth_spectrum(rng: &mut Rng) -> Spectrum {
 /// An entry with resolved samples.
 pub fn entry(name: &str, kind: Kind, spectrum: Spectrum, design: bool) -> SpectrumEntry {
     SpectrumEntry {
-        name: name.to_string(),
-        kind,
-        source: Source::Samples(spectrum.to_vec()),
-        normalize: Normalize::None,
-        scale: 1.0,
         design,
-        bounds: None,
-        dial: None,
-        spectrum,
+        ..SpectrumEntry::resolved(name, kind, Source::Samples(spectrum.to_vec()), Normalize::None, spectrum)
     }
 }
 

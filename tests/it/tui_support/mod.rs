@@ -20,17 +20,7 @@ fn light(name: &str, source: Source, design: bool) -> SpectrumEntry {
         _ => unreachable!("test lights are built-in"),
     };
     let spectrum = raw.normalized(Normalize::Luminance, &c.luminance()).expect("normalisable");
-    SpectrumEntry {
-        name: name.into(),
-        kind: Kind::Light,
-        source,
-        normalize: Normalize::Luminance,
-        scale: 1.0,
-        design,
-        bounds: None,
-        dial: None,
-        spectrum,
-    }
+    SpectrumEntry { design, ..SpectrumEntry::resolved(name, Kind::Light, source, Normalize::Luminance, spectrum) }
 }
 
 fn reflectance(name: &str, source: Source, design: bool) -> SpectrumEntry {
@@ -39,17 +29,7 @@ fn reflectance(name: &str, source: Source, design: bool) -> SpectrumEntry {
         Source::Flat(v) => Spectrum::flat(*v),
         _ => unreachable!("test reflectances are built-in"),
     };
-    SpectrumEntry {
-        name: name.into(),
-        kind: Kind::Reflectance,
-        source,
-        normalize: Normalize::None,
-        scale: 1.0,
-        design,
-        bounds: None,
-        dial: None,
-        spectrum,
-    }
+    SpectrumEntry { design, ..SpectrumEntry::resolved(name, Kind::Reflectance, source, Normalize::None, spectrum) }
 }
 
 fn cell(light: usize, reflectance: usize, hex: &str, free: Option<usize>) -> ColourCell {

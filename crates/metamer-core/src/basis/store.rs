@@ -357,17 +357,13 @@ mod tests {
     use crate::spectrum::{Normalize, Spectrum};
 
     fn entry(name: &str, kind: Kind, spectrum: Spectrum) -> SpectrumEntry {
-        SpectrumEntry {
-            name: name.into(),
+        SpectrumEntry::resolved(
+            name,
             kind,
-            source: crate::palette::Source::Samples(spectrum.to_vec()),
-            normalize: Normalize::None,
-            scale: 1.0,
-            design: false,
-            bounds: None,
-            dial: None,
+            crate::palette::Source::Samples(spectrum.to_vec()),
+            Normalize::None,
             spectrum,
-        }
+        )
     }
 
     fn palette() -> Palette {

@@ -89,17 +89,7 @@ impl Palette {
         let normalize = Normalize::default();
         let spectrum = finish(&raw, kind, normalize, 1.0, &colorimetry.luminance())?;
         let entries = self.entries_mut(kind);
-        entries.push(SpectrumEntry {
-            name: name.to_string(),
-            kind,
-            source,
-            normalize,
-            scale: 1.0,
-            design: false,
-            bounds: None,
-            dial: None,
-            spectrum,
-        });
+        entries.push(SpectrumEntry::resolved(name, kind, source, normalize, spectrum));
         Ok(entries.len() - 1)
     }
 

@@ -85,7 +85,23 @@ pub(crate) fn finish(
     if out.is_finite() { Ok(out) } else { Err(NormalizeError::NotFinite) }
 }
 
-impl SpectrumEntry {}
+impl SpectrumEntry {
+    /// An entry given by `source` (normalised by `normalize`, lights only) whose samples are already
+    /// resolved to `spectrum`: scale 1, not designed, no bounds of its own, no dial position.
+    pub fn resolved(name: &str, kind: Kind, source: Source, normalize: Normalize, spectrum: Spectrum) -> SpectrumEntry {
+        SpectrumEntry {
+            name: name.to_string(),
+            kind,
+            source,
+            normalize,
+            scale: 1.0,
+            design: false,
+            bounds: None,
+            dial: None,
+            spectrum,
+        }
+    }
+}
 
 /// True when two spectra agree to a relative tolerance of 1e-12 of the larger magnitude (plus 1e-300
 /// absolute so all-zero spectra compare equal): the threshold below which a spectrum counts as "as its

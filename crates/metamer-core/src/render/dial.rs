@@ -275,15 +275,6 @@ impl Dial {
         Ok(Dial { base, sweep: Sweep::Keyframes(keyframes), timing: Timing::ConstantSpeed })
     }
 
-    /// A dial without lights (its light is black everywhere).
-    pub(crate) fn empty() -> Dial {
-        Dial {
-            base: DialState { lights: Vec::new(), slider: [0.0; 2], fixed_weights: None },
-            sweep: Sweep::Keyframes(Vec::new()),
-            timing: Timing::ConstantSpeed,
-        }
-    }
-
     /// Position of frame `k` of `n` along the sweep, in [0, 1] (`k/(n−1)`, 0 for a single frame).
     pub(crate) fn position(k: usize, n: usize) -> f64 {
         if n <= 1 { 0.0 } else { (k as f64 / (n - 1) as f64).clamp(0.0, 1.0) }

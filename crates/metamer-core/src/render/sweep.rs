@@ -311,7 +311,7 @@ pub(crate) fn frame_label(dial: &Dial, k: usize, frames: usize) -> String {
         .iter()
         .zip(state.weights())
         .filter(|(_, w)| *w >= 0.005)
-        .map(|(l, w)| format!("{} {:.0}%", l.name.escape_debug(), w * 100.0))
+        .map(|(l, w)| format!("{} {:.0}%", crate::fsio::escape(&l.name), w * 100.0))
         .collect();
     format!("frame {k} · t {t:.2}\n{}", mix.join(" "))
 }
@@ -386,7 +386,7 @@ impl SheetLayout {
             let (w, h) = (sheet.width() as usize, sheet.height() as usize);
             let grey = [230, 230, 230];
             if let Some(t) = title {
-                let l = text::rasterise(&font, &t.escape_debug().to_string(), 20.0);
+                let l = text::rasterise(&font, &crate::fsio::escape(t), 20.0);
                 text::blit(&mut sheet, 3, w, h, &l, (i64::from(self.gap), 6), grey, 1.0);
             }
             for (i, label) in labels.iter().enumerate().take(tiles.len()) {

@@ -116,18 +116,13 @@ pub enum FeasibilityError {
     Design(#[from] DesignError),
 }
 
-/// `name` with control characters escaped (names come from user files): the one escaping helper.
-fn escaped(name: &str) -> String {
-    crate::fsio::escape(name).into_owned()
-}
-
 /// "light × reflectance" of a cell, escaped.
 pub fn cell_label(palette: &Palette, cell: usize) -> String {
     match palette.colours.get(cell) {
         Some(c) => format!(
             "{} × {}",
-            escaped(&palette.lights[c.light].name),
-            escaped(&palette.reflectances[c.reflectance].name)
+            crate::fsio::escape(&palette.lights[c.light].name),
+            crate::fsio::escape(&palette.reflectances[c.reflectance].name)
         ),
         None => format!("colours[{cell}]"),
     }

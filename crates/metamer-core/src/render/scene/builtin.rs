@@ -3,11 +3,6 @@
 
 use super::*;
 
-/// A name as it may appear in a message: control characters escaped (the one escaping helper).
-pub(super) fn escape(s: &str) -> String {
-    crate::fsio::escape(s).into_owned()
-}
-
 /// A palette made in code from built-in spectra (no file): fixed lights (luminance-normalised
 /// illuminants) and fixed ColorChecker reflectances. Used by the accuracy check and tests.
 pub fn colorchecker_palette(name: &str, lights: &[&str], reflectances: &[(&str, &str)]) -> Option<Palette> {
@@ -35,17 +30,8 @@ pub fn colorchecker_palette(name: &str, lights: &[&str], reflectances: &[(&str, 
 }
 
 pub(super) fn entry(name: &str, kind: Kind, source: crate::palette::Source, spectrum: Spectrum) -> SpectrumEntry {
-    SpectrumEntry {
-        name: name.into(),
-        kind,
-        source,
-        normalize: if kind == Kind::Light { Normalize::Luminance } else { Normalize::None },
-        scale: 1.0,
-        design: false,
-        bounds: None,
-        dial: None,
-        spectrum,
-    }
+    let normalize = if kind == Kind::Light { Normalize::Luminance } else { Normalize::None };
+    SpectrumEntry::resolved(name, kind, source, normalize, spectrum)
 }
 
 /// The designed engine palette (`volumes/engine_palette.toml`), embedded for the default scene.
@@ -66,24 +52,30 @@ pub fn builtin_scene(size: usize) -> Result<Scene, RenderError> {
     Scene::builtin(builtin_palette()?, size)
 }
 
-/// The accuracy-check scene of issue 5: four fixed ColorChecker materials (dark skin, foliage, orange,
-/// purplish blue) over value ranges of `volume`, dial D65 → A → F11. `ranges` and `opacities` give the
-/// transfer function (value ranges in the volume's units).
-pub(crate) fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities: [f32; 4]) -> Scene {
-    let names = [("m1", "dark_skin"), ("m2", "foliage"), ("m3", "orange"), ("m4", "purplish_blue")];
-    let palette = colorchecker_palette("check", &["D65", "A", "F11"], &names).unwrap_or_default();
+/// A scene of fixed ColorChecker materials over value ranges of `volume`: the palette named `name` with the
+/// CIE illuminants `lights` (luminance-normalised, the dial's path in that order) and one material per
+/// `(material name, ColorChecker patch, value range, opacity)`; `None` when a light or patch is not a
+/// built-in table.
+pub fn colorchecker_scene(
+    name: &str,
+    volume: Volume,
+    lights: &[&str],
+    materials: &[(&str, &str, [f32; 2], f32)],
+) -> Option<Scene> {
+    let names: Vec<(&str, &str)> = materials.iter().map(|&(m, patch, _, _)| (m, patch)).collect();
+    let palette = colorchecker_palette(name, lights, &names)?;
     let materials = palette
         .reflectances
         .iter()
-        .zip(ranges.iter().zip(opacities))
-        .map(|(r, (range, opacity))| Material {
+        .zip(materials)
+        .map(|(r, &(_, _, range, opacity))| Material {
             reflectance: r.name.clone(),
             spectrum: r.spectrum,
-            class: MaterialClass::new(*range, opacity),
+            class: MaterialClass::new(range, opacity),
         })
         .collect();
-    let dial = dial_of(Path::new("check scene"), &palette, None).unwrap_or_else(|_| Dial::empty());
-    Scene {
+    let dial = dial_of(Path::new(name), &palette, None).ok()?;
+    Some(Scene {
         path: None,
         palette_path: None,
         volume_path: None,
@@ -93,7 +85,22 @@ pub(crate) fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], op
         camera: Camera::default(),
         dial,
         settings: SceneSettings::default(),
-    }
+    })
+}
+
+/// The accuracy-check scene of issue 5: four fixed ColorChecker materials (dark skin, foliage, orange,
+/// purplish blue) over value ranges of `volume`, dial D65 → A → F11. `ranges` and `opacities` give the
+/// transfer function (value ranges in the volume's units).
+pub(crate) fn colorchecker_check_scene(volume: Volume, ranges: [[f32; 2]; 4], opacities: [f32; 4]) -> Scene {
+    let patches = ["dark_skin", "foliage", "orange", "purplish_blue"];
+    let materials: Vec<(&str, &str, [f32; 2], f32)> = ["m1", "m2", "m3", "m4"]
+        .into_iter()
+        .zip(patches)
+        .zip(ranges.into_iter().zip(opacities))
+        .map(|((m, p), (r, o))| (m, p, r, o))
+        .collect();
+    colorchecker_scene("check", volume, &["D65", "A", "F11"], &materials)
+        .expect("the CIE illuminants and ColorChecker patches named here are built in")
 }
 
 /// [`colorchecker_check_scene`] over the GE engine CT (`engine.nhdr`, 8-bit).

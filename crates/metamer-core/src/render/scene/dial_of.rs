@@ -2,6 +2,7 @@
 //! keyframes.
 
 use super::*;
+use crate::fsio::escape;
 
 /// The dial's lights: every palette light, at its `dial = [x, y]` vertex (lights without one on a regular
 /// polygon of the unit circle), all on with intensity 1.

@@ -408,7 +408,7 @@ fn settings_of(path: &Path, r: Option<&RenderFile>) -> Result<SceneSettings, Ren
                 return Err(scene_err(
                     path,
                     "render.interpolation",
-                    format!("`{}` is not trilinear, nearest or labels", o.escape_debug()),
+                    format!("`{}` is not trilinear, nearest or labels", crate::fsio::escape(o)),
                 ));
             }
         };
@@ -422,7 +422,7 @@ fn settings_of(path: &Path, r: Option<&RenderFile>) -> Result<SceneSettings, Ren
                 return Err(scene_err(
                     path,
                     "render.shading",
-                    format!("`{}` is not key, headlight or unshaded", o.escape_debug()),
+                    format!("`{}` is not key, headlight or unshaded", crate::fsio::escape(o)),
                 ));
             }
         };
@@ -470,7 +470,7 @@ fn camera_of(path: &Path, c: Option<&CameraFile>) -> Result<Camera, RenderError>
                 return Err(scene_err(
                     path,
                     "camera.fit",
-                    format!("`{}` is neither materials nor volume", o.escape_debug()),
+                    format!("`{}` is neither materials nor volume", crate::fsio::escape(o)),
                 ));
             }
         };

@@ -1,0 +1,355 @@
+//! The exact active-set finish of [`super`] (bounded-variable least squares in the manner of Stark & Parker
+//! 1995): its buffers, reused per thread, and its steps on the normal equations (incremental Cholesky) or on
+//! A itself (QR with rows sorted by weight). See the parent module's docs for the method.
+
+use super::kernels::{Cholesky, Qr, Status, axpy, column};
+use super::*;
+
+/// Buffers and state of the exact active-set finish (reused across its steps: no allocation per step).
+pub(super) struct Work {
+    pub(super) n: usize,
+    /// Current point, status and free list.
+    pub(super) x: Vec<f64>,
+    pub(super) status: Vec<Status>,
+    pub(super) is_free: Vec<bool>,
+    pub(super) free: Vec<usize>,
+    /// Working on A (QR, residual multipliers) rather than on `AᵀA`.
+    pub(super) use_qr: bool,
+    pub(super) chol: Cholesky,
+    pub(super) qr: Qr,
+    /// `H x_B` (the bound variables' part of Hx), kept up to date on the normal-equations path.
+    pub(super) hb: Vec<f64>,
+    pub(super) z: Vec<f64>,
+    /// Half-gradient `Aᵀ(Ax − b)` (on the normal-equations path only at bound variables) and its rounding
+    /// level; residual and `|A||x| + |b|`.
+    pub(super) g: DVector<f64>,
+    pub(super) noise: DVector<f64>,
+    pub(super) r: DVector<f64>,
+    pub(super) mag: DVector<f64>,
+    pub(super) stuck: Vec<bool>,
+    pub(super) newly_bound: Vec<usize>,
+    /// The last free solve was by QR at the current point, so its multipliers are current.
+    pub(super) qr_current: bool,
+    /// Only looking for an active set (an exact QR finish follows): keep the Cholesky path even when its
+    /// factor is poorly conditioned.
+    pub(super) rough: bool,
+    /// `‖H‖max` and `‖Aᵀb‖∞` (NaN until first needed).
+    pub(super) h_max: f64,
+    pub(super) atb_max: f64,
+}
+
+thread_local! {
+    /// One [`Work`] per thread, reused by every solve on it: the batch path solves thousands of small systems
+    /// and would otherwise allocate a dozen buffers for each.
+    static WORK: std::cell::RefCell<Work> = std::cell::RefCell::new(Work::new(0, 0, false));
+}
+
+/// Run `f` with this thread's [`Work`] prepared for `sys` (a fresh one if it is already in use).
+pub(super) fn with_work<R>(sys: &LinearSystem, use_qr: bool, f: impl FnOnce(&mut Work) -> R) -> R {
+    let (m, n) = sys.a.shape();
+    WORK.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut w) => {
+            w.reset(m, n, use_qr);
+            f(&mut w)
+        }
+        Err(_) => f(&mut Work::new(m, n, use_qr)),
+    })
+}
+
+impl Work {
+    pub(super) fn new(m: usize, n: usize, use_qr: bool) -> Work {
+        Work {
+            n,
+            x: vec![0.0; n],
+            status: vec![Status::Free; n],
+            is_free: vec![true; n],
+            free: Vec::with_capacity(n),
+            use_qr,
+            chol: Cholesky::new(n, !use_qr),
+            qr: Qr::default(),
+            hb: vec![0.0; n],
+            z: Vec::with_capacity(n),
+            g: DVector::zeros(n),
+            noise: DVector::zeros(n),
+            r: DVector::zeros(m),
+            mag: DVector::zeros(m),
+            stuck: vec![false; n],
+            newly_bound: Vec::with_capacity(n),
+            qr_current: false,
+            rough: false,
+            h_max: f64::NAN,
+            atb_max: f64::NAN,
+        }
+    }
+
+    /// Work on A by QR (`true`) or on `AᵀA` by Cholesky (`false`) in the next [`Work::finish`].
+    pub(super) fn set_path(&mut self, qr: bool) {
+        self.use_qr = qr;
+        self.chol.ok = !qr;
+        if !qr {
+            self.chol.l.resize(self.n * self.n, 0.0);
+        }
+    }
+
+    /// Prepare for an m×n system, keeping the buffers' storage.
+    pub(super) fn reset(&mut self, m: usize, n: usize, use_qr: bool) {
+        self.n = n;
+        self.x.resize(n, 0.0);
+        self.status.resize(n, Status::Free);
+        self.is_free.resize(n, true);
+        self.free.clear();
+        self.use_qr = use_qr;
+        self.chol.n = n;
+        self.chol.ok = !use_qr;
+        if !use_qr {
+            self.chol.l.resize(n * n, 0.0);
+        }
+        // A new matrix: the QR's row order and |A| are recomputed on first use.
+        self.qr.order.clear();
+        self.hb.resize(n, 0.0);
+        self.z.clear();
+        for v in [&mut self.g, &mut self.noise] {
+            if v.len() != n {
+                *v = DVector::zeros(n);
+            }
+        }
+        for v in [&mut self.r, &mut self.mag] {
+            if v.len() != m {
+                *v = DVector::zeros(m);
+            }
+        }
+        self.stuck.resize(n, false);
+        self.newly_bound.clear();
+        self.qr_current = false;
+        self.rough = false;
+        self.h_max = f64::NAN;
+        self.atb_max = f64::NAN;
+    }
+
+    /// QR solve of the free set with the other variables at `x`, into `self.z`.
+    pub(super) fn qr_solve(&mut self, sys: &LinearSystem, x: &[f64]) -> bool {
+        self.qr.solve(sys, x, &self.free, &self.is_free, &mut self.z)
+    }
+
+    pub(super) fn bind(&mut self, h: &DMatrix<f64>, i: usize, to: Status) {
+        self.status[i] = to;
+        self.is_free[i] = false;
+        if let Some(k) = self.free.iter().position(|&f| f == i) {
+            let nf = self.free.len();
+            self.free.remove(k);
+            self.chol.remove(k, nf);
+        }
+        if !self.use_qr && self.x[i] != 0.0 {
+            axpy(self.x[i], column(h, i), &mut self.hb);
+        }
+    }
+
+    pub(super) fn release(&mut self, h: &DMatrix<f64>, j: usize) {
+        self.status[j] = Status::Free;
+        self.is_free[j] = true;
+        if !self.use_qr && self.x[j] != 0.0 {
+            axpy(-self.x[j], column(h, j), &mut self.hb);
+        }
+        self.chol.add(h, &self.free, j);
+        self.free.push(j);
+    }
+
+    /// Least squares over the free set into `self.z`: Cholesky of `H_FF` while it is healthy, else QR (for
+    /// the rest of the finish). False when neither gives a finite result.
+    pub(super) fn solve_free(&mut self, sys: &LinearSystem, atb: &DVector<f64>) -> bool {
+        if !self.use_qr && self.chol.ok && (self.rough || self.chol.well_conditioned(self.free.len())) {
+            self.z.clear();
+            self.z.extend(self.free.iter().map(|&i| atb[i] - self.hb[i]));
+            self.chol.solve_in_place(&mut self.z);
+            if self.z.iter().all(|v| v.is_finite()) {
+                return true;
+            }
+        }
+        self.use_qr = true;
+        self.chol.ok = false;
+        let x = std::mem::take(&mut self.x);
+        let ok = self.qr.solve(sys, &x, &self.free, &self.is_free, &mut self.z);
+        self.x = x;
+        ok
+    }
+
+    /// The half-gradient `g = Aᵀ(Ax − b)` at `self.x` and, per component, the level below which its sign is
+    /// rounding noise. Normal equations: `g = Hx − Aᵀb`, noise `2(n+1)²ε·max(‖Aᵀb‖∞, ‖H‖max‖x‖∞)` (the worst
+    /// case of the product's rounding). QR path: from the last QR solve when it is current (see [`Qr::solve`];
+    /// noise `4mε·Σ|(Qᵀa_j)_i t_i|`), else from the residual with noise `8ε·(|A|ᵀ(|A||x| + |b|))ᵢ`, about the
+    /// typical rounding of each component. Smaller multipliers are not trusted.
+    pub(super) fn gradient(&mut self, sys: &LinearSystem, h: &DMatrix<f64>, atb: &DVector<f64>) {
+        if self.h_max.is_nan() {
+            // H is positive semidefinite: |H_ij| ≤ √(H_ii H_jj), so its largest entry is on the diagonal.
+            self.h_max = h.diagonal().iter().fold(0.0, |m, v| m.max(v.abs()));
+            self.atb_max = atb.iter().fold(0.0, |m, v| m.max(v.abs()));
+        }
+        if self.use_qr && self.qr_current {
+            for i in 0..self.n {
+                (self.g[i], self.noise[i]) =
+                    if self.is_free[i] { (0.0, 0.0) } else { (self.qr.mult[i], self.qr.mult_noise[i]) };
+            }
+        } else if self.use_qr {
+            self.qr.prepare(&sys.a);
+            let x = nalgebra::DVectorView::from_slice(&self.x, self.n);
+            self.r.copy_from(&sys.b);
+            self.r.gemv(1.0, &sys.a, &x, -1.0);
+            self.g.gemv_tr(1.0, &sys.a, &self.r, 0.0);
+            let xabs = x.abs();
+            self.mag.copy_from(&sys.b.abs());
+            self.mag.gemv(1.0, &self.qr.abs_a, &xabs, 1.0);
+            self.noise.gemv_tr(8.0 * f64::EPSILON, &self.qr.abs_a, &self.mag, 0.0);
+        } else {
+            // Only the bound variables' components are needed: g_i = (H x_B)_i + H_iF x_F − (Aᵀb)_i, with
+            // `hb = H x_B` kept up to date (H is symmetric: row i is column i).
+            for i in 0..self.n {
+                self.g[i] = if self.is_free[i] {
+                    0.0
+                } else {
+                    let col = column(h, i);
+                    self.free.iter().fold(self.hb[i] - atb[i], |v, &k| v + col[k] * self.x[k])
+                };
+            }
+            let n = self.n as f64;
+            let level = 2.0
+                * (n + 1.0)
+                * (n + 1.0)
+                * f64::EPSILON
+                * self.atb_max.max(self.h_max * self.x.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+            self.noise.fill(level);
+        }
+    }
+
+    /// The exact active-set finish from `x0` projected onto the box (see the module docs). Leaves the result
+    /// in `self.x`; returns the number of releases (outer steps).
+    pub(super) fn finish(
+        &mut self,
+        sys: &LinearSystem,
+        h: &DMatrix<f64>,
+        atb: &DVector<f64>,
+        x0: &DVector<f64>,
+    ) -> usize {
+        let n = self.n;
+        let (lo, hi) = (sys.lower.as_slice(), sys.upper.as_slice());
+        self.free.clear();
+        self.hb.iter_mut().for_each(|v| *v = 0.0);
+        self.stuck.iter_mut().for_each(|v| *v = false);
+        for i in 0..n {
+            let v = if x0[i].is_finite() { x0[i] } else { 0.0 };
+            if v <= lo[i] {
+                self.x[i] = lo[i];
+                self.status[i] = Status::Lower;
+                self.is_free[i] = false;
+            } else if v >= hi[i] {
+                self.x[i] = hi[i];
+                self.status[i] = Status::Upper;
+                self.is_free[i] = false;
+            } else {
+                self.x[i] = v;
+                self.status[i] = Status::Free;
+                self.is_free[i] = true;
+                self.chol.add(h, &self.free, i);
+                self.free.push(i);
+            }
+        }
+        if !self.use_qr {
+            for j in 0..n {
+                if !self.is_free[j] && self.x[j] != 0.0 {
+                    axpy(self.x[j], column(h, j), &mut self.hb);
+                }
+            }
+        }
+        let mut released: Option<(usize, Status)> = None;
+        let max_steps = 4 * n + 20;
+        let mut steps = 0;
+        while steps < max_steps {
+            steps += 1;
+            // Inner loop: solve on the free set, walking back to the box when the solution leaves it.
+            self.qr_current = false;
+            for _ in 0..=2 * n {
+                if self.free.is_empty() || !self.solve_free(sys, atb) {
+                    break;
+                }
+                // A variable released a moment ago that wants straight back out on the same side: its
+                // multiplier was rounding noise. Bind it again and skip it until another release succeeds.
+                if let Some((j, from)) = released.take() {
+                    let k = self.free.iter().position(|&f| f == j).unwrap_or(0);
+                    let back = match from {
+                        Status::Lower => self.z[k] <= lo[j],
+                        Status::Upper => self.z[k] >= hi[j],
+                        Status::Free => false,
+                    };
+                    if back {
+                        self.stuck[j] = true;
+                        self.bind(h, j, from);
+                        continue;
+                    }
+                    self.stuck.iter_mut().for_each(|s| *s = false);
+                }
+                let mut alpha: f64 = 1.0;
+                let mut hit: Option<usize> = None;
+                for (k, &i) in self.free.iter().enumerate() {
+                    let (zi, xi) = (self.z[k], self.x[i]);
+                    let a = if zi < lo[i] {
+                        (lo[i] - xi) / (zi - xi)
+                    } else if zi > hi[i] {
+                        (hi[i] - xi) / (zi - xi)
+                    } else {
+                        continue;
+                    };
+                    let a = if a.is_finite() { a.clamp(0.0, 1.0) } else { 0.0 };
+                    if hit.is_none() || a < alpha {
+                        alpha = a;
+                        hit = Some(i);
+                    }
+                }
+                let Some(hit) = hit else {
+                    for (k, &i) in self.free.iter().enumerate() {
+                        self.x[i] = self.z[k];
+                    }
+                    self.qr_current = self.use_qr;
+                    break;
+                };
+                self.newly_bound.clear();
+                for (k, &i) in self.free.iter().enumerate() {
+                    let zk = self.z[k];
+                    let v = (self.x[i] + alpha * (zk - self.x[i])).max(lo[i]).min(hi[i]);
+                    self.x[i] = v;
+                    if zk < lo[i] && (i == hit || v - lo[i] <= 1e-14 * (1.0 + lo[i].abs())) {
+                        self.x[i] = lo[i];
+                        self.newly_bound.push(i);
+                    } else if zk > hi[i] && (i == hit || hi[i] - v <= 1e-14 * (1.0 + hi[i].abs())) {
+                        self.x[i] = hi[i];
+                        self.newly_bound.push(i);
+                    }
+                }
+                for t in 0..self.newly_bound.len() {
+                    let i = self.newly_bound[t];
+                    let to = if self.x[i] == lo[i] { Status::Lower } else { Status::Upper };
+                    self.bind(h, i, to);
+                }
+            }
+            // Multipliers: the half-gradient at bound variables must point out of the box.
+            self.gradient(sys, h, atb);
+            let mut worst: Option<(usize, f64)> = None;
+            let (g, noise) = (self.g.as_slice(), self.noise.as_slice());
+            for i in 0..n {
+                if self.stuck[i] || lo[i] == hi[i] {
+                    continue;
+                }
+                let v = match self.status[i] {
+                    Status::Lower => -g[i],
+                    Status::Upper => g[i],
+                    Status::Free => continue,
+                };
+                if v > noise[i] && worst.is_none_or(|(_, w)| v > w) {
+                    worst = Some((i, v));
+                }
+            }
+            let Some((j, _)) = worst else { break };
+            released = Some((j, self.status[j]));
+            self.release(h, j);
+        }
+        steps
+    }
+}
