@@ -49,7 +49,30 @@ pub enum EditError {
     Reader(String),
     /// A save-as was refused (the file named, and why).
     #[error(transparent)]
-    File(#[from] crate::tui::msg::FileError),
+    File(#[from] FileError),
+}
+
+/// Why a save, a save-as, a reload or a recovery copy did not happen.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FileError {
+    /// Another program changed the file since it was opened or last saved; the designer's version was
+    /// saved aside (`aside`: where, or why not).
+    #[error(
+        "{} changed on disk since it was opened; {}. Ctrl-s again overwrites the file, Ctrl-r reloads it, \
+         Ctrl-w saves as another file",
+        crate::fsio::show(.path),
+        match .aside { Ok(p) => format!("your version is saved as {}", crate::fsio::show(p)), Err(e) => format!("your version could not be saved aside ({e})") }
+    )]
+    Conflict { path: std::path::PathBuf, aside: Result<std::path::PathBuf, String> },
+    /// The palette has no file (tests, in-memory designs).
+    #[error("the palette has no file")]
+    NoFile,
+    /// The target of a save-as is empty.
+    #[error("give a path")]
+    NoPath,
+    /// The file system or the palette writer refused (the message names the file and the reason).
+    #[error("{0}")]
+    Failed(String),
 }
 
 /// An [`EditError`] kept by a prompt until the next key (cloned with the prompt; compared by its text).

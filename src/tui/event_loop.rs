@@ -11,7 +11,8 @@
 use crate::palette::Palette;
 use crate::palette::file::PaletteFile;
 use crate::tui::app::State;
-use crate::tui::msg::{Effect, FileError, FileOutcome, Msg, Saved};
+use crate::tui::edits::FileError;
+use crate::tui::msg::{Effect, FileOutcome, Msg, Saved};
 use crate::tui::preview::PreviewLoader;
 use crate::tui::update;
 use crate::tui::worker::{BasisMode, Reply, Solved, Trained, Worker, WorkerConfig};

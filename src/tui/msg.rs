@@ -13,35 +13,13 @@ use crate::palette::{Kind, Palette};
 use crate::render::relight::ColourModel;
 use crate::render::scene::Scene;
 use crate::tui::action::Action;
+use crate::tui::edits::{EditError, FileError};
 use crate::tui::preview::Loaded;
 use crate::tui::worker::Reply;
 use ratatui::crossterm::event::KeyEvent;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
-
-/// Why a save, a save-as, a reload or a recovery copy did not happen.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum FileError {
-    /// Another program changed the file since it was opened or last saved; the designer's version was
-    /// saved aside (`aside`: where, or why not).
-    #[error(
-        "{} changed on disk since it was opened; {}. Ctrl-s again overwrites the file, Ctrl-r reloads it, \
-         Ctrl-w saves as another file",
-        crate::fsio::show(.path),
-        match .aside { Ok(p) => format!("your version is saved as {}", crate::fsio::show(p)), Err(e) => format!("your version could not be saved aside ({e})") }
-    )]
-    Conflict { path: PathBuf, aside: Result<PathBuf, String> },
-    /// The palette has no file (tests, in-memory designs).
-    #[error("the palette has no file")]
-    NoFile,
-    /// The target of a save-as is empty.
-    #[error("give a path")]
-    NoPath,
-    /// The file system or the palette writer refused (the message names the file and the reason).
-    #[error("{0}")]
-    Failed(String),
-}
 
 /// A save that went through.
 #[derive(Clone, Debug)]
@@ -89,7 +67,7 @@ pub enum Msg {
     /// A preview raycast finished.
     Preview(Loaded),
     /// A CSV import (number `id`) finished: the palette with the spectrum added, or why not.
-    Imported { id: u64, result: Result<Palette, crate::tui::edits::EditError> },
+    Imported { id: u64, result: Result<Palette, EditError> },
     /// A save, reload or recovery copy finished.
     File(FileOutcome),
     /// The spinner's clock (sent only while something is under way).

@@ -17,8 +17,9 @@
 use crate::palette::Palette;
 use crate::palette::file::PaletteFile;
 use crate::tui::app::State;
+use crate::tui::edits::FileError;
 use crate::tui::event_loop::{self, Events, Io, Saver};
-use crate::tui::msg::{FileError, Msg, Saved};
+use crate::tui::msg::{Msg, Saved};
 use crate::tui::ui;
 use crate::tui::worker::WorkerConfig;
 use ratatui::Terminal;

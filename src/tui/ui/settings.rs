@@ -3,7 +3,6 @@
 
 use crate::tui::app::{Focus, SettingField, State};
 use crate::tui::ui::{num, put};
-use crate::tui::update::bounds_on;
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style};
@@ -20,7 +19,7 @@ pub(crate) fn field_texts(state: &State, short: bool) -> Vec<String> {
     SettingField::ALL
         .iter()
         .map(|f| match f {
-            SettingField::Bounds => format!("{} bounds", check(bounds_on(&state.palette))),
+            SettingField::Bounds => format!("{} bounds", check(state.palette.settings.bounded())),
             SettingField::ReflectanceLower => format!("{} {}", label("refl", "R"), num(s.reflectance_bounds.lower)),
             SettingField::ReflectanceUpper => format!("… {}", num(s.reflectance_bounds.upper)),
             SettingField::LightLower => format!("{} {}", label("light", "L"), num(s.light_bounds.lower)),

@@ -484,13 +484,8 @@ fn setting_prompt_text(field: SettingField) -> (&'static str, &'static str) {
     }
 }
 
-/// True when any bound is set.
-pub fn bounds_on(palette: &Palette) -> bool {
-    !(palette.settings.reflectance_bounds.is_unbounded() && palette.settings.light_bounds.is_unbounded())
-}
-
 fn toggle_bounds(state: &mut State) -> Wants {
-    if bounds_on(&state.palette) {
+    if state.palette.settings.bounded() {
         let s = &state.palette.settings;
         state.remembered_bounds = (s.reflectance_bounds, s.light_bounds);
         edit(state, EditKey::Other, |p, _| {

@@ -12,7 +12,7 @@ mod popups;
 mod prompt;
 mod replies;
 
-pub use keys::{Wants, bounds_on};
+pub use keys::Wants;
 pub use popups::start_import;
 pub use replies::palette_to_save;
 

@@ -34,12 +34,7 @@ use crate::colorimetry::{Colorimetry, Q31};
 use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Vector3};
 
-/// The basis dimension m of a palette that does not set `basis_dimension` (the "V7" model).
-pub(crate) const DEFAULT_DIMENSION: usize = 7;
-
-/// The basis dimensions allowed everywhere (palette files, `metamer basis --dimension`, the designer, a
-/// basis matrix): 1 ..= 31, one per sample at most.
-pub(crate) const DIMENSIONS: std::ops::RangeInclusive<usize> = 1..=SAMPLES;
+use crate::spectrum::BASIS_DIMENSIONS as DIMENSIONS;
 
 /// The basis-dimension rule, in one place: `Ok(m)` when m is in [`DIMENSIONS`], else
 /// [`BasisError::BadDimension`].

@@ -154,10 +154,17 @@ pub struct Settings {
     pub light_bounds: Bounds,
 }
 
+impl Settings {
+    /// True when the reflectance or the light bounds are set.
+    pub fn bounded(&self) -> bool {
+        !(self.reflectance_bounds.is_unbounded() && self.light_bounds.is_unbounded())
+    }
+}
+
 impl Default for Settings {
     fn default() -> Self {
         Settings {
-            basis_dimension: crate::basis::DEFAULT_DIMENSION,
+            basis_dimension: crate::spectrum::DEFAULT_BASIS_DIMENSION,
             smoothness: 0.001,
             subspace_error: 0.0,
             fit_in_subspace: false,

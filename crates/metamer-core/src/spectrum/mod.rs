@@ -10,6 +10,13 @@ use std::fmt;
 /// Number of samples of a spectrum on the standard grid.
 pub const SAMPLES: usize = 31;
 
+/// The dimensions m a basis of spectra may have, everywhere (palette files, `metamer basis --dimension`,
+/// the designer, a basis matrix): 1 ..= 31, one per sample at most. `basis::check_dimension` applies it.
+pub const BASIS_DIMENSIONS: std::ops::RangeInclusive<usize> = 1..=SAMPLES;
+
+/// The basis dimension m of a palette that does not set `basis_dimension` (the "V7" model).
+pub const DEFAULT_BASIS_DIMENSION: usize = 7;
+
 /// The sample vector type of a spectrum.
 pub type Samples = SVector<f64, SAMPLES>;
 

@@ -276,7 +276,7 @@ impl<'a> Reader<'a> {
         if let Some(v) = t.value("basis_dimension") {
             let key = "settings.basis_dimension";
             let m = integer_of(v).ok_or_else(|| self.wrong_type(key, "an integer", v))?;
-            let Some(m) = usize::try_from(m).ok().and_then(|m| crate::basis::check_dimension(m).ok()) else {
+            let Some(m) = usize::try_from(m).ok().filter(|m| crate::spectrum::BASIS_DIMENSIONS.contains(m)) else {
                 return Err(self.invalid(key, format!("must be between 1 and {SAMPLES}, got {m}")));
             };
             s.basis_dimension = m;
