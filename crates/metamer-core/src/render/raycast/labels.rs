@@ -132,7 +132,11 @@ pub(super) fn build(volume: &Volume, materials: &[u8], b: [usize; 3], gradients:
                 *i = *l == m;
             }
             let slice = &mut unblurred[W * W * z..W * W * (z + 1)];
-            edt.signed(&inside, nx, ny, wx, wy, window, slice);
+            if let Some(c) = edt.signed(&inside, nx, ny, wx, wy, window, slice) {
+                // All on one side: the blur keeps the constant.
+                bxy[G * G * z..G * G * (z + 1)].iter_mut().for_each(|v| *v = c);
+                continue;
+            }
             // Blur in-plane.
             let mut bx = [[0f32; G]; W];
             for (yy, row) in bx.iter_mut().enumerate() {
@@ -217,11 +221,13 @@ struct Edt {
     /// Squared distance along x to the nearest feature of the row, per row and window column.
     rows: Vec<f32>,
     edge: Vec<bool>,
+    hor_or: Vec<bool>,
+    hor_and: Vec<bool>,
 }
 
 impl Edt {
     fn new() -> Edt {
-        Edt { rows: Vec::new(), edge: Vec::new() }
+        Edt { rows: Vec::new(), edge: Vec::new(), hor_or: Vec::new(), hor_and: Vec::new() }
     }
 
     /// Signed distance (in-plane voxels of length 1 for weight 1; positive outside), over `window`,
@@ -234,24 +240,47 @@ impl Edt {
     /// pixel `k` voxels deep along an axis is `k − 1` from the nearest boundary pixel of its own side
     /// and `k` from the other's, and `±(distance + ½)` is its distance to the boundary between pixel
     /// centres (exact along the axes, within a fraction of a voxel elsewhere, before the blur).
+    /// Returns the value when the whole slice lies on one side (every pixel ±REACH).
     #[allow(clippy::too_many_arguments)]
-    fn signed(&mut self, inside: &[bool], nx: usize, ny: usize, wx: f32, wy: f32, window: Window, out: &mut [f32]) {
+    fn signed(
+        &mut self,
+        inside: &[bool],
+        nx: usize,
+        ny: usize,
+        wx: f32,
+        wy: f32,
+        window: Window,
+        out: &mut [f32],
+    ) -> Option<f32> {
         let n_in = inside.iter().filter(|i| **i).count();
         if n_in == 0 || n_in == inside.len() {
             let s = if n_in == 0 { LABEL_REACH } else { -LABEL_REACH };
             out.iter_mut().for_each(|o| *o = s);
-            return;
+            return Some(s);
         }
         let Window { x0, y0, n } = window;
+        // A pixel is on the boundary when its 3×3 neighbourhood (clamped at the region's edge) is not all
+        // on its side: separably, the neighbourhood's OR (dilation) and AND (erosion), row then column.
+        let (hor_or, hor_and) = (&mut self.hor_or, &mut self.hor_and);
+        hor_or.clear();
+        hor_and.clear();
+        for y in 0..ny {
+            let r = &inside[nx * y..nx * (y + 1)];
+            for x in 0..nx {
+                let (a, b, c) = (r[x.saturating_sub(1)], r[x], r[(x + 1).min(nx - 1)]);
+                hor_or.push(a | b | c);
+                hor_and.push(a & b & c);
+            }
+        }
         let edge = &mut self.edge;
         edge.clear();
-        edge.resize(nx * ny, false);
         for y in 0..ny {
-            let (ya, yb) = (y.saturating_sub(1), (y + 1).min(ny - 1));
+            let (ya, yb) = (nx * y.saturating_sub(1), nx * (y + 1).min(ny - 1));
+            let yc = nx * y;
             for x in 0..nx {
-                let (xa, xb) = (x.saturating_sub(1), (x + 1).min(nx - 1));
-                let c = inside[x + nx * y];
-                edge[x + nx * y] = (ya..=yb).any(|v| inside[nx * v + xa..=nx * v + xb].iter().any(|n| *n != c));
+                let or = hor_or[ya + x] | hor_or[yc + x] | hor_or[yb + x];
+                let and = hor_and[ya + x] & hor_and[yc + x] & hor_and[yb + x];
+                edge.push(if inside[yc + x] { !and } else { or });
             }
         }
         // Along x: the nearest feature left and right of each window column.
@@ -302,6 +331,7 @@ impl Edt {
                 out[xw + n * yw] = if inside[i] { -d } else { d }.clamp(-LABEL_REACH, LABEL_REACH);
             }
         }
+        None
     }
 }
 
