@@ -305,7 +305,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
         ("+ jitter + smooth gradient (the default)".into(), scene.clone(), 1),
         ("unshaded (no gradient at all)".into(), with(&|s| s.settings.shading = Shading::Unshaded), 1),
         (
-            "smoothed label occupancy (interpolation = labels)".into(),
+            "shape-based labels (interpolation = labels)".into(),
             with(&|s| s.settings.interpolation = Interpolation::Labels),
             1,
         ),
@@ -473,9 +473,11 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         .collect();
     s += &markdown_table(&["configuration", "median raycast", "against no quality steps"], &qrows);
     s += "\nJitter moves sample positions only (no extra work); the smooth gradient interpolates per-voxel central differences \
-          (i16, 6 bytes an entry) at shaded samples only, built lazily per 8³ brick the first time a ray reaches it; label \
-          interpolation samples each material's Gaussian-smoothed occupancy (u8 per material present, built the same way); \
-          supersampling multiplies the rays by ss². None of them changes the per-frame cost.\n";
+          (i16, 6 bytes an entry) at shaded samples only, built lazily per 8³ brick the first time a ray reaches it; shape-based \
+          labels build, per brick reached, each nearby material's in-slice signed distance (a 2D distance transform per \
+          slice, smoothed; u16 per material present) and sample it trilinearly, with one distance gradient per material \
+          (here on the CT's value classes; on a label volume such as the frog it replaces voxel terraces by smooth \
+          surfaces); supersampling multiplies the rays by ss². None of them changes the per-frame cost.\n";
     let a = &r.accuracy;
     s += &format!(
         "\n## Accuracy against the full 31-sample frames ({0}×{0}, {1} frames, {2} non-black pixels, 8-bit frames as written)\n\n",

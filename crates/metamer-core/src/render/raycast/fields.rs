@@ -12,22 +12,22 @@
 //!   shading normals come from, `h` voxels either side. Shifting a trilinear interpolant by whole
 //!   voxels keeps the sample's fractional position, so the trilinear interpolation of these is the
 //!   central difference of the interpolated field (the same normal as six interpolated lookups, for one
-//!   cell fetch). The field is the value (trilinear mode, `h` = 1), the step-corrected opacity
-//!   (nearest mode, `h` = 2) or the smoothed total opacity filtered once more (label mode, `h` =
-//!   [`NORMAL_H`]).
-//! - **smoothed label occupancy** (label mode, `u8` per material present): each material's indicator
-//!   (1 where a voxel's label belongs to it) filtered by a separable Gaussian of σ = [`LABEL_SIGMA`]
-//!   voxels truncated at [`LABEL_RADIUS`], quantised to 1/255. Sampled trilinearly, the occupancies make
-//!   label boundaries smooth surfaces (no voxel terraces), they still sum to at most 1 (the filter is a
-//!   partition of unity), and the shading normals come from the same smoothed field.
+//!   cell fetch). The field is the value (trilinear mode, `h` = 1) or the step-corrected opacity
+//!   (nearest mode, `h` = 2).
+//! - **label fields** (label mode): per material present, the shape-based signed distance of
+//!   `labels` (see there, `u16`) and its gradient, one `i16` triple per material and entry. Label
+//!   mode also classifies every voxel once per raycast (one byte a voxel), so blocks read materials
+//!   without a transfer-function lookup.
 
 use super::classify::Classifier;
+use super::labels;
 use crate::volume::Volume;
+use rayon::prelude::*;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// log2 of the brick edge.
-const SHIFT: u32 = 3;
+pub(super) const SHIFT: u32 = 3;
 /// Brick edge in voxels.
 pub(super) const FIELD_BRICK: usize = 1 << SHIFT;
 const BRICK: usize = FIELD_BRICK;
@@ -36,11 +36,6 @@ pub(super) const S: usize = BRICK + 1;
 /// Block entries.
 pub(super) const S3: usize = S * S * S;
 
-/// Standard deviation (voxels, along each index axis) of the Gaussian that smooths label indicators.
-pub const LABEL_SIGMA: f32 = 1.0;
-/// Truncation radius of that Gaussian (voxels).
-pub const LABEL_RADIUS: usize = 2;
-
 /// What a [`Fields`] holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Kind {
@@ -48,18 +43,18 @@ pub(super) enum Kind {
     Values,
     /// Gradient of the step-corrected opacity, two voxels either side (nearest sampling).
     Opacity,
-    /// Smoothed label occupancy, and the gradient of the smoothed total opacity.
+    /// Per material, the shape-based signed distance and its gradient.
     Labels,
 }
 
 /// One brick's block.
 pub(super) struct Block {
-    /// `S3` gradient triples (empty when no gradients are needed).
+    /// `S3` gradient triples, per material in label mode (empty when no gradients are needed).
     pub(crate) grad: Vec<[i16; 3]>,
     /// Materials (0-based) with some occupancy in the block (label mode).
     pub(crate) mats: Vec<u8>,
-    /// `mats.len() × S3` occupancies in 1/255 (label mode).
-    pub(crate) occ: Vec<u8>,
+    /// `mats.len() × S3` signed distances (label mode, [`labels::LabelBlock::sdf`]).
+    pub(crate) sdf: Vec<u16>,
 }
 
 /// The lazily built per-brick blocks of one raycast.
@@ -70,9 +65,10 @@ pub(super) struct Fields<'a> {
     gradients: bool,
     counts: [usize; 3],
     blocks: Vec<OnceLock<Block>>,
+    /// Label mode: every voxel's material (index + 1, 0 for none), classified once per raycast.
+    materials: Vec<u8>,
     /// Field units per stored gradient unit.
     pub(crate) scale: f32,
-    kernel: [f32; 2 * LABEL_RADIUS + 1],
     bytes: AtomicU64,
     built: AtomicU64,
 }
@@ -84,19 +80,15 @@ impl<'a> Fields<'a> {
         let n = counts[0] * counts[1] * counts[2];
         let (h, span) = match kind {
             Kind::Values => (1.0f32, (volume.value_range[1] - volume.value_range[0]).abs()),
-            Kind::Opacity => (2.0, 1.0),
-            Kind::Labels => (NORMAL_H as f32, 1.0),
+            Kind::Opacity | Kind::Labels => (2.0, 1.0),
         };
         // A central difference is at most the field's span over 2h.
         let bound = span / (2.0 * h);
-        let scale = if bound > 0.0 && bound.is_finite() { bound / f32::from(i16::MAX) } else { 1.0 };
-        let mut kernel = [0f32; 2 * LABEL_RADIUS + 1];
-        for (k, w) in kernel.iter_mut().enumerate() {
-            let x = k as f32 - LABEL_RADIUS as f32;
-            *w = (-0.5 * x * x / (LABEL_SIGMA * LABEL_SIGMA)).exp();
-        }
-        let sum: f32 = kernel.iter().sum();
-        kernel.iter_mut().for_each(|w| *w /= sum);
+        let scale = match kind {
+            Kind::Labels => labels::GRAD_SCALE,
+            _ if bound > 0.0 && bound.is_finite() => bound / f32::from(i16::MAX),
+            _ => 1.0,
+        };
         Fields {
             volume,
             classifier,
@@ -104,16 +96,20 @@ impl<'a> Fields<'a> {
             gradients,
             counts,
             blocks: (0..n).map(|_| OnceLock::new()).collect(),
+            materials: if kind == Kind::Labels {
+                volume.data.par_iter().map(|v| classifier.material[classifier.bin(*v)]).collect()
+            } else {
+                Vec::new()
+            },
             scale,
-            kernel,
             bytes: AtomicU64::new(0),
             built: AtomicU64::new(0),
         }
     }
 
-    /// Blocks built so far and their bytes.
+    /// Blocks built so far and their bytes (with the label mode's material map).
     pub(crate) fn usage(&self) -> (u64, u64) {
-        (self.built.load(Ordering::Relaxed), self.bytes.load(Ordering::Relaxed))
+        (self.built.load(Ordering::Relaxed), self.bytes.load(Ordering::Relaxed) + self.materials.len() as u64)
     }
 
     /// The brick holding cell start `i`.
@@ -163,10 +159,13 @@ impl<'a> Fields<'a> {
 
     fn build(&self, b: [usize; 3]) -> Block {
         let block = match self.kind {
-            Kind::Values | Kind::Opacity => Block { grad: self.build_gradient(b), mats: vec![], occ: vec![] },
-            Kind::Labels => self.build_labels(b),
+            Kind::Values | Kind::Opacity => Block { grad: self.build_gradient(b), mats: vec![], sdf: vec![] },
+            Kind::Labels => {
+                let l = labels::build(self.volume, &self.materials, b, self.gradients);
+                Block { grad: l.grad, mats: l.mats, sdf: l.sdf }
+            }
         };
-        let bytes = block.grad.len() * 6 + block.occ.len() + block.mats.len() + std::mem::size_of::<Block>();
+        let bytes = block.grad.len() * 6 + block.sdf.len() * 2 + block.mats.len() + std::mem::size_of::<Block>();
         self.bytes.fetch_add(bytes as u64, Ordering::Relaxed);
         self.built.fetch_add(1, Ordering::Relaxed);
         block
@@ -207,135 +206,6 @@ impl<'a> Fields<'a> {
         }
         grad
     }
-
-    /// Smoothed occupancy of every material near the brick, and the gradient of the smoothed total
-    /// opacity, smoothed once more for the normals ([`NORMAL_H`], one more pass of the same filter).
-    fn build_labels(&self, b: [usize; 3]) -> Block {
-        const R: usize = LABEL_RADIUS;
-        // Regions, per axis: the block (S), the twice-smoothed total opacity its central differences
-        // read (S + 2h), the smoothed total opacity that is filtered from (+ 2R), the labels (+ 2R).
-        const G: usize = S + 2 * NORMAL_H;
-        const M: usize = G + 2 * R;
-        const N: usize = M + 2 * R;
-        let d = self.volume.dims;
-        let data = &self.volume.data;
-        let o = b.map(|v| (v << SHIFT) as isize - (NORMAL_H + 2 * R) as isize);
-        let coord = |a: usize, j: usize| (o[a] + j as isize).clamp(0, d[a] as isize - 1) as usize;
-        let mut labels = vec![0u8; N * N * N];
-        for z in 0..N {
-            let vz = coord(2, z);
-            for y in 0..N {
-                let vy = coord(1, y);
-                let row = d[0] * (vy + d[1] * vz);
-                for x in 0..N {
-                    let v = data[row + coord(0, x)];
-                    labels[x + N * (y + N * z)] = self.classifier.material[self.classifier.bin(v)];
-                }
-            }
-        }
-        let mut present: Vec<u8> = Vec::new();
-        for &m in &labels {
-            if m != 0 && !present.contains(&m) {
-                present.push(m);
-            }
-        }
-        present.sort_unstable();
-        let mut total = vec![0f32; M * M * M];
-        let mut mats = Vec::new();
-        let mut occ = Vec::new();
-        let mut indicator = vec![0f32; N * N * N];
-        // The block's entries sit at offset `NORMAL_H + R` inside the M region.
-        let off = NORMAL_H + R;
-        for &m in &present {
-            for (i, l) in indicator.iter_mut().zip(&labels) {
-                *i = if *l == m { 1.0 } else { 0.0 };
-            }
-            let field = blur3(&indicator, N, &self.kernel);
-            let mut block = vec![0u8; S3];
-            let mut any = false;
-            for z in 0..S {
-                for y in 0..S {
-                    for x in 0..S {
-                        let v = field[(x + off) + M * ((y + off) + M * (z + off))];
-                        let q = (v * 255.0).round().clamp(0.0, 255.0) as u8;
-                        any |= q != 0;
-                        block[x + S * (y + S * z)] = q;
-                    }
-                }
-            }
-            // Every material near the block enters the normals' field, whether or not it reaches the
-            // block itself, so neighbouring blocks agree on their shared seam.
-            let alpha = self.classifier.material_alpha[usize::from(m) - 1];
-            for (t, f) in total.iter_mut().zip(&field) {
-                *t += alpha * f;
-            }
-            if any {
-                mats.push(m - 1);
-                occ.extend_from_slice(&block);
-            }
-        }
-        let grad = if self.gradients && !mats.is_empty() {
-            let smooth = blur3(&total, M, &self.kernel);
-            let inv = 1.0 / self.scale;
-            let q = |c: f32| (c * inv).round().clamp(-f32::from(i16::MAX), f32::from(i16::MAX)) as i16;
-            let at = |x: usize, y: usize, z: usize| smooth[x + G * (y + G * z)];
-            let (h, den) = (NORMAL_H, 1.0 / (2.0 * NORMAL_H as f32));
-            let mut grad = vec![[0i16; 3]; S3];
-            for z in 0..S {
-                for y in 0..S {
-                    for x in 0..S {
-                        let (cx, cy, cz) = (x + h, y + h, z + h);
-                        grad[x + S * (y + S * z)] = [
-                            q(den * (at(cx + h, cy, cz) - at(cx - h, cy, cz))),
-                            q(den * (at(cx, cy + h, cz) - at(cx, cy - h, cz))),
-                            q(den * (at(cx, cy, cz + h) - at(cx, cy, cz - h))),
-                        ];
-                    }
-                }
-            }
-            grad
-        } else {
-            vec![]
-        };
-        Block { grad, mats, occ }
-    }
-}
-
-/// Half-width (voxels) of the central differences that give label normals: wider than the one voxel of
-/// value fields, so the normals of a smoothed voxel staircase do not ripple with its treads.
-pub const NORMAL_H: usize = 2;
-
-/// Separable filter of an `n³` grid by `kernel` along x, y and z (valid part only: `(n − 2r)³`).
-fn blur3(src: &[f32], n: usize, kernel: &[f32; 2 * LABEL_RADIUS + 1]) -> Vec<f32> {
-    let r = LABEL_RADIUS;
-    let m = n - 2 * r;
-    let mut px = vec![0f32; m * n * n];
-    for z in 0..n {
-        for y in 0..n {
-            let row = &src[n * (y + n * z)..][..n];
-            for x in 0..m {
-                px[x + m * (y + n * z)] = kernel.iter().zip(&row[x..x + 2 * r + 1]).map(|(w, v)| w * v).sum();
-            }
-        }
-    }
-    let mut py = vec![0f32; m * m * n];
-    for z in 0..n {
-        for y in 0..m {
-            for x in 0..m {
-                py[x + m * (y + m * z)] = kernel.iter().enumerate().map(|(t, w)| w * px[x + m * (y + t + n * z)]).sum();
-            }
-        }
-    }
-    let mut out = vec![0f32; m * m * m];
-    for z in 0..m {
-        for y in 0..m {
-            for x in 0..m {
-                out[x + m * (y + m * z)] =
-                    kernel.iter().enumerate().map(|(t, w)| w * py[x + m * (y + m * (z + t))]).sum();
-            }
-        }
-    }
-    out
 }
 
 /// Trilinear weights of the eight corners (`x + 2y + 4z`) at fractions `f`.

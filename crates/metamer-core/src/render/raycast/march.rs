@@ -2,6 +2,7 @@
 
 use super::classify::{BrickMap, Classifier};
 use super::fields::{CORNERS, FIELD_BRICK, Fields, S3, corner_weights};
+use super::labels::{self, LABEL_REACH, SDF_UNIT};
 use super::view::{View, dot};
 use super::{
     Gradient, Interpolation, MAX_MATERIALS, RaycastOptions, RaycastStats, Shading, interleaved_gradient_noise,
@@ -162,8 +163,9 @@ impl RayContext<'_> {
         if self.classifier.absorbs[m - 1] { alpha } else { 0.0 }
     }
 
-    /// Label sample: the smoothed occupancy of every material near it, interpolated trilinearly, times
-    /// the material's opacity. Adds their weights, returns the opacity absorbed.
+    /// Label sample: every nearby material's signed distance, interpolated trilinearly and turned into
+    /// an occupancy ([`labels::ramp`]), times the material's opacity; each material shaded by its own
+    /// distance gradient. Adds their weights, returns the opacity absorbed.
     #[inline(always)]
     fn sample_labels(&self, p: [f64; 3], transmittance: f32, out: &mut [f32]) -> Result<f32, [usize; 3]> {
         let Some(fields) = self.fields else { return Ok(0.0) };
@@ -177,44 +179,38 @@ impl RayContext<'_> {
         let mut occ = [0f32; MAX_MATERIALS];
         let mut sum = 0.0;
         for (j, o) in occ[..n].iter_mut().enumerate() {
-            let q = &block.occ[j * S3 + base..];
+            let q = &block.sdf[j * S3 + base..];
             let mut v = 0.0;
             for (c, wc) in CORNERS.iter().zip(w) {
                 v += wc * f32::from(q[*c]);
             }
-            *o = v * (1.0 / 255.0);
+            *o = labels::ramp(v * SDF_UNIT - LABEL_REACH);
             sum += *o;
         }
         if sum <= 0.0 {
             return Ok(0.0);
         }
-        // Rounding to 1/255 may lift the sum of occupancies a hair above 1.
+        // Where three materials meet, the occupancies may sum a little above 1.
         let norm = if sum > 1.0 { 1.0 / sum } else { 1.0 };
-        let shade = match (self.options.shading, self.options.gradient) {
-            (Shading::Unshaded, _) => 1.0,
-            (_, Gradient::Smooth) => self.shade(fields.gradient(block, base, f)),
-            (_, Gradient::Cell) => {
-                // The cell gradient of the smoothed total opacity.
-                let mut v = [0f32; 8];
-                for (j, m) in block.mats.iter().enumerate() {
-                    let a = self.classifier.material_alpha[usize::from(*m)] / 255.0;
-                    let q = &block.occ[j * S3 + base..];
-                    for (vc, c) in v.iter_mut().zip(CORNERS) {
-                        *vc += a * f32::from(q[c]);
-                    }
-                }
-                self.shade(Cell { v, f }.gradient())
-            }
-        };
         let mut absorbed = 0.0;
-        for (m, o) in block.mats.iter().zip(&occ[..n]) {
+        for (j, (m, o)) in block.mats.iter().zip(&occ[..n]).enumerate() {
             let m = usize::from(*m);
             let wgt = o * norm * self.classifier.material_alpha[m];
-            if wgt > 0.0 {
-                out[m] += transmittance * wgt * shade;
-                if self.classifier.absorbs[m] {
-                    absorbed += wgt;
+            if wgt <= 0.0 {
+                continue;
+            }
+            let at = j * S3 + base;
+            let shade = match (self.options.shading, self.options.gradient) {
+                (Shading::Unshaded, _) => 1.0,
+                (_, Gradient::Smooth) => self.shade(fields.gradient(block, at, f)),
+                (_, Gradient::Cell) => {
+                    let q = &block.sdf[at..];
+                    self.shade(Cell { v: CORNERS.map(|c| f32::from(q[c])), f }.gradient())
                 }
+            };
+            out[m] += transmittance * wgt * shade;
+            if self.classifier.absorbs[m] {
+                absorbed += wgt;
             }
         }
         Ok(absorbed)

@@ -20,11 +20,15 @@
 //!   which is the gradient of a smoothed field: continuous across voxel cells, so no faceted terraces.
 //!   They are precomputed per voxel (`i16` triples) only in the bricks rays reach, each brick's block
 //!   built the first time a ray needs it, and interpolated trilinearly at shaded samples only.
-//! - **smoothed labels** ([`Interpolation::Labels`]): for label volumes each material's indicator is
-//!   filtered by a small Gaussian ([`LABEL_SIGMA`] voxels, truncated at [`LABEL_RADIUS`]) per brick
-//!   reached, stored as `u8`, and sampled trilinearly; the material's opacity is scaled by it. Label
-//!   boundaries become smooth surfaces instead of voxel staircases and terraces, and the shading
-//!   normals come from the same smoothed field.
+//! - **shape-based labels** ([`Interpolation::Labels`]): for label volumes each material gets, per
+//!   brick reached, the signed distance to its boundary within each z slice (a 2D distance transform,
+//!   clamped at [`LABEL_REACH`] voxels), smoothed by a small Gaussian ([`LABEL_SIGMA`] voxels,
+//!   truncated at [`LABEL_RADIUS`]) in-plane and across slices, stored as `u16`; the marcher
+//!   interpolates the distance trilinearly and only then turns it into an occupancy (a smoothstep
+//!   [`LABEL_RAMP`] voxels wide) that scales the material's opacity. Between slices the contours blend
+//!   into each other, so surfaces that run almost parallel to the slices (the frog's liver from above)
+//!   are smooth ramps instead of one-slice terraces, and each material is shaded by its own distance
+//!   gradient (`labels`).
 //!
 //! Shading is a scalar per sample (`ambient + (1 − ambient)·max(n·l, 0)`, headlight or a fixed key
 //! light above left of the eye, or 1 for the seed's unshaded look, [`Shading`]). It multiplies the
@@ -56,9 +60,9 @@ pub enum Interpolation {
     /// The nearest voxel's value (label volumes such as the frog tissues, where blending labels is
     /// meaningless).
     Nearest,
-    /// Smoothed labels: each material's indicator (voxels whose label it covers) is smoothed by a small
-    /// Gaussian and interpolated trilinearly, and scales the material's opacity (label volumes without
-    /// voxel staircases or terraces).
+    /// Shape-based labels: each material's signed distance to its boundary within every slice,
+    /// smoothed a little and interpolated trilinearly, becomes an occupancy that scales the material's
+    /// opacity (label volumes without voxel staircases or slice terraces).
     Labels,
 }
 
@@ -225,6 +229,7 @@ pub struct RaycastStats {
 
 mod classify;
 mod fields;
+mod labels;
 mod march;
 #[cfg(test)]
 mod tests;
@@ -233,7 +238,7 @@ mod view;
 pub use classify::BrickMap;
 use classify::{Classifier, material_bounds};
 use fields::{Fields, Kind};
-pub use fields::{LABEL_RADIUS, LABEL_SIGMA, NORMAL_H};
+pub use labels::{LABEL_RADIUS, LABEL_RAMP, LABEL_REACH, LABEL_SIGMA};
 use march::RayContext;
 pub use view::MAX_RAY_STEPS;
 use view::View;
@@ -265,7 +270,7 @@ pub fn raycast(
     };
     let labels = options.interpolation == Interpolation::Labels;
     // How far past a labelled voxel the smoothed occupancy a sample's cell reads can reach.
-    let reach = if labels { 1 + LABEL_RADIUS } else { 1 };
+    let reach = if labels { labels::label_reach(volume) } else { 1 };
     let mut empty: Vec<bool> = bricks
         .map(|b| b.min.iter().zip(&b.max).map(|(lo, hi)| !classifier.any_in(*lo, *hi)).collect())
         .unwrap_or_default();
@@ -343,7 +348,7 @@ pub fn raycast(
     (MaterialWeights { width: w, height: h, materials: n_mat, data }, stats)
 }
 
-/// Bricks within `k` bricks (along each axis) of an occupied one count as occupied: a filtered field
+/// Bricks within `k` bricks (along each axis) of an occupied one count as occupied: a label field
 /// spreads a material past its bricks.
 fn dilate_occupied(empty: &[bool], counts: [usize; 3], k: usize) -> Vec<bool> {
     let idx = |x: usize, y: usize, z: usize| x + counts[0] * (y + counts[1] * z);

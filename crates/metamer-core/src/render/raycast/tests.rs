@@ -200,6 +200,23 @@ fn tilted_plane(n: usize) -> Volume {
     Volume::new(Path::new("plane"), [n, n, n], [1.0; 3], data).unwrap()
 }
 
+/// A label volume of slices 1.5 apart whose boundary is the shallow plane `z < 0.1·x + 6` (in voxels): a
+/// staircase of ten-voxel treads, wider than any small blur (the frog's liver seen from above).
+fn shallow_plane(n: usize) -> Volume {
+    let nz = n / 2;
+    let mut data = vec![0f32; n * n * nz];
+    for z in 0..nz {
+        for y in 0..n {
+            for x in 0..n {
+                if (z as f64) < 0.1 * x as f64 + 6.0 {
+                    data[x + n * (y + n * z)] = 3.0;
+                }
+            }
+        }
+    }
+    Volume::new(Path::new("shallow"), [n, n, nz], [1.0, 1.0, 1.5], data).unwrap()
+}
+
 /// Spread of the weights over the image's central block (where the plane fills every pixel).
 fn central_spread(w: &MaterialWeights) -> (f32, f32) {
     let mut v = Vec::new();
@@ -237,6 +254,34 @@ fn smoothed_labels_shade_a_staircase_as_a_smooth_plane() {
     assert!(ss < 0.02 && ss < 0.25 * sn, "smoothed spread {ss} vs staircase {sn}");
     assert!(stats.field_blocks > 0 && stats.field_bytes > 0);
     assert!(smooth.data.iter().all(|v| (0.0..=1.0 + 1e-6).contains(v)));
+}
+
+#[test]
+fn shape_based_labels_shade_wide_slice_terraces_as_a_smooth_plane() {
+    let vol = shallow_plane(64);
+    let mats = [MaterialClass::new([3.0, 3.0], 0.9)];
+    let cam = Camera { azimuth_deg: 0.0, elevation_deg: 89.0, fit_materials: false, zoom: 2.0 };
+    let base =
+        RaycastOptions { width: 64, height: 64, shading: Shading::Headlight, ambient: 0.0, ..Default::default() };
+    let (smooth, _) =
+        raycast(&vol, &mats, None, &cam, &RaycastOptions { interpolation: Interpolation::Labels, ..base.clone() });
+    let (stairs, _) = raycast(
+        &vol,
+        &mats,
+        None,
+        &cam,
+        &RaycastOptions { interpolation: Interpolation::Nearest, gradient: Gradient::Cell, ..base },
+    );
+    let (ms, ss) = central_spread(&smooth);
+    let (_, sn) = central_spread(&stairs);
+    assert!(ms > 0.5, "the plane must show: {ms}");
+    // Between two slices the contours blend, so the treads and their one-slice risers become one plane.
+    assert!(ss < 0.02 && ss < 0.25 * sn, "smoothed spread {ss} vs staircase {sn}");
+    // Along x (across the treads) the shade has no steps: neighbouring columns differ by little.
+    let row = smooth.height / 2;
+    let col = |x: usize| smooth.data[(row * smooth.width + x) * smooth.materials];
+    let jump = (smooth.width / 4..3 * smooth.width / 4 - 1).map(|x| (col(x + 1) - col(x)).abs()).fold(0.0, f32::max);
+    assert!(jump < 0.02, "largest step between neighbouring columns {jump}");
 }
 
 #[test]
