@@ -58,6 +58,15 @@ pub(crate) fn scan(text: &str) -> Scan {
     let mut i = 0;
     let mut line_start = true;
     while i < b.len() {
+        if PLAIN[usize::from(b[i])] {
+            // A run of bytes whose only role is to end the line's start (numbers, bare keys, UTF-8).
+            line_start = false;
+            i += 1;
+            while i < b.len() && PLAIN[usize::from(b[i])] {
+                i += 1;
+            }
+            continue;
+        }
         match b[i] {
             b'#' | b'"' | b'\'' => {
                 // Comments keep the line's start; a string ends it.
@@ -106,6 +115,19 @@ pub(crate) fn scan(text: &str) -> Scan {
     }
     Scan { counts: c, headers }
 }
+
+/// Bytes the scan gives no role but ending a line's start: all but comment and string openers, blanks, line
+/// feeds, brackets, braces, `=` and `,`.
+const PLAIN: [bool; 256] = {
+    let mut t = [true; 256];
+    let special = b"#\"' \t\r\n[]{}=,";
+    let mut k = 0;
+    while k < special.len() {
+        t[special[k] as usize] = false;
+        k += 1;
+    }
+    t
+};
 
 /// `[[name]]` with a bare key, then only blanks or a comment.
 fn is_simple_header(line: &[u8]) -> bool {

@@ -192,7 +192,9 @@ impl PaletteFile {
             }
             other => other,
         })?;
-        Ok(PaletteFile::from_outcome(text, path, outcome, tables::Tables::of(root, text)))
+        let file = PaletteFile::from_outcome(text, path, outcome, tables::Tables::of(root, text));
+        pieces::drop_tree(spanned);
+        Ok(file)
     }
 
     fn from_outcome(text: &str, path: &Path, outcome: read::ReadOutcome, tables: Option<tables::Tables>) -> Self {
