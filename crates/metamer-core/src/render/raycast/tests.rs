@@ -230,23 +230,25 @@ fn central_spread(w: &MaterialWeights) -> (f32, f32) {
     (mean, var.sqrt())
 }
 
-#[test]
-fn smoothed_labels_shade_a_staircase_as_a_smooth_plane() {
-    let vol = tilted_plane(48);
+/// One material (label 3) of `vol` seen from above (a plane seen face-on, a staircase's treads and risers
+/// alternating along x) under a headlight: raycast with shape-based labels, and with nearest sampling and
+/// cell gradients (the staircase as stored).
+fn labels_and_nearest(vol: &Volume) -> (MaterialWeights, RaycastStats, MaterialWeights) {
     let mats = [MaterialClass::new([3.0, 3.0], 0.9)];
-    // From above: the plane is seen face-on, the staircase's treads and risers alternate along x.
     let cam = Camera { azimuth_deg: 0.0, elevation_deg: 89.0, fit_materials: false, zoom: 2.0 };
     let base =
         RaycastOptions { width: 64, height: 64, shading: Shading::Headlight, ambient: 0.0, ..Default::default() };
-    let (smooth, stats) =
-        raycast(&vol, &mats, None, &cam, &RaycastOptions { interpolation: Interpolation::Labels, ..base.clone() });
-    let (stairs, _) = raycast(
-        &vol,
-        &mats,
-        None,
-        &cam,
-        &RaycastOptions { interpolation: Interpolation::Nearest, gradient: Gradient::Cell, ..base },
-    );
+    let labels = RaycastOptions { interpolation: Interpolation::Labels, ..base.clone() };
+    let (smooth, stats) = raycast(vol, &mats, None, &cam, &labels);
+    let nearest = RaycastOptions { interpolation: Interpolation::Nearest, gradient: Gradient::Cell, ..base };
+    let (stairs, _) = raycast(vol, &mats, None, &cam, &nearest);
+    (smooth, stats, stairs)
+}
+
+#[test]
+fn smoothed_labels_shade_a_staircase_as_a_smooth_plane() {
+    let vol = tilted_plane(48);
+    let (smooth, stats, stairs) = labels_and_nearest(&vol);
     let (ms, ss) = central_spread(&smooth);
     let (mn, sn) = central_spread(&stairs);
     assert!(ms > 0.5 && mn > 0.3, "the plane must show: {ms} {mn}");
@@ -259,19 +261,7 @@ fn smoothed_labels_shade_a_staircase_as_a_smooth_plane() {
 #[test]
 fn shape_based_labels_shade_wide_slice_terraces_as_a_smooth_plane() {
     let vol = shallow_plane(64);
-    let mats = [MaterialClass::new([3.0, 3.0], 0.9)];
-    let cam = Camera { azimuth_deg: 0.0, elevation_deg: 89.0, fit_materials: false, zoom: 2.0 };
-    let base =
-        RaycastOptions { width: 64, height: 64, shading: Shading::Headlight, ambient: 0.0, ..Default::default() };
-    let (smooth, _) =
-        raycast(&vol, &mats, None, &cam, &RaycastOptions { interpolation: Interpolation::Labels, ..base.clone() });
-    let (stairs, _) = raycast(
-        &vol,
-        &mats,
-        None,
-        &cam,
-        &RaycastOptions { interpolation: Interpolation::Nearest, gradient: Gradient::Cell, ..base },
-    );
+    let (smooth, _, stairs) = labels_and_nearest(&vol);
     let (ms, ss) = central_spread(&smooth);
     let (_, sn) = central_spread(&stairs);
     assert!(ms > 0.5, "the plane must show: {ms}");
