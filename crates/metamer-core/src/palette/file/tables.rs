@@ -236,12 +236,8 @@ fn rewrite(
     };
     // The entry as reading the new table gives it: the written source, resolved as the reader resolves
     // it (debug builds read the whole text back and compare).
-    let raw = match &source {
-        Source::Csv(file) => ctx.csv_raw.get(file).copied().or_else(|| source.raw_spectrum(ctx.old_base).ok())?,
-        other => other.raw_spectrum(None).ok()?,
-    };
     let normalize = if new.kind == Kind::Light { normalize } else { crate::spectrum::Normalize::default() };
-    let spectrum = crate::palette::source::finish(&raw, new.kind, normalize, scale, &ctx.luminance).ok()?;
+    let spectrum = ctx.resolve(&source, new.kind, normalize, scale)?;
     Some((text, SpectrumEntry { source, normalize, scale, spectrum, ..new.clone() }))
 }
 

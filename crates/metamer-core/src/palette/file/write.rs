@@ -24,6 +24,19 @@ pub(super) struct SaveContext<'a> {
     pub(crate) luminance: Samples,
 }
 
+impl SaveContext<'_> {
+    /// The samples `source` resolves to as an entry of `kind` with `normalize` and `scale`, as the reader
+    /// resolves them: a CSV source from its samples already read (else its file, relative to the folder the
+    /// document was read from). `None` when the source does not resolve.
+    pub(super) fn resolve(&self, source: &Source, kind: Kind, normalize: Normalize, scale: f64) -> Option<Spectrum> {
+        let raw = match source {
+            Source::Csv(file) => self.csv_raw.get(file).copied().or_else(|| source.raw_spectrum(self.old_base).ok()),
+            other => other.raw_spectrum(None).ok(),
+        }?;
+        crate::palette::source::finish(&raw, kind, normalize, scale, &self.luminance).ok()
+    }
+}
+
 /// Why the document cannot take the model.
 #[derive(Debug)]
 pub(super) struct StructureError(pub String);
@@ -273,17 +286,7 @@ fn sync_settings(root: &mut Table, old: &Settings, new: &Settings) {
 /// How a spectrum is written: its own source when the samples are what that source resolves to, else
 /// (designed or edited samples) the samples themselves, never normalised or scaled again.
 pub(super) fn written_source(entry: &SpectrumEntry, ctx: &SaveContext) -> (Source, Normalize, f64) {
-    let raw = match &entry.source {
-        Source::Csv(file) => match ctx.csv_raw.get(file) {
-            Some(raw) => Ok(*raw),
-            None => entry.source.raw_spectrum(ctx.old_base),
-        },
-        other => other.raw_spectrum(None),
-    };
-    let resolved = raw.ok().and_then(|raw| {
-        crate::palette::source::finish(&raw, entry.kind, entry.normalize, entry.scale, &ctx.luminance).ok()
-    });
-    match resolved {
+    match ctx.resolve(&entry.source, entry.kind, entry.normalize, entry.scale) {
         Some(r) if spectra_agree(&r, &entry.spectrum) => (rebase_csv(&entry.source, ctx), entry.normalize, entry.scale),
         _ => {
             let normalize = if entry.kind == Kind::Light { Normalize::None } else { entry.normalize };

@@ -184,37 +184,31 @@ fn projection_is_the_weighted_sum() {
     assert_eq!(img.data, vec![1.5, 1.0, 1.25, 4.0, 0.0, -1.0]);
 }
 
-/// A label volume whose boundary is a tilted plane, `z < 0.25·x + 12`: a voxel staircase of four-voxel
-/// treads.
-fn tilted_plane(n: usize) -> Volume {
-    let mut data = vec![0f32; n * n * n];
-    for z in 0..n {
-        for y in 0..n {
-            for x in 0..n {
-                if (z as f64) < 0.25 * x as f64 + 12.0 {
-                    data[x + n * (y + n * z)] = 3.0;
-                }
-            }
-        }
-    }
-    Volume::new(Path::new("plane"), [n, n, n], [1.0; 3], data).unwrap()
-}
-
-/// A label volume of slices 1.5 apart whose boundary is the shallow plane `z < 0.1·x + 6` (in voxels): a
-/// staircase of ten-voxel treads, wider than any small blur (the frog's liver seen from above).
-fn shallow_plane(n: usize) -> Volume {
-    let nz = n / 2;
+/// An `n × n × nz` label volume (slices `dz` apart) holding label 3 below the plane `z < slope·x + offset`
+/// (in voxels): a voxel staircase whose treads are `1 / slope` voxels wide.
+fn plane_labels(n: usize, nz: usize, dz: f64, slope: f64, offset: f64) -> Volume {
     let mut data = vec![0f32; n * n * nz];
     for z in 0..nz {
         for y in 0..n {
             for x in 0..n {
-                if (z as f64) < 0.1 * x as f64 + 6.0 {
+                if (z as f64) < slope * x as f64 + offset {
                     data[x + n * (y + n * z)] = 3.0;
                 }
             }
         }
     }
-    Volume::new(Path::new("shallow"), [n, n, nz], [1.0, 1.0, 1.5], data).unwrap()
+    Volume::new(Path::new("plane"), [n, n, nz], [1.0, 1.0, dz], data).unwrap()
+}
+
+/// A tilted plane `z < 0.25·x + 12`: a staircase of four-voxel treads.
+fn tilted_plane(n: usize) -> Volume {
+    plane_labels(n, n, 1.0, 0.25, 12.0)
+}
+
+/// Slices 1.5 apart and the shallow plane `z < 0.1·x + 6`: a staircase of ten-voxel treads, wider than any
+/// small blur (the frog's liver seen from above).
+fn shallow_plane(n: usize) -> Volume {
+    plane_labels(n, n / 2, 1.5, 0.1, 6.0)
 }
 
 /// Spread of the weights over the image's central block (where the plane fills every pixel).
