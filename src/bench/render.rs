@@ -297,12 +297,21 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
             "fixed-phase sampling, cell gradient (no quality steps)".into(),
             with(&|s| {
                 s.settings.jitter = false;
+                s.settings.refine = false;
                 s.settings.gradient = Gradient::Cell;
             }),
             1,
         ),
-        ("+ jitter".into(), with(&|s| s.settings.gradient = Gradient::Cell), 1),
-        ("+ jitter + smooth gradient (the default)".into(), scene.clone(), 1),
+        (
+            "+ jitter".into(),
+            with(&|s| {
+                s.settings.refine = false;
+                s.settings.gradient = Gradient::Cell;
+            }),
+            1,
+        ),
+        ("+ jitter + smooth gradient".into(), with(&|s| s.settings.refine = false), 1),
+        ("+ jitter + smooth gradient + boundary refinement (the default)".into(), scene.clone(), 1),
         ("unshaded (no gradient at all)".into(), with(&|s| s.settings.shading = Shading::Unshaded), 1),
         (
             "shape-based labels (interpolation = labels)".into(),

@@ -96,6 +96,10 @@ pub struct Args {
     /// Turn off the per-pixel ray-start jitter (fixed-phase sampling, shows banding).
     #[arg(long)]
     pub(crate) no_jitter: bool,
+    /// Sample every step once, even where it crosses a material boundary (no substeps there; faster,
+    /// with a fine dither on thin plates).
+    #[arg(long)]
+    pub(crate) no_refine: bool,
     /// Shade with the faceted gradient of each trilinear cell instead of the smooth central differences.
     #[arg(long)]
     pub(crate) cell_gradient: bool,
@@ -188,6 +192,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         };
     }
     scene.settings.jitter &= !args.no_jitter;
+    scene.settings.refine &= !args.no_refine;
     if args.cell_gradient {
         scene.settings.gradient = Gradient::Cell;
     }

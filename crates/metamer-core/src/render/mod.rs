@@ -81,6 +81,7 @@ pub fn raycast_options(scene: &Scene, width: usize, height: usize, accel: Accele
         ambient: scene.settings.ambient,
         shading: scene.settings.shading,
         jitter: scene.settings.jitter,
+        refine: scene.settings.refine,
         gradient: scene.settings.gradient,
         interpolation: scene.settings.interpolation,
         early_termination: accel.early_termination,

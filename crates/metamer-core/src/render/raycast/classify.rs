@@ -1,5 +1,5 @@
-//! The transfer function as lookup tables, per-brick min/max of values, and the bounding box of the
-//! voxels that belong to a material.
+//! The transfer function as lookup tables, per-brick min/max of values, and the runs of voxels that
+//! belong to a material (what the camera frames).
 
 use super::MaterialClass;
 use crate::volume::Volume;
@@ -15,21 +15,33 @@ pub(super) struct Classifier {
     pub(super) material: Vec<u8>,
     /// Step-corrected opacity per bin.
     pub(super) alpha: Vec<f32>,
+    /// The same for a substep (a step split in `substeps`; equal to `alpha` when not split).
+    pub(super) alpha_sub: Vec<f32>,
     /// Prefix count of occupied bins.
     pub(super) occupied_prefix: Vec<u32>,
     /// Per material: whether it attenuates the ray.
     pub(super) absorbs: Vec<bool>,
     /// Per material: its step-corrected opacity (0 when it never shows).
     pub(super) material_alpha: Vec<f32>,
+    /// Per material: its opacity corrected for a substep.
+    pub(super) material_alpha_sub: Vec<f32>,
+}
+
+/// Opacity `a` per voxel step corrected for a step of `step` voxels: `1 − (1 − a)^step`.
+fn corrected(a: f32, step: f64) -> f32 {
+    (1.0 - (1.0 - f64::from(a.clamp(0.0, 1.0))).powf(step)).max(0.0) as f32
 }
 
 impl Classifier {
-    pub(super) fn new(volume: &Volume, materials: &[MaterialClass], step: f64) -> Classifier {
+    /// `substeps`: how many substeps a refined step is split into (1 = never split).
+    pub(super) fn new(volume: &Volume, materials: &[MaterialClass], step: f64, substeps: usize) -> Classifier {
         let [lo, hi] = volume.value_range;
         let width = (hi - lo).max(f32::EPSILON);
         let bin_width = width / (LUT_BINS - 1) as f32;
         let mut material = vec![0u8; LUT_BINS];
         let mut alpha = vec![0f32; LUT_BINS];
+        let mut alpha_sub = vec![0f32; LUT_BINS];
+        let sub = step / substeps.max(1) as f64;
         for b in 0..LUT_BINS {
             let v = lo + b as f32 * bin_width;
             if let Some((i, m)) = materials
@@ -37,11 +49,11 @@ impl Classifier {
                 .enumerate()
                 .find(|(_, m)| v >= m.range[0] - 0.5 * bin_width && v <= m.range[1] + 0.5 * bin_width)
             {
-                let a = f64::from(m.opacity.clamp(0.0, 1.0));
-                let corrected = 1.0 - (1.0 - a).powf(step);
-                if corrected > 0.0 {
+                let a = corrected(m.opacity, step);
+                if a > 0.0 {
                     material[b] = (i + 1) as u8;
-                    alpha[b] = corrected as f32;
+                    alpha[b] = a;
+                    alpha_sub[b] = corrected(m.opacity, sub);
                 }
             }
         }
@@ -50,11 +62,19 @@ impl Classifier {
             occupied_prefix[b + 1] = occupied_prefix[b] + u32::from(material[b] != 0);
         }
         let absorbs = materials.iter().map(|m| m.absorbs).collect();
-        let material_alpha = materials
-            .iter()
-            .map(|m| (1.0 - (1.0 - f64::from(m.opacity.clamp(0.0, 1.0))).powf(step)).max(0.0) as f32)
-            .collect();
-        Classifier { lo, inv_bin: 1.0 / bin_width, material, alpha, occupied_prefix, absorbs, material_alpha }
+        let material_alpha = materials.iter().map(|m| corrected(m.opacity, step)).collect();
+        let material_alpha_sub = materials.iter().map(|m| corrected(m.opacity, sub)).collect();
+        Classifier {
+            lo,
+            inv_bin: 1.0 / bin_width,
+            material,
+            alpha,
+            alpha_sub,
+            occupied_prefix,
+            absorbs,
+            material_alpha,
+            material_alpha_sub,
+        }
     }
 
     /// Step-corrected opacity of a value (0 outside every material).
@@ -120,30 +140,36 @@ impl BrickMap {
     }
 }
 
-/// Index-space bounding box (inclusive voxel indices) of the voxels whose value belongs to a material,
-/// or None when no voxel does.
-pub(super) fn material_bounds(volume: &Volume, classifier: &Classifier) -> Option<([usize; 3], [usize; 3])> {
-    let d = volume.dims;
-    let slices: Vec<Option<([usize; 3], [usize; 3])>> = (0..d[2])
-        .into_par_iter()
-        .map(|z| {
-            let mut lo = [usize::MAX; 3];
-            let mut hi = [0usize; 3];
-            let mut any = false;
-            for y in 0..d[1] {
-                let row = &volume.data[d[0] * (y + d[1] * z)..d[0] * (y + 1 + d[1] * z)];
-                let first = row.iter().position(|v| classifier.alpha_of(*v) > 0.0);
-                if let Some(x0) = first {
+/// The voxels whose value belongs to a material, as runs along x: per row (y, z) that holds one, its
+/// first and last such voxel. Enough to frame them exactly: a projection is linear along a row, so a
+/// row's extremes on the image plane are at its ends.
+pub(super) struct MaterialRows {
+    /// (x0, x1, y, z), inclusive.
+    pub(super) rows: Vec<[usize; 4]>,
+}
+
+impl MaterialRows {
+    pub(super) fn new(volume: &Volume, classifier: &Classifier) -> MaterialRows {
+        let d = volume.dims;
+        let rows = (0..d[2])
+            .into_par_iter()
+            .flat_map_iter(|z| {
+                (0..d[1]).filter_map(move |y| {
+                    let row = &volume.data[d[0] * (y + d[1] * z)..d[0] * (y + 1 + d[1] * z)];
+                    let x0 = row.iter().position(|v| classifier.alpha_of(*v) > 0.0)?;
                     let x1 = row.iter().rposition(|v| classifier.alpha_of(*v) > 0.0).unwrap_or(x0);
-                    any = true;
-                    lo = [lo[0].min(x0), lo[1].min(y), z];
-                    hi = [hi[0].max(x1), hi[1].max(y), z];
-                }
-            }
-            any.then_some((lo, hi))
+                    Some([x0, x1, y, z])
+                })
+            })
+            .collect();
+        MaterialRows { rows }
+    }
+
+    /// Index-space bounding box (inclusive voxel indices), or None when no voxel belongs to a material.
+    pub(super) fn bounds(&self) -> Option<([usize; 3], [usize; 3])> {
+        self.rows.iter().fold(None, |acc, &[x0, x1, y, z]| {
+            let (lo, hi) = acc.unwrap_or(([usize::MAX; 3], [0; 3]));
+            Some(([lo[0].min(x0), lo[1].min(y), lo[2].min(z)], [hi[0].max(x1), hi[1].max(y), hi[2].max(z)]))
         })
-        .collect();
-    slices.into_iter().flatten().reduce(|(a_lo, a_hi), (b_lo, b_hi)| {
-        ([0, 1, 2].map(|i| a_lo[i].min(b_lo[i])), [0, 1, 2].map(|i| a_hi[i].max(b_hi[i])))
-    })
+    }
 }

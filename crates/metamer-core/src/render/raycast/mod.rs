@@ -5,7 +5,8 @@
 //! rayon over 16×16 pixel tiles.
 //!
 //! Files: this one holds the public types and [`raycast`] (setup and tiles); `classify` the transfer
-//! function's lookup tables, the min/max [`BrickMap`] and the framed voxels' bounds; `view` the camera
+//! function's lookup tables, the min/max [`BrickMap`] and the framed voxels (their runs along x, which
+//! the camera projects to fit their silhouette); `view` the camera
 //! geometry; `fields` the lazily built per-brick fields (smooth gradients, smoothed label occupancy);
 //! `march` one ray's sampling, shading and compositing.
 //!
@@ -15,6 +16,12 @@
 //!   fixed-phase sampling into fine, unstructured noise that supersampling (`--ss 2`) averages away.
 //! - **opacity correction**: a material's opacity is given per voxel step; a step of `s` voxels uses
 //!   `1 − (1 − α)^s`, so changing the step does not change how dense a material looks.
+//! - **boundary refinement** (`refine`): a step whose two ends differ (another material, or for labels
+//!   a boundary within reach of either end's cell) is composited as substeps of [`REFINED_STEP`]
+//!   voxels, opacity corrected for their length. A surface or a plate about a step thick is then
+//!   integrated finely wherever the jittered samples fall, instead of getting 0, 1 or 2 samples by the
+//!   pixel's jitter (a fine dither on thin plates and rims); steps inside one material or in empty
+//!   space keep one sample.
 //! - **smooth gradients**: shading normals are central differences of the interpolated field (value
 //!   for CT, opacity for nearest sampling, smoothed total opacity for labels) one voxel either side,
 //!   which is the gradient of a smoothed field: continuous across voxel cells, so no faceted terraces.
@@ -117,7 +124,7 @@ pub struct Camera {
     pub(crate) elevation_deg: f64,
     /// 1 frames the view's target (see `fit`) with a small margin; larger values magnify.
     pub(crate) zoom: f64,
-    /// Frame the bounding box of the voxels that belong to a material (centred on its projection),
+    /// Frame the voxels that belong to a material (their projection, centred),
     /// instead of the bounding sphere of the whole grid.
     pub(crate) fit_materials: bool,
 }
@@ -141,6 +148,9 @@ pub struct RaycastOptions {
     pub gradient: Gradient,
     /// Start every ray a pixel-dependent fraction of a step in (interleaved gradient noise).
     pub jitter: bool,
+    /// Split a step that crosses a material boundary into substeps of about [`REFINED_STEP`] voxels
+    /// (see the module docs).
+    pub refine: bool,
     pub interpolation: Interpolation,
     /// Stop a ray once its transmittance falls below `termination_transmittance`.
     pub early_termination: bool,
@@ -162,6 +172,7 @@ impl Default for RaycastOptions {
             shading: Shading::Key,
             gradient: Gradient::Smooth,
             jitter: true,
+            refine: true,
             interpolation: Interpolation::Trilinear,
             early_termination: true,
             termination_transmittance: 0.01,
@@ -236,9 +247,10 @@ mod tests;
 mod view;
 
 pub use classify::BrickMap;
-use classify::{Classifier, material_bounds};
+use classify::{Classifier, MaterialRows};
 use fields::{Fields, Kind};
 pub use labels::{LABEL_RADIUS, LABEL_RAMP, LABEL_REACH, LABEL_SIGMA};
+pub use march::REFINED_STEP;
 use march::RayContext;
 pub use view::MAX_RAY_STEPS;
 use view::View;
@@ -255,7 +267,8 @@ pub fn raycast(
     let materials = &materials[..n_mat];
     let (w, h) = (options.width.max(1), options.height.max(1));
     let step = options.step.clamp(0.05, 8.0);
-    let classifier = Classifier::new(volume, materials, step);
+    let substeps = if options.refine { march::substeps(volume, step) } else { 1 };
+    let classifier = Classifier::new(volume, materials, step, substeps);
     let own_bricks;
     let bricks = if options.empty_space_skipping {
         Some(match bricks {
@@ -277,8 +290,8 @@ pub fn raycast(
     if let (Some(b), true) = (bricks, labels) {
         empty = dilate_occupied(&empty, b.counts, reach.div_ceil(b.size));
     }
-    let bounds = if camera.fit_materials { material_bounds(volume, &classifier) } else { None };
-    let view = View::new(volume, camera, step, options.shading, h as f64 / w as f64, bounds, reach as f64);
+    let framed = camera.fit_materials.then(|| MaterialRows::new(volume, &classifier));
+    let view = View::new(volume, camera, step, options.shading, h as f64 / w as f64, framed.as_ref(), reach as f64);
     let gradients = options.shading != Shading::Unshaded && options.gradient == Gradient::Smooth;
     let kind = match options.interpolation {
         Interpolation::Trilinear => Kind::Values,
@@ -293,6 +306,8 @@ pub fn raycast(
         bricks: bricks.map(|b| (b, empty.as_slice())),
         view: &view,
         options,
+        substeps,
+        near_band: march::near_band(volume, step),
         n_mat,
         width: w,
         height: h,

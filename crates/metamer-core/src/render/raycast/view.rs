@@ -1,5 +1,6 @@
 //! The orthographic camera's geometry in the volume's index space: framing, ray direction, clipping.
 
+use super::classify::MaterialRows;
 use super::{Camera, Shading};
 use crate::volume::Volume;
 
@@ -52,7 +53,7 @@ impl View {
         step: f64,
         shading: Shading,
         aspect: f64,
-        bounds: Option<([usize; 3], [usize; 3])>,
+        framed: Option<&MaterialRows>,
         reach: f64,
     ) -> View {
         let (az, el) = (camera.azimuth_deg.to_radians(), camera.elevation_deg.to_radians());
@@ -72,6 +73,7 @@ impl View {
         let d = volume.dims;
         let whole = ([0usize; 3], [0, 1, 2].map(|a| d[a].saturating_sub(1)));
         let zoom = camera.zoom.max(1e-6);
+        let bounds = framed.and_then(MaterialRows::bounds);
         let (lo, hi) = if camera.fit_materials { bounds.unwrap_or(whole) } else { whole };
         // The box in world space (voxel centres at index × spacing, grown by the half voxel an
         // interpolated surface reaches past them), its centre and half diagonal.
@@ -80,21 +82,31 @@ impl View {
         let box_centre = [0, 1, 2].map(|a| 0.5 * (lo_w[a] + hi_w[a]));
         let half_diag = 0.5 * dot([0, 1, 2].map(|a| hi_w[a] - lo_w[a]), [0, 1, 2].map(|a| hi_w[a] - lo_w[a])).sqrt();
         let radius = half_diag.max(1e-9) + 2.0 * min_spacing;
-        let (centre_world, half_extent) = if camera.fit_materials {
-            // Project the eight corners onto the image plane: centre on their extent, fit the larger side.
-            let (mut r0, mut r1, mut u0, mut u1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
-            for c in 0..8 {
-                let p = [0, 1, 2].map(|a| if c >> a & 1 == 1 { hi_w[a] } else { lo_w[a] } - box_centre[a]);
-                let (r, u) = (dot(p, right), dot(p, up));
-                (r0, r1, u0, u1) = (r0.min(r), r1.max(r), u0.min(u), u1.max(u));
+        let (centre_world, half_extent) = match (camera.fit_materials, framed) {
+            (true, Some(rows)) if !rows.rows.is_empty() => {
+                // The framed voxels' extent on the image plane: each row's two ends projected (a
+                // projection is linear along a row), grown by a voxel's half width seen along `right`
+                // and `up`. Centred on that extent, the larger side fitted.
+                let sp = volume.spacing;
+                let half_voxel = |v: [f64; 3]| 0.5 * (0..3).map(|a| (v[a] * sp[a]).abs()).sum::<f64>();
+                let (hr, hu) = (half_voxel(right), half_voxel(up));
+                let (mut r0, mut r1, mut u0, mut u1) =
+                    (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+                for &[x0, x1, y, z] in &rows.rows {
+                    for x in [x0, x1] {
+                        let p = [x as f64 * sp[0], y as f64 * sp[1], z as f64 * sp[2]];
+                        let p = [0, 1, 2].map(|a| p[a] - box_centre[a]);
+                        let (r, u) = (dot(p, right), dot(p, up));
+                        (r0, r1, u0, u1) = (r0.min(r - hr), r1.max(r + hr), u0.min(u - hu), u1.max(u + hu));
+                    }
+                }
+                let (cr, cu) = (0.5 * (r0 + r1), 0.5 * (u0 + u1));
+                let centre = [0, 1, 2].map(|a| box_centre[a] + cr * right[a] + cu * up[a]);
+                // 4% margin; the vertical half extent of the image is `half_extent · aspect` (height/width).
+                let half = (0.5 * (r1 - r0)).max(0.5 * (u1 - u0) / aspect.max(1e-6)).max(min_spacing) * 1.04;
+                (centre, half / zoom)
             }
-            let (cr, cu) = (0.5 * (r0 + r1), 0.5 * (u0 + u1));
-            let centre = [0, 1, 2].map(|a| box_centre[a] + cr * right[a] + cu * up[a]);
-            // 4% margin; the vertical half extent of the image is `half_extent · aspect` (height/width).
-            let half = (0.5 * (r1 - r0)).max(0.5 * (u1 - u0) / aspect.max(1e-6)).max(min_spacing) * 1.04;
-            (centre, half / zoom)
-        } else {
-            (box_centre, radius / zoom)
+            _ => (box_centre, radius / zoom),
         };
         // Clip to the box grown by `reach` (interpolation reaches that far), within the grid.
         let clip_lo = [0, 1, 2].map(|a| (lo[a] as f64 - reach).max(0.0));

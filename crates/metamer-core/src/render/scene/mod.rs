@@ -12,7 +12,7 @@
 //! [camera]
 //! azimuth_deg = 30.0
 //! elevation_deg = 20.0
-//! zoom = 1.0                 # optional; 1 fits the framed box with a 4% margin
+//! zoom = 1.0                 # optional; 1 fits what is framed with a 4% margin
 //! fit = "materials"          # optional: frame the voxels that belong to a material (default), or "volume"
 //! [dial]
 //! path = ["daylight", "split"]   # optional: default = the palette's lights that have `dial` positions,
@@ -63,6 +63,8 @@ pub struct SceneSettings {
     pub shading: Shading,
     /// Per-pixel ray-start jitter.
     pub jitter: bool,
+    /// Split steps that cross a material boundary into substeps.
+    pub refine: bool,
     pub gradient: Gradient,
     pub interpolation: Interpolation,
     /// Multiplies the automatic sweep exposure.
@@ -76,6 +78,7 @@ impl Default for SceneSettings {
             ambient: 0.3,
             shading: Shading::Key,
             jitter: true,
+            refine: true,
             gradient: Gradient::Smooth,
             interpolation: Interpolation::Trilinear,
             exposure: 1.0,
