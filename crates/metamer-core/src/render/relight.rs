@@ -153,12 +153,27 @@ impl SrgbLut {
         SrgbLut { table }
     }
 
+    /// Encode a linear RGB pixel. One brighter than white in some channel is first scaled down as a
+    /// whole (hue and saturation kept, [`fit_to_white`]) instead of clipped channel by channel, which
+    /// would turn an orange highlight yellow.
+    #[inline(always)]
+    pub(crate) fn encode_rgb(&self, rgb: [f32; 3]) -> [u8; 3] {
+        fit_to_white(rgb).map(|c| self.encode(c))
+    }
+
     #[inline(always)]
     pub(crate) fn encode(&self, v: f32) -> u8 {
         // NaN maps to 0 through the saturating cast.
         let i = (v.clamp(0.0, 1.0) * (Self::N - 1) as f32 + 0.5) as usize;
         self.table[i.min(Self::N - 1)]
     }
+}
+
+/// A linear RGB pixel scaled so that its largest channel is at most 1 (unchanged when it already is).
+#[inline(always)]
+pub(crate) fn fit_to_white(rgb: [f32; 3]) -> [f32; 3] {
+    let m = rgb[0].max(rgb[1]).max(rgb[2]);
+    if m > 1.0 { rgb.map(|c| c / m) } else { rgb }
 }
 
 /// Apply a frame matrix to every pixel: linear RGB, 3 values per pixel.
@@ -178,11 +193,7 @@ pub fn relight_srgb8(image: &ChannelImage, frame: &FrameMatrix, lut: &SrgbLut, o
         7 => encode_kernel::<7>(image, frame, lut, out),
         8 => encode_kernel::<8>(image, frame, lut, out),
         SAMPLES => encode_kernel::<SAMPLES>(image, frame, lut, out),
-        _ => relight_with(image, frame, |i, rgb| {
-            out[3 * i] = lut.encode(rgb[0]);
-            out[3 * i + 1] = lut.encode(rgb[1]);
-            out[3 * i + 2] = lut.encode(rgb[2]);
-        }),
+        _ => relight_with(image, frame, |i, rgb| out[3 * i..3 * i + 3].copy_from_slice(&lut.encode_rgb(rgb))),
     }
 }
 
@@ -202,9 +213,7 @@ fn encode_kernel<const K: usize>(image: &ChannelImage, frame: &FrameMatrix, lut:
             }
             *v = acc;
         }
-        o[0] = lut.encode(rgb[0]);
-        o[1] = lut.encode(rgb[1]);
-        o[2] = lut.encode(rgb[2]);
+        o.copy_from_slice(&lut.encode_rgb(rgb));
     }
 }
 
@@ -319,9 +328,23 @@ mod tests {
             let linear = relight_linear(&image, &frame);
             let mut out = vec![0u8; 150];
             relight_srgb8(&image, &frame, &lut, &mut out);
-            let want: Vec<u8> = linear.iter().map(|v| lut.encode(*v)).collect();
+            let want: Vec<u8> = linear.chunks(3).flat_map(|p| lut.encode_rgb([p[0], p[1], p[2]])).collect();
             assert_eq!(out, want, "K = {k}");
         }
+    }
+
+    #[test]
+    fn a_pixel_brighter_than_white_keeps_its_hue() {
+        let lut = SrgbLut::new();
+        // Clipped per channel this would be (255, 255, encode(0.2)): yellow instead of orange.
+        assert_eq!(lut.encode_rgb([1.6, 0.8, 0.2]), [255, lut.encode(0.5), lut.encode(0.125)]);
+        assert_eq!(lut.encode_rgb([0.9, 0.5, 0.1]), [lut.encode(0.9), lut.encode(0.5), lut.encode(0.1)]);
+        // In the whole frame path too (K = 3, identity matrix, brightened).
+        let image = ChannelImage { width: 1, height: 1, channels: 3, data: vec![1.6, 0.8, 0.2] };
+        let frame = FrameMatrix { channels: 3, m: vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] };
+        let mut out = [0u8; 3];
+        relight_srgb8(&image, &frame, &lut, &mut out);
+        assert_eq!(out, lut.encode_rgb([1.6, 0.8, 0.2]));
     }
 
     #[test]

@@ -8,7 +8,8 @@
 //!   the covered pixels of the brightest frame at 1, so a few bright specks do not darken the sweep;
 //!   [`sweep_exposure`] is the conservative bound that never clips (used to compare colour models).
 //! - Tone: an optional display gamma ([`SrgbLut::with_gamma`]): `gamma > 1` lifts dark tissue,
-//!   applied to the linear value before sRGB encoding; 1 is plain sRGB.
+//!   applied to the linear value before sRGB encoding; 1 is plain sRGB. A pixel brighter than white is
+//!   scaled down as a whole (hue kept) before encoding ([`SrgbLut::encode_rgb`]).
 //! - Supersampling: [`downsample`] box-filters a raycast made `ss` times larger. Relighting is linear,
 //!   so averaging the stored channels equals averaging the relit frames: frames stay exact and cost
 //!   the same per frame.
