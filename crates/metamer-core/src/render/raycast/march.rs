@@ -100,11 +100,6 @@ struct LabelSample<'a> {
     near: bool,
 }
 
-enum Sample<'a> {
-    Values(ValueSample),
-    Labels(LabelSample<'a>),
-}
-
 /// What the refinement test compares at the two ends of a step.
 #[derive(Clone, Copy)]
 struct Edge {
@@ -125,12 +120,55 @@ impl Edge {
     }
 }
 
-impl Sample<'_> {
-    fn edge(&self) -> Edge {
-        match self {
-            Sample::Values(v) => Edge { near: false, material: v.material, level: 0.0 },
-            Sample::Labels(l) => Edge { near: l.near, material: 0, level: l.total },
-        }
+/// One way of reconstructing samples: what a sample holds before compositing, how it is taken and
+/// composited, and what the refinement test compares. The marcher is generic over it, so each kind's
+/// loop is compiled on its own.
+trait Sampler<'a> {
+    type Sample;
+    /// The sample at index-space point `p`, or the field brick no material reaches (label mode).
+    fn sample(ctx: &RayContext<'a>, p: [f64; 3]) -> Result<Self::Sample, [usize; 3]>;
+    fn edge(s: &Self::Sample) -> Edge;
+    /// Composite a sample standing for a whole step (`sub` false) or a substep: adds its weights,
+    /// returns the opacity absorbed.
+    fn composite(ctx: &RayContext<'a>, s: &Self::Sample, sub: bool, transmittance: f32, out: &mut [f32]) -> f32;
+}
+
+/// Value classes (trilinear or nearest).
+struct Values;
+/// Shape-based labels.
+struct Labels;
+
+impl<'a> Sampler<'a> for Values {
+    type Sample = ValueSample;
+    #[inline(always)]
+    fn sample(ctx: &RayContext<'a>, p: [f64; 3]) -> Result<ValueSample, [usize; 3]> {
+        Ok(ctx.value_sample(p))
+    }
+    #[inline(always)]
+    fn edge(s: &ValueSample) -> Edge {
+        Edge { near: false, material: s.material, level: 0.0 }
+    }
+    #[inline(always)]
+    fn composite(ctx: &RayContext<'a>, s: &ValueSample, sub: bool, transmittance: f32, out: &mut [f32]) -> f32 {
+        let c = ctx.classifier;
+        ctx.composite_values(s, if sub { &c.alpha_sub } else { &c.alpha }, transmittance, out)
+    }
+}
+
+impl<'a> Sampler<'a> for Labels {
+    type Sample = LabelSample<'a>;
+    #[inline(always)]
+    fn sample(ctx: &RayContext<'a>, p: [f64; 3]) -> Result<LabelSample<'a>, [usize; 3]> {
+        ctx.label_sample(p)
+    }
+    #[inline(always)]
+    fn edge(s: &LabelSample<'a>) -> Edge {
+        Edge { near: s.near, material: 0, level: s.total }
+    }
+    #[inline(always)]
+    fn composite(ctx: &RayContext<'a>, s: &LabelSample<'a>, sub: bool, transmittance: f32, out: &mut [f32]) -> f32 {
+        let c = ctx.classifier;
+        ctx.composite_labels(s, if sub { &c.material_alpha_sub } else { &c.material_alpha }, transmittance, out)
     }
 }
 
@@ -350,34 +388,16 @@ impl<'a> RayContext<'a> {
         absorbed
     }
 
-    /// A sample of either kind, or the field brick no material reaches (label mode).
-    #[inline(always)]
-    fn sample(&self, p: [f64; 3]) -> Result<Sample<'a>, [usize; 3]> {
-        match self.options.interpolation {
-            Interpolation::Trilinear | Interpolation::Nearest => Ok(Sample::Values(self.value_sample(p))),
-            Interpolation::Labels => self.label_sample(p).map(Sample::Labels),
-        }
-    }
-
-    /// Composite a sample standing for a whole step (`sub` false) or a substep.
-    #[inline(always)]
-    fn composite(&self, s: &Sample, sub: bool, transmittance: f32, out: &mut [f32]) -> f32 {
-        let c = self.classifier;
-        match s {
-            Sample::Values(v) => {
-                self.composite_values(v, if sub { &c.alpha_sub } else { &c.alpha }, transmittance, out)
-            }
-            Sample::Labels(l) => self.composite_labels(
-                l,
-                if sub { &c.material_alpha_sub } else { &c.material_alpha },
-                transmittance,
-                out,
-            ),
-        }
-    }
-
     /// March the ray of pixel (px, py), accumulating material weights into `out`.
     pub(crate) fn trace(&self, px: usize, py: usize, out: &mut [f32], stats: &mut RaycastStats) {
+        match self.options.interpolation {
+            Interpolation::Trilinear | Interpolation::Nearest => self.march::<Values>(px, py, out, stats),
+            Interpolation::Labels => self.march::<Labels>(px, py, out, stats),
+        }
+    }
+
+    #[inline(always)]
+    fn march<K: Sampler<'a>>(&self, px: usize, py: usize, out: &mut [f32], stats: &mut RaycastStats) {
         let view = self.view;
         let vol = self.volume;
         let sx = ((px as f64 + 0.5) / self.width as f64 * 2.0 - 1.0) * view.half_extent;
@@ -433,7 +453,7 @@ impl<'a> RayContext<'a> {
                 }
             }
             stats.samples += 1;
-            let sample = match self.sample(p) {
+            let sample = match K::sample(self, p) {
                 Ok(s) => s,
                 // No material reaches this field brick: with skipping on, jump over it.
                 Err(b) => {
@@ -448,7 +468,7 @@ impl<'a> RayContext<'a> {
                     continue;
                 }
             };
-            let edge = sample.edge();
+            let edge = K::edge(&sample);
             let refine = self.substeps > 1 && prev.differs(&edge);
             prev = edge;
             if refine {
@@ -462,8 +482,8 @@ impl<'a> RayContext<'a> {
                     }
                     let pj = [origin[0] + tj * dir[0], origin[1] + tj * dir[1], origin[2] + tj * dir[2]];
                     stats.samples += 1;
-                    let Ok(sj) = self.sample(pj) else { continue };
-                    let absorbed = self.composite(&sj, true, transmittance, out);
+                    let Ok(sj) = K::sample(self, pj) else { continue };
+                    let absorbed = K::composite(self, &sj, true, transmittance, out);
                     if absorbed > 0.0 {
                         transmittance *= 1.0 - absorbed;
                         if self.options.early_termination && transmittance < threshold {
@@ -473,7 +493,7 @@ impl<'a> RayContext<'a> {
                     }
                 }
             }
-            let absorbed = self.composite(&sample, refine, transmittance, out);
+            let absorbed = K::composite(self, &sample, refine, transmittance, out);
             if absorbed > 0.0 {
                 transmittance *= 1.0 - absorbed;
                 if self.options.early_termination && transmittance < threshold {
