@@ -1,5 +1,6 @@
 //! Seed Figs. 6 and 7 as shipped scenes (volumes/fig6_engine.toml, volumes/fig7_frog.toml), one test per
-//! stage, measured in the rendered frames: the raycast's material weights say which pixels belong to
+//! stage, and the gallery's frog sweep (volumes/frog.toml, its three path lights as stages), measured in the
+//! rendered frames: the raycast's material weights say which pixels belong to
 //! how much each material contributes to each pixel; since compositing is linear, a material's colour in
 //! a frame is the least-squares solution of `rgb_p = Σ_m w_pm c_m` over every covered pixel (decoded
 //! linear RGB of the 8-bit frame), divided by the sweep exposure (the palette's colour scale). The smoke
@@ -8,7 +9,7 @@
 
 use metamer::colorimetry::{Colorimetry, delta_e00, srgb_decode, xyz_to_lab};
 use metamer::render::dial::Timing;
-use metamer::render::raycast::raycast;
+use metamer::render::raycast::{Shading, raycast};
 use metamer::render::relight::{Mode, SrgbLut};
 use metamer::render::scene::Scene;
 use metamer::render::sweep::{frame_srgb8, sweep_exposure};
@@ -26,7 +27,8 @@ struct Stages {
     colorimetry: Colorimetry,
 }
 
-fn render_stages(scene_file: &str, volume_file: &str, default_mode: Mode) -> Option<Stages> {
+/// `shading`: the scene's own when `None`.
+fn render_stages(scene_file: &str, volume_file: &str, default_mode: Mode, shading: Option<Shading>) -> Option<Stages> {
     let vols = crate::common::data::volumes_or_skip(&format!("dial_figures ({scene_file})"))?;
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("volumes").join(scene_file);
     let text = std::fs::read_to_string(&path).expect("the shipped scene");
@@ -43,6 +45,9 @@ fn render_stages(scene_file: &str, volume_file: &str, default_mode: Mode) -> Opt
             .collect::<Vec<_>>()
             .join("\n");
     let mut scene = Scene::parse(&text, &path).expect("the scene parses");
+    if let Some(shading) = shading {
+        scene.settings.shading = shading;
+    }
     scene.dial.timing = Timing::PerKeyframe;
     let frames = scene.dial.keyframe_count();
     let col = Colorimetry::default();
@@ -151,7 +156,7 @@ impl Stages {
 fn engine() -> Option<Stages> {
     // The factor model, as the renderer's default (the palette's trained basis reproduces its pairs to
     // ΔE00 0.01; METAMER_FIG_MODE=full checks the 31-sample reference).
-    let s = render_stages("fig6_engine.toml", "engine.nhdr", Mode::Factor)?;
+    let s = render_stages("fig6_engine.toml", "engine.nhdr", Mode::Factor, None)?;
     // The smoke must read as a haze: it owns a real share of the picture.
     let smoke = s.pixels.get("smoke").copied().unwrap_or(0);
     assert!(smoke > SIZE * SIZE / 20, "smoke owns only {smoke} of {} pixels", SIZE * SIZE);
@@ -160,7 +165,12 @@ fn engine() -> Option<Stages> {
 
 fn frog() -> Option<Stages> {
     // The renderer's default factor model (the Fig. 7 palette trains a 10-D basis).
-    render_stages("fig7_frog.toml", "frog_tissues.vti", Mode::Factor)
+    render_stages("fig7_frog.toml", "frog_tissues.vti", Mode::Factor, None)
+}
+
+/// The gallery's frog sweep (volumes/frog.toml): stage 0 daylight, 1 reveal, 2 fluorescent.
+fn frog_sweep(shading: Option<Shading>) -> Option<Stages> {
+    render_stages("frog.toml", "frog_tissues.vti", Mode::Factor, shading)
 }
 
 const TISSUES: [&str; 4] = ["body", "liver", "bone", "nerve"];
@@ -243,6 +253,36 @@ fn fig7d_light_1_off_the_body_is_dark_but_slightly_visible() {
     assert!(d < b, "light 1 off must darken the body");
     assert!(d > 0.5, "the distant light keeps the body slightly visible");
     assert!(d < 0.5 * s.lightness(2, "body"));
+}
+
+/// Daylight (frame 0 of the sweep): every tissue pair within ΔE00 1 in the frame, with the scene's key-light
+/// shading and unshaded (the palette's own metamers, not the renderer's shading, are what is measured).
+#[test]
+fn frog_sweep_daylight_tissues_are_metamers_in_the_frame() {
+    for shading in [None, Some(Shading::Unshaded)] {
+        let Some(s) = frog_sweep(shading) else { return };
+        for (i, a) in TISSUES.iter().enumerate() {
+            for b in &TISSUES[i + 1..] {
+                let d = s.de(0, a, 0, b);
+                assert!(d < 1.0, "{shading:?}: {a} and {b} ΔE00 {d:.2} apart under daylight");
+            }
+        }
+    }
+}
+
+/// Reveal and fluorescent (frames 1 and 2) split what daylight merged; the body goes black under reveal.
+#[test]
+fn frog_sweep_reveal_and_fluorescent_split_the_tissues() {
+    let Some(s) = frog_sweep(Some(Shading::Unshaded)) else { return };
+    for (i, a) in TISSUES.iter().enumerate() {
+        for b in &TISSUES[i + 1..] {
+            if *a != "body" {
+                assert!(s.de(1, a, 1, b) >= 10.0);
+            }
+            assert!(s.de(2, a, 2, b) >= 10.0);
+        }
+    }
+    assert!(s.lightness(1, "body") < 0.2 * s.lightness(0, "body"));
 }
 
 /// The colour model the stages are rendered with: `default`, or `METAMER_FIG_MODE=factor|full|rgb`.

@@ -18,6 +18,7 @@ mod design_oracle;
 mod dial_figures;
 mod dial_scene;
 mod feasibility;
+mod frog_palettes;
 mod fuzz_regressions;
 mod hostile;
 mod palette_file;
