@@ -3,7 +3,7 @@
 use super::classify::{BrickMap, Classifier};
 use super::fields::{Block, CORNERS, FIELD_BRICK, Fields, S3, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
-use super::view::{View, dot};
+use super::view::View;
 use super::{
     Gradient, Interpolation, MAX_MATERIALS, RaycastOptions, RaycastStats, Shading, interleaved_gradient_noise,
 };
@@ -186,6 +186,8 @@ pub(super) struct RayContext<'a> {
     /// Label mode: a sample whose signed distance to some boundary is below this (in-plane voxels) is
     /// near it ([`near_band`]).
     pub(crate) near_band: f32,
+    /// The shading's ambient share, in [0, 1].
+    pub(crate) ambient: f32,
     pub(crate) n_mat: usize,
     pub(crate) width: usize,
     pub(crate) height: usize,
@@ -258,16 +260,16 @@ impl<'a> RayContext<'a> {
     /// normal turned to face the eye; 1 where the gradient vanishes.
     #[inline(always)]
     fn shade(&self, g: [f32; 3]) -> f32 {
-        let s = self.volume.spacing;
-        let g = [f64::from(g[0]) / s[0], f64::from(g[1]) / s[1], f64::from(g[2]) / s[2]];
-        let n2 = dot(g, g);
+        let v = self.view;
+        let d = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let n2 = d([g[0] * g[0], g[1] * g[1], g[2] * g[2]], v.inv_spacing2);
         if n2 < 1e-12 {
             return 1.0;
         }
-        let facing = if dot(g, self.view.view_world) > 0.0 { -1.0 } else { 1.0 };
-        let cos = facing * dot(g, self.view.light_world) / n2.sqrt();
-        let a = self.options.ambient.clamp(0.0, 1.0);
-        (a + (1.0 - a) * cos.max(0.0)) as f32
+        let cos = d(g, v.light_index) / n2.sqrt();
+        let cos = if d(g, v.view_index) > 0.0 { -cos } else { cos };
+        let a = self.ambient;
+        a + (1.0 - a) * cos.max(0.0)
     }
 
     /// Value-classified sample (trilinear or nearest): its material and where it sits.

@@ -308,6 +308,7 @@ pub fn raycast(
         options,
         substeps,
         near_band: march::near_band(volume, step),
+        ambient: options.ambient.clamp(0.0, 1.0) as f32,
         n_mat,
         width: w,
         height: h,

@@ -10,8 +10,6 @@ pub(super) struct View {
     pub(super) dir: [f64; 3],
     /// View direction in world space (unit), for shading.
     pub(super) view_world: [f64; 3],
-    /// Direction towards the shading light in world space (unit).
-    pub(super) light_world: [f64; 3],
     pub(super) right: [f64; 3],
     pub(super) up: [f64; 3],
     pub(super) half_extent: f64,
@@ -23,6 +21,12 @@ pub(super) struct View {
     /// (so no ray inside the box is cut short), at most `MAX_ANISOTROPY × diagonal / step` and never more
     /// than [`MAX_RAY_STEPS`], whatever the spacings (a spacing of 1e-308 beside 1 cannot make a ray spin).
     pub(super) max_steps: f64,
+    /// The view and light directions divided by the spacings, and the inverse squared spacings: a
+    /// gradient per voxel index dotted with these gives its world-space dot products and length (f32,
+    /// for the shading at every shaded sample).
+    pub(super) view_index: [f32; 3],
+    pub(super) light_index: [f32; 3],
+    pub(super) inv_spacing2: [f32; 3],
     /// Index-space box the rays are clipped to.
     pub(super) clip_lo: [f64; 3],
     pub(super) clip_hi: [f64; 3],
@@ -40,7 +44,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
-pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -117,6 +121,24 @@ impl View {
         // so the second bound never cuts a ray of a valid volume; it stops one whose spacings are extreme.
         let max_steps = (diagonal / length).min(crate::volume::MAX_ANISOTROPY * diagonal / step).ceil() + 2.0;
         let max_steps = if max_steps.is_finite() { max_steps.min(MAX_RAY_STEPS) } else { MAX_RAY_STEPS };
-        View { dir, view_world, light_world, right, up, half_extent, centre_world, radius, max_steps, clip_lo, clip_hi }
+        let sp = volume.spacing;
+        let view_index = [0, 1, 2].map(|a| (view_world[a] / sp[a]) as f32);
+        let light_index = [0, 1, 2].map(|a| (light_world[a] / sp[a]) as f32);
+        let inv_spacing2 = [0, 1, 2].map(|a| (1.0 / (sp[a] * sp[a])) as f32);
+        View {
+            dir,
+            view_world,
+            right,
+            up,
+            half_extent,
+            centre_world,
+            radius,
+            max_steps,
+            view_index,
+            light_index,
+            inv_spacing2,
+            clip_lo,
+            clip_hi,
+        }
     }
 }
