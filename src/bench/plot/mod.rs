@@ -253,12 +253,18 @@ pub(crate) fn wrap(text: &str, max_chars: usize) -> Vec<String> {
     lines
 }
 
+/// A drawable point of a plot: its workload's index, (series, point) and position.
+type KeyedPoint = (usize, (usize, usize), (f64, f64));
+
+/// An optional per-point interval of a series.
+type Bars = Option<Vec<(f64, f64)>>;
+
 /// The Pareto fronts of a plot, one per workload: for each workload (in first-seen order), its front's
 /// points as (series index, point index), sorted by x. Only drawable points take part.
 pub(crate) fn workload_fronts(plot: &XyPlot) -> Vec<(String, Vec<(usize, usize)>)> {
     let (xs, ys) = (plot.x_scale, plot.y_scale);
     let mut workloads: Vec<String> = Vec::new();
-    let mut keyed: Vec<(usize, (usize, usize), (f64, f64))> = Vec::new();
+    let mut keyed: Vec<KeyedPoint> = Vec::new();
     for (i, s) in plot.series.iter().enumerate() {
         for (j, p) in s.points.iter().enumerate() {
             if left_out(*p, xs, ys).is_some() {
@@ -276,7 +282,7 @@ pub(crate) fn workload_fronts(plot: &XyPlot) -> Vec<(String, Vec<(usize, usize)>
         .iter()
         .enumerate()
         .map(|(k, w)| {
-            let members: Vec<&(usize, (usize, usize), (f64, f64))> = keyed.iter().filter(|e| e.0 == k).collect();
+            let members: Vec<&KeyedPoint> = keyed.iter().filter(|e| e.0 == k).collect();
             let pts: Vec<(f64, f64)> = members.iter().map(|e| e.2).collect();
             (w.clone(), super::pareto_front(&pts).into_iter().map(|i| members[i].1).collect())
         })
@@ -301,7 +307,7 @@ pub(crate) fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Resul
     let kept: Vec<Vec<(f64, f64)>> = plot.series.iter().map(|s| drawable(&s.points, xs, ys)).collect();
     let all = || kept.iter().flatten().copied();
     // Spread bars of drawable points widen the range so they are never cut off.
-    let bar_ends = |pick: fn(&Series) -> &Option<Vec<(f64, f64)>>| -> Vec<f64> {
+    let bar_ends = |pick: fn(&Series) -> &Bars| -> Vec<f64> {
         plot.series
             .iter()
             .flat_map(|s| {
