@@ -475,6 +475,10 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
     // Jitter's cost in words that agree with the table: it adds no samples, but what it costs is measured.
     let jitter = r.quality.iter().find(|q| q.what == "+ jitter").map(|q| q.median_s / base_q.max(1e-12));
     s += &match jitter {
+        Some(j) if j < 1.05 => format!(
+            "\nJitter moves each ray's sample positions by a per-pixel offset below one step: the same number of \
+             samples, and it measured {j:.2}× the fixed-phase raycast here, no cost above timing noise. "
+        ),
         Some(j) => format!(
             "\nJitter moves each ray's sample positions by a per-pixel offset below one step: the same number of \
              samples, yet it measured {j:.2}× the fixed-phase raycast here (the extra time is most likely cache \

@@ -254,7 +254,11 @@ fn solve_section(options: &ReportOptions, report: &mut BenchReport) -> Result<St
     image(&mut md, &mut report.files, dir, "solve_pareto.png", "solver run time against error, Pareto front");
     image(&mut md, &mut report.files, dir, "solve_scaling.png", "solver run time against designs solved, per path");
     let front = summary::solve_pareto_cases(&results);
-    md.push_str(&format!("\nPareto front (time, mean ΔE*ab): {}.\n\n", front.join("; ")));
+    md.push_str(&format!(
+        "\nPareto front (time, mean ΔE*ab) per workload, among the solver paths that measured it (n/a errors left \
+         out; a workload one path alone measured has no front): {}.\n\n",
+        if front.is_empty() { "none".to_string() } else { front.join("; ") }
+    ));
     md.push_str("### Against in-process baselines\n\n");
     md.push_str(&summary::ratios_markdown(&ratios));
     md.push_str("\n### Condition numbers of the design systems met\n\n");
@@ -454,4 +458,43 @@ fn render_section(options: &ReportOptions, report: &mut BenchReport) -> Result<S
         )],
     });
     Ok(md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn headline(checks: Vec<Check>) -> Headline {
+        Headline { what: "w".into(), figure: "f".into(), against: "c".into(), checks }
+    }
+
+    #[test]
+    fn one_missed_aim_is_a_miss_and_is_named() {
+        // The 15×15 case: mean below the aim, worst palette above it.
+        let h = headline(vec![
+            Check::below("mean", 7.588, 8.5, "8.5"),
+            Check::below("worst palette", 8.583, 8.5, "8.5"),
+            Check::below("median time", 0.8, 3.0, "3 s"),
+        ]);
+        assert_eq!(h.met(), Some(false));
+        let row = h.row();
+        assert!(row[1].starts_with("✗ "), "{row:?}");
+        assert_eq!(row[2], "c; aim: mean < 8.5, worst palette < 8.5 ✗, median time < 3 s");
+        let ok = headline(vec![Check::below("mean", 7.5, 8.5, "8.5"), Check::below("worst palette", 8.4, 8.5, "8.5")]);
+        assert_eq!(ok.met(), Some(true));
+        assert!(ok.row()[1].starts_with("✓ ") && !ok.row()[2].contains('✗'), "{:?}", ok.row());
+    }
+
+    #[test]
+    fn aims_at_the_limit_and_not_finite_figures() {
+        assert!(Check::at_most("x", 1.0, 1.0, "1").passed());
+        assert!(!Check::below("x", 1.0, 1.0, "1").passed());
+        // n/a never meets an aim.
+        assert!(!Check::at_most("x", f64::NAN, 1.0, "1").passed());
+        assert!(!Check::below("x", f64::INFINITY, 1.0, "1").passed());
+        // No aim: no mark.
+        let h = headline(vec![]);
+        assert_eq!(h.met(), None);
+        assert_eq!(h.row(), vec!["w".to_string(), "f".to_string(), "c".to_string()]);
+    }
 }

@@ -410,6 +410,46 @@ pub(crate) fn conditions_markdown(rows: &[ConditionRow]) -> String {
 mod tests {
     use super::*;
 
+    fn row(group: &str, case: &str, time: f64, error: f64) -> solve::Row {
+        let timing = crate::bench::Timing::from_samples(&[time]).unwrap();
+        solve::Row {
+            group: group.into(),
+            case: case.into(),
+            designs: 1,
+            timing,
+            per_design: time,
+            mean_delta_e_ab: error,
+            worst_delta_e_ab: None,
+            mean_delta_e00: error,
+            objective: 1.0,
+        }
+    }
+
+    #[test]
+    fn solver_fronts_never_mix_workloads_or_use_na_errors() {
+        let report = solve::Report {
+            rows: vec![
+                row("fast", "10 designs", 1e-4, 0.001),
+                row("slow", "10 designs", 1e-3, 3.0),
+                row("dense", "5 designs", 1e-5, f64::NAN),
+                row("slow", "5 designs", 2e-3, 2.0),
+                row("slower", "5 designs", 3e-3, 1.0),
+                row("joint", "3×3", 1e-6, 1e-6),
+            ],
+            versus_scipy: None,
+        };
+        let fronts = solve_pareto_cases(&report);
+        // Over all points "joint 3×3" would dominate everything; per workload it has no rival, and the
+        // n/a dense row takes no part.
+        assert_eq!(
+            fronts,
+            vec![
+                "10 designs, ΔE*ab vs each light's white: fast".to_string(),
+                "5 designs, ΔE*ab vs each light's white: slow, slower".to_string(),
+            ]
+        );
+    }
+
     #[test]
     fn condition_number_of_known_matrices() {
         let a = nalgebra::DMatrix::from_row_slice(2, 2, &[2.0, 0.0, 0.0, 0.5]);
