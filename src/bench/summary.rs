@@ -78,21 +78,8 @@ pub(crate) fn solve_tradeoff_plot(report: &solve::Report, path: &Path) -> Result
 /// "workload: path, path" (sorted by time), from the same fronts the plot marks.
 pub(crate) fn solve_pareto_cases(report: &solve::Report) -> Vec<String> {
     let plot = solve_tradeoff(report);
-    let (xs, ys) = (plot.x_scale, plot.y_scale);
     plot::workload_fronts(&plot)
         .into_iter()
-        .filter(|(w, _)| {
-            plot.series
-                .iter()
-                .filter(|s| {
-                    s.points
-                        .iter()
-                        .enumerate()
-                        .any(|(j, p)| s.point_workloads.get(j) == Some(w) && plot::left_out(*p, xs, ys).is_none())
-                })
-                .count()
-                >= 2
-        })
         .map(|(w, front)| {
             let paths: Vec<&str> = front.iter().map(|(i, _)| plot.series[*i].label.as_str()).collect();
             format!("{w}: {}", paths.join(", "))

@@ -259,8 +259,9 @@ type KeyedPoint = (usize, (usize, usize), (f64, f64));
 /// An optional per-point interval of a series.
 type Bars = Option<Vec<(f64, f64)>>;
 
-/// The Pareto fronts of a plot, one per workload: for each workload (in first-seen order), its front's
-/// points as (series index, point index), sorted by x. Only drawable points take part.
+/// The Pareto fronts of a plot, one per workload that two series or more measured: for each such workload
+/// (in first-seen order), its front's points as (series index, point index), sorted by x. Only drawable
+/// points take part.
 pub(crate) fn workload_fronts(plot: &XyPlot) -> Vec<(String, Vec<(usize, usize)>)> {
     let (xs, ys) = (plot.x_scale, plot.y_scale);
     let mut workloads: Vec<String> = Vec::new();
@@ -284,8 +285,13 @@ pub(crate) fn workload_fronts(plot: &XyPlot) -> Vec<(String, Vec<(usize, usize)>
         .map(|(k, w)| {
             let members: Vec<&KeyedPoint> = keyed.iter().filter(|e| e.0 == k).collect();
             let pts: Vec<(f64, f64)> = members.iter().map(|e| e.2).collect();
-            (w.clone(), super::pareto_front(&pts).into_iter().map(|i| members[i].1).collect())
+            let mut series: Vec<usize> = members.iter().map(|e| e.1.0).collect();
+            series.dedup();
+            (w.clone(), series, super::pareto_front(&pts).into_iter().map(|i| members[i].1).collect())
         })
+        // A workload that one series alone measured has nothing to compare: no front.
+        .filter(|(_, series, _): &(String, Vec<usize>, Vec<(usize, usize)>)| series.len() >= 2)
+        .map(|(w, _, front)| (w, front))
         .collect()
 }
 
@@ -491,7 +497,8 @@ pub(crate) fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Resul
         }
         if plot.pareto {
             legend_area.draw(&Circle::new((18, y), 9, BLACK.stroke_width(1))).map_err(|e| err(&e))?;
-            let lines = wrap("ringed: on the Pareto front of its workload", max_chars);
+            let lines =
+                wrap("ringed: on the Pareto front of its workload (work that two or more series measured)", max_chars);
             for (j, line) in lines.iter().enumerate() {
                 text(line, (38, y - 8 + 17 * j as i32)).map_err(|e| err(&e))?;
             }

@@ -140,11 +140,18 @@ fn fronts_compare_only_points_of_one_workload() {
     // but B/small (x = 1) would sit on one front with A/big; per workload it cannot.
     assert_eq!(fronts[1], ("big".to_string(), vec![(0, 1)]));
     // Left-out points never join a front.
-    let with_nan = XyPlot {
-        series: vec![Series { label: "C".into(), points: vec![(f64::NAN, 0.1), (5.0, 2.0)], ..Series::default() }],
-        ..plot.clone()
+    let c = |pts: Vec<(f64, f64)>| Series {
+        label: "C".into(),
+        points: pts,
+        workload: Some("w".into()),
+        ..Series::default()
     };
-    assert_eq!(workload_fronts(&with_nan), vec![("C".to_string(), vec![(0, 1)])]);
+    let d = Series { label: "D".into(), points: vec![(9.0, 9.0)], workload: Some("w".into()), ..Series::default() };
+    let with_nan = XyPlot { series: vec![c(vec![(f64::NAN, 0.1), (5.0, 2.0)]), d.clone()], ..plot.clone() };
+    assert_eq!(workload_fronts(&with_nan), vec![("w".to_string(), vec![(0, 1)])]);
+    // A workload one series alone measured has no front.
+    let alone = XyPlot { series: vec![c(vec![(1.0, 2.0), (2.0, 1.0)])], ..plot.clone() };
+    assert!(workload_fronts(&alone).is_empty());
 }
 
 #[test]
