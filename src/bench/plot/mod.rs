@@ -110,7 +110,7 @@ pub(crate) struct XyPlot {
     pub(crate) series: Vec<Series>,
     /// Mark the Pareto front (minimise both x and y) of each workload's points.
     pub(crate) pareto: bool,
-    /// Vertical reference lines (x, legend label), drawn dashed in grey: a measured x without a y that
+    /// Vertical reference lines (x, legend label), drawn dashed in the colours after the series': a measured x without a y that
     /// can be drawn (e.g. the reference model's time, whose error is zero by definition).
     pub(crate) x_refs: Vec<(f64, String)>,
     /// Sentences written under the legend (what was left out and why, beyond the automatic counts).
@@ -375,15 +375,14 @@ pub(crate) fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Resul
                     .light_line_style(RGBColor(236, 236, 236).stroke_width(1))
                     .draw()
                     .map_err(|e| err(&e))?;
-                let grey = RGBColor(110, 110, 110);
-                for (x, _) in &plot.x_refs {
+                for (k, (x, _)) in plot.x_refs.iter().enumerate() {
                     if left_out((*x, yr.0), xs, ys).is_none() {
                         chart
                             .draw_series(DashedLineSeries::new(
                                 vec![(*x, yr.0), (*x, yr.1)],
                                 8,
                                 5,
-                                grey.stroke_width(2),
+                                style_of(plot.series.len() + k).0.stroke_width(2),
                             ))
                             .map_err(|e| err(&e))?;
                     }
@@ -482,13 +481,11 @@ pub(crate) fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Resul
             }
             y += 22 + 17 * (lines.len() as i32 - 1);
         }
-        for (_, label) in &plot.x_refs {
-            legend_area
-                .draw(&PathElement::new(vec![(6, y), (14, y)], RGBColor(110, 110, 110).stroke_width(2)))
-                .map_err(|e| err(&e))?;
-            legend_area
-                .draw(&PathElement::new(vec![(20, y), (28, y)], RGBColor(110, 110, 110).stroke_width(2)))
-                .map_err(|e| err(&e))?;
+        // Reference lines continue the series' colours, so each has its own too.
+        for (k, (_, label)) in plot.x_refs.iter().enumerate() {
+            let colour = style_of(plot.series.len() + k).0;
+            legend_area.draw(&PathElement::new(vec![(6, y), (14, y)], colour.stroke_width(2))).map_err(|e| err(&e))?;
+            legend_area.draw(&PathElement::new(vec![(20, y), (28, y)], colour.stroke_width(2))).map_err(|e| err(&e))?;
             let lines = wrap(label, max_chars);
             for (j, line) in lines.iter().enumerate() {
                 text(line, (38, y - 8 + 17 * j as i32)).map_err(|e| err(&e))?;
