@@ -17,7 +17,7 @@ use std::time::Instant;
 /// can check before it writes anything that none of them is an input.
 pub fn output_files(suite: report::Suite) -> &'static [&'static str] {
     match suite {
-        report::Suite::Solve => &["solve.md", "solve_time_error.png", "solve_pareto.png"],
+        report::Suite::Solve => &["solve.md", "solve_scaling.png", "solve_pareto.png"],
         report::Suite::Basis => &["basis.md", "basis_error.png", "basis_cost.png", "basis_pareto.png"],
         report::Suite::Render => &["render.md", "render_pareto.png", "render_raycast.png", "render_relight.png"],
     }

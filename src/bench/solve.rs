@@ -173,7 +173,9 @@ impl Report {
         )
     }
 
-    /// Draw run time against mean ΔE*ab, one series per group.
+    /// Draw run time against the number of designs solved, one series per solver path (group), its
+    /// points joined in order of size: how each path scales. Bars: interquartile range of the run time.
+    /// The error of each case is in [`super::summary::solve_tradeoff_plot`].
     pub(crate) fn plot(&self, path: &Path) -> Result<(), plot::PlotError> {
         let mut groups: Vec<String> = Vec::new();
         for r in &self.rows {
@@ -181,30 +183,36 @@ impl Report {
                 groups.push(r.group.clone());
             }
         }
+        // The two capacity groups are the same solves (one timing, two error measures): drawn once.
+        groups.retain(|g| !g.contains(CAPACITY_DISPLAY_WHITE));
         let series = groups
             .iter()
-            .map(|g| Series {
-                label: g.clone(),
-                points: self
-                    .rows
-                    .iter()
-                    .filter(|r| &r.group == g)
-                    .map(|r| (r.timing.median, r.mean_delta_e_ab.max(1e-6)))
-                    .collect(),
-                spread: None,
-                line: true,
-                workload: None,
-                point_workloads: vec![],
+            .map(|g| {
+                let mut rows: Vec<&Row> = self.rows.iter().filter(|r| &r.group == g).collect();
+                rows.sort_by_key(|r| r.designs);
+                let label = if g.contains(CAPACITY_LIGHT_WHITE) {
+                    g.replace(&format!(", ΔE*ab vs {CAPACITY_LIGHT_WHITE}"), "")
+                } else {
+                    g.clone()
+                };
+                Series {
+                    label,
+                    points: rows.iter().map(|r| (r.designs as f64, r.timing.median)).collect(),
+                    y_spread: Some(rows.iter().map(|r| (r.timing.q1, r.timing.q3)).collect()),
+                    line: true,
+                    ..Series::default()
+                }
             })
             .collect();
         let p = XyPlot {
-            title: "metamer solve: run time against colour error".into(),
-            x_label: "run time per solve (s)".into(),
-            y_label: "mean CIELAB ΔE*ab".into(),
+            title: "metamer solve: run time against designs solved (bars: IQR)".into(),
+            x_label: "designed spectra in the solve".into(),
+            y_label: "run time per solve, median (s)".into(),
             x_scale: Scale::Log,
             y_scale: Scale::Log,
             series,
-            pareto: false,
+            notes: vec!["Joint n×n: 2n spectra designed together (n lights, n reflectances).".into()],
+            ..XyPlot::default()
         };
         plot::draw(&p, path, 1000, 700)
     }

@@ -17,9 +17,22 @@ use crate::palette::{Bounds, Palette};
 use crate::render::relight::Mode;
 use std::path::Path;
 
-/// Run time against mean ΔE*ab for every solver path, one point per case with its interquartile range,
-/// the Pareto front over all points marked.
-pub(crate) fn solve_tradeoff_plot(report: &solve::Report, path: &Path) -> Result<(), PlotError> {
+/// The workload of a solver row: its case (the same case, e.g. "20 designs", is the same work for every
+/// solver path) and the error measure (the capacity rows' sRGB-white ΔE*ab is another measure of the same
+/// solves, so it is never compared with the light-white one).
+fn solve_workload(r: &solve::Row) -> String {
+    let white = if r.group.contains(solve::CAPACITY_DISPLAY_WHITE) {
+        solve::CAPACITY_DISPLAY_WHITE
+    } else {
+        solve::CAPACITY_LIGHT_WHITE
+    };
+    format!("{}, ΔE*ab vs {white}", r.case)
+}
+
+/// Run time against mean ΔE*ab for every solver path: one series per path (points not joined: a path's
+/// points are different workloads), the interquartile range of the time as bars, and the Pareto front of
+/// each workload.
+pub(crate) fn solve_tradeoff(report: &solve::Report) -> XyPlot {
     let mut groups: Vec<&str> = Vec::new();
     for r in &report.rows {
         if !groups.contains(&r.group.as_str()) {
@@ -34,34 +47,44 @@ pub(crate) fn solve_tradeoff_plot(report: &solve::Report, path: &Path) -> Result
                 label: (*g).to_string(),
                 points: rows.iter().map(|r| (r.timing.median, r.mean_delta_e_ab)).collect(),
                 spread: Some(rows.iter().map(|r| (r.timing.q1, r.timing.q3)).collect()),
-                line: true,
-                workload: None,
-                // The same case (e.g. "20 designs") is the same work for every solver path.
-                point_workloads: rows.iter().map(|r| r.case.clone()).collect(),
+                point_workloads: rows.iter().map(|r| solve_workload(r)).collect(),
+                ..Series::default()
             }
         })
         .collect();
-    plot::draw(
-        &XyPlot {
-            title: "metamer solve: run time against colour error (bars: IQR)".into(),
-            x_label: "run time per solve, median (s)".into(),
-            y_label: "mean CIELAB ΔE*ab".into(),
-            x_scale: Scale::Log,
-            y_scale: Scale::Log,
-            series,
-            pareto: true,
-        },
-        path,
-        1000,
-        700,
-    )
+    XyPlot {
+        title: "metamer solve: run time against colour error (bars: IQR)".into(),
+        x_label: "run time per solve, median (s)".into(),
+        y_label: "mean CIELAB ΔE*ab".into(),
+        x_scale: Scale::Log,
+        y_scale: Scale::Log,
+        series,
+        pareto: true,
+        notes: vec![
+            "A workload is one case (batch size or n×n) with one error measure; the points of a path are \
+             not joined, as they are different work."
+                .into(),
+        ],
+        ..XyPlot::default()
+    }
 }
 
-/// The solver's cases on the Pareto front of (median time, mean ΔE*ab).
+/// Draw [`solve_tradeoff`].
+pub(crate) fn solve_tradeoff_plot(report: &solve::Report, path: &Path) -> Result<(), PlotError> {
+    plot::draw(&solve_tradeoff(report), path, 1000, 700)
+}
+
+/// The Pareto front of each workload that two or more solver paths measured with a finite error, as
+/// "workload: path, path" (sorted by time), from the same fronts the plot marks.
 pub(crate) fn solve_pareto_cases(report: &solve::Report) -> Vec<String> {
-    let rows: Vec<&solve::Row> = report.rows.iter().filter(|r| r.mean_delta_e_ab.is_finite()).collect();
-    let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.timing.median, r.mean_delta_e_ab)).collect();
-    pareto_front(&pts).into_iter().map(|i| format!("{} / {}", rows[i].group, rows[i].case)).collect()
+    let plot = solve_tradeoff(report);
+    plot::workload_fronts(&plot)
+        .into_iter()
+        .map(|(w, front)| {
+            let paths: Vec<&str> = front.iter().map(|(i, _)| plot.series[*i].label.as_str()).collect();
+            format!("{w}: {}", paths.join(", "))
+        })
+        .collect()
 }
 
 /// One ratio against an in-process baseline.
@@ -148,7 +171,8 @@ pub(crate) fn ratios_markdown(ratios: &[Ratio]) -> String {
 const BASIS_WORKLOAD: &str = "ColorChecker × 7 lights";
 
 /// Relighting cost against factor-model error for each basis dimension and the RGB model, Pareto front
-/// marked (what a renderer pays per pixel-frame for each ΔE00).
+/// marked (what a renderer pays per pixel-frame for each ΔE00): one series per model, each its own colour
+/// and marker.
 pub(crate) fn basis_tradeoff_plot(results: &basis::Results, path: &Path) -> Result<(), PlotError> {
     let mut series: Vec<Series> = results
         .rows
@@ -156,41 +180,26 @@ pub(crate) fn basis_tradeoff_plot(results: &basis::Results, path: &Path) -> Resu
         .map(|r| Series {
             label: format!("m = {}", r.dimension),
             points: vec![(r.relight_ns_per_pixel, r.full.mean)],
-            spread: None,
-            line: false,
             workload: Some(BASIS_WORKLOAD.into()),
-            point_workloads: vec![],
+            ..Series::default()
         })
         .collect();
-    series.truncate(7);
-    let rest: Vec<(f64, f64)> = results.rows.iter().skip(7).map(|r| (r.relight_ns_per_pixel, r.full.mean)).collect();
-    if !rest.is_empty() {
-        series.push(Series {
-            label: "m ≥ 10".into(),
-            points: rest,
-            spread: None,
-            line: false,
-            workload: Some(BASIS_WORKLOAD.into()),
-            point_workloads: vec![],
-        });
-    }
     series.push(Series {
         label: "RGB factor model".into(),
         points: vec![(results.rgb_relight_ns_per_pixel, results.rgb.mean)],
-        spread: None,
-        line: false,
         workload: Some(BASIS_WORKLOAD.into()),
-        point_workloads: vec![],
+        ..Series::default()
     });
     plot::draw(
         &XyPlot {
             title: "factor model: relighting cost against error".into(),
-            x_label: "relight ns per pixel-frame".into(),
+            x_label: "relight ns per pixel-frame (fastest frame)".into(),
             y_label: "mean ΔE00 vs full 31-sample (ColorChecker × 7 lights)".into(),
             x_scale: Scale::Linear,
             y_scale: Scale::Log,
             series,
             pareto: true,
+            ..XyPlot::default()
         },
         path,
         900,
@@ -208,39 +217,50 @@ pub(crate) fn basis_pareto_dimensions(results: &basis::Results) -> Vec<String> {
         .collect()
 }
 
-/// Relighting time per frame against mean ΔE00 of the render modes (full = 0 by definition, drawn at the
-/// plot floor), Pareto front marked.
+/// Relighting time per frame against mean ΔE00 of the factor and RGB models, one workload per image
+/// size, Pareto front marked. The full 31-sample model is the reference (ΔE00 = 0 by definition, no
+/// point on a log axis): its time is a dashed line, never a point at a made-up error.
 pub(crate) fn render_tradeoff_plot(report: &RenderBenchReport, path: &Path) -> Result<(), PlotError> {
-    let floor = 1e-3;
     let err = |mode: Mode| match mode {
-        Mode::Factor => report.accuracy.factor.mean,
-        Mode::Rgb => report.accuracy.rgb.mean,
-        Mode::Full => 0.0,
+        Mode::Factor => Some(report.accuracy.factor.mean),
+        Mode::Rgb => Some(report.accuracy.rgb.mean),
+        Mode::Full => None,
     };
     let mut sizes: Vec<usize> = report.relight.iter().map(|r| r.size).collect();
     sizes.dedup();
-    let series = sizes
-        .iter()
-        .flat_map(|size| {
-            report.relight.iter().filter(move |r| r.size == *size).map(move |r| Series {
-                label: format!("{} (K = {}), {}²", r.mode.as_str(), r.channels, r.size),
-                points: vec![(r.median_s * 1e3, err(r.mode).max(floor))],
-                spread: None,
-                line: false,
-                workload: Some(format!("{size}²")),
-                point_workloads: vec![],
-            })
-        })
-        .collect();
+    let mut series = Vec::new();
+    let mut x_refs = Vec::new();
+    for size in &sizes {
+        for r in report.relight.iter().filter(|r| r.size == *size) {
+            match err(r.mode) {
+                Some(e) => series.push(Series {
+                    label: format!("{} (K = {}), {}²", r.mode.as_str(), r.channels, r.size),
+                    points: vec![(r.median_s * 1e3, e)],
+                    workload: Some(format!("{size}²")),
+                    ..Series::default()
+                }),
+                None => {
+                    x_refs.push((r.median_s * 1e3, format!("full (K = {}), {}²: the reference", r.channels, r.size)))
+                }
+            }
+        }
+    }
     plot::draw(
         &XyPlot {
-            title: format!("render modes: relight time against ΔE00 (full = reference, drawn at {floor})"),
+            title: "render modes: relight time against ΔE00".into(),
             x_label: "relight time per frame, one thread (ms)".into(),
             y_label: "mean ΔE00 vs full 31-sample frames".into(),
             x_scale: Scale::Log,
             y_scale: Scale::Log,
             series,
             pareto: true,
+            x_refs,
+            notes: vec![
+                "The full 31-sample model is the reference (ΔE00 = 0 by definition): dashed at its time, \
+                 no point."
+                    .into(),
+                "One workload per frame size.".into(),
+            ],
         },
         path,
         900,
@@ -376,6 +396,46 @@ pub(crate) fn conditions_markdown(rows: &[ConditionRow]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn row(group: &str, case: &str, time: f64, error: f64) -> solve::Row {
+        let timing = crate::bench::Timing::from_samples(&[time]).unwrap();
+        solve::Row {
+            group: group.into(),
+            case: case.into(),
+            designs: 1,
+            timing,
+            per_design: time,
+            mean_delta_e_ab: error,
+            worst_delta_e_ab: None,
+            mean_delta_e00: error,
+            objective: 1.0,
+        }
+    }
+
+    #[test]
+    fn solver_fronts_never_mix_workloads_or_use_na_errors() {
+        let report = solve::Report {
+            rows: vec![
+                row("fast", "10 designs", 1e-4, 0.001),
+                row("slow", "10 designs", 1e-3, 3.0),
+                row("dense", "5 designs", 1e-5, f64::NAN),
+                row("slow", "5 designs", 2e-3, 2.0),
+                row("slower", "5 designs", 3e-3, 1.0),
+                row("joint", "3×3", 1e-6, 1e-6),
+            ],
+            versus_scipy: None,
+        };
+        let fronts = solve_pareto_cases(&report);
+        // Over all points "joint 3×3" would dominate everything; per workload it has no rival, and the
+        // n/a dense row takes no part.
+        assert_eq!(
+            fronts,
+            vec![
+                "10 designs, ΔE*ab vs each light's white: fast".to_string(),
+                "5 designs, ΔE*ab vs each light's white: slow, slower".to_string(),
+            ]
+        );
+    }
 
     #[test]
     fn condition_number_of_known_matrices() {
