@@ -15,7 +15,8 @@
 //! - Contact sheet: every frame is shrunk to its tile as soon as it is encoded, so memory holds only
 //!   thumbnails (never the full frames); tiles are labelled with the frame number, dial position and
 //!   light mix, under an optional title. [`SweepOptions::overlay`] is the hook that draws the dial into
-//!   every frame (and so into its tile).
+//!   every frame; each tile gets the same dial drawn at the tile's own size (in the frames' corner), so
+//!   its names stay legible instead of being shrunk with the frame.
 
 use super::RenderError;
 use super::dial::Dial;
@@ -255,25 +256,35 @@ pub fn write_sweep(
     })?;
     let lut = SrgbLut::with_gamma(options.gamma);
     let layout = options.contact_sheet.as_ref().map(|_| SheetLayout::new(range.len(), image.width, image.height));
+    // The dial is drawn into each tile at the tile's size (legible names), in the frames' corner.
+    let tile_overlay =
+        options.overlay.as_ref().zip(layout.as_ref()).map(|(o, l)| o.for_size(l.tile_w as usize, l.tile_h as usize));
     type Written = (PathBuf, Option<RgbImage>);
     let results: Vec<Result<Written, RenderError>> = range
         .clone()
         .into_par_iter()
         .map(|k| {
             let mut rgb = frame_srgb8(image, model, dial, k, options.frames, options.exposure, &lut);
-            if let Some(o) = &options.overlay {
-                o.draw_frame(&mut rgb, image.width, image.height, dial, k, options.frames);
-            }
             let path = options.out_dir.join(frame_name(k));
             let bad = |reason: String| RenderError::Output { path: path.clone(), reason };
-            let png = encode_png(&rgb, image.width, image.height).map_err(bad)?;
-            write_file(&path, &png)?;
+            // The tile is shrunk from the frame without its dial; the tile gets its own.
             let thumb = match &layout {
                 Some(l) => {
-                    Some(l.thumbnail(&rgb, image.width, image.height).ok_or_else(|| bad("cannot shrink".into()))?)
+                    let mut t =
+                        l.thumbnail(&rgb, image.width, image.height).ok_or_else(|| bad("cannot shrink".into()))?;
+                    if let Some(o) = &tile_overlay {
+                        let (tw, th) = (t.width() as usize, t.height() as usize);
+                        o.draw_frame(&mut t, tw, th, dial, k, options.frames);
+                    }
+                    Some(t)
                 }
                 None => None,
             };
+            if let Some(o) = &options.overlay {
+                o.draw_frame(&mut rgb, image.width, image.height, dial, k, options.frames);
+            }
+            let png = encode_png(&rgb, image.width, image.height).map_err(bad)?;
+            write_file(&path, &png)?;
             drop(rgb);
             progress();
             Ok((path, thumb))
