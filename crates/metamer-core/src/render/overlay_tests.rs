@@ -176,3 +176,16 @@ fn light_colour_of_a_white_light_is_white_and_of_a_dark_light_grey() {
     assert!(c.iter().all(|&v| v > 240), "{c:?}");
     assert_eq!(light_colour(&col, &Spectrum::flat(0.0)), [128, 128, 128]);
 }
+
+#[test]
+fn a_tile_gets_its_own_legible_dial_not_a_shrunk_one() {
+    // A 48-frame sweep at 384² has tiles of 228 px: the frame's 10.7 px text shrunk would be 6.3 px;
+    // the tile's own layout is limited by the panel's share of the tile (this diamond's four names).
+    let d = diamond();
+    let frame = DialOverlay::new(&d, &Colorimetry::default(), 384, 384);
+    let tile = frame.for_size(228, 228);
+    let (fp, tp) = (frame.geometry.as_ref().unwrap().px, tile.geometry.as_ref().unwrap().px);
+    assert!(tp >= 7.0 && tp > fp * 228.0 / 384.0 + 1.0, "tile text {tp} px, frame text {fp} px");
+    let [_, _, pw, ph] = tile.panel_rect().unwrap();
+    assert!(pw as f32 <= MAX_SHARE * 228.0 && ph as f32 <= MAX_SHARE * 228.0, "{pw}×{ph}");
+}

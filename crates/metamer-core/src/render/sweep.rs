@@ -517,6 +517,34 @@ mod tests {
     }
 
     #[test]
+    fn contact_sheet_tiles_get_the_dial_drawn_at_their_size() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (240usize, 240usize);
+        let img = ChannelImage { width: w, height: h, channels: 3, data: vec![0.5; w * h * 3] };
+        let sheet_path = dir.path().join("sheet.png");
+        let overlay = super::super::overlay::DialOverlay::new(&dial(), &Colorimetry::default(), w, h);
+        let opts = SweepOptions {
+            contact_sheet: Some(sheet_path.clone()),
+            overlay: Some(overlay.clone()),
+            ..SweepOptions::new(2, 1.0, dir.path().join("frames"))
+        };
+        write_sweep(&img, &rgb_model(), &dial(), &opts, &|| {}).unwrap();
+        let sheet = image::open(&sheet_path).unwrap().to_rgb8();
+        let layout = SheetLayout::new(2, w, h);
+        let tile = overlay.for_size(layout.tile_w as usize, layout.tile_h as usize);
+        let [x, y, pw, ph] = tile.panel_rect().unwrap();
+        // The tile's panel: opaque dark in its middle band, on a mid-grey frame.
+        let dark = (0..pw)
+            .filter(|dx| sheet.get_pixel(layout.gap + (x + dx) as u32, layout.gap + (y + ph / 2) as u32).0[0] < 40)
+            .count();
+        assert!(dark > pw / 3, "{dark} of {pw} panel pixels dark");
+        // The frame itself carries the dial too.
+        let frame = image::open(dir.path().join("frames").join(frame_name(0))).unwrap().to_rgb8();
+        let [fx, fy, _, _] = overlay.panel_rect().unwrap();
+        assert!(frame.get_pixel(fx as u32 + 3, fy as u32 + 3 + 10).0[0] < 40);
+    }
+
+    #[test]
     fn gamma_lifts_dark_values_only() {
         let (plain, lifted) = (SrgbLut::new(), SrgbLut::with_gamma(2.0));
         assert!(lifted.encode(0.05) > plain.encode(0.05));
