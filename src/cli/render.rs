@@ -30,7 +30,8 @@ Scene [dial] keys:
     off = [\"b\"]  on = [\"b\"]              lights switched off / on from this keyframe on
     move = { c = [0.5, 0.9] }            vertices moved from this keyframe on
     intensity = { a = 0.5 }              intensities from this keyframe on
-The dial is drawn in the lower right of every frame (--no-dial turns it off); --keyframes renders
+The dial is drawn into every frame, on an opaque panel in the corner where it hides least of the
+volume, one corner per sweep (--dial-corner fixes it, --no-dial turns it off); --keyframes renders
 exactly one frame per keyframe.
 
 The scene format is docs/formats/scene.md (dial keyframes: docs/formats/dial.md). A scene's volume is
