@@ -9,7 +9,7 @@ $METAMER_DATA/volumes/engine.nhdr, or pass the .nhdr path). Run from the crate r
     cargo run --release -- render volumes/engine.toml --frames 3 --frame-range 1..2 --size 1024 \\
         --no-dial --shading headlight -o target/vtk_compare
     python3 benches/vtk_compare.py --metamer target/vtk_compare/frame_0001.png \\
-        -o target/vtk_compare/vtk_engine.png --pair docs/figures/vtk_pair.png
+        -o target/vtk_compare/vtk_engine.png --pair docs/figures/vtk_compare.png
 
 Frame 1 of 3 is the dial's "split" light, where the block, the inner parts and the smoke differ.
 
