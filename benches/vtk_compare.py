@@ -1,23 +1,48 @@
 #!/usr/bin/env python3
-"""Render the GE engine CT with VTK's CPU raycaster (vtkFixedPointVolumeRayCastMapper) on the view of
-volumes/engine.toml, for a side-by-side look at sampling artefacts and a timing against `metamer render`.
+"""Render the GE engine CT with VTK's CPU raycaster (vtkFixedPointVolumeRayCastMapper) on exactly the
+view of `metamer render volumes/engine.toml`, time it, and (given metamer's frame) check that the two
+frame the engine alike and write a side-by-side crop pair at 1:1.
 
-Not a test. Needs `pip install vtk` and ../shared/volumes/engine.nhdr (or pass the .nhdr path):
+Not a test. Needs `pip install vtk numpy pillow` and ../shared/volumes/engine.nhdr (or
+$METAMER_DATA/volumes/engine.nhdr, or pass the .nhdr path). Run from the crate root:
 
-    python3 benches/vtk_compare.py [ENGINE.nhdr] [--size 1024] [-o vtk_engine.png]
-    cargo run --release -- render volumes/engine.toml --frames 1 --size 1024 -o /tmp/ours
+    cargo run --release -- render volumes/engine.toml --frames 3 --frame-range 1..2 --size 1024 \\
+        --no-dial --shading headlight -o target/vtk_compare
+    python3 benches/vtk_compare.py --metamer target/vtk_compare/frame_0001.png \\
+        -o target/vtk_compare/vtk_engine.png --pair docs/figures/vtk_compare.png
 
-Colours are fixed RGB (VTK has no post-illumination): the three materials of engine.toml get their
-colours under the dial's "split" light roughly; only geometry, sampling and shading are compared.
+Frame 1 of 3 is the dial's "split" light, where the block, the inner parts and the smoke differ.
+
+The view is metamer's (crates/metamer-core/src/render/raycast/view.rs): an orthographic camera at the
+scene's azimuth 30° and elevation 20°, framing the bounding box of the voxels that belong to a material
+(classify.rs `material_bounds`: values 20–95, 100–175, 185–255), grown by half a voxel, centred on the
+projection of its eight corners, the larger projected side plus 4 % filling the frame. Here that box
+is computed with numpy and set as VTK's focal point, direction, view-up and parallel scale (no
+ResetCamera, which would refit the whole grid).
+
+Colours are fixed RGB (VTK has no post-illumination): the materials get roughly their colours under
+"split" (block green, inner parts amber, smoke white); opacities are engine.toml's per voxel step
+(VTK's scalar opacity unit distance 1 voxel, sample distance 1 voxel as metamer's `step`), shading
+ambient 0.3 + diffuse 0.7 from a headlight (metamer's `--shading headlight`). Only geometry, sampling
+and shading are compared.
 """
 import argparse
 import gzip
 import os
+import statistics
 import time
 
+import numpy as np
 import vtk
 from vtk.util import numpy_support
-import numpy as np
+
+# engine.toml: (value range, opacity per voxel step, colour under "split").
+MATERIALS = [
+    ((20, 95), 0.03, (0.9, 0.9, 0.9)),
+    ((100, 175), 0.1, (0.35, 0.6, 0.3)),
+    ((185, 255), 0.7, (0.95, 0.7, 0.25)),
+]
+AZIMUTH, ELEVATION = 30.0, 20.0
 
 
 def read_nhdr(path):
@@ -30,35 +55,104 @@ def read_nhdr(path):
     dims = [int(x) for x in header["sizes"].split()]
     spacing = [float(x) for x in header.get("spacings", "1 1 1").split()]
     data_file = os.path.join(os.path.dirname(path), header["data file"])
-    raw = gzip.open(data_file).read() if header.get("encoding") == "gzip" else open(data_file, "rb").read()
+    with (gzip.open(data_file) if header.get("encoding") == "gzip" else open(data_file, "rb")) as f:
+        raw = f.read()
     return np.frombuffer(raw, dtype=np.uint8), dims, spacing
+
+
+def material_bounds(data, dims):
+    """Index bounds (lo, hi), inclusive, of the voxels in some material's range (x fastest in `data`)."""
+    v = data.reshape(dims[2], dims[1], dims[0])
+    mask = np.zeros(v.shape, dtype=bool)
+    for (lo, hi), _, _ in MATERIALS:
+        mask |= (v >= lo) & (v <= hi)
+    lo, hi = [], []
+    for axis in (2, 1, 0):  # x, y, z: reduce over the other two numpy axes
+        any_ = mask.any(axis=tuple(a for a in range(3) if a != axis))
+        idx = np.nonzero(any_)[0]
+        lo.append(int(idx[0]))
+        hi.append(int(idx[-1]))
+    return lo, hi
+
+
+def metamer_view(dims, spacing, lo, hi, aspect=1.0, zoom=1.0):
+    """metamer's orthographic camera (view.rs, fit to the materials): focal point, eye direction,
+    view-up and the image's vertical half extent (VTK's parallel scale)."""
+    az, el = np.radians(AZIMUTH), np.radians(ELEVATION)
+    eye = np.array([np.sin(az) * np.cos(el), -np.cos(az) * np.cos(el), np.sin(el)])
+    view = -eye
+    world_up = np.array([0.0, 1.0, 0.0]) if abs(np.cos(el)) < 1e-6 else np.array([0.0, 0.0, 1.0])
+    right = np.cross(view, world_up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, view)
+    sp = np.array(spacing)
+    lo_w = np.maximum(np.array(lo) - 0.5, 0.0) * sp
+    hi_w = np.minimum(np.array(hi) + 0.5, np.array(dims) - 1.0) * sp
+    box_centre = 0.5 * (lo_w + hi_w)
+    corners = np.array([[hi_w[a] if c >> a & 1 else lo_w[a] for a in range(3)] for c in range(8)]) - box_centre
+    r, u = corners @ right, corners @ up
+    centre = box_centre + 0.5 * (r.min() + r.max()) * right + 0.5 * (u.min() + u.max()) * up
+    half = max(0.5 * (r.max() - r.min()), 0.5 * (u.max() - u.min()) / aspect, sp.min()) * 1.04 / zoom
+    # metamer's vertical half extent is half · height / width.
+    return centre, eye, up, half * aspect
+
+
+def covered_box(rgb, threshold):
+    """Bounding box (x0, y0, x1, y1), end exclusive, of pixels whose largest channel reaches `threshold`."""
+    ys, xs = np.nonzero(rgb[..., :3].max(axis=-1) >= threshold)
+    return (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1) if len(xs) else None
+
+
+def write_pair(ours, theirs, box, path):
+    """The same 1:1 crop of both frames side by side, labelled, as one PNG."""
+    from PIL import Image, ImageDraw
+
+    x0, y0, x1, y1 = box
+    a = Image.fromarray(ours[y0:y1, x0:x1, :3])
+    b = Image.fromarray(theirs[y0:y1, x0:x1, :3])
+    band = 18
+    pair = Image.new("RGB", (a.width * 2 + 6, a.height + band), (16, 16, 16))
+    pair.paste(a, (0, band))
+    pair.paste(b, (a.width + 6, band))
+    d = ImageDraw.Draw(pair)
+    d.text((4, 3), "metamer", fill=(230, 230, 230))
+    d.text((a.width + 10, 3), f"VTK {vtk.vtkVersion.GetVTKVersion()} fixed-point raycast", fill=(230, 230, 230))
+    pair.save(path, optimize=True)
 
 
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     ap = argparse.ArgumentParser()
-    ap.add_argument("nhdr", nargs="?", default=os.path.join(here, "..", "..", "shared", "volumes", "engine.nhdr"))
+    data_dir = os.environ.get("METAMER_DATA") or os.path.join(here, "..", "..", "shared")
+    ap.add_argument("nhdr", nargs="?", default=os.path.join(data_dir, "volumes", "engine.nhdr"))
     ap.add_argument("--size", type=int, default=1024)
+    ap.add_argument("--repeat", type=int, default=5, help="timed renders after one warm-up (median reported)")
     ap.add_argument("-o", "--output", default="vtk_engine.png")
+    ap.add_argument("--metamer", help="metamer's frame of the same view: compare the covered-pixel boxes")
+    ap.add_argument("--pair", help="write a side-by-side 1:1 crop of both frames here (needs --metamer)")
+    ap.add_argument("--crop", default="0.80,0.45,256", help="crop centre (fractions of the frame) and side")
     args = ap.parse_args()
     data, dims, spacing = read_nhdr(args.nhdr)
+    lo, hi = material_bounds(data, dims)
+    centre, eye, up, scale = metamer_view(dims, spacing, lo, hi)
+    print(f"material bounds {lo}..{hi}; focal point {np.round(centre, 2).tolist()}, parallel scale {scale:.2f}")
+
     img = vtk.vtkImageData()
     img.SetDimensions(*dims)
     img.SetSpacing(*spacing)
     img.GetPointData().SetScalars(numpy_support.numpy_to_vtk(data, deep=True, array_type=vtk.VTK_UNSIGNED_CHAR))
-
-    # engine.toml: smoke 20–95 α 0.03, block 100–175 α 0.1, inner 185–255 α 0.7 (per voxel step).
     opacity = vtk.vtkPiecewiseFunction()
     colour = vtk.vtkColorTransferFunction()
-    for lo, hi, a, rgb in [(20, 95, 0.0, (0, 0, 0)), (100, 175, 0.1, (0.35, 0.6, 0.3)), (185, 255, 0.7, (0.95, 0.7, 0.25))]:
-        opacity.AddPoint(lo - 0.5, 0.0)
-        opacity.AddPoint(lo, a)
-        opacity.AddPoint(hi, a)
-        opacity.AddPoint(hi + 0.5, 0.0)
-        colour.AddRGBPoint(lo, *rgb)
-        colour.AddRGBPoint(hi, *rgb)
+    for (lo_v, hi_v), a, rgb in MATERIALS:
+        opacity.AddPoint(lo_v - 0.5, 0.0)
+        opacity.AddPoint(lo_v, a)
+        opacity.AddPoint(hi_v, a)
+        opacity.AddPoint(hi_v + 0.5, 0.0)
+        colour.AddRGBPoint(lo_v, *rgb)
+        colour.AddRGBPoint(hi_v, *rgb)
     prop = vtk.vtkVolumeProperty()
     prop.SetScalarOpacity(opacity)
+    prop.SetScalarOpacityUnitDistance(min(spacing))
     prop.SetColor(colour)
     prop.SetInterpolationTypeToLinear()
     prop.ShadeOn()
@@ -67,7 +161,7 @@ def main():
     prop.SetSpecular(0.0)
     mapper = vtk.vtkFixedPointVolumeRayCastMapper()
     mapper.SetInputData(img)
-    mapper.SetSampleDistance(1.0)
+    mapper.SetSampleDistance(min(spacing))
     mapper.SetAutoAdjustSampleDistances(0)
     volume = vtk.vtkVolume()
     volume.SetMapper(mapper)
@@ -82,18 +176,17 @@ def main():
     win.SetSize(args.size, args.size)
     cam = ren.GetActiveCamera()
     cam.ParallelProjectionOn()
-    centre = [0.5 * (d - 1) * s for d, s in zip(dims, spacing)]
     cam.SetFocalPoint(*centre)
-    # metamer: azimuth about +z from looking along +y, elevation towards +z.
-    az, el = np.radians(30.0), np.radians(20.0)
-    eye = np.array([np.sin(az) * np.cos(el), -np.cos(az) * np.cos(el), np.sin(el)])
-    cam.SetPosition(*(np.array(centre) + 1000 * eye))
-    cam.SetViewUp(0, 0, 1)
-    ren.ResetCamera()
+    cam.SetPosition(*(centre + 4.0 * np.linalg.norm(np.array(dims) * spacing) * eye))
+    cam.SetViewUp(*up)
+    cam.SetParallelScale(scale)
+    ren.ResetCameraClippingRange()
     win.Render()  # warm-up (builds the mapper's gradient tables)
-    t = time.perf_counter()
-    win.Render()
-    seconds = time.perf_counter() - t
+    times = []
+    for _ in range(max(1, args.repeat)):
+        t = time.perf_counter()
+        win.Render()
+        times.append(time.perf_counter() - t)
     grab = vtk.vtkWindowToImageFilter()
     grab.SetInput(win)
     grab.Update()
@@ -101,7 +194,28 @@ def main():
     writer.SetFileName(args.output)
     writer.SetInputConnection(grab.GetOutputPort())
     writer.Write()
-    print(f"VTK {vtk.vtkVersion.GetVTKVersion()} fixed-point raycast {args.size}²: {seconds * 1e3:.1f} ms -> {args.output}")
+    print(
+        f"VTK {vtk.vtkVersion.GetVTKVersion()} fixed-point raycast {args.size}²: median {statistics.median(times) * 1e3:.1f} ms"
+        f" of {len(times)} (min {min(times) * 1e3:.1f}), load {os.getloadavg()[0]:.1f} -> {args.output}"
+    )
+
+    if args.metamer:
+        from PIL import Image
+
+        ours = np.asarray(Image.open(args.metamer).convert("RGB"))
+        theirs = np.asarray(Image.open(args.output).convert("RGB"))
+        if ours.shape != theirs.shape:
+            raise SystemExit(f"{args.metamer} is {ours.shape[1]}×{ours.shape[0]}, VTK's frame {args.size}²")
+        for threshold in (10, 40):
+            a, b = covered_box(ours, threshold), covered_box(theirs, threshold)
+            diff = max(abs(p - q) for p, q in zip(a, b)) if a and b else None
+            print(f"covered pixels (max channel ≥ {threshold}): metamer box {a}, VTK box {b}, largest difference {diff} px")
+        if args.pair:
+            fx, fy, side = args.crop.split(",")
+            cx, cy, side = int(float(fx) * args.size), int(float(fy) * args.size), int(side)
+            box = (cx - side // 2, cy - side // 2, cx - side // 2 + side, cy - side // 2 + side)
+            write_pair(ours, theirs, box, args.pair)
+            print(f"crop {box} of both -> {args.pair} ({os.path.getsize(args.pair) // 1024} KB)")
 
 
 if __name__ == "__main__":

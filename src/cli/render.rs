@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use crate::colorimetry::Colorimetry;
 use crate::render::dial::Timing;
-use crate::render::overlay::DialOverlay;
+use crate::render::overlay::{Corner, DialOverlay};
 use crate::render::raycast::{Gradient, Shading};
 use crate::render::relight::Mode;
 use crate::render::scene::Scene;
@@ -30,7 +30,8 @@ Scene [dial] keys:
     off = [\"b\"]  on = [\"b\"]              lights switched off / on from this keyframe on
     move = { c = [0.5, 0.9] }            vertices moved from this keyframe on
     intensity = { a = 0.5 }              intensities from this keyframe on
-The dial is drawn in the lower right of every frame (--no-dial turns it off); --keyframes renders
+The dial is drawn into every frame, on an opaque panel in the corner where it hides least of the
+volume, one corner per sweep (--dial-corner fixes it, --no-dial turns it off); --keyframes renders
 exactly one frame per keyframe.
 
 The scene format is docs/formats/scene.md (dial keyframes: docs/formats/dial.md). A scene's volume is
@@ -60,6 +61,10 @@ pub struct Args {
     /// Do not draw the light dial into the frames.
     #[arg(long)]
     pub(crate) no_dial: bool,
+    /// Corner of the light dial: auto (the corner where it hides least of the volume, one per sweep),
+    /// lower-right, lower-left, upper-right or upper-left.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "lower-right", "lower-left", "upper-right", "upper-left"])]
+    pub(crate) dial_corner: String,
     /// Image width and height in pixels.
     #[arg(long, default_value_t = 384)]
     pub(crate) size: usize,
@@ -277,7 +282,16 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         range: range.clone(),
         gamma: args.gamma,
         contact_sheet: args.contact_sheet.clone(),
-        overlay: (!args.no_dial).then(|| DialOverlay::new(&scene.dial, &colorimetry, args.size, args.size)),
+        overlay: (!args.no_dial).then(|| {
+            let mut o = DialOverlay::new(&scene.dial, &colorimetry, args.size, args.size);
+            match Corner::parse(&args.dial_corner) {
+                Some(c) => o.set_corner(c),
+                None => {
+                    o.choose_corner(&view.image);
+                }
+            }
+            o
+        }),
         title: args.title.clone(),
         ..SweepOptions::new(args.frames, exposure, args.output.clone())
     };

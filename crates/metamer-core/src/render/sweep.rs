@@ -16,7 +16,8 @@
 //! - Contact sheet: every frame is shrunk to its tile as soon as it is encoded, so memory holds only
 //!   thumbnails (never the full frames); tiles are labelled with the frame number, dial position and
 //!   light mix, under an optional title. [`SweepOptions::overlay`] is the hook that draws the dial into
-//!   every frame (and so into its tile).
+//!   every frame; each tile gets the same dial drawn at the tile's own size (in the frames' corner), so
+//!   its names stay legible instead of being shrunk with the frame.
 
 use super::RenderError;
 use super::dial::Dial;
@@ -256,25 +257,35 @@ pub fn write_sweep(
     })?;
     let lut = SrgbLut::with_gamma(options.gamma);
     let layout = options.contact_sheet.as_ref().map(|_| SheetLayout::new(range.len(), image.width, image.height));
+    // The dial is drawn into each tile at the tile's size (legible names), in the frames' corner.
+    let tile_overlay =
+        options.overlay.as_ref().zip(layout.as_ref()).map(|(o, l)| o.for_size(l.tile_w as usize, l.tile_h as usize));
     type Written = (PathBuf, Option<RgbImage>);
     let results: Vec<Result<Written, RenderError>> = range
         .clone()
         .into_par_iter()
         .map(|k| {
             let mut rgb = frame_srgb8(image, model, dial, k, options.frames, options.exposure, &lut);
-            if let Some(o) = &options.overlay {
-                o.draw_frame(&mut rgb, image.width, image.height, dial, k, options.frames);
-            }
             let path = options.out_dir.join(frame_name(k));
             let bad = |reason: String| RenderError::Output { path: path.clone(), reason };
-            let png = encode_png(&rgb, image.width, image.height).map_err(bad)?;
-            write_file(&path, &png)?;
+            // The tile is shrunk from the frame without its dial; the tile gets its own.
             let thumb = match &layout {
                 Some(l) => {
-                    Some(l.thumbnail(&rgb, image.width, image.height).ok_or_else(|| bad("cannot shrink".into()))?)
+                    let mut t =
+                        l.thumbnail(&rgb, image.width, image.height).ok_or_else(|| bad("cannot shrink".into()))?;
+                    if let Some(o) = &tile_overlay {
+                        let (tw, th) = (t.width() as usize, t.height() as usize);
+                        o.draw_frame(&mut t, tw, th, dial, k, options.frames);
+                    }
+                    Some(t)
                 }
                 None => None,
             };
+            if let Some(o) = &options.overlay {
+                o.draw_frame(&mut rgb, image.width, image.height, dial, k, options.frames);
+            }
+            let png = encode_png(&rgb, image.width, image.height).map_err(bad)?;
+            write_file(&path, &png)?;
             drop(rgb);
             progress();
             Ok((path, thumb))
@@ -504,6 +515,34 @@ mod tests {
         let lit = |x: u32| sheet.get_pixel(x, row2_y).0[0] > 60;
         assert!(!lit(layout.gap + 2) && lit(layout.gap + cell_w / 2 + 2), "last row not centred");
         assert!(frame_label(&dial(), 2, 5).contains("dim 50% bright 50%"));
+    }
+
+    #[test]
+    fn contact_sheet_tiles_get_the_dial_drawn_at_their_size() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (240usize, 240usize);
+        let img = ChannelImage { width: w, height: h, channels: 3, data: vec![0.5; w * h * 3] };
+        let sheet_path = dir.path().join("sheet.png");
+        let overlay = super::super::overlay::DialOverlay::new(&dial(), &Colorimetry::default(), w, h);
+        let opts = SweepOptions {
+            contact_sheet: Some(sheet_path.clone()),
+            overlay: Some(overlay.clone()),
+            ..SweepOptions::new(2, 1.0, dir.path().join("frames"))
+        };
+        write_sweep(&img, &rgb_model(), &dial(), &opts, &|| {}).unwrap();
+        let sheet = image::open(&sheet_path).unwrap().to_rgb8();
+        let layout = SheetLayout::new(2, w, h);
+        let tile = overlay.for_size(layout.tile_w as usize, layout.tile_h as usize);
+        let [x, y, pw, ph] = tile.panel_rect().unwrap();
+        // The tile's panel: opaque dark in its middle band, on a mid-grey frame.
+        let dark = (0..pw)
+            .filter(|dx| sheet.get_pixel(layout.gap + (x + dx) as u32, layout.gap + (y + ph / 2) as u32).0[0] < 40)
+            .count();
+        assert!(dark > pw / 3, "{dark} of {pw} panel pixels dark");
+        // The frame itself carries the dial too.
+        let frame = image::open(dir.path().join("frames").join(frame_name(0))).unwrap().to_rgb8();
+        let [fx, fy, _, _] = overlay.panel_rect().unwrap();
+        assert!(frame.get_pixel(fx as u32 + 3, fy as u32 + 3 + 10).0[0] < 40);
     }
 
     #[test]

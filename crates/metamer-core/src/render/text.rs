@@ -58,6 +58,32 @@ pub(crate) fn rasterise(font: &FontRef<'_>, text: &str, px: f32) -> Label {
     Label { width, height, coverage }
 }
 
+/// `label` dilated by `r` pixels (each pixel the largest coverage within a disc of radius `r`), `2r`
+/// larger each way: drawn under the text in the background's colour, it keeps lines off the letters.
+pub(crate) fn halo(label: &Label, r: usize) -> Label {
+    let (w, h) = (label.width + 2 * r, label.height + 2 * r);
+    let mut coverage = vec![0u8; w * h];
+    let ri = r as i64;
+    let offsets: Vec<(i64, i64)> = (-ri..=ri)
+        .flat_map(|dy| (-ri..=ri).map(move |dx| (dx, dy)))
+        .filter(|(dx, dy)| dx * dx + dy * dy <= ri * ri + ri)
+        .collect();
+    for ly in 0..label.height {
+        for lx in 0..label.width {
+            let c = label.coverage[ly * label.width + lx];
+            if c == 0 {
+                continue;
+            }
+            for &(dx, dy) in &offsets {
+                let (x, y) = ((lx as i64 + ri + dx) as usize, (ly as i64 + ri + dy) as usize);
+                let i = y * w + x;
+                coverage[i] = coverage[i].max(c);
+            }
+        }
+    }
+    Label { width: w, height: h, coverage }
+}
+
 /// Blend `label` in `colour` (opacity `alpha`) into an interleaved 8-bit buffer of `channels`
 /// (3 or 4; only the first three are written) per pixel, `width × height`, its top-left at `(x0, y0)`;
 /// what falls outside is clipped.
@@ -106,6 +132,22 @@ mod tests {
         assert!(l.coverage.iter().filter(|&&c| c > 128).count() > 20);
         let blank = rasterise(&f, "\u{1b}\u{7}", 13.0);
         assert!(blank.coverage.iter().all(|&c| c == 0), "control characters draw nothing");
+    }
+
+    #[test]
+    fn a_halo_grows_the_ink_and_keeps_it_centred() {
+        let f = font().expect("embedded font");
+        let l = rasterise(&f, "ab", 16.0);
+        let h = halo(&l, 2);
+        assert_eq!((h.width, h.height), (l.width + 4, l.height + 4));
+        let ink = |l: &Label| l.coverage.iter().filter(|&&c| c > 128).count();
+        assert!(ink(&h) > ink(&l) * 3 / 2, "{} vs {}", ink(&h), ink(&l));
+        // Every inked pixel of the label is inked in the halo at the same place (shifted by r).
+        for y in 0..l.height {
+            for x in 0..l.width {
+                assert!(h.coverage[(y + 2) * h.width + x + 2] >= l.coverage[y * l.width + x]);
+            }
+        }
     }
 
     #[test]
