@@ -46,12 +46,14 @@ impl Cell {
 
 /// Length (voxels of the smallest in-plane spacing) a refined step's substeps aim at.
 ///
-/// Refinement: a step whose two ends differ — another material or opacity (value classes), or, for
-/// labels, either end within [`near_band`] of some material's boundary, or a jump in total occupancy —
-/// is composited as [`substeps`] substeps (opacity corrected for their length), so that a surface or
-/// a thin plate inside one step is integrated finely and no longer depends on where the jittered
-/// samples happen to fall (which shows as a fine dither on thin plates seen at an angle). Steps inside
-/// one material or in empty space keep one sample.
+/// Refinement: a step whose two ends differ — value classes: another material, unless both are
+/// thinner than [`Edge::MIN_ALPHA`] per step (smoke), and for a dense material ([`Edge::DENSE`]) the
+/// step after its entry too; labels: either end's cell within [`near_band`] of some material's
+/// boundary, or a jump in total occupancy — is composited as [`substeps`] substeps (opacity corrected
+/// for their length), so that a surface or a thin plate inside one step is integrated finely and no
+/// longer depends on where the jittered samples happen to fall (which shows as a fine dither on thin
+/// plates and dense rims seen at an angle). Steps inside one material or in empty space keep one
+/// sample.
 pub const REFINED_STEP: f64 = 0.25;
 
 /// Substeps per refined step of `step` voxels (of the smallest spacing): about [`REFINED_STEP`]
@@ -81,6 +83,8 @@ struct ValueSample {
     /// Material index + 1 (0 = none).
     material: u8,
     bin: usize,
+    /// The bin's step opacity.
+    alpha: f32,
     b: usize,
     i: [usize; 3],
     strides: [usize; 3],
@@ -103,8 +107,11 @@ struct LabelSample<'a> {
 /// What the refinement test compares at the two ends of a step.
 #[derive(Clone, Copy)]
 struct Edge {
+    /// Labels: within [`near_band`] of some material's boundary.
     near: bool,
+    /// Values: the material (index + 1, 0 = none).
     material: u8,
+    /// Values: the step opacity; labels: the total occupancy.
     level: f32,
 }
 
@@ -112,12 +119,17 @@ impl Edge {
     /// Past an empty brick (or before the first sample).
     const EMPTY: Edge = Edge { near: false, material: 0, level: 0.0 };
 
-    /// Occupancy change that marks a crossing whose ends both lie outside the near band.
+    /// Labels: an occupancy change that marks a crossing whose ends both lie outside the near band.
     const JUMP: f32 = 0.02;
 
-    fn differs(&self, other: &Edge) -> bool {
-        self.near || other.near || self.material != other.material || (self.level - other.level).abs() > Self::JUMP
-    }
+    /// Values: a boundary between materials whose step opacities are all below this is not refined
+    /// (thin smoke): the dither it could show is at most that share of a pixel's weight.
+    const MIN_ALPHA: f32 = 0.05;
+
+    /// Values: a material this dense (step opacity) absorbs most of a ray within two steps of its surface, so
+    /// the step after a refined entry is refined too: the weight is spread over substeps instead of
+    /// sitting in the one or two whole-step samples whose place the jitter decides.
+    const DENSE: f32 = 0.3;
 }
 
 /// One way of reconstructing samples: what a sample holds before compositing, how it is taken and
@@ -128,6 +140,10 @@ trait Sampler<'a> {
     /// The sample at index-space point `p`, or the field brick no material reaches (label mode).
     fn sample(ctx: &RayContext<'a>, p: [f64; 3]) -> Result<Self::Sample, [usize; 3]>;
     fn edge(s: &Self::Sample) -> Edge;
+    /// Whether the step between samples with these edges is refined.
+    fn refine(a: &Edge, b: &Edge) -> bool;
+    /// Whether the step after a refined one ending at this edge is refined too ([`Edge::DENSE`]).
+    fn dense(e: &Edge) -> bool;
     /// Composite a sample standing for a whole step (`sub` false) or a substep: adds its weights,
     /// returns the opacity absorbed.
     fn composite(ctx: &RayContext<'a>, s: &Self::Sample, sub: bool, transmittance: f32, out: &mut [f32]) -> f32;
@@ -146,7 +162,15 @@ impl<'a> Sampler<'a> for Values {
     }
     #[inline(always)]
     fn edge(s: &ValueSample) -> Edge {
-        Edge { near: false, material: s.material, level: 0.0 }
+        Edge { near: false, material: s.material, level: s.alpha }
+    }
+    #[inline(always)]
+    fn refine(a: &Edge, b: &Edge) -> bool {
+        a.material != b.material && a.level.max(b.level) >= Edge::MIN_ALPHA
+    }
+    #[inline(always)]
+    fn dense(e: &Edge) -> bool {
+        e.level >= Edge::DENSE
     }
     #[inline(always)]
     fn composite(ctx: &RayContext<'a>, s: &ValueSample, sub: bool, transmittance: f32, out: &mut [f32]) -> f32 {
@@ -164,6 +188,15 @@ impl<'a> Sampler<'a> for Labels {
     #[inline(always)]
     fn edge(s: &LabelSample<'a>) -> Edge {
         Edge { near: s.near, material: 0, level: s.total }
+    }
+    #[inline(always)]
+    fn refine(a: &Edge, b: &Edge) -> bool {
+        a.near || b.near || (a.level - b.level).abs() > Edge::JUMP
+    }
+    /// The near band already spans the steps around a boundary.
+    #[inline(always)]
+    fn dense(_: &Edge) -> bool {
+        false
     }
     #[inline(always)]
     fn composite(ctx: &RayContext<'a>, s: &LabelSample<'a>, sub: bool, transmittance: f32, out: &mut [f32]) -> f32 {
@@ -284,7 +317,7 @@ impl<'a> RayContext<'a> {
         };
         let bin = self.classifier.bin(v);
         let material = self.classifier.material[bin];
-        ValueSample { material, bin, b, i, strides, f, cell }
+        ValueSample { material, bin, alpha: self.classifier.alpha[bin], b, i, strides, f, cell }
     }
 
     /// Composite a value sample with opacities `alpha` (per bin, for the step it stands for): adds its
@@ -440,6 +473,8 @@ impl<'a> RayContext<'a> {
         let mut transmittance = 1.0f32;
         let threshold = self.options.termination_transmittance as f32;
         let mut prev = Edge::EMPTY;
+        // The step after a refined entry into a dense material is refined as well.
+        let mut carry = false;
         while k + jitter <= t1 {
             let t = k + jitter;
             let p = [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
@@ -448,6 +483,7 @@ impl<'a> RayContext<'a> {
                 let bi = b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2]);
                 if empty[bi] {
                     prev = Edge::EMPTY;
+                    carry = false;
                     let next = brick_exit(origin, dir, b, bm.size, jitter, k);
                     stats.skipped += (next - k) as u64;
                     k = next;
@@ -460,6 +496,7 @@ impl<'a> RayContext<'a> {
                 // No material reaches this field brick: with skipping on, jump over it.
                 Err(b) => {
                     prev = Edge::EMPTY;
+                    carry = false;
                     if self.bricks.is_some() {
                         let next = brick_exit(origin, dir, b, FIELD_BRICK, jitter, k);
                         stats.skipped += (next - k - 1.0) as u64;
@@ -471,7 +508,9 @@ impl<'a> RayContext<'a> {
                 }
             };
             let edge = K::edge(&sample);
-            let refine = self.substeps > 1 && prev.differs(&edge);
+            let crossing = self.substeps > 1 && K::refine(&prev, &edge);
+            let refine = crossing || carry;
+            carry = crossing && K::dense(&edge);
             prev = edge;
             if refine {
                 // The step from the previous sample to this one crosses a boundary: composite it as

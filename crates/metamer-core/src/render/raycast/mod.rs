@@ -16,9 +16,10 @@
 //!   fixed-phase sampling into fine, unstructured noise that supersampling (`--ss 2`) averages away.
 //! - **opacity correction**: a material's opacity is given per voxel step; a step of `s` voxels uses
 //!   `1 − (1 − α)^s`, so changing the step does not change how dense a material looks.
-//! - **boundary refinement** (`refine`): a step whose two ends differ (another material, or for labels
-//!   a boundary within reach of either end's cell) is composited as substeps of [`REFINED_STEP`]
-//!   voxels, opacity corrected for their length. A surface or a plate about a step thick is then
+//! - **boundary refinement** (`refine`): a step whose two ends differ (another material, not both as
+//!   thin as smoke, and the step after entering a dense one; for labels a boundary within reach of
+//!   either end's cell) is composited as substeps of [`REFINED_STEP`] voxels, opacity corrected for
+//!   their length. A surface or a plate about a step thick is then
 //!   integrated finely wherever the jittered samples fall, instead of getting 0, 1 or 2 samples by the
 //!   pixel's jitter (a fine dither on thin plates and rims); steps inside one material or in empty
 //!   space keep one sample.

@@ -346,7 +346,7 @@ fn refinement_keeps_a_thick_material_as_dense_as_whole_steps_do() {
     let base =
         RaycastOptions { width: 32, height: 32, shading: Shading::Unshaded, jitter: false, ..Default::default() };
     let (a, sa) = raycast(&vol, &mats, None, &cam, &base);
-    let (b, sb) = raycast(&vol, &mats, None, &cam, &RaycastOptions { refine: false, ..base });
+    let (b, sb) = raycast(&vol, &mats, None, &cam, &RaycastOptions { refine: false, ..base.clone() });
     assert!(sa.samples > sb.samples, "refinement must add samples at the faces: {} vs {}", sa.samples, sb.samples);
     let centre = 16 * 32 + 16;
     // 16 voxels of α = 0.1 per voxel: 1 − 0.9^16 ≈ 0.815, whichever way the steps are cut.
@@ -354,6 +354,11 @@ fn refinement_keeps_a_thick_material_as_dense_as_whole_steps_do() {
     for (name, w) in [("refined", &a), ("whole steps", &b)] {
         assert!((w.data[centre] - want).abs() < 0.03, "{name}: {} vs {want}", w.data[centre]);
     }
+    // A smoke-thin material (step opacity below the refinement's minimum) is never refined.
+    let smoke = [MaterialClass::new([50.0, 150.0], 0.03)];
+    let (_, sa) = raycast(&vol, &smoke, None, &cam, &base);
+    let (_, sb) = raycast(&vol, &smoke, None, &cam, &RaycastOptions { refine: false, ..base });
+    assert_eq!(sa.samples, sb.samples, "smoke boundaries must not be refined");
 }
 
 #[test]
