@@ -173,7 +173,13 @@ impl SrgbLut {
 #[inline(always)]
 pub(crate) fn fit_to_white(rgb: [f32; 3]) -> [f32; 3] {
     let m = rgb[0].max(rgb[1]).max(rgb[2]);
-    if m > 1.0 { rgb.map(|c| c / m) } else { rgb }
+    // Rare in an exposed frame, so the branch is well predicted and the common pixel pays two maxima.
+    if m > 1.0 {
+        let k = 1.0 / m;
+        [rgb[0] * k, rgb[1] * k, rgb[2] * k]
+    } else {
+        rgb
+    }
 }
 
 /// Apply a frame matrix to every pixel: linear RGB, 3 values per pixel.
@@ -203,7 +209,7 @@ fn encode_kernel<const K: usize>(image: &ChannelImage, frame: &FrameMatrix, lut:
     for (r, row) in m.iter_mut().enumerate() {
         row.copy_from_slice(&frame.m[r * K..(r + 1) * K]);
     }
-    for (px, o) in image.data.chunks_exact(K).zip(out.chunks_exact_mut(3)) {
+    let relit = |px: &[f32]| {
         let px: &[f32; K] = px.try_into().unwrap_or(&[0.0; K]);
         let mut rgb = [0f32; 3];
         for (v, row) in rgb.iter_mut().zip(&m) {
@@ -213,7 +219,26 @@ fn encode_kernel<const K: usize>(image: &ChannelImage, frame: &FrameMatrix, lut:
             }
             *v = acc;
         }
-        o.copy_from_slice(&lut.encode_rgb(rgb));
+        rgb
+    };
+    // Runs of pixels are encoded channel by channel while their brightest channel is tracked; the rare
+    // run holding a pixel brighter than white is encoded again with its hue kept (`encode_rgb`). The
+    // common pixel so pays three maxima, not a per-pixel test and reciprocal.
+    const RUN: usize = 64;
+    for (run, o_run) in image.data.chunks(K * RUN).zip(out.chunks_mut(3 * RUN)) {
+        let mut hi = 0f32;
+        for (px, o) in run.chunks_exact(K).zip(o_run.chunks_exact_mut(3)) {
+            let rgb = relit(px);
+            hi = hi.max(rgb[0]).max(rgb[1]).max(rgb[2]);
+            o[0] = lut.encode(rgb[0]);
+            o[1] = lut.encode(rgb[1]);
+            o[2] = lut.encode(rgb[2]);
+        }
+        if hi > 1.0 {
+            for (px, o) in run.chunks_exact(K).zip(o_run.chunks_exact_mut(3)) {
+                o.copy_from_slice(&lut.encode_rgb(relit(px)));
+            }
+        }
     }
 }
 
