@@ -15,9 +15,9 @@ Frame 1 of 3 is the dial's "split" light, where the block, the inner parts and t
 
 The view is metamer's (crates/metamer-core/src/render/raycast/view.rs): an orthographic camera at the
 scene's azimuth 30° and elevation 20°, framing the bounding box of the voxels that belong to a material
-(classify.rs `material_bounds`: values 20–95, 100–175, 185–255), grown by half a voxel, centred on the
-projection of its eight corners, the larger projected side plus 4 % filling the frame. Here that box
-is computed with numpy and set as VTK's focal point, direction, view-up and parallel scale (no
+(classify.rs `MaterialRows`: values 20–95, 100–175, 185–255) by their own projection — each run of
+them along x projected at its two ends, grown by half a voxel — centred, the larger projected side
+plus 4 % filling the frame. Here that view is computed with numpy and set as VTK's focal point, direction, view-up and parallel scale (no
 ResetCamera, which would refit the whole grid).
 
 Colours are fixed RGB (VTK has no post-illumination): the materials get roughly their colours under
@@ -60,12 +60,17 @@ def read_nhdr(path):
     return np.frombuffer(raw, dtype=np.uint8), dims, spacing
 
 
-def material_bounds(data, dims):
-    """Index bounds (lo, hi), inclusive, of the voxels in some material's range (x fastest in `data`)."""
+def material_mask(data, dims):
+    """Per voxel (numpy order z, y, x): whether its value lies in some material's range."""
     v = data.reshape(dims[2], dims[1], dims[0])
     mask = np.zeros(v.shape, dtype=bool)
     for (lo, hi), _, _ in MATERIALS:
         mask |= (v >= lo) & (v <= hi)
+    return mask
+
+
+def material_bounds(mask):
+    """Index bounds (lo, hi) as (x, y, z), inclusive, of the voxels in some material's range."""
     lo, hi = [], []
     for axis in (2, 1, 0):  # x, y, z: reduce over the other two numpy axes
         any_ = mask.any(axis=tuple(a for a in range(3) if a != axis))
@@ -75,9 +80,11 @@ def material_bounds(data, dims):
     return lo, hi
 
 
-def metamer_view(dims, spacing, lo, hi, aspect=1.0, zoom=1.0):
+def metamer_view(dims, spacing, mask, aspect=1.0, zoom=1.0):
     """metamer's orthographic camera (view.rs, fit to the materials): focal point, eye direction,
-    view-up and the image's vertical half extent (VTK's parallel scale)."""
+    view-up and the image's vertical half extent (VTK's parallel scale). As in view.rs, the framed
+    voxels are projected by their runs along x (each row's first and last material voxel), each grown
+    by a voxel's half width seen along right and up."""
     az, el = np.radians(AZIMUTH), np.radians(ELEVATION)
     eye = np.array([np.sin(az) * np.cos(el), -np.cos(az) * np.cos(el), np.sin(el)])
     view = -eye
@@ -86,15 +93,22 @@ def metamer_view(dims, spacing, lo, hi, aspect=1.0, zoom=1.0):
     right /= np.linalg.norm(right)
     up = np.cross(right, view)
     sp = np.array(spacing)
+    lo, hi = material_bounds(mask)
     lo_w = np.maximum(np.array(lo) - 0.5, 0.0) * sp
     hi_w = np.minimum(np.array(hi) + 0.5, np.array(dims) - 1.0) * sp
     box_centre = 0.5 * (lo_w + hi_w)
-    corners = np.array([[hi_w[a] if c >> a & 1 else lo_w[a] for a in range(3)] for c in range(8)]) - box_centre
-    r, u = corners @ right, corners @ up
-    centre = box_centre + 0.5 * (r.min() + r.max()) * right + 0.5 * (u.min() + u.max()) * up
-    half = max(0.5 * (r.max() - r.min()), 0.5 * (u.max() - u.min()) / aspect, sp.min()) * 1.04 / zoom
+    rows = mask.any(axis=2)  # (z, y)
+    zs, ys = np.nonzero(rows)
+    first = mask[zs, ys].argmax(axis=1)
+    last = dims[0] - 1 - mask[zs, ys][:, ::-1].argmax(axis=1)
+    ends = np.concatenate([np.stack([first, ys, zs], 1), np.stack([last, ys, zs], 1)]) * sp - box_centre
+    r, u = ends @ right, ends @ up
+    hr, hu = 0.5 * np.abs(right * sp).sum(), 0.5 * np.abs(up * sp).sum()
+    r0, r1, u0, u1 = r.min() - hr, r.max() + hr, u.min() - hu, u.max() + hu
+    centre = box_centre + 0.5 * (r0 + r1) * right + 0.5 * (u0 + u1) * up
+    half = max(0.5 * (r1 - r0), 0.5 * (u1 - u0) / aspect, sp.min()) * 1.04 / zoom
     # metamer's vertical half extent is half · height / width.
-    return centre, eye, up, half * aspect
+    return centre, eye, up, half * aspect, (lo, hi)
 
 
 def covered_box(rgb, threshold):
@@ -133,8 +147,7 @@ def main():
     ap.add_argument("--crop", default="0.80,0.45,256", help="crop centre (fractions of the frame) and side")
     args = ap.parse_args()
     data, dims, spacing = read_nhdr(args.nhdr)
-    lo, hi = material_bounds(data, dims)
-    centre, eye, up, scale = metamer_view(dims, spacing, lo, hi)
+    centre, eye, up, scale, (lo, hi) = metamer_view(dims, spacing, material_mask(data, dims))
     print(f"material bounds {lo}..{hi}; focal point {np.round(centre, 2).tolist()}, parallel scale {scale:.2f}")
 
     img = vtk.vtkImageData()
