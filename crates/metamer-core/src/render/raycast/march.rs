@@ -423,6 +423,20 @@ impl<'a> RayContext<'a> {
         absorbed
     }
 
+    /// Attenuate `transmittance` by the opacity a sample absorbed; true when early termination stops the
+    /// ray there.
+    #[inline(always)]
+    fn attenuate(&self, absorbed: f32, transmittance: &mut f32, stats: &mut RaycastStats) -> bool {
+        if absorbed > 0.0 {
+            *transmittance *= 1.0 - absorbed;
+            if self.options.early_termination && *transmittance < self.options.termination_transmittance as f32 {
+                stats.terminated += 1;
+                return true;
+            }
+        }
+        false
+    }
+
     /// March the ray of pixel (px, py), accumulating material weights into `out`.
     pub(crate) fn trace(&self, px: usize, py: usize, out: &mut [f32], stats: &mut RaycastStats) {
         match self.options.interpolation {
@@ -471,7 +485,6 @@ impl<'a> RayContext<'a> {
         let jitter = if self.options.jitter { interleaved_gradient_noise(px, py) } else { 0.0 };
         let mut k = (t0 - jitter).ceil();
         let mut transmittance = 1.0f32;
-        let threshold = self.options.termination_transmittance as f32;
         let mut prev = Edge::EMPTY;
         // The step after a refined entry into a dense material is refined as well.
         let mut carry = false;
@@ -524,23 +537,13 @@ impl<'a> RayContext<'a> {
                     let pj = [origin[0] + tj * dir[0], origin[1] + tj * dir[1], origin[2] + tj * dir[2]];
                     stats.samples += 1;
                     let Ok(sj) = K::sample(self, pj) else { continue };
-                    let absorbed = K::composite(self, &sj, true, transmittance, out);
-                    if absorbed > 0.0 {
-                        transmittance *= 1.0 - absorbed;
-                        if self.options.early_termination && transmittance < threshold {
-                            stats.terminated += 1;
-                            return;
-                        }
+                    if self.attenuate(K::composite(self, &sj, true, transmittance, out), &mut transmittance, stats) {
+                        return;
                     }
                 }
             }
-            let absorbed = K::composite(self, &sample, refine, transmittance, out);
-            if absorbed > 0.0 {
-                transmittance *= 1.0 - absorbed;
-                if self.options.early_termination && transmittance < threshold {
-                    stats.terminated += 1;
-                    break;
-                }
+            if self.attenuate(K::composite(self, &sample, refine, transmittance, out), &mut transmittance, stats) {
+                break;
             }
             k += 1.0;
         }
