@@ -12,11 +12,11 @@ cd "$(dirname "$0")/../.."
 if [ -z "${METAMER:-}" ]; then cargo build --release --quiet; fi
 bin=${METAMER:-target/release/metamer}
 out=target/gallery
-$bin render volumes/engine.toml --frames 12 --size 768 --ss 2 -o "$out/engine" \
+$bin render volumes/engine.toml --frames 12 --size 1024 --ss 2 -o "$out/engine" \
     --contact-sheet docs/gallery/engine_sheet.png --title "GE engine CT (seed Fig. 6): hide → split → glow"
 cp "$out/engine/frame_0006.png" docs/gallery/engine_frame.png
-$bin render volumes/frog.toml --frames 12 --size 768 --ss 2 -o "$out/frog" \
+$bin render volumes/frog.toml --frames 12 --size 1024 --ss 2 -o "$out/frog" \
     --contact-sheet docs/gallery/frog_sheet.png --title "Whole Frog tissue labels (seed Fig. 7): daylight → reveal → fluorescent"
 cp "$out/frog/frame_0006.png" docs/gallery/frog_frame.png
-$bin render --frames 12 --size 768 --ss 2 -o "$out/builtin" \
+$bin render --frames 12 --size 1024 --ss 2 -o "$out/builtin" \
     --contact-sheet docs/gallery/builtin_sheet.png --title "embedded default (generated engine-like volume)"
