@@ -49,8 +49,9 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 impl View {
-    /// `reach`: how far (voxels) past the framed voxels a sample can still see them (1 for trilinear
-    /// cells; more where a filtered field spreads them).
+    /// `framed`: the voxels to fit, given when the camera fits the materials (None frames the whole
+    /// grid). `reach`: how far (voxels) past the framed voxels a sample can still see them (1 for
+    /// trilinear cells; more where a filtered field spreads them).
     pub(super) fn new(
         volume: &Volume,
         camera: &Camera,
@@ -77,8 +78,7 @@ impl View {
         let d = volume.dims;
         let whole = ([0usize; 3], [0, 1, 2].map(|a| d[a].saturating_sub(1)));
         let zoom = camera.zoom.max(1e-6);
-        let bounds = framed.and_then(MaterialRows::bounds);
-        let (lo, hi) = if camera.fit_materials { bounds.unwrap_or(whole) } else { whole };
+        let (lo, hi) = framed.and_then(MaterialRows::bounds).unwrap_or(whole);
         // The box in world space (voxel centres at index × spacing, grown by the half voxel an
         // interpolated surface reaches past them), its centre and half diagonal.
         let lo_w = [0, 1, 2].map(|a| (lo[a] as f64 - 0.5).max(0.0) * volume.spacing[a]);
@@ -86,8 +86,8 @@ impl View {
         let box_centre = [0, 1, 2].map(|a| 0.5 * (lo_w[a] + hi_w[a]));
         let half_diag = 0.5 * dot([0, 1, 2].map(|a| hi_w[a] - lo_w[a]), [0, 1, 2].map(|a| hi_w[a] - lo_w[a])).sqrt();
         let radius = half_diag.max(1e-9) + 2.0 * min_spacing;
-        let (centre_world, half_extent) = match (camera.fit_materials, framed) {
-            (true, Some(rows)) if !rows.rows.is_empty() => {
+        let (centre_world, half_extent) = match framed {
+            Some(rows) if !rows.rows.is_empty() => {
                 // The framed voxels' extent on the image plane: each row's two ends projected (a
                 // projection is linear along a row), grown by a voxel's half width seen along `right`
                 // and `up`. Centred on that extent, the larger side fitted.
