@@ -8,8 +8,9 @@ use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(v) = nrrd::from_bytes(Path::new("/nonexistent/fuzz.nrrd"), data) {
-        assert_eq!(v.data.len(), v.dims.iter().product::<usize>());
-        assert!(v.data.iter().all(|x| x.is_finite() && *x >= v.value_range[0] && *x <= v.value_range[1]));
+        let values = v.voxels.to_f32_vec();
+        assert_eq!(values.len(), v.dims.iter().product::<usize>());
+        assert!(values.iter().all(|x| x.is_finite() && *x >= v.value_range[0] && *x <= v.value_range[1]));
         assert!(v.spacing.iter().all(|s| s.is_finite() && *s > 0.0));
     }
 });

@@ -517,7 +517,8 @@ fn ray_steps_are_bounded_whatever_the_spacing() {
     let dims = [8, 8, 8];
     let data: Vec<f32> = (0..512).map(|i| (i % 7) as f32).collect();
     for spacing in [[1.0, 1.0, 1e-300], [1e200, 1.0, 1.0], [1e-12, 1e12, 1.0]] {
-        let volume = Volume { dims, spacing, data: data.clone(), value_range: [0.0, 6.0] };
+        let volume =
+            Volume { dims, spacing, voxels: data.clone().into(), value_range: [0.0, 6.0], converted_from: None };
         let materials = vec![MaterialClass::new([1.0, 6.0], 0.01)];
         let options = RaycastOptions { width: 16, height: 16, ..RaycastOptions::default() };
         let (_, stats) =

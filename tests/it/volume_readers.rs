@@ -50,7 +50,7 @@ fn nrrd_attached_raw_big_endian() {
     let vol = Volume::open(&p).unwrap();
     assert_eq!(vol.dims, DIMS);
     assert_eq!(vol.spacing, [0.5, 1.0, 2.0]);
-    assert_eq!(vol.data, v);
+    assert_eq!(vol.voxels.to_f32_vec(), v);
     assert_eq!(vol.at(1, 0, 0), v[1]);
     assert_eq!(vol.at(0, 1, 0), v[5]);
 }
@@ -70,7 +70,7 @@ fn nrrd_detached_gzip_with_skips() {
     std::fs::write(&p, header).unwrap();
     let vol = Volume::open(&p).unwrap();
     assert_eq!(vol.spacing, [2.0, 3.0, 4.0]);
-    assert_eq!(vol.data, v);
+    assert_eq!(vol.voxels.to_f32_vec(), v);
 }
 
 #[test]
@@ -99,7 +99,7 @@ fn nrrd_every_type_and_byte_skip_minus_one() {
         );
         std::fs::write(&p, header).unwrap();
         let vol = Volume::open(&p).unwrap_or_else(|e| panic!("{ty}: {e}"));
-        assert_eq!(vol.data, v, "{ty}");
+        assert_eq!(vol.voxels.to_f32_vec(), v, "{ty}");
     }
 }
 
@@ -110,7 +110,7 @@ fn nrrd_text_encoding() {
     std::fs::write(&p, "NRRD0004\ntype: float\nsizes: 2 2\nencoding: text\n\n1 2\n3.5 -4\n").unwrap();
     let vol = Volume::open(&p).unwrap();
     assert_eq!(vol.dims, [2, 2, 1]);
-    assert_eq!(vol.data, vec![1.0, 2.0, 3.5, -4.0]);
+    assert_eq!(vol.voxels.to_f32_vec(), vec![1.0, 2.0, 3.5, -4.0]);
 }
 
 #[test]
@@ -281,7 +281,7 @@ fn vti_every_layout() {
                     let vol = Volume::open(&p).unwrap_or_else(|e| panic!("{what}: {e}"));
                     assert_eq!(vol.dims, DIMS, "{what}");
                     assert_eq!(vol.spacing, [1.0, 1.0, 1.5], "{what}");
-                    assert_eq!(vol.data, v, "{what}");
+                    assert_eq!(vol.voxels.to_f32_vec(), v, "{what}");
                 }
             }
         }
@@ -326,10 +326,10 @@ fn raw_reader_checks_size() {
     let p = dir.path().join("v.raw");
     std::fs::write(&p, encode_i16(&v, Endian::Big)).unwrap();
     let vol = raw::read(&p, DIMS, ScalarType::I16, Endian::Big, [1.0; 3]).unwrap();
-    assert_eq!(vol.data, v);
+    assert_eq!(vol.voxels.to_f32_vec(), v);
     let pz = dir.path().join("v.raw.gz");
     std::fs::write(&pz, gzip(&encode_i16(&v, Endian::Little))).unwrap();
-    assert_eq!(raw::read(&pz, DIMS, ScalarType::I16, Endian::Little, [1.0; 3]).unwrap().data, v);
+    assert_eq!(raw::read(&pz, DIMS, ScalarType::I16, Endian::Little, [1.0; 3]).unwrap().voxels.to_f32_vec(), v);
     let e = message(raw::read(&p, [5, 4, 4], ScalarType::I16, Endian::Big, [1.0; 3]).unwrap_err());
     assert!(e.contains("v.raw") && e.contains("truncated"), "{e}");
     let e = message(raw::read(&p, [5, 4, 2], ScalarType::I16, Endian::Big, [1.0; 3]).unwrap_err());
@@ -357,9 +357,9 @@ fn shared_volumes_read() {
     assert_eq!(frog.value_range, [0.0, 29.0]);
     // Labels are whole numbers, and many of the 30 tissues occur.
     let mut seen = [false; 30];
-    for v in &frog.data {
+    for v in frog.voxels.to_f32_vec() {
         assert_eq!(v.fract(), 0.0);
-        seen[*v as usize] = true;
+        seen[v as usize] = true;
     }
     assert!(seen.iter().filter(|s| **s).count() >= 20);
 }

@@ -293,11 +293,11 @@ fn huge_sparse_volume_files_are_refused_from_their_size() {
     // The normal files still read.
     std::fs::write(d.join("ok.nhdr"), nrrd_header("ok.raw")).unwrap();
     std::fs::write(d.join("ok.raw"), voxels()).unwrap();
-    assert_eq!(metamer::volume::Volume::open(&d.join("ok.nhdr")).unwrap().data[1], 4.0);
+    assert_eq!(metamer::volume::Volume::open(&d.join("ok.nhdr")).unwrap().voxels.get(1), 4.0);
     let mut attached = format!("{}\n", nrrd_header("x").replace("data file: x\n", "")).into_bytes();
     attached.extend(voxels());
     std::fs::write(d.join("ok.nrrd"), attached).unwrap();
-    assert_eq!(metamer::volume::Volume::open(&d.join("ok.nrrd")).unwrap().data[2], 8.0);
+    assert_eq!(metamer::volume::Volume::open(&d.join("ok.nrrd")).unwrap().voxels.get(2), 8.0);
 }
 
 #[test]

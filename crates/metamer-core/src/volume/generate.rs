@@ -1,7 +1,7 @@
 //! A deterministic generated volume that stands in for the GE engine CT scan, so the renderer's
 //! embedded default needs no data files: an engine block (values ≈ 120–150) with two bores holding
 //! pistons and a crankshaft (the "inner parts", ≈ 215–250), surrounded by noisy low-density "smoke"
-//! (reconstruction noise, ≈ 20–70) in otherwise empty air (0).
+//! (reconstruction noise, ≈ 20–70) in otherwise empty air (0), stored as 8-bit voxels like the scan.
 
 use super::Volume;
 use std::path::Path;
@@ -48,7 +48,7 @@ pub(crate) fn engine_like(size: usize) -> Volume {
                 let shaft =
                     (((v - 0.5).powi(2) + ((w - 0.5) * 0.5 + 0.1).powi(2)).sqrt() - 0.035).max((u - 0.5).abs() - 0.42);
                 val = lerp(val, 235.0 + 0.5 * grain, cover(piston.min(shaft)));
-                data.push(val.round().clamp(0.0, 255.0) as f32);
+                data.push(val.round().clamp(0.0, 255.0) as u8);
             }
         }
     }
@@ -111,6 +111,7 @@ fn value_noise(x: f64, y: f64, z: f64, seed: u64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::volume::Voxels;
 
     #[test]
     fn engine_like_is_deterministic_and_has_all_parts() {
@@ -118,7 +119,8 @@ mod tests {
         let b = engine_like(48);
         assert_eq!(a, b);
         assert_eq!(a.dims, [48, 48, 24]);
-        let count = |r: [f32; 2]| a.data.iter().filter(|v| **v >= r[0] && **v <= r[1]).count();
+        let Voxels::U8(data) = &a.voxels else { panic!("the generated engine is 8-bit") };
+        let count = |r: [f32; 2]| data.iter().filter(|v| f32::from(**v) >= r[0] && f32::from(**v) <= r[1]).count();
         let total = a.len();
         // Each part covers a visible share of the volume (tolerances: loose bounds on the geometry).
         for (name, r, lo, hi) in

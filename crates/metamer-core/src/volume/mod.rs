@@ -2,15 +2,19 @@
 //! image data (`.vti`, base64 inline or appended, zlib-compressed blocks) and raw files with given
 //! dimensions, plus a deterministic generated engine-like volume that needs no data files.
 //!
-//! A [`Volume`] keeps the file's voxel values (converted to `f32`, x fastest) and their value range, so
-//! a scene's material ranges are written in the file's own units (e.g. `0..=255` for 8-bit CT).
+//! A [`Volume`] keeps the file's voxel values in the file's own type ([`Voxels`]: u8, i8, u16, i16, f32;
+//! u32, i32 and f64 converted to f32 once, and said so), x fastest, and their value range, so a scene's
+//! material ranges are written in the file's own units (e.g. `0..=255` for 8-bit CT).
 //! Every reader returns a [`VolumeError`] naming the file and the reason; none panics on bad input.
 
 pub mod data;
 pub mod generate;
 pub mod nrrd;
 pub mod raw;
+pub mod voxels;
 pub mod vti;
+
+pub use voxels::{Buf, Voxel, VoxelVisitor, Voxels};
 
 use std::path::{Path, PathBuf};
 
@@ -66,6 +70,11 @@ impl ScalarType {
         }
     }
 
+    /// True for the types voxels are kept in (u8, i8, u16, i16, f32); the others are converted to f32.
+    pub fn is_kept(self) -> bool {
+        !matches!(self, ScalarType::U32 | ScalarType::I32 | ScalarType::F64)
+    }
+
     /// Parse a type name as NRRD (`unsigned char`, `uint16`, `float`…), VTK (`UInt8`, `Float32`…) or the
     /// short names `u8 i8 u16 i16 u32 i32 f32 f64` write it.
     pub fn parse(name: &str) -> Option<ScalarType> {
@@ -95,32 +104,50 @@ pub enum Endian {
     Big,
 }
 
-/// Decode `count` values of `ty` from `bytes` (exactly `count × size` bytes are used).
-pub(crate) fn decode_values(bytes: &[u8], ty: ScalarType, endian: Endian) -> Vec<f32> {
+/// Decode the values of `ty` in `bytes` (`bytes.len() / size` of them): the kept types into a buffer of
+/// their own type, `u32`, `i32` and `f64` converted to `f32`.
+pub(crate) fn decode_voxels(bytes: &[u8], ty: ScalarType, endian: Endian) -> Voxels {
+    fn kept<T: Voxel>(bytes: &[u8], endian: Endian) -> Buf<T> {
+        let mut buf = Buf::<T>::zeroed(bytes.len() / std::mem::size_of::<T>());
+        let n = buf.len() * std::mem::size_of::<T>();
+        buf.bytes_mut().copy_from_slice(&bytes[..n]);
+        to_native(&mut buf, endian);
+        buf
+    }
     macro_rules! conv {
         ($t:ty, $n:expr) => {
-            bytes
-                .chunks_exact($n)
-                .map(|c| {
-                    let mut a = [0u8; $n];
-                    a.copy_from_slice(c);
-                    (match endian {
-                        Endian::Little => <$t>::from_le_bytes(a),
-                        Endian::Big => <$t>::from_be_bytes(a),
-                    }) as f32
-                })
-                .collect()
+            Voxels::F32(Buf::from(
+                bytes
+                    .chunks_exact($n)
+                    .map(|c| {
+                        let mut a = [0u8; $n];
+                        a.copy_from_slice(c);
+                        (match endian {
+                            Endian::Little => <$t>::from_le_bytes(a),
+                            Endian::Big => <$t>::from_be_bytes(a),
+                        }) as f32
+                    })
+                    .collect::<Vec<f32>>(),
+            ))
         };
     }
     match ty {
-        ScalarType::U8 => bytes.iter().map(|&b| f32::from(b)).collect(),
-        ScalarType::I8 => bytes.iter().map(|&b| f32::from(b as i8)).collect(),
-        ScalarType::U16 => conv!(u16, 2),
-        ScalarType::I16 => conv!(i16, 2),
+        ScalarType::U8 => Voxels::U8(kept(bytes, endian)),
+        ScalarType::I8 => Voxels::I8(kept(bytes, endian)),
+        ScalarType::U16 => Voxels::U16(kept(bytes, endian)),
+        ScalarType::I16 => Voxels::I16(kept(bytes, endian)),
+        ScalarType::F32 => Voxels::F32(kept(bytes, endian)),
         ScalarType::U32 => conv!(u32, 4),
         ScalarType::I32 => conv!(i32, 4),
-        ScalarType::F32 => conv!(f32, 4),
         ScalarType::F64 => conv!(f64, 8),
+    }
+}
+
+/// Turn values read in `endian` byte order into the machine's.
+pub(crate) fn to_native<T: Voxel>(values: &mut [T], endian: Endian) {
+    let native = if cfg!(target_endian = "little") { Endian::Little } else { Endian::Big };
+    if std::mem::size_of::<T>() > 1 && endian != native {
+        values.iter_mut().for_each(|v| *v = v.swap_bytes());
     }
 }
 
@@ -131,21 +158,30 @@ pub struct Volume {
     pub dims: [usize; 3],
     /// Distance between voxel centres along x, y, z (world units, e.g. mm).
     pub spacing: [f64; 3],
-    /// Voxel values in the file's units, x fastest, then y, then z.
-    pub data: Vec<f32>,
-    /// Smallest and largest finite value in `data`.
+    /// Voxel values in the file's units and (for u8, i8, u16, i16, f32) its type, x fastest, then y,
+    /// then z.
+    pub voxels: Voxels,
+    /// Smallest and largest value in `voxels` (all finite).
     pub value_range: [f32; 2],
+    /// The file's voxel type when it was converted to `f32` on reading (u32, i32, f64), else None.
+    pub converted_from: Option<ScalarType>,
 }
 
 impl Volume {
-    /// Build a volume, checking that `data` holds `dims[0]·dims[1]·dims[2]` finite values and the
+    /// Build a volume, checking that `voxels` holds `dims[0]·dims[1]·dims[2]` finite values and the
     /// spacings are positive. `origin` names the source in errors.
-    pub fn new(origin: &Path, dims: [usize; 3], spacing: [f64; 3], data: Vec<f32>) -> Result<Volume, VolumeError> {
+    pub fn new(
+        origin: &Path,
+        dims: [usize; 3],
+        spacing: [f64; 3],
+        voxels: impl Into<Voxels>,
+    ) -> Result<Volume, VolumeError> {
+        let voxels = voxels.into();
         let count = voxel_count(origin, dims)?;
-        if data.len() != count {
+        if voxels.len() != count {
             return Err(VolumeError::invalid(
                 origin,
-                format!("holds {} values but its sizes {:?} need {}", data.len(), dims, count),
+                format!("holds {} values but its sizes {:?} need {}", voxels.len(), dims, count),
             ));
         }
         if let Some(s) = spacing.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
@@ -168,16 +204,16 @@ impl Volume {
                 ),
             ));
         }
-        let mut lo = f32::INFINITY;
-        let mut hi = f32::NEG_INFINITY;
-        for v in &data {
-            if !v.is_finite() {
-                return Err(VolumeError::invalid(origin, "holds a value that is not a finite number"));
-            }
-            lo = lo.min(*v);
-            hi = hi.max(*v);
-        }
-        Ok(Volume { dims, spacing, data, value_range: [lo, hi] })
+        let value_range = crate::with_voxels!(&voxels, d => range_of(d))
+            .ok_or_else(|| VolumeError::invalid(origin, "holds a value that is not a finite number"))?;
+        Ok(Volume { dims, spacing, voxels, value_range, converted_from: None })
+    }
+
+    /// The same volume, noting that its values were converted to `f32` from the file's type `ty` (when
+    /// `ty` is one that is not kept: u32, i32, f64).
+    pub(crate) fn converted(mut self, ty: ScalarType) -> Volume {
+        self.converted_from = (!ty.is_kept()).then_some(ty);
+        self
     }
 
     /// Read a volume, choosing the reader by the file name: `.nhdr`/`.nrrd` → NRRD, `.vti` → VTK image data.
@@ -197,20 +233,42 @@ impl Volume {
     }
 
     /// Number of voxels.
-    #[cfg(test)]
-    pub(crate) fn len(&self) -> usize {
-        self.data.len()
+    pub fn len(&self) -> usize {
+        self.voxels.len()
     }
 
-    /// Value of voxel (x, y, z).
+    /// True when the volume has no voxels (never: [`Volume::new`] refuses that).
+    pub fn is_empty(&self) -> bool {
+        self.voxels.is_empty()
+    }
+
+    /// Value of voxel (x, y, z), in the file's units (one type dispatch per call: see [`Voxels::get`]).
     pub fn at(&self, x: usize, y: usize, z: usize) -> f32 {
-        self.data[x + self.dims[0] * (y + self.dims[1] * z)]
+        self.voxels.get(x + self.dims[0] * (y + self.dims[1] * z))
     }
 
     /// Physical extent (dims − 1) × spacing along each axis.
     pub fn extent(&self) -> [f64; 3] {
         [0, 1, 2].map(|a| (self.dims[a].max(1) - 1) as f64 * self.spacing[a])
     }
+}
+
+/// The smallest and largest value, or None when one is not finite (in parallel over large volumes).
+fn range_of<T: Voxel>(data: &[T]) -> Option<[f32; 2]> {
+    use rayon::prelude::*;
+    let fold = |acc: Option<(T, T)>, v: &T| -> Option<(T, T)> {
+        let (lo, hi) = acc?;
+        v.is_finite().then(|| (if *v < lo { *v } else { lo }, if *v > hi { *v } else { hi }))
+    };
+    let first = *data.first()?;
+    let (lo, hi) = data.par_chunks(1 << 16).map(|c| c.iter().fold(Some((first, first)), fold)).reduce(
+        || Some((first, first)),
+        |a, b| {
+            let ((a0, a1), (b0, b1)) = (a?, b?);
+            Some((if b0 < a0 { b0 } else { a0 }, if b1 > a1 { b1 } else { a1 }))
+        },
+    )?;
+    (first.is_finite()).then_some([lo.to_f32(), hi.to_f32()])
 }
 
 /// `dims[0]·dims[1]·dims[2]`, refusing zero sizes and overflow (and absurd sizes above 2³² voxels).
@@ -239,14 +297,16 @@ mod tests {
 
     #[test]
     fn decode_respects_endianness() {
-        let v = decode_values(&[0x01, 0x02], ScalarType::U16, Endian::Little);
-        assert_eq!(v, vec![513.0]);
-        let v = decode_values(&[0x01, 0x02], ScalarType::U16, Endian::Big);
-        assert_eq!(v, vec![258.0]);
-        let v = decode_values(&(-2.5f64).to_be_bytes(), ScalarType::F64, Endian::Big);
-        assert_eq!(v, vec![-2.5]);
-        let v = decode_values(&[0xff], ScalarType::I8, Endian::Little);
-        assert_eq!(v, vec![-1.0]);
+        let v = decode_voxels(&[0x01, 0x02], ScalarType::U16, Endian::Little);
+        assert_eq!(v, Voxels::from(vec![513u16]));
+        let v = decode_voxels(&[0x01, 0x02], ScalarType::U16, Endian::Big);
+        assert_eq!(v, Voxels::from(vec![258u16]));
+        let v = decode_voxels(&(-2.5f64).to_be_bytes(), ScalarType::F64, Endian::Big);
+        assert_eq!(v, Voxels::from(vec![-2.5f32]));
+        let v = decode_voxels(&[0xff], ScalarType::I8, Endian::Little);
+        assert_eq!(v, Voxels::from(vec![-1i8]));
+        let v = decode_voxels(&(-1.5f32).to_be_bytes(), ScalarType::F32, Endian::Big);
+        assert_eq!(v, Voxels::from(vec![-1.5f32]));
     }
 
     #[test]
@@ -255,8 +315,11 @@ mod tests {
         assert!(Volume::new(p, [2, 2, 2], [1.0; 3], vec![0.0; 7]).is_err());
         assert!(Volume::new(p, [1, 1, 1], [1.0; 3], vec![f32::NAN]).is_err());
         assert!(Volume::new(p, [1, 1, 1], [0.0, 1.0, 1.0], vec![1.0]).is_err());
-        assert!(Volume::new(p, [0, 1, 1], [1.0; 3], vec![]).is_err());
+        assert!(Volume::new(p, [0, 1, 1], [1.0; 3], Vec::<f32>::new()).is_err());
         let v = Volume::new(p, [2, 1, 1], [1.0; 3], vec![3.0, -1.0]).unwrap();
         assert_eq!(v.value_range, [-1.0, 3.0]);
+        let v = Volume::new(p, [3, 1, 1], [1.0; 3], vec![7u16, 65535, 2]).unwrap();
+        assert_eq!(v.value_range, [2.0, 65535.0]);
+        assert!(Volume::new(p, [2, 1, 1], [1.0; 3], vec![1.0, f32::INFINITY]).is_err());
     }
 }

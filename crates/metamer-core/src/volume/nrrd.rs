@@ -4,7 +4,7 @@
 //! `spacings` (or `space directions`), `byte skip` (including −1 for raw data at the end of the file)
 //! and `line skip`.
 
-use super::{Endian, ScalarType, Volume, VolumeError, decode_values, voxel_count};
+use super::{Endian, ScalarType, Volume, VolumeError, Voxels, decode_voxels, voxel_count};
 use flate2::read::MultiGzDecoder;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -70,7 +70,7 @@ pub fn read(path: &Path) -> Result<Volume, VolumeError> {
         }
     };
     let values = decode_payload(&data_path, &header, &file_bytes, count)?;
-    Volume::new(path, header.dims, header.spacing, values)
+    Ok(Volume::new(path, header.dims, header.spacing, values)?.converted(header.ty))
 }
 
 /// Where a header's `data file` is: relative to the header's folder.
@@ -149,7 +149,7 @@ fn parse(
         None => (path.to_path_buf(), bytes[data_start.min(bytes.len())..].to_vec()),
     };
     let values = decode_payload(&data_path, &header, &file_bytes, count)?;
-    Volume::new(path, header.dims, header.spacing, values)
+    Ok(Volume::new(path, header.dims, header.spacing, values)?.converted(header.ty))
 }
 
 /// Split the file into header text (lines up to the first empty line or EOF) and the offset of the
@@ -314,7 +314,7 @@ fn parse_header(path: &Path, text: &str) -> Result<Header, VolumeError> {
     Ok(Header { ty, dims, spacing, encoding, endian, data_file, byte_skip, line_skip })
 }
 
-fn decode_payload(data_path: &Path, h: &Header, bytes: &[u8], count: usize) -> Result<Vec<f32>, VolumeError> {
+fn decode_payload(data_path: &Path, h: &Header, bytes: &[u8], count: usize) -> Result<Voxels, VolumeError> {
     // Line skip applies to the file as stored.
     let mut start = 0usize;
     for _ in 0..h.line_skip {
@@ -329,7 +329,7 @@ fn decode_payload(data_path: &Path, h: &Header, bytes: &[u8], count: usize) -> R
     let expected = count * h.ty.size();
     let endian = h.endian.unwrap_or_default();
     let payload: Vec<u8> = match h.encoding {
-        Encoding::Text => return parse_text(data_path, stored, count, h.byte_skip),
+        Encoding::Text => return parse_text(data_path, stored, count, h.byte_skip).map(Voxels::from),
         Encoding::Raw => {
             let skip = if h.byte_skip == -1 {
                 stored.len().checked_sub(expected).ok_or_else(|| truncated(data_path, expected, stored.len()))?
@@ -366,7 +366,7 @@ fn decode_payload(data_path: &Path, h: &Header, bytes: &[u8], count: usize) -> R
             format!("holds {} data bytes but the header's sizes and type need {expected}", payload.len()),
         ));
     }
-    Ok(decode_values(&payload, h.ty, endian))
+    Ok(decode_voxels(&payload, h.ty, endian))
 }
 
 fn truncated(path: &Path, expected: usize, found: usize) -> VolumeError {

@@ -1,7 +1,7 @@
 //! Raw volumes: a headerless file of voxel values with dimensions, type and byte order given by the
 //! caller (gzip-compressed files are recognised by their magic bytes).
 
-use super::{Endian, ScalarType, Volume, VolumeError, decode_values, voxel_count};
+use super::{Endian, ScalarType, Volume, VolumeError, decode_voxels, voxel_count};
 use flate2::read::MultiGzDecoder;
 use std::io::Read;
 use std::path::Path;
@@ -55,5 +55,5 @@ pub fn read(
             format!("holds {} bytes but {dims:?} values of {ty:?} need {expected}", bytes.len()),
         ));
     }
-    Volume::new(path, dims, spacing, decode_values(&bytes, ty, endian))
+    Ok(Volume::new(path, dims, spacing, decode_voxels(&bytes, ty, endian))?.converted(ty))
 }

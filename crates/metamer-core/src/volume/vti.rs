@@ -4,7 +4,7 @@
 //! `UInt32` or `UInt64` headers and either byte order. The XML is small and regular, so it is read by a
 //! light hand parser (attributes of the few tags we need), not a general XML library.
 
-use super::{Endian, ScalarType, Volume, VolumeError, decode_values, voxel_count};
+use super::{Endian, ScalarType, Volume, VolumeError, Voxels, decode_voxels, voxel_count};
 use base64::Engine;
 use base64::engine::general_purpose::STANDARD;
 use flate2::read::ZlibDecoder;
@@ -119,7 +119,7 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
                 .ok_or_else(|| bad(format!("DataArray `{name}` is not closed (file truncated?)")))?;
             let body = &xml[open_end..close];
             if format == "ascii" {
-                return finish(path, dims, spacing, parse_ascii(&ctx, body, count)?);
+                return finish(path, dims, spacing, Voxels::from(parse_ascii(&ctx, body, count)?));
             }
             let chars: Vec<u8> = body.bytes().filter(|b| !b.is_ascii_whitespace()).collect();
             ctx.decode_base64_array(&chars)?
@@ -159,10 +159,10 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
         return Err(ctx.truncated(expected, payload.len()));
     }
     // Appended raw data may be followed by other arrays: use exactly what the extent needs.
-    finish(path, dims, spacing, decode_values(&payload[..expected], ty, endian))
+    Ok(finish(path, dims, spacing, decode_voxels(&payload[..expected], ty, endian))?.converted(ty))
 }
 
-fn finish(path: &Path, dims: [usize; 3], spacing: [f64; 3], values: Vec<f32>) -> Result<Volume, VolumeError> {
+fn finish(path: &Path, dims: [usize; 3], spacing: [f64; 3], values: Voxels) -> Result<Volume, VolumeError> {
     Volume::new(path, dims, spacing, values)
 }
 

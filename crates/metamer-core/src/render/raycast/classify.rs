@@ -124,15 +124,17 @@ impl BrickMap {
                 let ((x0, x1), (y0, y1), (z0, z1)) = (r(bx, 0), r(by, 1), r(bz, 2));
                 let mut lo = f32::INFINITY;
                 let mut hi = f32::NEG_INFINITY;
-                for z in z0..=z1 {
-                    for y in y0..=y1 {
-                        let row = d[0] * (y + d[1] * z);
-                        for v in &volume.data[row + x0..=row + x1] {
-                            lo = lo.min(*v);
-                            hi = hi.max(*v);
+                crate::with_voxels!(&volume.voxels, data => {
+                    for z in z0..=z1 {
+                        for y in y0..=y1 {
+                            let row = d[0] * (y + d[1] * z);
+                            for v in &data[row + x0..=row + x1] {
+                                lo = lo.min(v.to_f32());
+                                hi = hi.max(v.to_f32());
+                            }
                         }
                     }
-                }
+                });
                 (lo, hi)
             })
             .unzip();
@@ -155,9 +157,12 @@ impl MaterialRows {
             .into_par_iter()
             .flat_map_iter(|z| {
                 (0..d[1]).filter_map(move |y| {
-                    let row = &volume.data[d[0] * (y + d[1] * z)..d[0] * (y + 1 + d[1] * z)];
-                    let x0 = row.iter().position(|v| classifier.alpha_of(*v) > 0.0)?;
-                    let x1 = row.iter().rposition(|v| classifier.alpha_of(*v) > 0.0).unwrap_or(x0);
+                    let (start, end) = (d[0] * (y + d[1] * z), d[0] * (y + 1 + d[1] * z));
+                    let (x0, x1) = crate::with_voxels!(&volume.voxels, data => {
+                        let row = &data[start..end];
+                        let x0 = row.iter().position(|v| classifier.alpha_of(v.to_f32()) > 0.0)?;
+                        (x0, row.iter().rposition(|v| classifier.alpha_of(v.to_f32()) > 0.0).unwrap_or(x0))
+                    });
                     Some([x0, x1, y, z])
                 })
             })

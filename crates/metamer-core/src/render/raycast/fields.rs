@@ -97,7 +97,9 @@ impl<'a> Fields<'a> {
             counts,
             blocks: (0..n).map(|_| OnceLock::new()).collect(),
             materials: if kind == Kind::Labels {
-                volume.data.par_iter().map(|v| classifier.material[classifier.bin(*v)]).collect()
+                crate::with_voxels!(&volume.voxels, data => {
+                    data.par_iter().map(|v| classifier.material[classifier.bin(v.to_f32())]).collect()
+                })
             } else {
                 Vec::new()
             },
@@ -174,15 +176,18 @@ impl<'a> Fields<'a> {
     /// Central differences of the value (or opacity) field, exactly as a whole-volume grid would hold
     /// them (neighbours clamped into the grid).
     fn build_gradient(&self, b: [usize; 3]) -> Vec<[i16; 3]> {
+        crate::with_voxels!(&self.volume.voxels, data => self.gradient_block(data, b))
+    }
+
+    fn gradient_block<T: crate::volume::Voxel>(&self, data: &[T], b: [usize; 3]) -> Vec<[i16; 3]> {
         let d = self.volume.dims;
-        let data = &self.volume.data;
         let opacity = self.kind == Kind::Opacity;
         let h = if opacity { 2 } else { 1 };
         let den = 2.0 * h as f32;
         let inv = 1.0 / self.scale;
         let q = |c: f32| (c * inv).round().clamp(-f32::from(i16::MAX), f32::from(i16::MAX)) as i16;
         let at = |x: usize, y: usize, z: usize| {
-            let v = data[x + d[0] * (y + d[1] * z)];
+            let v = data[x + d[0] * (y + d[1] * z)].to_f32();
             if opacity { self.classifier.alpha_of(v) } else { v }
         };
         let o = b.map(|v| v << SHIFT);

@@ -230,7 +230,7 @@ impl<'a> RayContext<'a> {
     #[inline(always)]
     fn voxel(&self, x: usize, y: usize, z: usize) -> f32 {
         let d = self.volume.dims;
-        self.volume.data[x + d[0] * (y + d[1] * z)]
+        self.volume.voxels.get(x + d[0] * (y + d[1] * z))
     }
 
     /// Where index-space point p (clamped into [0, dims−1]) falls: its trilinear cell's first voxel (as
@@ -257,20 +257,19 @@ impl<'a> RayContext<'a> {
     /// The trilinear cell of the volume's values at a located sample.
     #[inline(always)]
     fn cell_at(&self, b: usize, [sx, sy, sz]: [usize; 3], f: [f32; 3]) -> Cell {
-        let v = &self.volume.data;
-        Cell {
+        crate::with_voxels!(&self.volume.voxels, v => Cell {
             v: [
-                v[b],
-                v[b + sx],
-                v[b + sy],
-                v[b + sy + sx],
-                v[b + sz],
-                v[b + sz + sx],
-                v[b + sz + sy],
-                v[b + sz + sy + sx],
+                v[b].to_f32(),
+                v[b + sx].to_f32(),
+                v[b + sy].to_f32(),
+                v[b + sy + sx].to_f32(),
+                v[b + sz].to_f32(),
+                v[b + sz + sx].to_f32(),
+                v[b + sz + sy].to_f32(),
+                v[b + sz + sy + sx].to_f32(),
             ],
             f,
-        }
+        })
     }
 
     /// The nearest voxel's value.
