@@ -163,7 +163,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             };
             match &args.screen {
                 Some(path) => crate::fsio::write_atomic(path, out.as_bytes()).context("cannot write the screen")?,
-                None => print!("{out}"),
+                None => super::out::print(&out)?,
             }
             Ok(())
         }

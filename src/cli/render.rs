@@ -298,8 +298,8 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
     bar.finish_and_clear();
     let path: Vec<String> = scene.dial.visited().iter().map(|l| crate::fsio::escape(&l.name).into_owned()).collect();
-    println!(
-        "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}",
+    let mut summary = format!(
+        "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}\n",
         report.written.len(),
         range.start,
         range.end,
@@ -309,8 +309,8 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         path.join(" → "),
         crate::fsio::show(&args.output)
     );
-    println!(
-        "raycast {:.1} ms at {}² ({} samples, {} skipped), exposure {exposure:.3}, relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms",
+    summary.push_str(&format!(
+        "raycast {:.1} ms at {}² ({} samples, {} skipped), exposure {exposure:.3}, relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms\n",
         view.seconds * 1e3,
         args.size * ss,
         view.stats.samples,
@@ -318,10 +318,11 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         report.seconds * 1e3,
         report.seconds * 1e3 / report.written.len().max(1) as f64,
         start.elapsed().as_secs_f64() * 1e3
-    );
+    ));
     if let Some(sheet) = &args.contact_sheet {
-        println!("contact sheet {}", crate::fsio::show(sheet));
+        summary.push_str(&format!("contact sheet {}\n", crate::fsio::show(sheet)));
     }
+    super::out::print(&summary)?;
     Ok(())
 }
 

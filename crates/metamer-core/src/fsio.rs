@@ -6,7 +6,7 @@
 //! alone (a 2 GB sparse file is never read) and never read more than the cap (a file that grows while it is
 //! read is refused too).
 //!
-//! **Writes** ([`write_atomic`]) go to a temporary file in the target's folder, are synced, renamed over the
+//! **Writes** ([`write_atomic`], or [`stage`] then [`Staged::commit`] for outputs written together) go to a temporary file in the target's folder, are synced, renamed over the
 //! target and the folder is synced: a reader (or a crash, or a full disk) sees the old file or the new one,
 //! never a mix. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused; a
 //! symbolic link to a regular file is followed, so the target is rewritten and the link kept. New files follow
@@ -483,6 +483,42 @@ fn resolve_target(path: &Path) -> std::io::Result<PathBuf> {
 /// Write `bytes` to `path` atomically (see the module docs). Nothing at `path` changes unless the whole
 /// new content is on disk.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FsError> {
+    stage(path, bytes)?.commit()
+}
+
+/// A new content written and synced beside its target (a temporary file in the target's folder) but not
+/// yet in place: [`Staged::commit`] renames it over the target and syncs the folder; dropping it instead
+/// removes the temporary file and leaves the target as it was. A command with several outputs stages them
+/// in parallel (the syncs, mostly waiting for the disk, overlap) and commits them only when every one was
+/// written, so a failure writes none of them.
+#[derive(Debug)]
+pub struct Staged {
+    tmp: tempfile::NamedTempFile,
+    /// The path the caller named (for messages) and the file it resolves to (a link is followed).
+    path: PathBuf,
+    target: PathBuf,
+    dir: PathBuf,
+}
+
+impl Staged {
+    /// Put the staged content in place (a rename over the target), then sync the folder.
+    pub fn commit(self) -> Result<(), FsError> {
+        let Staged { tmp, path, target, dir } = self;
+        tmp.persist(&target).map_err(|e| FsError::Write { path: path.clone(), source: e.error })?;
+        #[cfg(unix)]
+        if let Ok(d) = File::open(&dir) {
+            // Best effort: some file systems refuse to sync a directory.
+            let _ = d.sync_all();
+        }
+        #[cfg(not(unix))]
+        let _ = dir;
+        Ok(())
+    }
+}
+
+/// The first half of [`write_atomic`]: everything up to the rename (see [`Staged`]). The same checks and
+/// refusals; nothing at `path` changes until [`Staged::commit`].
+pub fn stage(path: &Path, bytes: &[u8]) -> Result<Staged, FsError> {
     let err = |source| FsError::Write { path: path.to_path_buf(), source };
     let target = resolve_target(path).map_err(err)?;
     let existing = match std::fs::metadata(&target) {
@@ -523,13 +559,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FsError> {
         }
     }
     tmp.as_file().sync_all().map_err(err)?;
-    tmp.persist(&target).map_err(|e| err(e.error))?;
-    #[cfg(unix)]
-    if let Ok(d) = File::open(&dir) {
-        // Best effort: some file systems refuse to sync a directory.
-        let _ = d.sync_all();
-    }
-    Ok(())
+    Ok(Staged { tmp, path: path.to_path_buf(), target, dir })
 }
 
 /// The folder a file lives in: its parent, or `.` for a bare file name (relative paths in a file, its

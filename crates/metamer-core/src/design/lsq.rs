@@ -21,6 +21,7 @@
 //!    iterative refinement, and multipliers from the transformed residual, so that the light rows keep
 //!    their own precision instead of drowning in the heavy rows' rounding. There the normal equations first
 //!    find the active set roughly and the QR finish starts from it, which keeps the QR solves few.
+//!
 //! On the normal-equations path the final free set is solved once more from a fresh factor (free
 //! variables in ascending order, `Work::polish` in `lsq_finish.rs`), so the result is a function of the
 //! active set alone, whatever path of binds and releases led to it: both starts give the same bits.
