@@ -61,6 +61,9 @@ pub struct Args {
     /// closest reachable colour.
     #[arg(long)]
     pub(crate) feasibility: bool,
+    /// Replace OUT and the report even when they are read-only files (their mode is kept).
+    #[arg(long)]
+    pub(crate) force: bool,
     /// How far (ΔE) the other cells may move for --feasibility.
     #[arg(long, default_value_t = design::feasibility::DEFAULT_TOLERANCE, value_name = "DELTA_E", requires = "feasibility")]
     pub(crate) tolerance: f64,
@@ -127,14 +130,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let seconds = started.elapsed().as_secs_f64();
     let feasibility =
         args.feasibility.then(|| feasibility_of(&solution, basis.as_ref().map(|b| &b.0), &colorimetry, args.tolerance));
+    let replace = if args.force { crate::fsio::Replace::Force } else { crate::fsio::Replace::Writable };
     let saved_context = |out: &Path| format!("{}: cannot write the solved palette", out.display());
     let ((saved, table), report) = rayon::join(
         || {
             rayon::join(
                 || match &args.output {
-                    Some(out) => {
-                        file.stage_save_as(&solution.palette, out).map(Some).with_context(|| saved_context(out))
-                    }
+                    Some(out) => file
+                        .stage_save_as(&solution.palette, out, replace)
+                        .map(Some)
+                        .with_context(|| saved_context(out)),
                     None => Ok(None),
                 },
                 || {
@@ -148,7 +153,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         || match &args.report {
             Some(path) => report_text(&solution, seconds, basis_warning.as_deref(), feasibility.as_deref())
-                .and_then(|text| crate::fsio::stage(path, &text).context("cannot write the report"))
+                .and_then(|text| crate::fsio::stage_with(path, &text, replace).context("cannot write the report"))
                 .map(Some),
             None => Ok(None),
         },

@@ -182,3 +182,31 @@ fn both_outputs_are_written_or_neither() {
     assert_ne!(std::fs::read(&palette).unwrap(), before, "the solved palette is written");
     assert!(report.is_file());
 }
+
+#[cfg(unix)]
+#[test]
+fn a_read_only_palette_is_replaced_only_with_force() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let palette = dir.path().join("metamers.toml");
+    std::fs::copy(Path::new(env!("CARGO_MANIFEST_DIR")).join("palettes/metamers.toml"), &palette).unwrap();
+    std::fs::set_permissions(&palette, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let before = std::fs::read(&palette).unwrap();
+    let p = palette.to_str().unwrap();
+    let run = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_metamer"))
+            .args(["solve", p, "--no-subspace", "-o", p])
+            .args(extra)
+            .output()
+            .expect("metamer runs")
+    };
+    let out = run(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("refusing to replace a read-only file"), "{stderr}");
+    assert_eq!(std::fs::read(&palette).unwrap(), before, "the read-only palette is left as it was");
+    let out = run(&["--force"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_ne!(std::fs::read(&palette).unwrap(), before, "--force replaces it");
+    assert_eq!(std::fs::metadata(&palette).unwrap().permissions().mode() & 0o777, 0o444, "and keeps its mode");
+}

@@ -8,7 +8,8 @@
 //!
 //! **Writes** ([`write_atomic`], or [`stage`] then [`Staged::commit`] for outputs written together) go to a temporary file in the target's folder, are synced, renamed over the
 //! target and the folder is synced: a reader (or a crash, or a full disk) sees the old file or the new one,
-//! never a mix. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused; a
+//! never a mix. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused, and so
+//! is one whose mode gives no write permission (read-only) unless the caller passes [`Replace::Force`]; a
 //! symbolic link to a regular file is followed, so the target is rewritten and the link kept. New files follow
 //! the umask (the temporary file is created `0666 & !umask`); an in-place save keeps the old file's mode and,
 //! where permitted, its owner and group.
@@ -91,6 +92,24 @@ pub enum FsError {
     SameFile { path: PathBuf, role: String, other: PathBuf, other_role: String },
     #[error("{}: cannot write: {source}", show(path))]
     Write { path: PathBuf, source: std::io::Error },
+    #[error(
+        "{}: refusing to replace a read-only file (no write permission in its mode): make it writable, or ask \
+         for it explicitly (solve --force)",
+        show(path)
+    )]
+    ReadOnly { path: PathBuf },
+}
+
+/// Whether the one writer may replace a file whose mode gives no write permission (a palette the user
+/// made read-only, `chmod a-w`). The mode is what counts, not whether this process could write it (root
+/// can write any file, and is refused all the same).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Replace {
+    /// Refuse ([`FsError::ReadOnly`]).
+    #[default]
+    Writable,
+    /// Replace it (the command was given an explicit flag); the new file keeps the read-only mode.
+    Force,
 }
 
 impl FsError {
@@ -109,7 +128,8 @@ impl FsError {
             | FsError::TooLarge { path, .. }
             | FsError::NotRegularOutput { path, .. }
             | FsError::SameFile { path, .. }
-            | FsError::Write { path, .. } => path,
+            | FsError::Write { path, .. }
+            | FsError::ReadOnly { path } => path,
         }
     }
 }
@@ -519,11 +539,19 @@ impl Staged {
 /// The first half of [`write_atomic`]: everything up to the rename (see [`Staged`]). The same checks and
 /// refusals; nothing at `path` changes until [`Staged::commit`].
 pub fn stage(path: &Path, bytes: &[u8]) -> Result<Staged, FsError> {
+    stage_with(path, bytes, Replace::Writable)
+}
+
+/// [`stage`], replacing a read-only target only with [`Replace::Force`].
+pub fn stage_with(path: &Path, bytes: &[u8], replace: Replace) -> Result<Staged, FsError> {
     let err = |source| FsError::Write { path: path.to_path_buf(), source };
     let target = resolve_target(path).map_err(err)?;
     let existing = match std::fs::metadata(&target) {
         Ok(m) if !m.is_file() => {
             return Err(FsError::NotRegularOutput { path: path.to_path_buf(), found: describe(&m) });
+        }
+        Ok(m) if m.permissions().readonly() && replace != Replace::Force => {
+            return Err(FsError::ReadOnly { path: path.to_path_buf() });
         }
         Ok(m) => Some(m),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
@@ -581,6 +609,29 @@ mod tests {
         assert_eq!(escape("plain"), "plain");
         assert_eq!(escape_lines("a\nb\x1b"), "a\nb\\u{1b}");
         assert_eq!(escape("a\nb"), "a\\nb");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_read_only_file_is_replaced_only_when_forced() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.toml");
+        std::fs::write(&path, "old").unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o444)).unwrap();
+        let refused = write_atomic(&path, b"new");
+        assert!(matches!(refused, Err(FsError::ReadOnly { .. })), "{refused:?}");
+        assert!(refused.unwrap_err().to_string().contains("read-only"));
+        assert_eq!(std::fs::read(&path).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file is left");
+        stage_with(&path, b"new", Replace::Force).unwrap().commit().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"new");
+        assert_eq!(std::fs::metadata(&path).unwrap().permissions().mode() & 0o777, 0o444, "the mode is kept");
+        // A writable file is replaced as before.
+        let other = dir.path().join("q.toml");
+        std::fs::write(&other, "old").unwrap();
+        write_atomic(&other, b"new").unwrap();
+        assert_eq!(std::fs::read(&other).unwrap(), b"new");
     }
 
     #[test]

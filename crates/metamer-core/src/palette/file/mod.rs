@@ -333,14 +333,21 @@ impl PaletteFile {
     /// it back before anything is written (a save by tables, in debug builds); on any error
     /// the file on disk is left as it was.
     pub fn save_as(&mut self, palette: &Palette, path: &Path) -> Result<(), PaletteError> {
-        let staged = self.stage_save_as(palette, path)?;
+        let staged = self.stage_save_as(palette, path, crate::fsio::Replace::Writable)?;
         self.commit(staged)
     }
 
     /// The first half of [`PaletteFile::save_as`]: the new text rendered, checked, written and synced beside
     /// `path` ([`crate::fsio::stage`]) but not yet in place, and this file unchanged. [`PaletteFile::commit`]
     /// puts it in place; dropping it leaves the file on disk as it was (a command whose other output failed).
-    pub fn stage_save_as(&self, palette: &Palette, path: &Path) -> Result<StagedSave, PaletteError> {
+    /// A read-only file at `path` is replaced only with [`crate::fsio::Replace::Force`].
+    pub fn stage_save_as(
+        &self,
+        palette: &Palette,
+        path: &Path,
+        replace: crate::fsio::Replace,
+    ) -> Result<StagedSave, PaletteError> {
+        let stage = |path: &Path, text: &str| crate::fsio::stage_with(path, text.as_bytes(), replace);
         let write_error = |cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) };
         let (staged, update) = match self.save_by_tables(palette, path) {
             Some(saved) => (stage(path, &saved.text).map_err(write_error)?, Update::Tables(Box::new(saved))),
@@ -417,11 +424,6 @@ impl PaletteFile {
         }
         Some(saved)
     }
-}
-
-/// Stage `text` for `path` through the one atomic writer ([`crate::fsio::stage`]).
-fn stage(path: &Path, text: &str) -> Result<crate::fsio::Staged, crate::fsio::FsError> {
-    crate::fsio::stage(path, text.as_bytes())
 }
 
 /// A palette save written and synced beside its file but not yet in place ([`PaletteFile::stage_save_as`]).
