@@ -41,6 +41,8 @@ pub enum Kind {
     Sidecar,
     /// A text file the tool updates (the README's generated section).
     Text,
+    /// A rendered frame read back (a contact sheet assembled from frames already written).
+    Frame,
 }
 
 const MIB: u64 = 1 << 20;
@@ -58,6 +60,8 @@ impl Kind {
             Kind::KeyScript => 4 * MIB,
             Kind::Sidecar => 64 * MIB,
             Kind::Text => 16 * MIB,
+            // A 4096² RGB PNG that does not compress at all is 48 MiB.
+            Kind::Frame => 64 * MIB,
         }
     }
 
@@ -71,6 +75,7 @@ impl Kind {
             Kind::KeyScript => "key script",
             Kind::Sidecar => "basis sidecar",
             Kind::Text => "text file",
+            Kind::Frame => "frame image",
         }
     }
 }

@@ -98,12 +98,14 @@ fn vti_error(bytes: Vec<u8>) -> String {
 fn vti_zlib_blocks_inflate_only_what_the_extent_needs() {
     let good = zlib(&[1, 2, 3, 4, 5, 6, 7, 8]);
     // The honest file reads.
-    let v = vti::from_bytes(Path::new("ok.vti"), &vti_blocks(&[1, 8, 8, good.len() as u32], &[good.clone()])).unwrap();
+    let v =
+        vti::from_bytes(Path::new("ok.vti"), &vti_blocks(&[1, 8, 8, good.len() as u32], std::slice::from_ref(&good)))
+            .unwrap();
     assert_eq!(v.voxels.to_f32_vec(), vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
     // A block header claiming a 4 GiB block (or an impossible total) is refused before anything inflates.
-    let e = vti_error(vti_blocks(&[1, u32::MAX, 0, good.len() as u32], &[good.clone()]));
+    let e = vti_error(vti_blocks(&[1, u32::MAX, 0, good.len() as u32], std::slice::from_ref(&good)));
     assert!(e.contains("blocks.vti") && e.contains("the extent needs 8 bytes"), "{e}");
-    let e = vti_error(vti_blocks(&[u32::MAX, 8, 8, 12], &[good.clone()]));
+    let e = vti_error(vti_blocks(&[u32::MAX, 8, 8, 12], std::slice::from_ref(&good)));
     assert!(e.contains("the extent needs 8 bytes"), "{e}");
     // A block that inflates to 64 MiB where the header (and the extent) say 8 bytes stops after 9.
     let bomb = zlib(&vec![0u8; 64 << 20]);
