@@ -242,6 +242,12 @@ fn a_volume_too_large_for_memory_is_refused_naming_its_size_and_need() {
     scene_dir(d, "v.nrrd", None);
     let e = stderr(&render(d, Some(10)));
     assert!(e.contains("volume v.nrrd is 2×2×2 u8 = 0.0 MiB; rendering it needs about 161 MiB"), "{e}");
+    // Text data too (checked before the text is parsed; its values are kept as f32).
+    std::fs::write(d.join("t.nrrd"), "NRRD0004\ntype: uint8\nsizes: 2 2 2\nencoding: text\n\n1 2 3 4 5 6 7 8\n")
+        .unwrap();
+    scene_dir(d, "t.nrrd", None);
+    let e = stderr(&render(d, Some(10)));
+    assert!(e.contains("volume t.nrrd is 2×2×2 f32 = 0.0 MiB; rendering it needs about 161 MiB"), "{e}");
 }
 
 #[test]

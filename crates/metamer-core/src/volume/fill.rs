@@ -36,24 +36,7 @@ impl Filler {
     /// rendering needs when the machine has less ([`crate::memory::render_estimate`]). `origin` names the
     /// volume in the message.
     pub(crate) fn new(origin: &Path, dims: [usize; 3], ty: ScalarType, endian: Endian) -> Result<Filler, VolumeError> {
-        let count = super::voxel_count(origin, dims)?;
-        let kept_size = if ty.is_kept() { ty.size() } else { 4 };
-        let bytes = (count as u64).saturating_mul(kept_size as u64);
-        crate::memory::ensure(
-            || {
-                format!(
-                    "volume {} is {}×{}×{} {} = {} MiB; rendering it",
-                    crate::fsio::show(origin),
-                    dims[0],
-                    dims[1],
-                    dims[2],
-                    type_name(ty),
-                    crate::memory::show_mib(bytes)
-                )
-            },
-            crate::memory::render_estimate(bytes),
-        )
-        .map_err(|e| VolumeError::Memory(Box::new(e)))?;
+        let count = check_memory(origin, dims, ty)?;
         let dest = match ty {
             ScalarType::U8 => Dest::Kept(Voxels::U8(Buf::zeroed(count))),
             ScalarType::I8 => Dest::Kept(Voxels::I8(Buf::zeroed(count))),
@@ -150,6 +133,31 @@ fn convert(bytes: &[u8], ty: ScalarType, endian: Endian, out: &mut Vec<f32>) {
         // The kept types never reach here (they are read in place).
         _ => {}
     }
+}
+
+/// Refuse a volume of `dims` voxels of the file type `ty` that the machine's memory cannot render, naming
+/// its size and the memory rendering it needs ([`crate::memory::render_estimate`]); the voxel count when it
+/// fits. [`Filler::new`] calls it; text readers call it before parsing (their values become f32).
+pub(crate) fn check_memory(origin: &Path, dims: [usize; 3], ty: ScalarType) -> Result<usize, VolumeError> {
+    let count = super::voxel_count(origin, dims)?;
+    let kept_size = if ty.is_kept() { ty.size() } else { 4 };
+    let bytes = (count as u64).saturating_mul(kept_size as u64);
+    crate::memory::ensure(
+        || {
+            format!(
+                "volume {} is {}×{}×{} {} = {} MiB; rendering it",
+                crate::fsio::show(origin),
+                dims[0],
+                dims[1],
+                dims[2],
+                type_name(ty),
+                crate::memory::show_mib(bytes)
+            )
+        },
+        crate::memory::render_estimate(bytes),
+    )
+    .map_err(|e| VolumeError::Memory(Box::new(e)))?;
+    Ok(count)
 }
 
 /// Read until `buf` is full or `r` ends; the number of bytes read.

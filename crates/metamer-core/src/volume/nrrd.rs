@@ -4,7 +4,7 @@
 //! `spacings` (or `space directions`), `byte skip` (including −1 for raw data at the end of the file)
 //! and `line skip`.
 
-use super::fill::{Filler, has_more, skip as skip_bytes};
+use super::fill::{Filler, check_memory, has_more, skip as skip_bytes};
 use super::raw::MAX_DEFLATE_RATIO;
 use super::{Endian, ScalarType, Volume, VolumeError, Voxels, voxel_count};
 use flate2::bufread::MultiGzDecoder;
@@ -329,6 +329,11 @@ fn decode_payload(
     let endian = h.endian.unwrap_or_default();
     match h.encoding {
         Encoding::Text => {
+            // Text of `left` bytes holds at most (left + 1) / 2 values (a digit and a separator each): when
+            // it can hold the volume, the memory is checked before it is read (values become f32).
+            if left.saturating_add(1) / 2 >= count as u64 {
+                check_memory(origin, h.dims, ScalarType::F32)?;
+            }
             // Bounded by the data cap the file's size was checked against.
             let mut text = Vec::with_capacity(usize::try_from(left).unwrap_or(0));
             r.read_to_end(&mut text).map_err(io)?;

@@ -162,6 +162,10 @@ fn parse(path: &Path, mut r: impl BufRead + Seek, size: u64) -> Result<Volume, V
             r.seek(SeekFrom::Start(open_end as u64)).map_err(io)?;
             let left = size.saturating_sub(open_end as u64);
             if format == "ascii" {
+                // As for NRRD text: the memory is checked when the text can hold the volume.
+                if left.saturating_add(1) / 2 >= count as u64 {
+                    super::fill::check_memory(path, dims, ScalarType::F32)?;
+                }
                 // A value as text: a number of up to 40 characters and a separator.
                 let cap = (count as u64).saturating_mul(48).saturating_add(XML_CAP);
                 let mut body = Vec::with_capacity(usize::try_from(left.min(cap)).unwrap_or(0));
