@@ -119,6 +119,11 @@ fn shards_of_a_sweep_concatenate_to_one_run_and_their_sheet_assembles_after() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("frame_0003.png"), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(!sheet.exists());
+    // A frame larger than any `--size` is refused before it is decoded.
+    image::RgbImage::new(4097, 1).save(frame(&shards, 3)).unwrap();
+    let o = run(&shards, &["--no-dial", "--contact-sheet", sheet.to_str().unwrap(), "--sheet-from-frames"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("at most 4096²"), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 /// A scene over the generated volume with the repository's engine palette copied beside it.

@@ -332,9 +332,13 @@ pub fn contact_sheet_from_frames(
                 range.start, range.end
             ))
         })?;
-        let rgb = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
-            .map_err(|e| bad(&path, format!("not a PNG frame: {e}")))?
-            .to_rgb8();
+        // Frames are at most 4096² (`--size`): a PNG claiming more is refused before it is decoded.
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(4096);
+        limits.max_image_height = Some(4096);
+        let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png);
+        reader.limits(limits);
+        let rgb = reader.decode().map_err(|e| bad(&path, format!("not a PNG frame of at most 4096²: {e}")))?.to_rgb8();
         let (w, h) = (rgb.width() as usize, rgb.height() as usize);
         match size {
             None => size = Some((w, h)),
