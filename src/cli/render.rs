@@ -94,6 +94,10 @@ pub struct Args {
     /// Title line on the contact sheet.
     #[arg(long)]
     pub(crate) title: Option<String>,
+    /// Do not render: assemble the --contact-sheet from the frames already in -o DIR (frames A..B of
+    /// --frame-range, else all of --frames), e.g. after --frame-range runs on several machines.
+    #[arg(long, requires = "contact_sheet")]
+    pub(crate) sheet_from_frames: bool,
     /// Shading: key (a key light above left of the eye, the default), headlight, or unshaded (the
     /// seed's look). Overrides the scene's `render.shading`.
     #[arg(long, value_parser = ["key", "headlight", "unshaded"])]
@@ -214,6 +218,9 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     } else {
         range
     };
+    if args.sheet_from_frames {
+        return assemble_sheet(&args, &scene, range, &read);
+    }
     if mode == Mode::Factor {
         let resolved = crate::render::scene_basis_report(&scene)?;
         if let Some(w) = resolved.1.poor_model() {
@@ -323,6 +330,43 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         summary.push_str(&format!("contact sheet {}\n", crate::fsio::show(sheet)));
     }
     super::out::print(&summary)?;
+    Ok(())
+}
+
+/// `--sheet-from-frames`: the contact sheet of frames `range` already in the output folder, no raycast.
+fn assemble_sheet(
+    args: &Args,
+    scene: &Scene,
+    range: std::ops::Range<usize>,
+    read: &[(PathBuf, crate::fsio::Kind)],
+) -> anyhow::Result<()> {
+    let sheet = args.contact_sheet.as_ref().context("--sheet-from-frames needs --contact-sheet PATH")?;
+    // The sheet may be none of the scene's files nor one of the frames it is made of.
+    let mut files = crate::fsio::Outputs::new();
+    for p in [&scene.path, &scene.palette_path, &scene.volume_path].into_iter().flatten() {
+        files.input("scene input", p);
+    }
+    files.inputs_read(read);
+    for k in range.clone() {
+        files.input("frame", &args.output.join(crate::render::sweep::frame_name(k)));
+    }
+    files.output("contact sheet", sheet)?;
+    let n = crate::render::sweep::contact_sheet_from_frames(
+        &args.output,
+        range.clone(),
+        args.frames,
+        &scene.dial,
+        args.title.as_deref(),
+        sheet,
+    )?;
+    println!(
+        "contact sheet {} of {n} frames {}..{} of {} from {}",
+        crate::fsio::show(sheet),
+        range.start,
+        range.end,
+        args.frames,
+        crate::fsio::show(&args.output)
+    );
     Ok(())
 }
 

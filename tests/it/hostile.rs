@@ -572,3 +572,4 @@ fn the_next_open_offers_the_recovery_copy() {
 }
 
 mod inputs;
+mod sizes;

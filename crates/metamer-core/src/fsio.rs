@@ -42,6 +42,8 @@ pub enum Kind {
     Sidecar,
     /// A text file the tool updates (the README's generated section).
     Text,
+    /// A rendered frame read back (a contact sheet assembled from frames already written).
+    Frame,
 }
 
 const MIB: u64 = 1 << 20;
@@ -59,6 +61,8 @@ impl Kind {
             Kind::KeyScript => 4 * MIB,
             Kind::Sidecar => 64 * MIB,
             Kind::Text => 16 * MIB,
+            // A 4096² RGB PNG that does not compress at all is 48 MiB.
+            Kind::Frame => 64 * MIB,
         }
     }
 
@@ -72,6 +76,7 @@ impl Kind {
             Kind::KeyScript => "key script",
             Kind::Sidecar => "basis sidecar",
             Kind::Text => "text file",
+            Kind::Frame => "frame image",
         }
     }
 }
@@ -301,20 +306,18 @@ pub fn read_capped(path: &Path, kind: Kind, cap: u64) -> Result<Vec<u8>, FsError
     Ok(bytes)
 }
 
-/// The first `max` bytes (at most) of a regular file of kind `kind` and the file's size: for formats whose
-/// header says how much more may be read (a NRRD file), so a huge file is never read whole to find that
-/// out. The size must be within the kind's cap.
-pub(crate) fn read_head(path: &Path, kind: Kind, max: u64) -> Result<(Vec<u8>, u64), FsError> {
+/// Open a regular file of kind `kind` of at most `cap` bytes to read it in pieces, never whole (the
+/// volume readers stream a file's data straight into the voxel buffer): the same checks as [`read`],
+/// recorded as read. Returns the opened file and its size.
+pub(crate) fn open_capped(path: &Path, kind: Kind, cap: u64) -> Result<(File, u64), FsError> {
     let io = |source| FsError::Read { path: path.to_path_buf(), kind, source };
     note_read(path, kind);
     let before = std::fs::metadata(path).map_err(io)?;
-    check_input(path, kind, kind.cap(), &before)?;
+    check_input(path, kind, cap, &before)?;
     let file = open_nonblocking(path).map_err(io)?;
     let meta = file.metadata().map_err(io)?;
-    check_input(path, kind, kind.cap(), &meta)?;
-    let mut bytes = Vec::with_capacity(usize::try_from(meta.len().min(max)).unwrap_or(0));
-    file.take(max).read_to_end(&mut bytes).map_err(io)?;
-    Ok((bytes, meta.len()))
+    check_input(path, kind, cap, &meta)?;
+    Ok((file, meta.len()))
 }
 
 fn check_input(path: &Path, kind: Kind, cap: u64, meta: &Metadata) -> Result<(), FsError> {
