@@ -212,7 +212,7 @@ pub fn run(
     saver: &mut dyn Saver,
     worker: WorkerConfig,
 ) -> io::Result<(Vec<String>, ratatui::buffer::Buffer)> {
-    state.hide_times = true;
+    state.ui.hide_times = true;
     let mut terminal = Terminal::new(TestBackend::new(width, height)).map_err(io::Error::other)?;
     let mut events = ScriptEvents::new(steps);
     let mut frames = Vec::new();
