@@ -28,6 +28,7 @@ Replay scripts (--replay KEYS.txt), one step per line:
   \"#ff8800\"                    text in double quotes types each character (\\\" and \\\\ escape)
   wait-solve                   wait for the running solve
 Every solve is waited for after each key, and times are hidden, so screens are reproducible.
+A script runs at most 1000000 steps (repeats and typed texts counted); a longer one is refused before it runs.
 Ctrl-s in a script saves the palette file for real.";
 
 #[derive(Debug, clap::Args)]

@@ -209,7 +209,7 @@ fn verify(
         return Err("its pseudo-inverse is not finite".into());
     }
     let condition = train::balanced_condition(&basis.b);
-    if !(condition <= MAX_STORED_CONDITION) {
+    if condition.is_nan() || condition > MAX_STORED_CONDITION {
         return Err(format!("its condition number {condition:.3e} exceeds {MAX_STORED_CONDITION:.0e}"));
     }
     let close = |a: f64, b: f64| (a - b).abs() <= ACCURACY_RECHECK_TOLERANCE * a.abs().max(b.abs()).max(1.0);
