@@ -254,6 +254,25 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         frames_only.check("contact sheet", sheet)?;
     }
     let model = colour_model(&scene, mode, &colorimetry)?;
+    // The large allocations estimated before they are made: the raycast's image of K f32 channels per
+    // pixel (and its shrunk copy with --ss), on top of what the volume's rendering takes.
+    let side = (args.size as u64) * u64::from(args.ss);
+    let per_pixel = model.channels() as u64 * 4;
+    let image = side * side * per_pixel;
+    let shrunk = if args.ss > 1 { (args.size as u64).pow(2) * per_pixel } else { 0 };
+    let voxels = scene.volume.voxels.bytes() as u64;
+    crate::memory::ensure(
+        || {
+            format!(
+                "a {side}×{side} {} render ({} channels of f32: {} MiB) of a {} MiB volume",
+                mode.as_str(),
+                model.channels(),
+                crate::memory::show_mib(image + shrunk),
+                crate::memory::show_mib(voxels)
+            )
+        },
+        crate::memory::render_estimate(voxels).saturating_add(image).saturating_add(shrunk),
+    )?;
     let accel = Acceleration {
         early_termination: !args.no_early_termination,
         empty_space_skipping: !args.no_empty_space_skipping,

@@ -266,3 +266,36 @@ fn a_2d_nrrd_is_refused_by_the_scene_not_rendered_black() {
     assert!(e.contains("slice.nrrd is 8×8×1 voxels") && e.contains("2-D image is not a volume"), "{e}");
     assert!(!d.join("out").exists(), "no frames may be written");
 }
+
+/// `render --size 4096 --mode full` (31 f32 channels: 1984 MiB) is estimated and refused up front when the
+/// machine has less, before the raycast allocates it (issue 31, item 7).
+#[test]
+fn a_render_image_too_large_for_memory_is_refused_before_the_raycast() {
+    let dir = tempfile::tempdir().unwrap();
+    let start = Instant::now();
+    let o = Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .current_dir(dir.path())
+        .args([
+            "render",
+            "--builtin",
+            "--builtin-volume-size",
+            "16",
+            "--size",
+            "4096",
+            "--mode",
+            "full",
+            "--frames",
+            "1",
+        ])
+        .env(metamer::memory::LIMIT_ENV, "1000")
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("a 4096×4096 full render (31 channels of f32: 1984 MiB)") && e.contains("1000 MiB available"),
+        "{e}"
+    );
+    assert!(start.elapsed() < Duration::from_secs(20), "refused after {:?}", start.elapsed());
+    assert!(!dir.path().join("frames").exists());
+}
