@@ -11,7 +11,7 @@ use crate::tui::model::{Document, LiveDial, PreviewState, SolveState, UiState};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-pub(crate) use crate::tui::model::{EditKey, FeasibilityView, Import};
+pub(crate) use crate::tui::model::{EditKey, Import};
 
 /// Which panel takes the arrow keys.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -205,6 +205,18 @@ pub struct Message {
     pub is_error: bool,
 }
 
+impl Message {
+    /// A message (control characters escaped).
+    pub(crate) fn info(text: impl Into<String>) -> Message {
+        Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: false }
+    }
+
+    /// An error (control characters escaped).
+    pub(crate) fn error(text: impl Into<String>) -> Message {
+        Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: true }
+    }
+}
+
 /// The whole model of the designer: one of each sub-model.
 #[derive(Debug)]
 pub struct State {
@@ -248,6 +260,7 @@ impl State {
         self.solve.running.is_some()
             || self.solve.training
             || self.preview.pending.is_some()
+            || self.preview.saving
             || self.doc.import.is_some()
             || self.doc.file_busy
     }

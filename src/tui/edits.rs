@@ -41,9 +41,6 @@ pub enum EditError {
     BoundsCount,
     #[error("give a path")]
     NoPath,
-    /// Save-as onto a file that exists (and is not the palette itself): asked once, Enter again replaces it.
-    #[error("{0} exists: press Enter again to replace it, or change the path")]
-    Exists(String),
     /// The CSV reader thread could not be started.
     #[error("cannot start the reader: {0}")]
     Reader(String),
@@ -70,6 +67,10 @@ pub enum FileError {
     /// The target of a save-as is empty.
     #[error("give a path")]
     NoPath,
+    /// Save-as onto a file that exists (and is not the palette itself): asked once, the same path again
+    /// replaces it.
+    #[error("{} exists: press Enter again to replace it, or change the path", .0.display())]
+    Exists(std::path::PathBuf),
     /// The file system or the palette writer refused (the message names the file and the reason).
     #[error("{0}")]
     Failed(String),

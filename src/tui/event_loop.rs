@@ -12,7 +12,7 @@ use crate::palette::Palette;
 use crate::palette::file::PaletteFile;
 use crate::tui::app::State;
 use crate::tui::edits::FileError;
-use crate::tui::msg::{Effect, FileOutcome, Msg, Saved};
+use crate::tui::msg::{Effect, FileOutcome, Msg, Saved, SavedScene};
 use crate::tui::preview::PreviewLoader;
 use crate::tui::update;
 use crate::tui::worker::{BasisMode, Reply, Solved, Trained, Worker, WorkerConfig};
@@ -61,8 +61,15 @@ impl Events for ChannelEvents {
 pub trait Saver {
     /// Save `palette` into `file` (`overwrite`: even when another program changed it on disk).
     fn save(&mut self, file: &PaletteFile, palette: &Palette, overwrite: bool) -> Result<Saved, FileError>;
-    /// Save `palette` into `file` at `path`, which becomes the palette file.
-    fn save_as(&mut self, _file: &PaletteFile, _palette: &Palette, _path: &Path) -> Result<Saved, FileError> {
+    /// Save `palette` into `file` at `path`, which becomes the palette file. Another file at `path` is
+    /// replaced only when `replace` (the user was asked: [`FileError::Exists`]).
+    fn save_as(
+        &mut self,
+        _file: &PaletteFile,
+        _palette: &Palette,
+        _path: &Path,
+        _replace: bool,
+    ) -> Result<Saved, FileError> {
         Err(FileError::NoFile)
     }
     /// Write `palette` as a recovery copy beside `file` (on SIGTERM/SIGHUP with unsaved changes); returns
@@ -114,7 +121,13 @@ impl Saver for FileSaver {
         Ok(Saved { text: format!("saved {}", path.display()), file })
     }
 
-    fn save_as(&mut self, file: &PaletteFile, palette: &Palette, path: &Path) -> Result<Saved, FileError> {
+    fn save_as(
+        &mut self,
+        file: &PaletteFile,
+        palette: &Palette,
+        path: &Path,
+        replace: bool,
+    ) -> Result<Saved, FileError> {
         if path.as_os_str().is_empty() {
             return Err(FileError::NoPath);
         }
@@ -130,6 +143,12 @@ impl Saver for FileSaver {
             None => files.output("palette", path).map(|_| ()),
         }
         .map_err(failed)?;
+        // Nothing the user made is replaced unasked: another regular file there is refused once, with the
+        // question; asked again (the same path), it is replaced.
+        let own = file.path.as_deref().is_some_and(|own| crate::fsio::same_file(own, path));
+        if !replace && !own && path.is_file() {
+            return Err(FileError::Exists(path.to_path_buf()));
+        }
         let mut file = file.clone();
         file.save_as(palette, path).map_err(failed)?;
         Ok(Saved { text: format!("saved as {}", crate::fsio::show(path)), file })
@@ -225,6 +244,7 @@ impl Runner<'_> {
     fn run(&mut self, effect: Effect) -> io::Result<()> {
         match effect {
             Effect::Solve { ticket, generation, palette, feasibility } => {
+                self.send(Msg::SolveStarted { ticket, at: Instant::now() });
                 if !self.worker.submit_ticket(ticket, generation, palette, feasibility) {
                     let result = Err(crate::design::DesignError::Invalid("the solver thread stopped".into()));
                     let solved = Solved { ticket, generation, result, elapsed: Duration::ZERO, feasibility: None };
@@ -265,8 +285,8 @@ impl Runner<'_> {
                 let result = self.saver.save(&file, &palette, overwrite);
                 self.send(Msg::File(FileOutcome::Saved { before, result, quit_after, save_as: None }));
             }
-            Effect::SaveAs { file, palette, before, path } => {
-                let result = self.saver.save_as(&file, &palette, &path);
+            Effect::SaveAs { file, palette, before, path, replace } => {
+                let result = self.saver.save_as(&file, &palette, &path, replace);
                 let outcome = FileOutcome::Saved { before, result, quit_after: false, save_as: Some(path) };
                 self.send(Msg::File(outcome));
             }
@@ -277,6 +297,14 @@ impl Runner<'_> {
             Effect::Recover { file, palette } => {
                 let result = self.saver.recover(&file, &palette);
                 self.send(Msg::File(FileOutcome::Recovered(result)));
+            }
+            Effect::SaveKeyframes { path, keyframes } => {
+                let result = crate::tui::keyframes::save_keyframes(&path, &keyframes).map(|text| SavedScene {
+                    text,
+                    count: keyframes.len(),
+                    reloaded: crate::render::scene::Scene::load(&path).map_err(|e| e.to_string()),
+                });
+                self.send(Msg::SceneSaved(result));
             }
         }
         Ok(())

@@ -1,10 +1,12 @@
 //! `metamer design`: the terminal palette designer (seed §4, Fig. 1) as a ratatui application.
 //!
-//! Architecture (the Elm architecture): the [`app::State`] is the whole model. Everything that happens —
+//! Architecture (the Elm architecture): the [`app::State`] is the whole model, as four sub-models
+//! ([`model`]: document, solve, preview, interface), each the one owner of its part. Everything that happens —
 //! a key, a resize, a worker reply, a finished raycast, import or save, a tick, a signal — is a
 //! [`msg::Msg`] on the event loop's one channel; [`update::update`] is the only place the state changes
 //! and returns the side effects to run as data ([`msg::Effect`]: solve, train a basis, raycast, import,
-//! save, save as, reload, recover), whose results come back as messages. A key becomes an
+//! save, save as, reload, recover, save keyframes: every file, thread and clock), whose results come back as
+//! messages. A key becomes an
 //! [`action::Action`] through the one [`keymap`]; the [`ui`] draws the state without changing it. The
 //! [`event_loop::run_main_loop`] blocks on the channel (no polling) and is generic over the ratatui
 //! backend, so the real terminal and the off-screen `TestBackend` (tests, `--replay`) run exactly the
@@ -14,10 +16,10 @@ pub mod action;
 pub mod app;
 pub mod colour;
 pub mod derived;
-pub mod dial_keys;
 pub mod edits;
 pub mod event_loop;
 pub mod graphics;
+pub mod keyframes;
 pub mod keymap;
 pub mod model;
 pub mod msg;

@@ -2,14 +2,16 @@
 //!
 //! Everything that can change the [`crate::tui::State`] arrives as one [`Msg`] on the event loop's one
 //! channel: keys and resizes from the input thread, worker replies (solves, bases), finished raycasts,
-//! finished CSV imports, the outcome of saves and reloads, the end signals and the spinner's ticks.
-//! [`crate::tui::update::update`] handles each and returns the [`Effect`]s to run, as data; the loop runs
-//! them and their results come back as messages. Nothing else changes the state.
+//! finished CSV imports, the outcome of saves, reloads and scene writes, the clock, the end signals and
+//! the spinner's ticks. [`crate::tui::update::update`] handles each and returns the [`Effect`]s to run, as
+//! data — the one kind of request there is: every file read or write, thread and clock reading is one —
+//! and the loop runs them; their results come back as messages. Nothing else changes the state.
 
 use crate::basis::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
 use crate::palette::file::PaletteFile;
 use crate::palette::{Kind, Palette};
+use crate::render::dial::DialState;
 use crate::render::relight::ColourModel;
 use crate::render::scene::Scene;
 use crate::tui::action::Action;
@@ -50,6 +52,17 @@ pub enum FileOutcome {
     Recovered(Result<PathBuf, FileError>),
 }
 
+/// Keyframes written into the scene file, and the scene read back.
+#[derive(Clone, Debug)]
+pub struct SavedScene {
+    /// What the status line says (how many keyframes went where).
+    pub text: String,
+    /// How many keyframes were written (the first ones of the dial's list).
+    pub count: usize,
+    /// The scene as saved (its exposure is the one `metamer render` now uses), or why it does not load.
+    pub reloaded: Result<Scene, String>,
+}
+
 /// One message to the designer. (A few per key or reply, each moved once through the channel: the
 /// variants' sizes do not matter, so the large ones are not boxed.)
 #[allow(clippy::large_enum_variant)]
@@ -70,6 +83,10 @@ pub enum Msg {
     Imported { id: u64, result: Result<Palette, EditError> },
     /// A save, reload or recovery copy finished.
     File(FileOutcome),
+    /// The dial's keyframes were written into the scene file (and the scene read back), or why not.
+    SceneSaved(Result<SavedScene, String>),
+    /// The loop's clock when it handed solve `ticket` to the worker (the progress line counts from it).
+    SolveStarted { ticket: u64, at: Instant },
     /// The spinner's clock (sent only while something is under way).
     Tick(Instant),
     /// A script asks to wait for the running solve (every step waits anyway; kept for old scripts).
@@ -93,6 +110,8 @@ impl Msg {
             Msg::Preview(_) => "preview".into(),
             Msg::Imported { .. } => "imported".into(),
             Msg::File(_) => "file".into(),
+            Msg::SceneSaved(_) => "scene saved".into(),
+            Msg::SolveStarted { ticket, .. } => format!("solve started {ticket}"),
             Msg::Tick(_) => "tick".into(),
             Msg::WaitSolve => "wait-solve".into(),
             Msg::Terminated => "terminated".into(),
@@ -104,7 +123,8 @@ impl Msg {
 /// A side effect [`crate::tui::update::update`] asks the loop to run; its result comes back as a [`Msg`].
 #[allow(clippy::large_enum_variant)]
 pub enum Effect {
-    /// Solve `palette` (cancelling the running solve); the reply is a `Reply::Solved` with `ticket`.
+    /// Solve `palette` (cancelling the running solve); the replies are a [`Msg::SolveStarted`] (the clock)
+    /// and a `Reply::Solved` with `ticket`.
     Solve { ticket: u64, generation: u64, palette: Palette, feasibility: Option<usize> },
     /// Train (or look up) the basis of these spectra; the reply is a `Reply::Trained` with `key`.
     TrainBasis { generation: u64, key: crate::tui::model::BasisKey, set: TrainingSet, m: usize },
@@ -123,10 +143,14 @@ pub enum Effect {
     /// Save `palette` into `file` (`before`: the palette on screen, handed back with the outcome;
     /// `overwrite`: even when the file changed on disk).
     Save { file: PaletteFile, palette: Palette, before: Palette, quit_after: bool, overwrite: bool },
-    /// Save `palette` into `file` at `path`, which becomes the palette file.
-    SaveAs { file: PaletteFile, palette: Palette, before: Palette, path: PathBuf },
+    /// Save `palette` into `file` at `path`, which becomes the palette file (`replace`: even when another
+    /// file is there; the user was asked).
+    SaveAs { file: PaletteFile, palette: Palette, before: Palette, path: PathBuf, replace: bool },
     /// Read the palette file again.
     Reload { file: PaletteFile },
     /// Write a recovery copy of `palette` beside `file`.
     Recover { file: PaletteFile, palette: Palette },
+    /// Append `keyframes` to the scene file at `path` and read the scene back; the reply is a
+    /// [`Msg::SceneSaved`].
+    SaveKeyframes { path: PathBuf, keyframes: Vec<DialState> },
 }

@@ -337,7 +337,7 @@ fn the_preview_of_an_unsaved_solve_is_what_render_draws_once_saved() {
 
 #[test]
 fn saving_keyframes_keeps_the_scene_as_written() {
-    use metamer::tui::dial_keys::save_keyframes;
+    use metamer::tui::keyframes::save_keyframes;
     let dir = tempfile::tempdir().unwrap();
     let repo = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     std::fs::copy(repo.join("volumes/engine_palette.toml"), dir.path().join("engine_palette.toml")).unwrap();

@@ -1,6 +1,7 @@
 //! The designer as messages: worker replies are messages that change the state only through `update`; the
-//! loop blocks on its one channel and handles exactly the messages it is given; save-as (a prompt) writes
-//! through the atomic writer and refuses inputs and folders.
+//! loop blocks on its one channel and handles exactly the messages it is given; file work (save-as, the
+//! dial's scene) is effects `update` returns, never done inside it; save-as (a prompt) writes through the
+//! atomic writer and refuses inputs and folders.
 
 use crate::tui_support::{self, demo_palette, keys, run_live, state};
 
@@ -10,8 +11,9 @@ use metamer::palette::file::PaletteFile;
 use metamer::tui::State;
 use metamer::tui::app::Popup;
 use metamer::tui::colour::ColourMode;
+use metamer::tui::edits::FileError;
 use metamer::tui::event_loop::FileSaver;
-use metamer::tui::msg::{Effect, Msg};
+use metamer::tui::msg::{Effect, FileOutcome, Msg, SavedScene};
 use metamer::tui::replay::{self, MemorySaver};
 use metamer::tui::update::update;
 use metamer::tui::worker::{BasisMode, Reply, Solved, WorkerConfig};
@@ -87,7 +89,7 @@ fn the_loop_blocks_on_its_channel_and_takes_exactly_the_messages_given() {
     assert_eq!(taken.first().map(String::as_str), Some("start"));
     let others: Vec<&String> =
         taken.iter().filter(|l| !(l.starts_with("key") || *l == "end" || *l == "start")).collect();
-    assert!(others.iter().all(|l| l.starts_with("solved")), "{taken:?}");
+    assert!(others.iter().all(|l| l.starts_with("solved") || l.starts_with("solve started")), "{taken:?}");
     assert_eq!(taken.last().map(String::as_str), Some("end"));
     assert_eq!((s.ui.selection.row, s.ui.selection.col), (before.row + 1, before.col + 2));
     assert_eq!(s.ui.ticks, 0);
@@ -248,4 +250,92 @@ fn save_as_onto_an_existing_file_asks_first_and_never_onto_the_sidecar() {
     assert!(screen.contains("saved as"), "{screen}");
     assert_eq!(s.path(), other);
     assert!(PaletteFile::load(&other).is_ok(), "the second Enter replaced it with the palette");
+}
+
+/// Keys handed to `update` alone — no loop, terminal or file system: what they ask for is the effects.
+fn press(s: &mut State, script: &str) -> Vec<Effect> {
+    keys(script).into_iter().flat_map(|m| update(s, m)).collect()
+}
+
+/// The effects by kind, for assertions.
+fn kinds(effects: &[Effect]) -> Vec<&'static str> {
+    effects
+        .iter()
+        .map(|e| match e {
+            Effect::Solve { .. } => "solve",
+            Effect::TrainBasis { .. } => "train",
+            Effect::Raycast { .. } => "raycast",
+            Effect::Import { .. } => "import",
+            Effect::Save { .. } => "save",
+            Effect::SaveAs { .. } => "save as",
+            Effect::Reload { .. } => "reload",
+            Effect::Recover { .. } => "recover",
+            Effect::SaveKeyframes { .. } => "save keyframes",
+        })
+        .collect()
+}
+
+#[test]
+fn save_as_is_an_effect_and_the_question_comes_back_as_a_message() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    assert_eq!(kinds(&update(&mut s, Msg::Start { width: 100, height: 30, trains_bases: false })), ["solve"]);
+    // A path nobody has: update looks nothing up on disk, it asks the loop to save there.
+    let target = "/nonexistent-metamer-dir/notes.toml";
+    let effects = press(&mut s, &format!("Ctrl-w\nCtrl-u\n\"{target}\"\nEnter"));
+    assert_eq!(kinds(&effects), ["save as"]);
+    assert!(matches!(&effects[0], Effect::SaveAs { path, replace: false, .. } if path == Path::new(target)));
+    assert!(s.busy(), "the save is under way");
+    // The saver found a file there: its answer is a message, and the prompt asks.
+    let before = s.doc.palette.clone();
+    let result = Err(FileError::Exists(target.into()));
+    let outcome = FileOutcome::Saved { before, result, quit_after: false, save_as: Some(target.into()) };
+    assert!(update(&mut s, Msg::File(outcome)).is_empty());
+    match &s.ui.popup {
+        Some(Popup::Prompt(p)) => {
+            let error = p.error.as_ref().map(|e| e.0.to_string()).unwrap_or_default();
+            assert!(error.contains(target) && error.contains("Enter again"), "{error}");
+        }
+        _ => panic!("the prompt asks first"),
+    }
+    // Enter on the same path again: replace it. Another path is asked about afresh.
+    let effects = press(&mut s, "Enter");
+    assert!(matches!(effects.as_slice(), [Effect::SaveAs { replace: true, .. }]), "{:?}", kinds(&effects));
+    let before = s.doc.palette.clone();
+    let result = Err(FileError::Exists(target.into()));
+    let outcome = FileOutcome::Saved { before, result, quit_after: false, save_as: Some(target.into()) };
+    update(&mut s, Msg::File(outcome));
+    let effects = press(&mut s, "Backspace\nx\nEnter");
+    assert!(matches!(effects.as_slice(), [Effect::SaveAs { replace: false, .. }]), "{:?}", kinds(&effects));
+}
+
+#[test]
+fn the_dial_s_scene_save_is_an_effect_and_its_outcome_a_message() {
+    let mut scene = metamer::render::scene::builtin_scene(16).expect("built-in scene");
+    let path = std::path::PathBuf::from("/nonexistent-metamer-dir/scene.toml");
+    scene.path = Some(path.clone());
+    let mut s = state(scene.palette.clone(), ColourMode::TrueColor);
+    s.set_preview_scene(scene);
+    update(&mut s, Msg::Start { width: 100, height: 30, trains_bases: false });
+    // `g` gives the keys to the dial, `a` adds a keyframe, Ctrl-s asks the loop to write it.
+    let effects = press(&mut s, "g\na\nCtrl-s");
+    let asked = effects.iter().find_map(|e| match e {
+        Effect::SaveKeyframes { path, keyframes } => Some((path.clone(), keyframes.len())),
+        _ => None,
+    });
+    assert_eq!(asked, Some((path.clone(), 1)), "{:?}", kinds(&effects));
+    assert!(!path.exists());
+    // A keyframe added while the file is written stays to be saved; a second save waits for the first.
+    assert!(kinds(&press(&mut s, "Right\na\nCtrl-s")).iter().all(|k| *k != "save keyframes"));
+    assert!(s.ui.message.as_ref().is_some_and(|m| m.is_error && m.text.contains("being saved")), "{:?}", s.ui.message);
+    assert_eq!(s.preview.keyframes.len(), 2);
+    let saved = SavedScene { text: "saved 1 keyframes".into(), count: 1, reloaded: Err("gone".into()) };
+    update(&mut s, Msg::SceneSaved(Ok(saved)));
+    assert_eq!(s.preview.keyframes.len(), 1, "the written keyframe is no longer pending, the newer one is");
+    let m = s.ui.message.clone().expect("a message");
+    assert!(m.is_error && m.text.contains("does not load again: gone"), "{m:?}");
+    // A failed write keeps the keyframes and says why.
+    assert_eq!(kinds(&press(&mut s, "Ctrl-s")).iter().filter(|k| **k == "save keyframes").count(), 1);
+    update(&mut s, Msg::SceneSaved(Err("disk full".into())));
+    assert_eq!(s.preview.keyframes.len(), 1);
+    assert!(s.ui.message.as_ref().is_some_and(|m| m.text == "scene not saved: disk full"), "{:?}", s.ui.message);
 }

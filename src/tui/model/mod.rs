@@ -17,6 +17,7 @@ mod ui_state;
 pub(crate) use document::EditKey;
 pub use document::{Document, History, Import};
 pub use preview_state::{LiveDial, PreviewState};
-pub(crate) use solve_state::FeasibilityView;
+pub(crate) use preview_state::{NO_SCENE, PreviewMsg, is_dial_action};
+pub(crate) use solve_state::SolveMsg;
 pub use solve_state::{BasisKey, ShownBasis, SolveState};
 pub use ui_state::UiState;

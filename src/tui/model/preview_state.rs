@@ -1,11 +1,25 @@
 //! The scene preview (`--scene`): the scene and its raycast, the one live light dial, the keyframes added
 //! this session, the relit frame and how it reaches the terminal.
 
+use crate::colorimetry::Colorimetry;
 use crate::render::dial::DialState;
 use crate::render::scene::Scene;
+use crate::tui::action::Action;
+use crate::tui::app::Message;
 use crate::tui::graphics::Graphics;
-use crate::tui::preview::Preview;
+use crate::tui::msg::{Effect, SavedScene};
+use crate::tui::preview::{Loaded, Preview};
 use std::sync::Arc;
+
+/// A small step of the slider or a vertex, as a fraction of the dial's extent; a large step is ten.
+pub(crate) const SMALL_STEP: f64 = 0.02;
+pub(crate) const LARGE_STEP: f64 = 0.2;
+/// Intensity change per `+`/`-`, and its range.
+pub(crate) const INTENSITY_STEP: f64 = 0.1;
+pub(crate) const MAX_INTENSITY: f64 = 10.0;
+
+/// What the preview says when there is no scene.
+pub(crate) const NO_SCENE: &str = "no scene preview: start with --scene SCENE.toml";
 
 /// The live light dial: the lights, vertices, on/off, intensities and slider the preview is lit by, and
 /// where along the scene's sweep `[` and `]` step from. The one place the dial's position is kept: the
@@ -49,6 +63,8 @@ pub struct PreviewState {
     pub(crate) selected: Option<usize>,
     /// Keyframes added this session (written into the scene by the dial's save).
     pub keyframes: Vec<DialState>,
+    /// The keyframes are being written into the scene file (the outcome comes back as a message).
+    pub(crate) saving: bool,
     /// The pixels under the current spectra and dial (sRGB, 3 bytes per pixel at the raycast's size;
     /// recomputed with the derived colours and on every dial change).
     pub frame: Vec<u8>,
@@ -58,8 +74,8 @@ pub struct PreviewState {
 
 impl PreviewState {
     /// The scene of the preview (raycast or on its way).
-    pub(crate) fn scene(&self) -> Option<&Scene> {
-        self.ready.as_ref().map(|p| p.scene.as_ref()).or(self.waiting.as_deref())
+    pub(crate) fn scene(&self) -> Option<Arc<Scene>> {
+        self.ready.as_ref().map(|p| p.scene.clone()).or_else(|| self.waiting.clone())
     }
 
     /// True when a scene preview is attached or on its way.
@@ -76,4 +92,193 @@ impl PreviewState {
     pub(crate) fn loading(&self) -> Option<String> {
         self.pending.map(|(w, h)| format!("raycasting {w}×{h} pixels…"))
     }
+
+    /// Handle one message of the preview: a dial key (after `g`, and `[`/`]`), the scene saved with the
+    /// keyframes, a finished raycast. The caller relights when [`PreviewUpdate::relight`] says so.
+    pub(crate) fn update(&mut self, msg: PreviewMsg, colorimetry: &Colorimetry) -> PreviewUpdate {
+        match msg {
+            PreviewMsg::Dial(action) => self.on_dial(action),
+            PreviewMsg::SceneSaved(result) => {
+                self.saving = false;
+                let message = match result {
+                    Ok(SavedScene { text, count, reloaded }) => {
+                        // The written keyframes are in the file (a second save would repeat them); those
+                        // added while it was written stay to be saved.
+                        self.keyframes.drain(..count.min(self.keyframes.len()));
+                        match reloaded {
+                            Ok(scene) => {
+                                // The saved sweep sets render's exposure: take it, so the preview stays
+                                // what `metamer render` writes.
+                                if let Some(p) = self.ready.as_mut() {
+                                    p.rescene(Arc::new(scene), colorimetry);
+                                }
+                                Message::info(text)
+                            }
+                            Err(e) => Message::error(format!("{text}, but it does not load again: {e}")),
+                        }
+                    }
+                    Err(e) => Message::error(format!("scene not saved: {e}")),
+                };
+                PreviewUpdate { effects: Vec::new(), message: Some(message), relight: true }
+            }
+            PreviewMsg::Raycast(loaded) => {
+                let size = (loaded.weights.width, loaded.weights.height);
+                if self.pending == Some(size) {
+                    self.pending = None;
+                }
+                match &mut self.ready {
+                    Some(p) if Arc::ptr_eq(&p.scene, &loaded.scene) => p.set_weights(loaded.weights),
+                    _ => {
+                        let preview = Preview::new(loaded.scene, loaded.model, loaded.weights, colorimetry);
+                        if self.dial.is_none() {
+                            self.dial = Some(LiveDial::at(&preview.scene, 0.0));
+                        }
+                        self.ready = Some(preview);
+                        self.waiting = None;
+                    }
+                }
+                PreviewUpdate { effects: Vec::new(), message: None, relight: true }
+            }
+        }
+    }
+
+    /// The light dial's keys (after `g`): the slider and the vertices move in small and large steps,
+    /// number keys switch lights, `+`/`-` change the selected light's intensity, `a` adds the dial as a
+    /// keyframe and Ctrl-s asks the loop to write the keyframes into the scene file, which
+    /// `metamer render` then sweeps (the `[[dial.keyframes]]` format of `docs/formats/dial.md`); `[`/`]`
+    /// step along the scene's sweep. Every change relights the preview.
+    fn on_dial(&mut self, action: Action) -> PreviewUpdate {
+        let mut update = PreviewUpdate { effects: Vec::new(), message: None, relight: true };
+        let Some(scene) = self.scene() else {
+            update.message = Some(Message::error(NO_SCENE));
+            update.relight = false;
+            return update;
+        };
+        let Some(live) = self.dial.as_mut() else {
+            update.relight = false;
+            return update;
+        };
+        if let Action::Dial { forward } = action {
+            self.shown = true;
+            live.step_along(&scene, forward);
+            return update;
+        }
+        let [[x0, y0], [x1, y1]] = scene.dial.base.bounds();
+        let extent = (x1 - x0).max(y1 - y0).max(1e-3);
+        let dial = &mut live.state;
+        let n = dial.lights.len();
+        let result: Result<(), String> = match action {
+            Action::DialLeave => {
+                self.keys = false;
+                update.relight = false;
+                return update;
+            }
+            Action::DialSlide { dx, dy, big } => {
+                let step = extent * if big { LARGE_STEP } else { SMALL_STEP };
+                let (dx, dy) = (f64::from(dx) * step, f64::from(dy) * step);
+                match self.selected {
+                    None => dial.set_slider([dial.slider[0] + dx, dial.slider[1] + dy]),
+                    Some(i) => {
+                        let p = dial.lights.get(i).map_or([0.0; 2], |l| l.position);
+                        dial.move_vertex(i, [p[0] + dx, p[1] + dy])
+                    }
+                }
+                .map_err(|e| e.to_string())
+            }
+            Action::DialToggle(k) => {
+                let i = usize::from(k).wrapping_sub(1);
+                match dial.toggle(i) {
+                    Ok(on) => {
+                        let name = &dial.lights[i].name;
+                        update.message =
+                            Some(Message::info(format!("light {k} {name} {}", if on { "on" } else { "off" })));
+                        Ok(())
+                    }
+                    Err(_) => Err(format!("there is no light {k} (the dial has {n})")),
+                }
+            }
+            Action::DialSelect { forward } => {
+                // Cycle: slider, vertex 1, …, vertex n.
+                let at = self.selected.map_or(0, |i| i + 1);
+                let next = if forward { (at + 1) % (n + 1) } else { (at + n) % (n + 1) };
+                self.selected = next.checked_sub(1);
+                Ok(())
+            }
+            Action::DialIntensity { up } => match self.selected {
+                None => Err("select a light with Tab first (the slider has no intensity)".to_string()),
+                Some(i) => {
+                    let v = dial.lights.get(i).map_or(1.0, |l| l.intensity);
+                    let step = if up { INTENSITY_STEP } else { -INTENSITY_STEP };
+                    let next = ((v + step) * 10.0).round() / 10.0;
+                    dial.set_intensity(i, next.clamp(0.0, MAX_INTENSITY)).map_err(|e| e.to_string())
+                }
+            },
+            Action::DialKeyframe => {
+                if dial.lights.iter().all(|l| !l.on) {
+                    Err("every light is off: switch one on before adding a keyframe".to_string())
+                } else {
+                    let mut k = dial.clone();
+                    k.fixed_weights = None;
+                    self.keyframes.push(k);
+                    let count = self.keyframes.len();
+                    let text = format!("keyframe {count} added (Ctrl-s writes the keyframes into the scene)");
+                    update.message = Some(Message::info(text));
+                    Ok(())
+                }
+            }
+            Action::DialSaveScene => match &scene.path {
+                None => {
+                    Err("the built-in scene has no file: open a scene file with --scene to save keyframes".to_string())
+                }
+                Some(_) if self.keyframes.is_empty() => Err("no keyframes yet: `a` adds one".to_string()),
+                Some(_) if self.saving => Err("the scene is being saved".to_string()),
+                Some(path) => {
+                    self.saving = true;
+                    update
+                        .effects
+                        .push(Effect::SaveKeyframes { path: path.clone(), keyframes: self.keyframes.clone() });
+                    Ok(())
+                }
+            },
+            _ => Ok(()),
+        };
+        if let Err(e) = result {
+            update.message = Some(Message::error(e));
+        }
+        update
+    }
+}
+
+/// True for the actions [`PreviewState::update`] handles (the dial's keys and the sweep keys).
+pub(crate) fn is_dial_action(action: Action) -> bool {
+    matches!(
+        action,
+        Action::Dial { .. }
+            | Action::DialSlide { .. }
+            | Action::DialToggle(_)
+            | Action::DialSelect { .. }
+            | Action::DialIntensity { .. }
+            | Action::DialKeyframe
+            | Action::DialSaveScene
+            | Action::DialLeave
+    )
+}
+
+/// A message for the preview. (One per raycast or save, moved once: the variants' sizes do not matter.)
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum PreviewMsg {
+    /// A dial key or a sweep key.
+    Dial(Action),
+    /// The keyframes were written into the scene file (and the scene read back), or why not.
+    SceneSaved(Result<SavedScene, String>),
+    /// A raycast finished.
+    Raycast(Loaded),
+}
+
+/// What a preview message asks for: effects for the loop, a line for the message area, a relight.
+#[must_use]
+pub(crate) struct PreviewUpdate {
+    pub(crate) effects: Vec<Effect>,
+    pub(crate) message: Option<Message>,
+    pub(crate) relight: bool,
 }

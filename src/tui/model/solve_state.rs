@@ -4,8 +4,12 @@
 use crate::basis::Basis;
 use crate::basis::policy::Resolved;
 use crate::basis::train::TrainingSet;
+use crate::colorimetry::Colorimetry;
 use crate::design::{DesignError, Solution};
+use crate::palette::Palette;
 use crate::tui::derived::Derived;
+use crate::tui::msg::Effect;
+use crate::tui::worker::Reply;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -70,6 +74,9 @@ pub struct SolveState {
     pub running: Option<u64>,
     /// Solve requests sent so far (the ticket of the newest); only the newest one's reply counts.
     pub(crate) tickets: u64,
+    /// The generation and mismatch-region cell the newest request was for (a palette or a cell not asked
+    /// for yet is solved: [`SolveState::wants_solve`]).
+    pub(crate) asked: Option<(u64, Option<usize>)>,
     /// When the newest solve started (the loop's clock, sent back as a message; the progress line's clock).
     pub(crate) started: Option<Instant>,
     /// How long the running solve has been going (updated on ticks; shown as progress).
@@ -121,5 +128,197 @@ impl SolveState {
     /// The shown basis when it is the basis of exactly the shown spectra.
     pub(crate) fn basis_of_shown(&self) -> Option<&ShownBasis> {
         self.basis.as_ref().filter(|b| self.derived.basis_key.as_ref() == Some(&b.key))
+    }
+
+    /// True when the palette of the current generation, or the region of `feasibility`, was not asked for
+    /// yet (turning the overlay off asks for nothing).
+    pub(crate) fn wants_solve(&self, feasibility: Option<usize>) -> bool {
+        match self.asked {
+            None => true,
+            Some((generation, cell)) => generation != self.generation || (feasibility.is_some() && feasibility != cell),
+        }
+    }
+
+    /// Recompute the colours the view shows of `palette` (after a change of palette, solution or basis).
+    pub(crate) fn derive(&mut self, palette: &Palette, colorimetry: &Colorimetry) {
+        self.derived =
+            Derived::compute(palette, self.latest(), colorimetry, self.basis.as_ref().map(|b| (&b.key, b.basis())));
+    }
+
+    /// Solve `palette` (the current generation) as it stands, with the mismatch region of `feasibility`;
+    /// the newest request cancels the running one. Returns the effects (the solve, and the basis of the
+    /// shown spectra when it is missing) and whether the derived colours changed.
+    pub(crate) fn submit(
+        &mut self,
+        palette: &Palette,
+        feasibility: Option<usize>,
+        colorimetry: &Colorimetry,
+    ) -> SolveUpdate {
+        self.tickets += 1;
+        let solve =
+            Effect::Solve { ticket: self.tickets, generation: self.generation, palette: palette.clone(), feasibility };
+        self.asked = Some((self.generation, feasibility));
+        self.running = Some(self.generation);
+        // The loop's clock comes back with `SolveMsg::Started`.
+        self.started = None;
+        self.running_for = Duration::ZERO;
+        let mut update = self.ensure_basis(palette, colorimetry);
+        update.effects.insert(0, solve);
+        update
+    }
+
+    /// Have the basis of the spectra the matrix shows: at once from the basis memory, else asked of the
+    /// worker (the V7 half shows "updating" meanwhile). Nothing is asked while a solve of a palette with
+    /// designed spectra is under way (the shown spectra are about to change), nor for spectra asked for
+    /// already.
+    fn ensure_basis(&mut self, palette: &Palette, colorimetry: &Colorimetry) -> SolveUpdate {
+        let mut update = SolveUpdate::default();
+        let Some(key) = self.derived.basis_key.clone() else { return update };
+        if self.basis.as_ref().is_some_and(|b| b.key == key) {
+            return update;
+        }
+        if !self.trains_bases {
+            self.basis_error = Some("basis training is off".into());
+            return update;
+        }
+        if let Some(hit) = crate::basis::policy::cached(key.as_str()) {
+            self.basis = Some(ShownBasis::new(key, hit));
+            self.basis_error = None;
+            self.derive(palette, colorimetry);
+            update.derived = true;
+            return update;
+        }
+        let designs = palette.lights.iter().chain(&palette.reflectances).any(|e| e.design);
+        if (designs && self.running.is_some()) || self.basis_asked.as_ref() == Some(&key) {
+            return update;
+        }
+        match TrainingSet::new(self.derived.light_spectra.clone(), self.derived.reflectance_spectra.clone()) {
+            Ok(set) => {
+                let m = palette.settings.basis_dimension;
+                update.effects.push(Effect::TrainBasis { generation: self.generation, key: key.clone(), set, m });
+                self.basis_asked = Some(key);
+                self.training = true;
+            }
+            Err(e) => self.basis_error = Some(format!("cannot train the basis: {e}")),
+        }
+        update
+    }
+
+    /// Handle one message of the solve: a worker reply (only the newest request's solve counts), the
+    /// loop's clock for a solve, a tick of the progress clock.
+    pub(crate) fn update(&mut self, msg: SolveMsg, palette: &Palette, colorimetry: &Colorimetry) -> SolveUpdate {
+        match msg {
+            SolveMsg::Started { ticket, at } => {
+                if ticket == self.tickets {
+                    self.started = Some(at);
+                }
+                SolveUpdate::default()
+            }
+            SolveMsg::Tick(now) => {
+                if let Some(started) = self.started
+                    && (self.running.is_some() || self.training)
+                {
+                    self.running_for = now.saturating_duration_since(started);
+                }
+                SolveUpdate::default()
+            }
+            SolveMsg::Worker(Reply::Trained(t)) => {
+                if self.basis_asked.as_ref() == Some(&t.key) {
+                    self.training = false;
+                }
+                if self.derived.basis_key.as_ref() != Some(&t.key) {
+                    // For spectra no longer shown (it stays in the basis memory if they come back).
+                    return self.ensure_basis(palette, colorimetry);
+                }
+                match t.result {
+                    Ok(resolved) => {
+                        self.basis = Some(ShownBasis::new(t.key, resolved));
+                        self.basis_error = None;
+                    }
+                    Err(e) => self.basis_error = Some(e),
+                }
+                self.refreshed(palette, colorimetry)
+            }
+            SolveMsg::Worker(Reply::Solved(s)) => {
+                if s.ticket != self.tickets {
+                    // A request a newer one replaced (cancelled, or solved before the newer arrived).
+                    return SolveUpdate::default();
+                }
+                self.running = None;
+                if s.generation != self.generation {
+                    // Stale: the palette changed since (a newer solve is on its way).
+                    return SolveUpdate::default();
+                }
+                self.last_time = Some(s.elapsed);
+                if let Some((cell, result)) = s.feasibility {
+                    self.feasibility = Some(FeasibilityView { generation: s.generation, cell, result });
+                }
+                match s.result {
+                    Ok(solution) => {
+                        self.solution = Some((s.generation, solution));
+                        self.error = None;
+                    }
+                    Err(e) => self.error = Some(e),
+                }
+                self.refreshed(palette, colorimetry)
+            }
+        }
+    }
+
+    /// Derive again, then have the basis of the spectra now shown.
+    fn refreshed(&mut self, palette: &Palette, colorimetry: &Colorimetry) -> SolveUpdate {
+        self.derive(palette, colorimetry);
+        let mut update = self.ensure_basis(palette, colorimetry);
+        update.derived = true;
+        update
+    }
+}
+
+/// A message for the solve.
+#[derive(Debug)]
+pub(crate) enum SolveMsg {
+    /// The solve or basis worker finished something.
+    Worker(Reply),
+    /// The loop's clock when it handed solve `ticket` to the worker.
+    Started { ticket: u64, at: Instant },
+    /// The progress clock.
+    Tick(Instant),
+}
+
+/// What a solve message asks for: effects for the loop, and whether the derived colours changed (the
+/// preview relights).
+#[derive(Default)]
+#[must_use]
+pub(crate) struct SolveUpdate {
+    pub(crate) effects: Vec<Effect>,
+    pub(crate) derived: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_progress_clock_is_the_loop_s_own() {
+        let (mut solve, palette, c) = (SolveState::default(), Palette::default(), Colorimetry::default());
+        let first = solve.submit(&palette, None, &c);
+        assert!(matches!(first.effects.as_slice(), [Effect::Solve { ticket: 1, .. }]));
+        assert!(!solve.wants_solve(None), "asked for");
+        let t0 = Instant::now();
+        // No clock read here: until the loop says when it started the solve, no time passes.
+        let _ = solve.update(SolveMsg::Tick(t0 + Duration::from_secs(5)), &palette, &c);
+        assert_eq!(solve.running_for, Duration::ZERO);
+        let _ = solve.update(SolveMsg::Started { ticket: 1, at: t0 }, &palette, &c);
+        let _ = solve.update(SolveMsg::Tick(t0 + Duration::from_millis(1500)), &palette, &c);
+        assert_eq!(solve.running_for, Duration::from_millis(1500));
+        // A newer request: the older one's clock is ignored.
+        solve.generation += 1;
+        assert!(solve.wants_solve(None));
+        let _ = solve.submit(&palette, None, &c);
+        let _ = solve.update(SolveMsg::Started { ticket: 1, at: t0 }, &palette, &c);
+        assert_eq!(solve.started, None);
+        // The overlay of a cell not asked for is a reason to solve; turning it off is not.
+        assert!(solve.wants_solve(Some(0)));
+        assert!(!solve.wants_solve(None));
     }
 }

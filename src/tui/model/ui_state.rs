@@ -51,11 +51,11 @@ impl UiState {
 
     /// Show a message until the next key.
     pub(crate) fn say(&mut self, text: impl Into<String>) {
-        self.message = Some(Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: false });
+        self.message = Some(Message::info(text));
     }
 
     /// Show an error until the next key.
     pub(crate) fn complain(&mut self, text: impl Into<String>) {
-        self.message = Some(Message { text: crate::fsio::escape(&text.into()).into_owned(), is_error: true });
+        self.message = Some(Message::error(text));
     }
 }

@@ -1,79 +1,33 @@
 //! The main screen's actions: one handler per group of keys (moves, cell edits, spectrum operations,
-//! history, panels), each returning what it [`Wants`] done.
+//! history, panels). They change the state; only the file actions return effects (an edit needs none:
+//! the update step solves every palette generation not asked for yet).
 
 use crate::colorimetry::{Colorimetry, linear_to_hex, srgb_decode, srgb_encode};
-use crate::palette::{Bounds, Kind, Palette, Source};
-use crate::spectrum::{Normalize, Spectrum};
+use crate::palette::{Bounds, Kind, Palette};
+use crate::spectrum::Spectrum;
 use crate::tui::action::{Action, Direction};
 use crate::tui::app::{
-    EditKey, Focus, PickItem, Popup, Prompt, PromptPurpose, SettingField, Slider, SpectrumOp, State, Target,
+    EditKey, Focus, PickItem, Popup, PromptPurpose, SettingField, Slider, SpectrumOp, State, Target,
 };
-use crate::tui::edits::{self, EditError, EditResult};
+use crate::tui::edits;
+use crate::tui::msg::Effect;
 use nalgebra::Vector3;
 
-/// What an action asks of the loop besides the state change (turned into [`crate::tui::msg::Effect`]s by
-/// [`super::update`], which knows the tickets and the files).
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Wants {
-    /// The palette changed: solve it again (cancelling any running solve).
-    pub(crate) solve: bool,
-    /// Write the palette to its file.
-    pub(crate) save: bool,
-    /// Quit once the save succeeded.
-    pub(crate) quit_after_save: bool,
-    /// Read the palette file again.
-    pub(crate) reload: bool,
-    /// Save the palette to this path, which becomes the palette file.
-    pub(crate) save_as: Option<std::path::PathBuf>,
-    /// Start the CSV import recorded in `state.doc.import`.
-    pub(crate) import: bool,
-}
+use super::edit::{
+    apply_spectrum_op, changed, current_colour, edit, open_prompt, reload, save, save_as_prompt, with_cell,
+};
 
-impl Wants {
-    pub(super) const NONE: Wants =
-        Wants { solve: false, save: false, quit_after_save: false, reload: false, save_as: None, import: false };
-    pub(super) const SOLVE: Wants = Wants { solve: true, ..Wants::NONE };
+/// An edit whose outcome the handler does not need (a refusal is shown in the message line).
+fn change(state: &mut State, key: EditKey, f: impl FnOnce(&mut Palette, &Colorimetry) -> edits::EditResult) {
+    edit(state, key, f);
 }
 
 /// Slider steps in display sRGB eighths of a byte: one step is 1/255.
 const SMALL_STEP: f64 = 1.0 / 255.0;
 const BIG_STEP: f64 = 16.0 / 255.0;
 
-/// Make an edit on a copy of the palette; keep it (with an undo step) when it succeeds and changed something.
-/// A refused edit is shown in the message line.
-pub(super) fn edit(state: &mut State, key: EditKey, f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult) -> Wants {
-    try_edit(state, key, f).unwrap_or_else(|reason| {
-        state.complain(reason.to_string());
-        Wants::NONE
-    })
-}
-
-/// Like [`edit`], but a refused edit is returned (for a prompt to show) and the state is left as it was.
-pub(super) fn try_edit(
-    state: &mut State,
-    key: EditKey,
-    f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult,
-) -> Result<Wants, EditError> {
-    let mut next = state.doc.palette.clone();
-    f(&mut next, &state.colorimetry)?;
-    if next == state.doc.palette {
-        return Ok(Wants::NONE);
-    }
-    state.doc.remember(key);
-    state.doc.palette = next;
-    Ok(changed(state))
-}
-
-/// The palette changed (edit, undo, redo): new generation, new derived view, solve again.
-pub(super) fn changed(state: &mut State) -> Wants {
-    state.solve.generation += 1;
-    state.clamp_selection();
-    state.refresh();
-    Wants::SOLVE
-}
-
 /// An action on the main screen: one handler per group of keys.
-pub(super) fn update_main(state: &mut State, action: Action) -> Wants {
+pub(super) fn update_main(state: &mut State, action: Action) -> Vec<Effect> {
     if !matches!(action, Action::Move(_) | Action::BigStep { .. }) {
         state.doc.history.last_edit = None;
     }
@@ -105,37 +59,34 @@ pub(super) fn update_main(state: &mut State, action: Action) -> Wants {
         | Action::Save
         | Action::SaveAs
         | Action::Reload
-        | Action::Quit => on_palette(state, action),
-        Action::Help
-        | Action::Diagnostics
-        | Action::Feasibility
-        | Action::Dial { .. }
-        | Action::DialKeys
-        | Action::TogglePreview => on_view(state, action),
-        Action::DialSlide { .. }
+        | Action::Quit => return on_palette(state, action),
+        Action::Help | Action::Diagnostics | Action::Feasibility | Action::DialKeys | Action::TogglePreview => {
+            on_view(state, action)
+        }
+        // The dial's own keys are the preview's (routed to `PreviewState::update` before this); popup-only
+        // actions do nothing on the main screen.
+        Action::Dial { .. }
+        | Action::DialSlide { .. }
         | Action::DialToggle(_)
         | Action::DialSelect { .. }
         | Action::DialIntensity { .. }
         | Action::DialKeyframe
         | Action::DialSaveScene
-        | Action::DialLeave => {
-            crate::tui::dial_keys::update(state, action);
-            Wants::NONE
-        }
-        // Popup-only actions do nothing on the main screen.
-        Action::Input(_)
+        | Action::DialLeave
+        | Action::Input(_)
         | Action::Backspace
         | Action::ClearInput
         | Action::Submit
         | Action::ChooseLight
         | Action::ChooseReflectance
         | Action::Discard
-        | Action::SaveAndQuit => Wants::NONE,
+        | Action::SaveAndQuit => {}
     }
+    Vec::new()
 }
 
 /// Moves, focus, Enter and Esc.
-fn on_navigation(state: &mut State, action: Action) -> Wants {
+fn on_navigation(state: &mut State, action: Action) {
     match action {
         Action::Move(d) => move_in_focus(state, d),
         Action::BigStep { up } => step_slider(state, if up { 1.0 } else { -1.0 }, true),
@@ -147,22 +98,20 @@ fn on_navigation(state: &mut State, action: Action) -> Wants {
             if state.ui.focus == Focus::Sliders && !matches!(state.target(), Target::Cell { .. }) {
                 state.ui.focus = order[(at + 2 * step) % order.len()];
             }
-            Wants::NONE
         }
         Action::Activate => activate(state),
         _ => {
             if let Some(import) = state.doc.import.take() {
                 state.say(format!("import of {} cancelled", crate::fsio::escape(&import.path)));
-                return Wants::NONE;
+                return;
             }
             state.ui.focus = Focus::Matrix;
-            Wants::NONE
         }
     }
 }
 
 /// The selected cell's criterion: target, weight, use, free group, fits.
-fn on_cell(state: &mut State, action: Action) -> Wants {
+fn on_cell(state: &mut State, action: Action) {
     match action {
         Action::HexEntry => with_cell(state, |state, light, reflectance| {
             let current = state.solve.derived.cell(light, reflectance).and_then(|c| c.desired).unwrap_or_default();
@@ -180,7 +129,7 @@ fn on_cell(state: &mut State, action: Action) -> Wants {
         }),
         Action::ToggleUse => with_cell(state, |state, light, reflectance| {
             let now = current_colour(state, light, reflectance);
-            edit(state, EditKey::Other, |p, _| edits::toggle_use(p, light, reflectance, now))
+            change(state, EditKey::Other, |p, _| edits::toggle_use(p, light, reflectance, now))
         }),
         Action::AssignFree => with_cell(state, |state, light, reflectance| {
             let now = state.doc.palette.cell(light, reflectance).and_then(|c| c.free);
@@ -196,7 +145,7 @@ fn on_cell(state: &mut State, action: Action) -> Wants {
         Action::FreeBounds => with_cell(state, free_bounds),
         Action::FitColour => with_cell(state, |state, light, reflectance| {
             let now = current_colour(state, light, reflectance);
-            edit(state, EditKey::Other, |p, _| edits::set_target(p, light, reflectance, now))
+            change(state, EditKey::Other, |p, _| edits::set_target(p, light, reflectance, now))
         }),
         _ => {
             let fits: Vec<(usize, usize, Vector3<f64>)> = state
@@ -207,7 +156,7 @@ fn on_cell(state: &mut State, action: Action) -> Wants {
                 .filter(|c| c.free.is_none())
                 .map(|c| (c.light, c.reflectance, current_colour(state, c.light, c.reflectance)))
                 .collect();
-            edit(state, EditKey::Other, |p, _| {
+            change(state, EditKey::Other, |p, _| {
                 fits.iter().try_for_each(|(l, r, rgb)| edits::set_target(p, *l, *r, *rgb))
             })
         }
@@ -215,11 +164,10 @@ fn on_cell(state: &mut State, action: Action) -> Wants {
 }
 
 /// `b`: the bounds of the selected cell's free-colour group.
-fn free_bounds(state: &mut State, light: usize, reflectance: usize) -> Wants {
+fn free_bounds(state: &mut State, light: usize, reflectance: usize) {
     match state.doc.palette.cell(light, reflectance).and_then(|c| c.free) {
         None => {
             state.complain("this cell is in no free-colour group (press f first)");
-            Wants::NONE
         }
         Some(group) => {
             let g = &state.doc.palette.free[group];
@@ -238,7 +186,7 @@ fn free_bounds(state: &mut State, light: usize, reflectance: usize) -> Wants {
 }
 
 /// `L`, `R`: the list of what can be added.
-fn on_add(state: &mut State, action: Action) -> Wants {
+fn on_add(state: &mut State, action: Action) {
     let (kind, mut items): (Kind, Vec<PickItem>) = if action == Action::AddLight {
         (Kind::Light, Spectrum::illuminant_names().map(PickItem::Illuminant).collect())
     } else {
@@ -252,14 +200,13 @@ fn on_add(state: &mut State, action: Action) -> Wants {
     }
     items.push(PickItem::Csv);
     state.ui.popup = Some(Popup::Pick { kind, items, selected: 0 });
-    Wants::NONE
 }
 
 /// The palette as a whole: settings toggles, history, file, quit.
-fn on_palette(state: &mut State, action: Action) -> Wants {
+fn on_palette(state: &mut State, action: Action) -> Vec<Effect> {
     match action {
         Action::ToggleBounds => toggle_bounds(state),
-        Action::ToggleFitInSubspace => edit(state, EditKey::Other, |p, _| {
+        Action::ToggleFitInSubspace => change(state, EditKey::Other, |p, _| {
             p.settings.fit_in_subspace = !p.settings.fit_in_subspace;
             Ok(())
         }),
@@ -271,10 +218,7 @@ fn on_palette(state: &mut State, action: Action) -> Wants {
                 (&mut state.doc.history.redo, &mut state.doc.history.undo)
             };
             match from.pop() {
-                None => {
-                    state.say(if undo { "nothing to undo" } else { "nothing to redo" });
-                    Wants::NONE
-                }
+                None => state.say(if undo { "nothing to undo" } else { "nothing to redo" }),
                 Some(other) => {
                     let now = std::mem::replace(&mut state.doc.palette, other);
                     to.push(now);
@@ -284,27 +228,25 @@ fn on_palette(state: &mut State, action: Action) -> Wants {
                 }
             }
         }
-        Action::Save => Wants { save: true, ..Wants::NONE },
+        Action::Save => return save(state, false),
         Action::SaveAs => {
             let now = state.path().display().to_string();
-            state.ui.popup = Some(Popup::Prompt(super::replies::save_as_prompt(now, None)));
-            Wants::NONE
+            state.ui.popup = Some(Popup::Prompt(save_as_prompt(now, None)));
         }
-        Action::Reload => Wants { reload: true, ..Wants::NONE },
+        Action::Reload => return reload(state),
         _ => {
             if state.is_dirty() {
                 state.ui.popup = Some(Popup::ConfirmQuit);
             } else {
                 state.ui.quit = true;
             }
-            Wants::NONE
         }
     }
+    Vec::new()
 }
 
 /// Popups that only show, the mismatch overlay and the scene preview.
-fn on_view(state: &mut State, action: Action) -> Wants {
-    const NO_SCENE: &str = "no scene preview: start with --scene SCENE.toml";
+fn on_view(state: &mut State, action: Action) {
     match action {
         Action::Help => state.ui.popup = Some(Popup::Help { scroll: 0 }),
         Action::Diagnostics => {
@@ -320,48 +262,16 @@ fn on_view(state: &mut State, action: Action) -> Wants {
                 state.say("mismatch region: select a cell with a colour criterion");
             }
         }
-        _ if !state.preview.has_scene() => state.complain(NO_SCENE),
-        Action::Dial { forward } => {
-            let p = &mut state.preview;
-            p.shown = true;
-            let scene = p.ready.as_ref().map(|r| r.scene.clone()).or_else(|| p.waiting.clone());
-            if let (Some(scene), Some(dial)) = (scene, p.dial.as_mut()) {
-                dial.step_along(&scene, forward);
-            }
-            state.relight();
-        }
+        _ if !state.preview.has_scene() => state.complain(crate::tui::model::NO_SCENE),
         Action::DialKeys => {
             state.preview.shown = true;
             state.preview.keys = true;
         }
         _ => state.preview.shown = !state.preview.shown,
     }
-    Wants::NONE
 }
 
-/// The colour the cell has now (solved where solved), for fit colour and new criteria.
-pub(super) fn current_colour(state: &State, light: usize, reflectance: usize) -> Vector3<f64> {
-    state.solve.derived.cell(light, reflectance).map(|c| c.full).unwrap_or_default()
-}
-
-/// Run `f` on the selected cell, or say that a cell must be selected.
-pub(super) fn with_cell(state: &mut State, f: impl FnOnce(&mut State, usize, usize) -> Wants) -> Wants {
-    match state.target() {
-        Target::Cell { light, reflectance } => f(state, light, reflectance),
-        _ => {
-            state.complain("select a cell of the matrix first");
-            Wants::NONE
-        }
-    }
-}
-
-pub(super) fn open_prompt(state: &mut State, title: &str, hint: &str, input: String, purpose: PromptPurpose) -> Wants {
-    state.ui.popup =
-        Some(Popup::Prompt(Prompt { title: title.to_string(), hint: hint.to_string(), input, purpose, error: None }));
-    Wants::NONE
-}
-
-fn move_in_focus(state: &mut State, d: Direction) -> Wants {
+fn move_in_focus(state: &mut State, d: Direction) {
     match state.ui.focus {
         Focus::Matrix => {
             let (nl, nr) = (state.doc.palette.lights.len(), state.doc.palette.reflectances.len());
@@ -373,38 +283,32 @@ fn move_in_focus(state: &mut State, d: Direction) -> Wants {
                 Direction::Right if s.col < nl => s.col += 1,
                 _ => {}
             }
-            Wants::NONE
         }
         Focus::Sliders => match d {
             Direction::Up => {
                 state.ui.slider = state.ui.slider.saturating_sub(1);
-                Wants::NONE
             }
             Direction::Down => {
                 state.ui.slider = (state.ui.slider + 1).min(Slider::ALL.len() - 1);
-                Wants::NONE
             }
             Direction::Left => step_slider(state, -1.0, false),
             Direction::Right => step_slider(state, 1.0, false),
         },
-        Focus::Settings => {
-            match d {
-                Direction::Left => state.ui.setting = state.ui.setting.saturating_sub(1),
-                Direction::Right => state.ui.setting = (state.ui.setting + 1).min(SettingField::ALL.len() - 1),
-                Direction::Up | Direction::Down => {}
-            }
-            Wants::NONE
-        }
+        Focus::Settings => match d {
+            Direction::Left => state.ui.setting = state.ui.setting.saturating_sub(1),
+            Direction::Right => state.ui.setting = (state.ui.setting + 1).min(SettingField::ALL.len() - 1),
+            Direction::Up | Direction::Down => {}
+        },
     }
 }
 
 /// Move the focused slider of the selected cell by one small or big step in direction `sign`.
-fn step_slider(state: &mut State, sign: f64, big: bool) -> Wants {
+fn step_slider(state: &mut State, sign: f64, big: bool) {
     if state.ui.focus != Focus::Sliders {
-        return Wants::NONE;
+        return;
     }
     let Target::Cell { light, reflectance } = state.target() else {
-        return Wants::NONE;
+        return;
     };
     let slider = Slider::ALL[state.ui.slider.min(Slider::ALL.len() - 1)];
     let key = EditKey::Slider { light, reflectance, slider: state.ui.slider };
@@ -414,7 +318,7 @@ fn step_slider(state: &mut State, sign: f64, big: bool) -> Wants {
             let w = state.doc.palette.cell(light, reflectance).map_or(1.0, |c| c.weight);
             let step = if big { 1.0 } else { 0.1 };
             let next = ((w + sign * step) * 10.0).round() / 10.0;
-            edit(state, key, |p, _| edits::set_weight(p, light, reflectance, next.max(0.0), now))
+            change(state, key, |p, _| edits::set_weight(p, light, reflectance, next.max(0.0), now))
         }
         channel => {
             let k = match channel {
@@ -428,30 +332,28 @@ fn step_slider(state: &mut State, sign: f64, big: bool) -> Wants {
             let next = ((display + sign * step) * 255.0).round().clamp(0.0, 255.0) / 255.0;
             let mut rgb = target;
             rgb[k] = srgb_decode(next);
-            edit(state, key, |p, _| edits::set_target(p, light, reflectance, rgb))
+            change(state, key, |p, _| edits::set_target(p, light, reflectance, rgb))
         }
     }
 }
 
-fn activate(state: &mut State) -> Wants {
+fn activate(state: &mut State) {
     match state.ui.focus {
         Focus::Matrix => match state.target() {
             Target::Cell { .. } => {
                 state.ui.focus = Focus::Sliders;
-                Wants::NONE
             }
             Target::Light(_) | Target::Reflectance(_) => spectrum_op(state, SpectrumOp::ToggleDesign),
-            Target::Nothing => Wants::NONE,
+            Target::Nothing => {}
         },
         Focus::Sliders => {
             state.ui.focus = Focus::Matrix;
-            Wants::NONE
         }
         Focus::Settings => {
             let field = SettingField::ALL[state.ui.setting.min(SettingField::ALL.len() - 1)];
             match field {
                 SettingField::Bounds => toggle_bounds(state),
-                SettingField::FitInSubspace => edit(state, EditKey::Other, |p, _| {
+                SettingField::FitInSubspace => change(state, EditKey::Other, |p, _| {
                     p.settings.fit_in_subspace = !p.settings.fit_in_subspace;
                     Ok(())
                 }),
@@ -487,18 +389,18 @@ fn setting_prompt_text(field: SettingField) -> (&'static str, &'static str) {
     }
 }
 
-fn toggle_bounds(state: &mut State) -> Wants {
+fn toggle_bounds(state: &mut State) {
     if state.doc.palette.settings.bounded() {
         let s = &state.doc.palette.settings;
         state.doc.remembered_bounds = (s.reflectance_bounds, s.light_bounds);
-        edit(state, EditKey::Other, |p, _| {
+        change(state, EditKey::Other, |p, _| {
             p.settings.reflectance_bounds = Bounds::UNBOUNDED;
             p.settings.light_bounds = Bounds::UNBOUNDED;
             Ok(())
         })
     } else {
         let (r, l) = state.doc.remembered_bounds;
-        edit(state, EditKey::Other, |p, _| {
+        change(state, EditKey::Other, |p, _| {
             p.settings.reflectance_bounds = r;
             p.settings.light_bounds = l;
             Ok(())
@@ -507,7 +409,7 @@ fn toggle_bounds(state: &mut State) -> Wants {
 }
 
 /// A spectrum operation on the selection: direct on a swatch, a choice on a cell (Planck: the cell's light).
-fn spectrum_op(state: &mut State, op: SpectrumOp) -> Wants {
+fn spectrum_op(state: &mut State, op: SpectrumOp) {
     match state.target() {
         Target::Light(l) => apply_spectrum_op(state, op, Kind::Light, l),
         Target::Reflectance(r) => apply_spectrum_op(state, op, Kind::Reflectance, r),
@@ -519,57 +421,9 @@ fn spectrum_op(state: &mut State, op: SpectrumOp) -> Wants {
         }
         Target::Cell { light, reflectance } => {
             state.ui.popup = Some(Popup::ChooseSpectrum { op, light, reflectance });
-            Wants::NONE
         }
         Target::Nothing => {
             state.complain("the palette is empty: add a light (L) or a reflectance (R)");
-            Wants::NONE
-        }
-    }
-}
-
-pub(super) fn apply_spectrum_op(state: &mut State, op: SpectrumOp, kind: Kind, index: usize) -> Wants {
-    let Some(name) = state.doc.palette.entries(kind).get(index).map(|e| e.name.clone()) else {
-        return Wants::NONE;
-    };
-    match op {
-        SpectrumOp::ToggleDesign => edit(state, EditKey::Other, |p, _| edits::toggle_design(p, kind, index)),
-        SpectrumOp::NormaliseLuminance | SpectrumOp::NormaliseL2 if kind == Kind::Reflectance => {
-            state.complain("reflectances are never normalised; scale them instead (s)");
-            Wants::NONE
-        }
-        SpectrumOp::NormaliseLuminance => {
-            edit(state, EditKey::Other, |p, c| edits::normalise(p, index, Normalize::Luminance, c))
-        }
-        SpectrumOp::NormaliseL2 => edit(state, EditKey::Other, |p, c| edits::normalise(p, index, Normalize::L2, c)),
-        SpectrumOp::Planck if kind == Kind::Reflectance => {
-            state.complain("Planck black bodies are lights: select a light");
-            Wants::NONE
-        }
-        SpectrumOp::Planck => {
-            let t = match state.doc.palette.lights[index].source {
-                Source::Planck(t) => t,
-                _ => 6500.0,
-            };
-            let title = format!("make {name} a Planck black body");
-            open_prompt(state, &title, "temperature in kelvin", format!("{t}"), PromptPurpose::Planck { light: index })
-        }
-        SpectrumOp::Scale => {
-            let title = format!("scale of {name}");
-            let now = super::prompt::num_text(state.doc.palette.entries(kind)[index].scale);
-            let hint = if kind == Kind::Light {
-                "spectrum = normalised source × scale"
-            } else {
-                "spectrum = source × scale"
-            };
-            open_prompt(state, &title, hint, now, PromptPurpose::Scale { kind, index })
-        }
-        SpectrumOp::Remove => {
-            let effects = edit(state, EditKey::Other, |p, _| edits::remove(p, kind, index));
-            if effects.solve {
-                state.say(format!("removed {} {name} (z undoes)", kind.as_str()));
-            }
-            effects
         }
     }
 }

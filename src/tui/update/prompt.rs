@@ -1,17 +1,12 @@
 //! A submitted prompt: its text parsed and the edit made, or the reason shown in the prompt.
 
-use super::keys::{Wants, current_colour, try_edit};
-use super::popups::{add_spectrum, start_import};
+use super::edit::{add_spectrum, current_colour, save_as, start_import, try_edit};
 use crate::colorimetry::{Colorimetry, hex_to_linear};
 use crate::palette::{Bounds, Kind, Palette, Source};
 use crate::tui::app::{EditKey, Popup, Prompt, PromptPurpose, SettingField, State};
-use crate::tui::edits::{self, EditError, EditResult};
+use crate::tui::edits::{self, EditError, EditResult, FileError};
+use crate::tui::msg::Effect;
 use nalgebra::Vector3;
-
-/// A number as prompts prefill it (shortest round-trip form).
-pub(super) fn num_text(v: f64) -> String {
-    format!("{v}")
-}
 
 /// Parse a number the way prompts accept it (`inf`, `-inf` included; NaN refused).
 fn parse_number(text: &str) -> Result<f64, EditError> {
@@ -22,8 +17,9 @@ fn parse_number(text: &str) -> Result<f64, EditError> {
     }
 }
 
-pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Wants {
-    let result: Result<Wants, EditError> = (|| {
+/// Carry out a submitted prompt; a refused answer keeps the prompt open with the reason.
+pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Vec<Effect> {
+    let result: Result<Vec<Effect>, EditError> = (|| {
         let input = prompt.input.trim().to_string();
         Ok(match prompt.purpose.clone() {
             PromptPurpose::Hex { light, reflectance } => {
@@ -66,7 +62,8 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Wants {
                 if !(t.is_finite() && t > 0.0) {
                     return Err(EditError::Temperature);
                 }
-                add_spectrum(state, Kind::Light, &format!("planck_{}K", t.round()), Source::Planck(t))
+                add_spectrum(state, Kind::Light, &format!("planck_{}K", t.round()), Source::Planck(t));
+                Vec::new()
             }
             PromptPurpose::Scale { kind, index } => {
                 let k = parse_number(&input)?;
@@ -86,18 +83,13 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Wants {
                     return Err(EditError::NoPath);
                 }
                 let path = std::path::PathBuf::from(&input);
-                // Nothing the user made is replaced unasked: an existing file other than the palette
-                // itself is refused once, with the question; Enter on the same path again replaces it.
-                // (Inputs and files that are not regular are left to the saver, which refuses them.)
-                let own = state.doc.file.path.as_deref().is_some_and(|own| crate::fsio::same_file(own, &path));
-                let mut inputs = crate::fsio::Outputs::new();
-                state.doc.file.record_inputs("palette", &mut inputs);
-                let an_input = inputs.check("palette", &path).is_err();
-                let asked = matches!(prompt.error.as_ref().map(|r| &*r.0), Some(EditError::Exists(p)) if *p == input);
-                if path.is_file() && !own && !an_input && !asked {
-                    return Err(EditError::Exists(input.clone()));
-                }
-                Wants { save_as: Some(path), ..Wants::NONE }
+                // Nothing the user made is replaced unasked: the saver refuses another file at the path
+                // once, with the question (`FileError::Exists`); Enter on the same path again replaces it.
+                let asked = matches!(
+                    prompt.error.as_ref().map(|r| &*r.0),
+                    Some(EditError::File(FileError::Exists(p))) if *p == path
+                );
+                save_as(state, path, asked)
             }
             PromptPurpose::Setting(field) => {
                 let v = parse_number(&input)?;
@@ -111,17 +103,18 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Wants {
             state.ui.message = None;
             prompt.error = Some(reason.into());
             state.ui.popup = Some(Popup::Prompt(prompt));
-            Wants::NONE
+            Vec::new()
         }
     }
 }
 
-/// Like [`edit`], but a refused edit is an error for the prompt to show.
+/// Like [`super::edit::edit`], but a refused edit is an error for the prompt to show (an edit needs no
+/// effect: the update step solves the new generation).
 fn edit_or_err(
     state: &mut State,
     f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult,
-) -> Result<Wants, EditError> {
-    try_edit(state, EditKey::Other, f)
+) -> Result<Vec<Effect>, EditError> {
+    try_edit(state, EditKey::Other, f).map(|_| Vec::new())
 }
 
 fn set_setting(p: &mut Palette, field: SettingField, v: f64) -> EditResult {

@@ -225,13 +225,13 @@ fn keyframe_saves_keep_the_scene_mode_and_refuse_a_fifo() {
     let d = dir.path();
     std::fs::write(d.join("s.toml"), "palette = \"p.toml\"\n").unwrap();
     std::fs::set_permissions(d.join("s.toml"), std::fs::Permissions::from_mode(0o640)).unwrap();
-    metamer::tui::dial_keys::save_keyframes(&d.join("s.toml"), &[]).unwrap();
+    metamer::tui::keyframes::save_keyframes(&d.join("s.toml"), &[]).unwrap();
     let mode = std::fs::metadata(d.join("s.toml")).unwrap().permissions().mode() & 0o777;
     assert_eq!(mode, 0o640, "the in-place save keeps the mode");
     assert!(std::fs::read_to_string(d.join("s.toml")).unwrap().contains("palette = \"p.toml\""));
     let fifo = d.join("f.toml");
     mkfifo(&fifo);
-    let e = within(Duration::from_secs(5), move || metamer::tui::dial_keys::save_keyframes(&fifo, &[])).unwrap_err();
+    let e = within(Duration::from_secs(5), move || metamer::tui::keyframes::save_keyframes(&fifo, &[])).unwrap_err();
     assert!(e.contains("FIFO"), "{e}");
 }
 
