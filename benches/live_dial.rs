@@ -34,10 +34,10 @@ fn dial_move(c: &mut Criterion) {
     ];
     for (label, graphics, (w, h)) in cases {
         let mut state = tui_support::state(scene.palette.clone(), ColourMode::TrueColor);
-        state.graphics = graphics;
+        state.preview.graphics = graphics;
         state.set_preview_scene((*scene).clone());
         let areas = preview_areas(&state, Rect::new(0, 0, w, h)).expect("a preview panel");
-        let side = state.graphics.pixels_for(areas.image, MAX_PREVIEW_EDGE);
+        let side = state.preview.graphics.pixels_for(areas.image, MAX_PREVIEW_EDGE);
         let preview = Preview::new(
             scene.clone(),
             preview_model(&scene, &state.colorimetry),
@@ -45,7 +45,7 @@ fn dial_move(c: &mut Criterion) {
             &state.colorimetry,
         );
         state.set_preview(preview);
-        state.dial_keys = true;
+        state.preview.keys = true;
         let mut terminal = Terminal::new(TestBackend::new(w, h)).expect("test backend");
         let mut dx = 1;
         c.bench_function(&format!("live/dial_move_{label}_{side}px"), |b| {

@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 fn frame(c: &mut Criterion) {
     let mut state = tui_support::state(tui_support::square_palette(8), ColourMode::TrueColor);
-    state.focus = Focus::Sliders;
+    state.ui.focus = Focus::Sliders;
     let mut terminal = Terminal::new(TestBackend::new(100, 30)).expect("test backend");
     c.bench_function("design/edit_and_redraw_8x8", |b| {
         b.iter(|| {
@@ -40,14 +40,14 @@ fn frame(c: &mut Criterion) {
         } else {
             (Bounds::UNBOUNDED, Bounds::UNBOUNDED)
         };
-        state.palette.settings.reflectance_bounds = r;
-        state.palette.settings.light_bounds = l;
+        state.doc.palette.settings.reflectance_bounds = r;
+        state.doc.palette.settings.light_bounds = l;
         c.bench_function(&format!("design/{label}"), |b| {
             b.iter(|| {
                 update(&mut state, Msg::Action(Action::Move(Direction::Right)));
                 let solved = design::solve(
-                    &state.palette,
-                    state.basis.as_ref().map(|(_, r)| &r.0),
+                    &state.doc.palette,
+                    state.solve.basis.as_ref().map(|b| b.basis()),
                     &state.colorimetry,
                     &options,
                 );
@@ -57,7 +57,7 @@ fn frame(c: &mut Criterion) {
                 }
                 state.refresh();
                 terminal.draw(|f| f.render_widget(&state, f.area())).expect("draw");
-                black_box(&state.derived);
+                black_box(&state.solve.derived);
                 update(&mut state, Msg::Action(Action::Move(Direction::Left)));
             })
         });

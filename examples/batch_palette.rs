@@ -1,6 +1,7 @@
 //! Write the benchmark palettes as TOML files:
 //! `cargo run --release --example batch_palette -- batch N OUT.toml [SEED]` (N independent bounded
-//! single-reflectance designs under 3 lights) or `... capacity N OUT.toml [SEED]` (the n×n joint protocol).
+//! single-reflectance designs under 3 lights, targets perturbed), `... reachable N OUT.toml [SEED]` (the same,
+//! every target reachable) or `... capacity N OUT.toml [SEED]` (the n×n joint protocol).
 
 use metamer::colorimetry::Colorimetry;
 #[path = "../tests/it/common/random.rs"]
@@ -11,7 +12,7 @@ use std::path::Path;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
-    let usage = "usage: batch_palette (batch|capacity) N OUT.toml [SEED]";
+    let usage = "usage: batch_palette (batch|reachable|capacity) N OUT.toml [SEED]";
     let (kind, n, out) = match (args.get(1), args.get(2), args.get(3)) {
         (Some(k), Some(n), Some(o)) => (k.as_str(), n.parse::<usize>()?, o),
         _ => anyhow::bail!(usage),
@@ -20,6 +21,7 @@ fn main() -> anyhow::Result<()> {
     let col = Colorimetry::default();
     let palette = match kind {
         "batch" => random::batch_palette(n, seed, &col),
+        "reachable" => random::reachable_batch_palette(n, seed, &col),
         "capacity" => random::capacity_palette(n, seed, &col),
         _ => anyhow::bail!(usage),
     };

@@ -5,7 +5,7 @@
 //! modules are re-exported under their own names so `metamer::palette::…` and `crate::palette::…` name
 //! the same items; the domain crate cannot see anything here (see docs/ARCHITECTURE.md).
 
-pub use metamer_core::{basis, colorimetry, design, fsio, palette, render, spectrum, volume};
+pub use metamer_core::{basis, colorimetry, design, fsio, memory, palette, render, spectrum, volume};
 
 pub mod bench;
 pub mod cli;

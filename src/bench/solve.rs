@@ -2,7 +2,8 @@
 //! designs, n×n joint palettes (TOG 2009 Fig. 3 capacity protocol), bounded vs unbounded, and blocks vs
 //! one dense system. Printed as a Markdown table and drawn as a PNG plot (time vs error). Full runs also
 //! time the whole `metamer solve` process on a 1200-design batch file against scipy's BVLS solving the
-//! same designs one by one (benches/scipy_bvls.py), when python3 with scipy is there.
+//! same designs one by one (benches/scipy_bvls.py), when python3 with scipy is there, on two workloads: random
+//! targets (most designs press on the bounds, many cannot be met) and reachable targets.
 //!
 //! The error of a palette is the mean over its cells of the CIELAB ΔE*ab (and CIEDE2000) between the
 //! target and the achieved full colour, against the white of the cell's light (DESIGN_SPEC §1); the
@@ -84,6 +85,9 @@ pub struct Row {
 #[derive(Clone, Debug, PartialEq)]
 pub enum VersusScipy {
     Measured {
+        /// Which targets: "random targets" ([`random::batch_palette`]) or "reachable targets"
+        /// ([`random::reachable_batch_palette`]).
+        workload: &'static str,
         designs: usize,
         /// scipy's BVLS over all designs, one by one.
         scipy_seconds: f64,
@@ -104,6 +108,7 @@ impl VersusScipy {
     pub(crate) fn markdown(&self) -> String {
         match self {
             VersusScipy::Measured {
+                workload,
                 designs,
                 scipy_seconds,
                 process_seconds,
@@ -111,8 +116,8 @@ impl VersusScipy {
                 solve_seconds,
                 relative_difference,
             } => format!(
-                "Whole process against scipy ({designs} bounded single-reflectance designs, 3 lights each, one \
-                 file): `metamer solve IN -o OUT --report R.json` {} ({} with `--quiet --no-subspace`; solve alone \
+                "Whole process against scipy, {workload} ({designs} bounded single-reflectance designs, 3 lights \
+                 each, one file): `metamer solve IN -o OUT --report R.json` {} ({} with `--quiet --no-subspace`; solve alone \
                  {}), scipy BVLS one by one {} ({} per design): **{:.1}× faster** as a process. Objective \
                  (metamer − scipy) / scipy = {:.1e}. Rerun: `python3 benches/scipy_bvls.py FILE`.\n",
                 format_seconds(*process_seconds),
@@ -132,18 +137,19 @@ impl VersusScipy {
 #[derive(Clone, Debug, Default)]
 pub struct Report {
     pub rows: Vec<Row>,
-    /// The whole-process comparison (`None` when the configuration does not ask for it).
-    pub versus_scipy: Option<VersusScipy>,
+    /// The whole-process comparisons, one per workload (none when the configuration does not ask for them).
+    pub versus_scipy: Vec<VersusScipy>,
 }
 
 impl Report {
     /// The Markdown table, then the whole-process comparison when there is one.
     pub fn markdown(&self) -> String {
-        let table = self.table();
-        match &self.versus_scipy {
-            Some(v) => format!("{table}\n{}", v.markdown()),
-            None => table,
+        let mut text = self.table();
+        for v in &self.versus_scipy {
+            text.push('\n');
+            text.push_str(&v.markdown());
         }
+        text
     }
 
     /// The Markdown table.
@@ -428,7 +434,7 @@ fn metamer_binary() -> Option<std::path::PathBuf> {
 
 /// Time the whole `metamer solve` process on a file of `designs` bounded single-reflectance designs against
 /// scipy's BVLS solving them one by one (benches/scipy_bvls.py, which also checks the objectives agree).
-pub(crate) fn versus_scipy(designs: usize) -> VersusScipy {
+pub(crate) fn versus_scipy(designs: usize, reachable: bool) -> VersusScipy {
     let skip = |why: String| VersusScipy::Skipped(why);
     // Relative to the working folder (the bench runs from a checkout): no build machine's path is compiled in.
     let script = Path::new("benches").join("scipy_bvls.py");
@@ -438,7 +444,12 @@ pub(crate) fn versus_scipy(designs: usize) -> VersusScipy {
     let Some(metamer) = metamer_binary() else { return skip("the metamer binary was not found".into()) };
     let Ok(dir) = tempfile::tempdir() else { return skip("no temporary folder".into()) };
     let path = dir.path().join("batch.toml");
-    let palette = random::batch_palette(designs, 1, &Colorimetry::default());
+    let col = Colorimetry::default();
+    let (workload, palette) = if reachable {
+        ("reachable targets", random::reachable_batch_palette(designs, 1, &col))
+    } else {
+        ("random targets", random::batch_palette(designs, 1, &col))
+    };
     let mut file = crate::palette::file::PaletteFile::from_palette(&palette);
     if let Err(e) = file.save_as(&palette, &path) {
         return skip(format!("cannot write the batch file: {e}"));
@@ -473,6 +484,7 @@ pub(crate) fn versus_scipy(designs: usize) -> VersusScipy {
     ) {
         (Some(scipy_seconds), Some(process_seconds), Some(process_quiet_seconds), Some(solve_seconds), Some(rel)) => {
             VersusScipy::Measured {
+                workload,
                 designs,
                 scipy_seconds,
                 process_seconds,
@@ -485,14 +497,15 @@ pub(crate) fn versus_scipy(designs: usize) -> VersusScipy {
     }
 }
 
-/// Run everything, print the table to stdout, and draw the plot to `plot_path` when given.
+/// Run everything and draw the plot to `plot_path` when given (the caller prints the report: `metamer bench`
+/// through the one stdout writer, `cli/out.rs`).
 pub fn run(cfg: &Config, plot_path: Option<&Path>) -> Report {
     let mut report = Report::default();
     report.rows.extend(batches(cfg));
     report.rows.extend(blocks_vs_dense(cfg));
     report.rows.extend(joint(cfg));
-    report.versus_scipy = cfg.versus_scipy.map(versus_scipy);
-    println!("{}", report.markdown());
+    report.versus_scipy =
+        cfg.versus_scipy.map(|n| vec![versus_scipy(n, false), versus_scipy(n, true)]).unwrap_or_default();
     if let Some(path) = plot_path
         && let Err(e) = report.plot(path)
     {

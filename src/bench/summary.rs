@@ -423,7 +423,7 @@ mod tests {
                 row("slower", "5 designs", 3e-3, 1.0),
                 row("joint", "3×3", 1e-6, 1e-6),
             ],
-            versus_scipy: None,
+            versus_scipy: Vec::new(),
         };
         let fronts = solve_pareto_cases(&report);
         // Over all points "joint 3×3" would dominate everything; per workload it has no rival, and the

@@ -68,9 +68,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         // Through a `Value`: its objects print their keys sorted, the order the output has always had.
         let doc = serde_json::to_value(BasisJson::new(basis, report, &args.palette, cache))?;
-        println!("{}", serde_json::to_string_pretty(&doc)?);
+        super::out::println(&serde_json::to_string_pretty(&doc)?)?;
     } else {
-        print!("{}", crate::fsio::escape_lines(&table(report, &args.palette, cache)));
+        super::out::print(&crate::fsio::escape_lines(&table(report, &args.palette, cache)))?;
     }
     Ok(())
 }

@@ -63,23 +63,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("benchmark report into {}", crate::fsio::show(&args.output)))?;
     if let Some(readme) = &args.readme {
         report::splice_readme(readme, &report, &args.output)?;
-        println!("updated {}", crate::fsio::show(readme));
+        super::out::println(&format!("updated {}", crate::fsio::show(readme)))?;
     }
     // Paths from the command line reach the terminal with their control characters escaped.
-    println!("{}", crate::fsio::escape_lines(&report.markdown));
+    let mut text = format!("{}\n", crate::fsio::escape_lines(&report.markdown));
     for f in &report.files {
-        println!("wrote {}", crate::fsio::show(f));
+        text.push_str(&format!("wrote {}\n", crate::fsio::show(f)));
     }
+    super::out::print(&text)?;
     // Say plainly when the run replaced files that git tracks (e.g. `-o docs/bench --readme README.md` in a
     // checkout), so a user does not commit regenerated figures by accident.
     let written: Vec<&PathBuf> = report.files.iter().chain(args.readme.as_ref()).collect();
     let tracked: Vec<String> = written.iter().filter(|f| tracked_by_git(f)).map(|f| crate::fsio::show(f)).collect();
     if !tracked.is_empty() {
-        println!(
+        super::out::println(&format!(
             "rewrote {} file(s) tracked by git (review with `git diff --stat`, undo with `git checkout -- FILE`): {}",
             tracked.len(),
             tracked.join(", ")
-        );
+        ))?;
     }
     Ok(())
 }

@@ -52,14 +52,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         match PaletteFile::load(path) {
             Ok(file) => {
                 if printed {
-                    println!();
+                    super::out::println("")?;
                 }
                 printed = true;
                 for w in &file.warnings {
                     eprintln!("warning: {}", crate::fsio::escape_lines(w));
                 }
-                print!("{}", render_matrix(&file.palette, &colorimetry, colour));
-                println!("ok: {}: {}", crate::fsio::show(path), summary(&file.palette));
+                let matrix = render_matrix(&file.palette, &colorimetry, colour);
+                super::out::print(&format!("{matrix}ok: {}: {}\n", crate::fsio::show(path), summary(&file.palette)))?;
             }
             Err(e) => {
                 eprintln!("error: {}", crate::fsio::escape_lines(&e.to_string()));

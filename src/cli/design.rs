@@ -28,6 +28,7 @@ Replay scripts (--replay KEYS.txt), one step per line:
   \"#ff8800\"                    text in double quotes types each character (\\\" and \\\\ escape)
   wait-solve                   wait for the running solve
 Every solve is waited for after each key, and times are hidden, so screens are reproducible.
+A script runs at most 1000000 steps (repeats and typed texts counted); a longer one is refused before it runs.
 Ctrl-s in a script saves the palette file for real.";
 
 #[derive(Debug, clap::Args)]
@@ -139,7 +140,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(script_path) => {
             // The screen must not be the palette, its CSV sources, its sidecar, the scene or the script.
             let mut files = crate::fsio::Outputs::new();
-            state.file.record_inputs("palette", &mut files);
+            state.doc.file.record_inputs("palette", &mut files);
             files.input("basis sidecar", &sidecar_path(&args.input)).input("key script", script_path);
             if let Some(scene) = &args.scene {
                 files.input("scene", scene);
@@ -151,7 +152,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let text = crate::fsio::read_to_string(script_path, crate::fsio::Kind::KeyScript)?;
             let steps = replay::parse_script(&text).with_context(|| format!("{}", script_path.display()))?;
             if args.preview != PreviewMode::Auto {
-                state.graphics = Graphics::forced(args.preview, (10, 20));
+                state.preview.graphics = Graphics::forced(args.preview, (10, 20));
             }
             let (w, h) = args.size;
             let (frames, _) = replay::run(&mut state, steps, w, h, args.every_frame, &mut saver, worker)
@@ -163,16 +164,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             };
             match &args.screen {
                 Some(path) => crate::fsio::write_atomic(path, out.as_bytes()).context("cannot write the screen")?,
-                None => print!("{out}"),
+                None => super::out::print(&out)?,
             }
             Ok(())
         }
         None => {
             let mut guard = TerminalGuard::enter()
                 .context("metamer design needs a terminal (use --replay KEYS.txt for headless runs)")?;
-            if state.has_scene() {
+            if state.preview.has_scene() {
                 let (graphics, warning) = Graphics::for_terminal(args.preview);
-                state.graphics = graphics;
+                state.preview.graphics = graphics;
                 if let Some(w) = warning {
                     state.complain(w);
                 }
@@ -194,7 +195,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             // The input thread stops before the terminal is restored (it reads no key meant for the shell).
             drop(events);
             drop(guard);
-            match &state.terminated {
+            match &state.ui.terminated {
                 Some(Some(copy)) => bail!("ended by a signal; unsaved work was written to {}", copy.display()),
                 Some(None) => bail!("ended by a signal"),
                 None => Ok(()),

@@ -8,6 +8,7 @@ pub mod basis;
 pub mod bench;
 pub mod check;
 pub mod design;
+pub mod out;
 pub mod render;
 pub mod solve;
 
@@ -53,6 +54,8 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        // A closed pipe (`metamer check p.toml | head -1`): the reader has what it wanted.
+        Err(e) if out::is_closed(&e) => ExitCode::SUCCESS,
         Err(e) => {
             // Every message may quote user text (names, paths, file contents): control characters are
             // shown escaped, never sent to the terminal.

@@ -94,6 +94,10 @@ pub struct Args {
     /// Title line on the contact sheet.
     #[arg(long)]
     pub(crate) title: Option<String>,
+    /// Do not render: assemble the --contact-sheet from the frames already in -o DIR (frames A..B of
+    /// --frame-range, else all of --frames), e.g. after --frame-range runs on several machines.
+    #[arg(long, requires = "contact_sheet")]
+    pub(crate) sheet_from_frames: bool,
     /// Shading: key (a key light above left of the eye, the default), headlight, or unshaded (the
     /// seed's look). Overrides the scene's `render.shading`.
     #[arg(long, value_parser = ["key", "headlight", "unshaded"])]
@@ -214,6 +218,9 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     } else {
         range
     };
+    if args.sheet_from_frames {
+        return assemble_sheet(&args, &scene, range, &read);
+    }
     if mode == Mode::Factor {
         let resolved = crate::render::scene_basis_report(&scene)?;
         if let Some(w) = resolved.1.poor_model() {
@@ -247,6 +254,25 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         frames_only.check("contact sheet", sheet)?;
     }
     let model = colour_model(&scene, mode, &colorimetry)?;
+    // The large allocations estimated before they are made: the raycast's image of K f32 channels per
+    // pixel (and its shrunk copy with --ss), on top of what the volume's rendering takes.
+    let side = (args.size as u64) * u64::from(args.ss);
+    let per_pixel = model.channels() as u64 * 4;
+    let image = side * side * per_pixel;
+    let shrunk = if args.ss > 1 { (args.size as u64).pow(2) * per_pixel } else { 0 };
+    let voxels = scene.volume.voxels.bytes() as u64;
+    crate::memory::ensure(
+        || {
+            format!(
+                "a {side}×{side} {} render ({} channels of f32: {} MiB) of a {} MiB volume",
+                mode.as_str(),
+                model.channels(),
+                crate::memory::show_mib(image + shrunk),
+                crate::memory::show_mib(voxels)
+            )
+        },
+        crate::memory::render_estimate(voxels).saturating_add(image).saturating_add(shrunk),
+    )?;
     let accel = Acceleration {
         early_termination: !args.no_early_termination,
         empty_space_skipping: !args.no_empty_space_skipping,
@@ -298,8 +324,8 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
     bar.finish_and_clear();
     let path: Vec<String> = scene.dial.visited().iter().map(|l| crate::fsio::escape(&l.name).into_owned()).collect();
-    println!(
-        "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}",
+    let mut summary = format!(
+        "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}\n",
         report.written.len(),
         range.start,
         range.end,
@@ -309,8 +335,8 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         path.join(" → "),
         crate::fsio::show(&args.output)
     );
-    println!(
-        "raycast {:.1} ms at {}² ({} samples, {} skipped), exposure {exposure:.3}, relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms",
+    summary.push_str(&format!(
+        "raycast {:.1} ms at {}² ({} samples, {} skipped), exposure {exposure:.3}, relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms\n",
         view.seconds * 1e3,
         args.size * ss,
         view.stats.samples,
@@ -318,10 +344,48 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         report.seconds * 1e3,
         report.seconds * 1e3 / report.written.len().max(1) as f64,
         start.elapsed().as_secs_f64() * 1e3
-    );
+    ));
     if let Some(sheet) = &args.contact_sheet {
-        println!("contact sheet {}", crate::fsio::show(sheet));
+        summary.push_str(&format!("contact sheet {}\n", crate::fsio::show(sheet)));
     }
+    super::out::print(&summary)?;
+    Ok(())
+}
+
+/// `--sheet-from-frames`: the contact sheet of frames `range` already in the output folder, no raycast.
+fn assemble_sheet(
+    args: &Args,
+    scene: &Scene,
+    range: std::ops::Range<usize>,
+    read: &[(PathBuf, crate::fsio::Kind)],
+) -> anyhow::Result<()> {
+    let sheet = args.contact_sheet.as_ref().context("--sheet-from-frames needs --contact-sheet PATH")?;
+    // The sheet may be none of the scene's files nor one of the frames it is made of.
+    let mut files = crate::fsio::Outputs::new();
+    for p in [&scene.path, &scene.palette_path, &scene.volume_path].into_iter().flatten() {
+        files.input("scene input", p);
+    }
+    files.inputs_read(read);
+    for k in range.clone() {
+        files.input("frame", &args.output.join(crate::render::sweep::frame_name(k)));
+    }
+    files.output("contact sheet", sheet)?;
+    let n = crate::render::sweep::contact_sheet_from_frames(
+        &args.output,
+        range.clone(),
+        args.frames,
+        &scene.dial,
+        args.title.as_deref(),
+        sheet,
+    )?;
+    println!(
+        "contact sheet {} of {n} frames {}..{} of {} from {}",
+        crate::fsio::show(sheet),
+        range.start,
+        range.end,
+        args.frames,
+        crate::fsio::show(&args.output)
+    );
     Ok(())
 }
 

@@ -14,7 +14,6 @@ use crate::palette::file::PaletteFile;
 use anyhow::Context;
 use nalgebra::Vector3;
 use std::fmt::Write as _;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -62,6 +61,9 @@ pub struct Args {
     /// closest reachable colour.
     #[arg(long)]
     pub(crate) feasibility: bool,
+    /// Replace OUT and the report even when they are read-only files (their mode is kept).
+    #[arg(long)]
+    pub(crate) force: bool,
     /// How far (ΔE) the other cells may move for --feasibility.
     #[arg(long, default_value_t = design::feasibility::DEFAULT_TOLERANCE, value_name = "DELTA_E", requires = "feasibility")]
     pub(crate) tolerance: f64,
@@ -122,19 +124,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !(args.tolerance.is_finite() && args.tolerance >= 0.0) {
         anyhow::bail!("--tolerance must be a finite ΔE ≥ 0, got {}", args.tolerance);
     }
-    // `seconds` is the time to read and solve. The solved palette is saved (mostly waiting for the disk)
-    // while the table and the report are formatted; nothing is printed or reported when the save fails.
+    // `seconds` is the time to read and solve. The solved palette and the report are written and synced
+    // (mostly waiting for the disk) in parallel with each other and with the table's formatting, then put in
+    // place together: when either cannot be written, neither replaces anything and nothing is printed.
     let seconds = started.elapsed().as_secs_f64();
     let feasibility =
         args.feasibility.then(|| feasibility_of(&solution, basis.as_ref().map(|b| &b.0), &colorimetry, args.tolerance));
+    let replace = if args.force { crate::fsio::Replace::Force } else { crate::fsio::Replace::Writable };
+    let saved_context = |out: &Path| format!("{}: cannot write the solved palette", out.display());
     let ((saved, table), report) = rayon::join(
         || {
             rayon::join(
                 || match &args.output {
                     Some(out) => file
-                        .save_as(&solution.palette, out)
-                        .with_context(|| format!("{}: cannot write the solved palette", out.display())),
-                    None => Ok(()),
+                        .stage_save_as(&solution.palette, out, replace)
+                        .map(Some)
+                        .with_context(|| saved_context(out)),
+                    None => Ok(None),
                 },
                 || {
                     let mut t = table_text(&solution, &notes, basis_warning.as_deref(), args.quiet);
@@ -145,22 +151,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 },
             )
         },
-        || {
-            args.report
-                .as_ref()
-                .map(|_| report_text(&solution, seconds, basis_warning.as_deref(), feasibility.as_deref()))
+        || match &args.report {
+            Some(path) => report_text(&solution, seconds, basis_warning.as_deref(), feasibility.as_deref())
+                .and_then(|text| crate::fsio::stage_with(path, &text, replace).context("cannot write the report"))
+                .map(Some),
+            None => Ok(None),
         },
     );
-    saved?;
-    let (printed, reported) = rayon::join(
-        || print_table(&table, &solution, args.output.as_deref(), seconds),
-        || match (&args.report, report) {
-            (Some(path), Some(text)) => write_report(path, &text?),
-            _ => Ok(()),
-        },
-    );
-    printed?;
-    reported
+    let (saved, report) = (saved?, report?);
+    if let (Some(staged), Some(out)) = (saved, &args.output) {
+        file.commit(staged).with_context(|| saved_context(out))?;
+    }
+    if let Some(staged) = report {
+        staged.commit().context("cannot write the report")?;
+    }
+    print_table(&table, &solution, args.output.as_deref(), seconds)
 }
 
 /// `r g b` with four decimals.
@@ -301,24 +306,23 @@ fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet
 /// Print the table and the summary line.
 fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -> anyhow::Result<()> {
     let unmet = s.diagnostics.iter().filter(|d| d.cell.is_some()).count();
-    let stdout = std::io::stdout();
-    let mut w = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
-    // Names in the table are the user's: control characters are shown escaped.
-    w.write_all(crate::fsio::escape_lines(table).as_bytes())?;
-    writeln!(
-        w,
-        "objective {:.6e}, KKT residual {:.1e}, {} cells ({} with remarks), read and solved in {:.3} s{}",
-        s.objective,
-        s.kkt_residual,
-        s.cells.len(),
-        unmet,
-        seconds,
-        match output {
-            Some(p) => format!(", solved palette written to {}", crate::fsio::show(p)),
-            None => ", solved palette not written (no -o)".into(),
-        }
-    )?;
-    w.flush()?;
+    super::out::write(|w| {
+        // Names in the table are the user's: control characters are shown escaped.
+        w.write_all(crate::fsio::escape_lines(table).as_bytes())?;
+        writeln!(
+            w,
+            "objective {:.6e}, KKT residual {:.1e}, {} cells ({} with remarks), read and solved in {:.3} s{}",
+            s.objective,
+            s.kkt_residual,
+            s.cells.len(),
+            unmet,
+            seconds,
+            match output {
+                Some(p) => format!(", solved palette written to {}", crate::fsio::show(p)),
+                None => ", solved palette not written (no -o)".into(),
+            }
+        )
+    })?;
     Ok(())
 }
 
@@ -336,11 +340,6 @@ fn report_text(
     serde_json::to_writer_pretty(&mut text, &report)?;
     text.push(b'\n');
     Ok(text)
-}
-
-/// Write the report to `path` (atomically, through the one writer).
-fn write_report(path: &Path, text: &[u8]) -> anyhow::Result<()> {
-    crate::fsio::write_atomic(path, text).context("cannot write the report")
 }
 
 /// One spectrum of the report.

@@ -9,12 +9,12 @@
 //! ([`CellResult::new`], [`report::pair_colours`]).
 
 use crate::basis::Basis;
-use crate::basis::store::cache_key;
 use crate::basis::train::TrainingSet;
 use crate::colorimetry::Colorimetry;
 use crate::design::{CellResult, Solution, report};
 use crate::palette::{Palette, SpectrumEntry};
 use crate::spectrum::Spectrum;
+use crate::tui::model::BasisKey;
 use nalgebra::Vector3;
 
 /// One cell of the design matrix as drawn.
@@ -55,9 +55,9 @@ pub struct Derived {
     pub(crate) worst_delta_e: Option<f64>,
     /// True when the shown spectra come from a solution.
     pub solved: bool,
-    /// The basis key of the shown spectra and m ([`crate::basis::store::cache_key`]): the subspace colours
+    /// The basis key of the shown spectra and m ([`BasisKey`]): the subspace colours
     /// are computed only with the basis of exactly these spectra.
-    pub basis_key: Option<String>,
+    pub basis_key: Option<BasisKey>,
     /// The shown spectra have a key but the basis given was not theirs: the subspace colours are not
     /// shown (rather than stale ones) until it arrives.
     pub subspace_pending: bool,
@@ -91,7 +91,7 @@ impl Derived {
         palette: &Palette,
         solution: Option<&Solution>,
         colorimetry: &Colorimetry,
-        basis: Option<(&str, &Basis)>,
+        basis: Option<(&BasisKey, &Basis)>,
     ) -> Derived {
         let solution = solution.filter(|s| {
             same_names(&s.palette.lights, &palette.lights) && same_names(&s.palette.reflectances, &palette.reflectances)
@@ -114,9 +114,9 @@ impl Derived {
             .collect();
         let basis_key = TrainingSet::new(light_spectra.clone(), reflectance_spectra.clone())
             .ok()
-            .map(|set| cache_key(&set, palette.settings.basis_dimension));
+            .map(|set| BasisKey::of(&set, palette.settings.basis_dimension));
         let basis = basis
-            .filter(|(k, b)| Some(*k) == basis_key.as_deref() && b.b.nrows() == crate::spectrum::SAMPLES)
+            .filter(|(k, b)| Some(*k) == basis_key.as_ref() && b.b.nrows() == crate::spectrum::SAMPLES)
             .map(|(_, b)| b);
         let subspace_pending = basis_key.is_some() && basis.is_none();
         let white = Spectrum::flat(1.0);

@@ -18,24 +18,24 @@ pub(crate) const MAX_INTENSITY: f64 = 10.0;
 
 /// Carry out a dial action (the caller routes only dial actions here).
 pub fn update(state: &mut State, action: Action) {
-    let Some(scene) = state.scene() else {
+    let Some(scene) = state.preview.scene() else {
         state.complain("no scene preview: start with --scene SCENE.toml");
         return;
     };
     let [[x0, y0], [x1, y1]] = scene.dial.base.bounds();
     let extent = (x1 - x0).max(y1 - y0).max(1e-3);
     let scene_path = scene.path.clone();
-    let Some(dial) = state.dial_state.as_mut() else { return };
+    let Some(dial) = state.preview.dial.as_mut().map(|d| &mut d.state) else { return };
     let n = dial.lights.len();
     let result: Result<(), String> = match action {
         Action::DialLeave => {
-            state.dial_keys = false;
+            state.preview.keys = false;
             return;
         }
         Action::DialSlide { dx, dy, big } => {
             let step = extent * if big { LARGE_STEP } else { SMALL_STEP };
             let (dx, dy) = (f64::from(dx) * step, f64::from(dy) * step);
-            match state.dial_selected {
+            match state.preview.selected {
                 None => dial.set_slider([dial.slider[0] + dx, dial.slider[1] + dy]),
                 Some(i) => {
                     let p = dial.lights.get(i).map_or([0.0; 2], |l| l.position);
@@ -57,12 +57,12 @@ pub fn update(state: &mut State, action: Action) {
         }
         Action::DialSelect { forward } => {
             // Cycle: slider, vertex 1, …, vertex n.
-            let at = state.dial_selected.map_or(0, |i| i + 1);
+            let at = state.preview.selected.map_or(0, |i| i + 1);
             let next = if forward { (at + 1) % (n + 1) } else { (at + n) % (n + 1) };
-            state.dial_selected = next.checked_sub(1);
+            state.preview.selected = next.checked_sub(1);
             Ok(())
         }
-        Action::DialIntensity { up } => match state.dial_selected {
+        Action::DialIntensity { up } => match state.preview.selected {
             None => Err("select a light with Tab first (the slider has no intensity)".to_string()),
             Some(i) => {
                 let v = dial.lights.get(i).map_or(1.0, |l| l.intensity);
@@ -77,26 +77,26 @@ pub fn update(state: &mut State, action: Action) {
             } else {
                 let mut k = dial.clone();
                 k.fixed_weights = None;
-                state.keyframes.push(k);
-                let count = state.keyframes.len();
+                state.preview.keyframes.push(k);
+                let count = state.preview.keyframes.len();
                 state.say(format!("keyframe {count} added (Ctrl-s writes the keyframes into the scene)"));
                 Ok(())
             }
         }
         Action::DialSaveScene => match scene_path {
             None => Err("the built-in scene has no file: open a scene file with --scene to save keyframes".to_string()),
-            Some(_) if state.keyframes.is_empty() => Err("no keyframes yet: `a` adds one".to_string()),
-            Some(path) => match save_keyframes(&path, &state.keyframes) {
+            Some(_) if state.preview.keyframes.is_empty() => Err("no keyframes yet: `a` adds one".to_string()),
+            Some(path) => match save_keyframes(&path, &state.preview.keyframes) {
                 Ok(text) => {
                     // The saved sweep sets render's exposure: take it, so the preview stays what
                     // `metamer render` writes.
                     match crate::render::scene::Scene::load(&path) {
                         Ok(saved) => {
                             let colorimetry = state.colorimetry.clone();
-                            if let Some(p) = state.preview.as_mut() {
+                            if let Some(p) = state.preview.ready.as_mut() {
                                 p.rescene(std::sync::Arc::new(saved), &colorimetry);
                             }
-                            state.keyframes.clear();
+                            state.preview.keyframes.clear();
                             state.say(text);
                         }
                         Err(e) => state.complain(format!("{text}, but it does not load again: {e}")),

@@ -313,7 +313,7 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
                     if let Some(cb) = on_frame.as_mut() {
                         cb(frame.buffer);
                     }
-                    if state.quit {
+                    if state.ui.quit {
                         return Ok(());
                     }
                 }

@@ -184,8 +184,8 @@ pub(crate) const TABLES: &[(&str, &[Binding])] = &[
 
 /// The table in force for the state's popup.
 pub(crate) fn table_for(state: &State) -> &'static [Binding] {
-    match state.popup {
-        None if state.dial_keys => DIAL,
+    match state.ui.popup {
+        None if state.preview.keys => DIAL,
         None => MAIN,
         Some(Popup::Help { .. }) => HELP,
         Some(Popup::Diagnostics { .. }) => DIAGNOSTICS,
@@ -220,7 +220,7 @@ pub(crate) fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
             (a, _) => a,
         });
     }
-    match (&state.popup, key.code) {
+    match (&state.ui.popup, key.code) {
         (Some(Popup::Prompt(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => Some(Action::Input(c)),
         // Help and diagnostics only read: any other key closes them and acts on the main screen.
         (Some(Popup::Help { .. } | Popup::Diagnostics { .. }), _) => {

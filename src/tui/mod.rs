@@ -19,6 +19,7 @@ pub mod edits;
 pub mod event_loop;
 pub mod graphics;
 pub mod keymap;
+pub mod model;
 pub mod msg;
 pub mod preview;
 pub mod replay;

@@ -107,7 +107,7 @@ pub enum Effect {
     /// Solve `palette` (cancelling the running solve); the reply is a `Reply::Solved` with `ticket`.
     Solve { ticket: u64, generation: u64, palette: Palette, feasibility: Option<usize> },
     /// Train (or look up) the basis of these spectra; the reply is a `Reply::Trained` with `key`.
-    TrainBasis { generation: u64, key: String, set: TrainingSet, m: usize },
+    TrainBasis { generation: u64, key: crate::tui::model::BasisKey, set: TrainingSet, m: usize },
     /// Raycast the scene preview at `size` pixels; the reply is a [`Msg::Preview`].
     Raycast { scene: Arc<Scene>, model: Option<ColourModel>, size: (usize, usize), colorimetry: Colorimetry },
     /// Read a CSV spectrum into `palette` off the UI thread; the reply is a [`Msg::Imported`].

@@ -55,7 +55,7 @@ pub struct Preview {
     exposed: Option<(Vec<Spectrum>, Vec<Spectrum>)>,
     colorimetry: Colorimetry,
     /// The key of the designer's basis `model` was built with (`None`: the scene palette's own basis).
-    model_key: Option<String>,
+    model_key: Option<crate::tui::model::BasisKey>,
 }
 
 /// The spectrum named `name` among `names`/`spectra`, else `fallback`.
@@ -166,15 +166,15 @@ impl Preview {
     /// Only for the factor model, and only when the designer's palette has the scene palette's lights and
     /// reflectances (by name, in order), so the training set is the one render would build. Returns true
     /// when the model changed (the picture is then re-projected and re-exposed by the next frame).
-    pub(crate) fn follow_basis(&mut self, palette: &Palette, key: &str, basis: &Basis) -> bool {
+    pub(crate) fn follow_basis(&mut self, palette: &Palette, key: &crate::tui::model::BasisKey, basis: &Basis) -> bool {
         let names = |e: &[crate::palette::SpectrumEntry]| e.iter().map(|e| e.name.clone()).collect::<Vec<_>>();
         let same_set = names(&palette.lights) == names(&self.scene.palette.lights)
             && names(&palette.reflectances) == names(&self.scene.palette.reflectances);
-        if self.model.mode != Mode::Factor || !same_set || self.model_key.as_deref() == Some(key) {
+        if self.model.mode != Mode::Factor || !same_set || self.model_key.as_ref() == Some(key) {
             return false;
         }
         self.model = ColourModel::factor(self.colorimetry.clone(), basis.clone());
-        self.model_key = Some(key.to_string());
+        self.model_key = Some(key.clone());
         // Re-project and re-expose with the new model.
         self.projected.clear();
         self.image.data.clear();

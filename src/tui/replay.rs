@@ -109,8 +109,9 @@ pub fn parse_key(text: &str) -> Option<KeyEvent> {
     Some(KeyEvent::new(code, modifiers))
 }
 
-fn parse_text(body: &str, line: usize) -> Result<Vec<Step>, ScriptError> {
-    let mut steps = Vec::new();
+/// The characters a quoted text types, unescaped (kept as characters, not expanded into key steps).
+fn parse_text(body: &str, line: usize) -> Result<Vec<char>, ScriptError> {
+    let mut typed = Vec::new();
     let mut chars = body.chars();
     while let Some(c) = chars.next() {
         let c = if c == '\\' {
@@ -118,14 +119,69 @@ fn parse_text(body: &str, line: usize) -> Result<Vec<Step>, ScriptError> {
         } else {
             c
         };
-        steps.push(Step::Key(KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE)));
+        typed.push(c);
     }
-    Ok(steps)
+    Ok(typed)
 }
 
-/// Parse a whole script.
-pub fn parse_script(text: &str) -> Result<Vec<Step>, ScriptError> {
-    let mut steps = Vec::new();
+/// One script line's steps, before its repeat.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Line {
+    Step(Step),
+    /// A quoted text: one key per character.
+    Text(Vec<char>),
+}
+
+impl Line {
+    fn len(&self) -> usize {
+        match self {
+            Line::Step(_) => 1,
+            Line::Text(t) => t.len(),
+        }
+    }
+
+    fn steps(&self) -> impl Iterator<Item = Step> + '_ {
+        let (one, text) = match self {
+            Line::Step(s) => (Some(s.clone()), &[][..]),
+            Line::Text(t) => (None, &t[..]),
+        };
+        one.into_iter().chain(text.iter().map(|c| Step::Key(KeyEvent::new(KeyCode::Char(*c), KeyModifiers::NONE))))
+    }
+}
+
+/// The most steps a script may expand to (keys after repeats and typed texts): each step draws a frame
+/// and may wait for a solve, so a million is minutes of work; more is refused before anything runs.
+pub const MAX_STEPS: u64 = 1_000_000;
+
+/// A parsed script: each line's steps once, with its repeat count. The steps are streamed from here
+/// ([`Script::steps`]), never expanded in memory, and their total is bounded by [`MAX_STEPS`] at parse time.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Script {
+    lines: Vec<(Line, usize)>,
+    total: u64,
+}
+
+impl Script {
+    /// How many steps the script runs.
+    pub fn len(&self) -> u64 {
+        self.total
+    }
+
+    /// True when the script has no step.
+    pub fn is_empty(&self) -> bool {
+        self.total == 0
+    }
+
+    /// Every step in order, repeats included, streamed.
+    pub fn steps(&self) -> impl Iterator<Item = Step> + '_ {
+        self.lines.iter().flat_map(|(line, repeat)| std::iter::repeat_n(line, *repeat).flat_map(Line::steps))
+    }
+}
+
+/// Parse a whole script. Refused, naming the line, when a line cannot be read or when the steps would
+/// exceed [`MAX_STEPS`] (the count is checked as the lines are read, before any step runs).
+pub fn parse_script(text: &str) -> Result<Script, ScriptError> {
+    let mut script = Script::default();
     for (k, raw) in text.lines().enumerate() {
         let line = k + 1;
         let trimmed = raw.trim();
@@ -144,35 +200,46 @@ pub fn parse_script(text: &str) -> Result<Vec<Step>, ScriptError> {
             }
             _ => (trimmed, 1),
         };
-        let one: Vec<Step> = if body.len() >= 2 && body.starts_with('"') && body.ends_with('"') {
-            parse_text(&body[1..body.len() - 1], line)?
+        let one = if body.len() >= 2 && body.starts_with('"') && body.ends_with('"') {
+            Line::Text(parse_text(&body[1..body.len() - 1], line)?)
         } else if body.eq_ignore_ascii_case("wait-solve") {
-            vec![Step::WaitSolve]
+            Line::Step(Step::WaitSolve)
         } else {
-            vec![Step::Key(
+            Line::Step(Step::Key(
                 parse_key(body)
                     .ok_or(ScriptError { line, reason: format!("'{body}' is not a key, a \"text\" or wait-solve") })?,
-            )]
+            ))
         };
-        for _ in 0..repeat {
-            steps.extend(one.iter().cloned());
+        let here = (one.len() as u64).saturating_mul(repeat as u64);
+        script.total = script.total.saturating_add(here);
+        if script.total > MAX_STEPS {
+            return Err(ScriptError {
+                line,
+                reason: format!(
+                    "the script reaches {} steps here ({} step{} × {repeat}), above the limit of {MAX_STEPS}",
+                    script.total,
+                    one.len(),
+                    if one.len() == 1 { "" } else { "s" }
+                ),
+            });
         }
+        script.lines.push((one, repeat));
     }
-    Ok(steps)
+    Ok(script)
 }
 
 /// A script as an input source: every step in order, then the end; solves are synchronous.
-pub(crate) struct ScriptEvents {
-    steps: std::vec::IntoIter<Step>,
+pub(crate) struct ScriptEvents<'a> {
+    steps: Box<dyn Iterator<Item = Step> + 'a>,
 }
 
-impl ScriptEvents {
-    pub fn new(steps: Vec<Step>) -> ScriptEvents {
-        ScriptEvents { steps: steps.into_iter() }
+impl<'a> ScriptEvents<'a> {
+    pub fn new(script: &'a Script) -> ScriptEvents<'a> {
+        ScriptEvents { steps: Box::new(script.steps()) }
     }
 }
 
-impl Events for ScriptEvents {
+impl Events for ScriptEvents<'_> {
     fn next_step(&mut self) -> Msg {
         match self.steps.next() {
             Some(Step::Key(k)) => Msg::Key(k),
@@ -205,16 +272,16 @@ impl Saver for MemorySaver {
 /// them when `every_frame`, else only the last) as text, and the final buffer.
 pub fn run(
     state: &mut State,
-    steps: Vec<Step>,
+    steps: Script,
     width: u16,
     height: u16,
     every_frame: bool,
     saver: &mut dyn Saver,
     worker: WorkerConfig,
 ) -> io::Result<(Vec<String>, ratatui::buffer::Buffer)> {
-    state.hide_times = true;
+    state.ui.hide_times = true;
     let mut terminal = Terminal::new(TestBackend::new(width, height)).map_err(io::Error::other)?;
-    let mut events = ScriptEvents::new(steps);
+    let mut events = ScriptEvents::new(&steps);
     let mut frames = Vec::new();
     let mut last = String::new();
     let mut on_frame = |buf: &ratatui::buffer::Buffer| {
@@ -246,8 +313,9 @@ mod tests {
             parse_script("# comment\nDown\nRight *2\nCtrl-s\n#\n\"#a\\\"\"\nwait-solve\nShift-Tab\nF1\n*\n").unwrap();
         let k = |c, m| Step::Key(KeyEvent::new(c, m));
         let n = KeyModifiers::NONE;
+        assert_eq!(s.len(), 12);
         assert_eq!(
-            s,
+            s.steps().collect::<Vec<_>>(),
             vec![
                 k(KeyCode::Down, n),
                 k(KeyCode::Right, n),
@@ -270,5 +338,22 @@ mod tests {
         let e = parse_script("Down\nbogus-key\n").unwrap_err();
         assert_eq!(e.line, 2);
         assert!(parse_script("Down *99999").is_err());
+    }
+
+    #[test]
+    fn total_work_is_bounded_before_anything_runs() {
+        // A 4 Mi-character text repeated 10000 times: 4·10¹⁰ steps, refused while parsing, naming the line.
+        let big = format!("Down\n\"{}\" *10000\n", "a".repeat(4 << 20));
+        let e = parse_script(&big).unwrap_err();
+        assert_eq!(e.line, 2);
+        assert!(e.reason.contains("41943040001 steps") && e.reason.contains("limit of 1000000"), "{e}");
+        // Exactly at the limit is fine and is streamed, not expanded.
+        let at = parse_script("\"ab\" *10000\nx *10000\n".repeat(33).as_str()).unwrap();
+        assert_eq!(at.len(), 33 * 30_000);
+        assert_eq!(at.steps().count() as u64, at.len());
+        let over = "\"ab\" *10000\nx *10000\n".repeat(34);
+        assert!(parse_script(&over).is_err());
+        // Many small lines add up to the same limit.
+        assert!(parse_script(&"x *10000\n".repeat(200)).is_err());
     }
 }

@@ -19,6 +19,7 @@ use crate::colorimetry::Colorimetry;
 use crate::design::feasibility::{self, Panel, RegionCache};
 use crate::design::{self, DesignError, Solution, SolveOptions};
 use crate::palette::Palette;
+use crate::tui::model::BasisKey;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -59,8 +60,8 @@ pub struct Solved {
 #[derive(Debug)]
 pub struct Trained {
     pub generation: u64,
-    /// The key of the spectra it is for ([`crate::basis::store::cache_key`]).
-    pub key: String,
+    /// The key of the spectra it is for.
+    pub key: BasisKey,
     pub result: Result<Resolved, String>,
 }
 
@@ -86,7 +87,7 @@ type Deliver = Arc<dyn Fn(Reply) -> bool + Send + Sync>;
 /// A request for the basis of some spectra.
 struct BasisRequest {
     generation: u64,
-    key: String,
+    key: BasisKey,
     set: TrainingSet,
     m: usize,
 }
@@ -210,7 +211,7 @@ pub struct Worker {
     pending_solve: Option<u64>,
     pending_basis: Option<u64>,
     /// Key of the newest basis asked for, to skip asking again for the same spectra.
-    basis_asked: Option<String>,
+    basis_asked: Option<BasisKey>,
     /// The cell whose mismatch region every solve also computes.
     feasibility: Option<usize>,
 }
@@ -287,8 +288,8 @@ impl Worker {
 
     /// Have the basis of dimension m for these spectra (key `key`) trained or loaded, unless it was the
     /// last one asked for. The reply is a [`Reply::Trained`] with the key.
-    pub fn request_basis(&mut self, generation: u64, key: String, set: TrainingSet, m: usize) {
-        if self.basis_asked.as_deref() == Some(key.as_str()) {
+    pub fn request_basis(&mut self, generation: u64, key: BasisKey, set: TrainingSet, m: usize) {
+        if self.basis_asked.as_ref() == Some(&key) {
             return;
         }
         self.train(generation, key, set, m);
@@ -296,7 +297,7 @@ impl Worker {
 
     /// Have the basis of these spectra trained or loaded (the caller decides that it is new). False when
     /// the basis thread is off or gone.
-    pub(crate) fn train(&mut self, generation: u64, key: String, set: TrainingSet, m: usize) -> bool {
+    pub(crate) fn train(&mut self, generation: u64, key: BasisKey, set: TrainingSet, m: usize) -> bool {
         if let Some(tx) = &self.bases {
             let request = BasisRequest { generation, key: key.clone(), set, m };
             if tx.send(request).is_ok() {
@@ -321,7 +322,7 @@ impl Worker {
     fn note(&mut self, reply: &Reply) {
         match reply {
             Reply::Solved(s) if self.pending_solve == Some(s.generation) => self.pending_solve = None,
-            Reply::Trained(t) if self.basis_asked.as_deref() == Some(t.key.as_str()) => self.pending_basis = None,
+            Reply::Trained(t) if self.basis_asked.as_ref() == Some(&t.key) => self.pending_basis = None,
             _ => {}
         }
     }

@@ -178,12 +178,12 @@ fn the_designer_shows_what_solve_reports_for_every_shipped_cell() {
         let basis = BasisMode::Train { sidecar: None };
         tui_support::replay_with(&mut state, "wait-solve", 100, 30, &mut MemorySaver::default(), basis);
         assert!(state.solve.current().is_some(), "{name}: the designer solved");
-        assert!(!state.derived.subspace_pending, "{name}: the replay waited for the solved spectra's basis");
+        assert!(!state.solve.derived.subspace_pending, "{name}: the replay waited for the solved spectra's basis");
         let p = &file.palette;
         for cell in &cells {
             let light = p.lights.iter().position(|l| l.name == cell["light"]).expect("light");
             let refl = p.reflectances.iter().position(|r| r.name == cell["reflectance"]).expect("reflectance");
-            let view = state.derived.cell(light, refl).expect("cell shown");
+            let view = state.solve.derived.cell(light, refl).expect("cell shown");
             let case = format!("{name}: {} × {}", cell["reflectance"], cell["light"]);
             for (shown, reported) in [
                 (view.delta_e_full, cell["delta_e_full"].as_f64()),
@@ -197,7 +197,7 @@ fn the_designer_shows_what_solve_reports_for_every_shipped_cell() {
                 compared += 1;
             }
         }
-        if let Some(mean) = state.solve.basis_poor {
+        if let Some(mean) = state.solve.basis_poor() {
             assert!(mean > POOR_MODEL_MEAN_DE00);
         }
     }
@@ -263,7 +263,7 @@ fn the_designer_says_when_the_model_is_poor() {
     let basis = BasisMode::Train { sidecar: None };
     let (screen, _) =
         tui_support::replay_with(&mut state, "wait-solve\nDown\nRight", 100, 30, &mut MemorySaver::default(), basis);
-    let mean = state.solve.basis_poor.expect("the designer knows the model is poor");
+    let mean = state.solve.basis_poor().expect("the designer knows the model is poor");
     assert!(mean > POOR_MODEL_MEAN_DE00);
     assert!(screen.contains("V2 poor") && screen.contains("raise m"), "{screen}");
 }

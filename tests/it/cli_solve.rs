@@ -149,3 +149,64 @@ target = [0.9, 0.0, 0.9]
         }
     }
 }
+
+#[test]
+fn both_outputs_are_written_or_neither() {
+    // The solved palette and the report are staged (written and synced beside their targets) in parallel
+    // and put in place together: a report that cannot be written leaves the palette as it was, and the
+    // staged palette's temporary file is removed.
+    let dir = tempfile::tempdir().unwrap();
+    let palette = dir.path().join("metamers.toml");
+    std::fs::copy(Path::new(env!("CARGO_MANIFEST_DIR")).join("palettes/metamers.toml"), &palette).unwrap();
+    let before = std::fs::read(&palette).unwrap();
+    let report = dir.path().join("no such folder").join("r.json");
+    let p = palette.to_str().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .args(["solve", p, "--no-subspace", "-o", p, "--report", report.to_str().unwrap()])
+        .output()
+        .expect("metamer runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("cannot write the report"), "{stderr}");
+    assert!(out.stdout.is_empty(), "nothing is printed when an output fails");
+    assert_eq!(std::fs::read(&palette).unwrap(), before, "the palette is left as it was");
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left, [std::ffi::OsString::from("metamers.toml")], "no temporary file is left");
+    // With both outputs writable, both are written.
+    let report = dir.path().join("r.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .args(["solve", p, "--no-subspace", "-o", p, "--report", report.to_str().unwrap()])
+        .output()
+        .expect("metamer runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_ne!(std::fs::read(&palette).unwrap(), before, "the solved palette is written");
+    assert!(report.is_file());
+}
+
+#[cfg(unix)]
+#[test]
+fn a_read_only_palette_is_replaced_only_with_force() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let palette = dir.path().join("metamers.toml");
+    std::fs::copy(Path::new(env!("CARGO_MANIFEST_DIR")).join("palettes/metamers.toml"), &palette).unwrap();
+    std::fs::set_permissions(&palette, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let before = std::fs::read(&palette).unwrap();
+    let p = palette.to_str().unwrap();
+    let run = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_metamer"))
+            .args(["solve", p, "--no-subspace", "-o", p])
+            .args(extra)
+            .output()
+            .expect("metamer runs")
+    };
+    let out = run(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("refusing to replace a read-only file"), "{stderr}");
+    assert_eq!(std::fs::read(&palette).unwrap(), before, "the read-only palette is left as it was");
+    let out = run(&["--force"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_ne!(std::fs::read(&palette).unwrap(), before, "--force replaces it");
+    assert_eq!(std::fs::metadata(&palette).unwrap().permissions().mode() & 0o777, 0o444, "and keeps its mode");
+}

@@ -95,6 +95,31 @@ fn bad_dials_name_the_key_and_the_reason() {
     assert!(k.starts_with("line"), "{k}");
 }
 
+/// Dials that would render black with exit 0 (issue 31, item 8) are refused like `off = [all]`: points so
+/// far out that the light mix's squared distances overflow, and every light that is on at intensity 0.
+#[test]
+fn degenerate_dials_are_refused_like_every_light_off() {
+    let (k, r) = error("[dial]\n[[dial.keyframes]]\nat = [1e200, 0.0]\n[[dial.keyframes]]\nat = \"hide\"\n");
+    assert_eq!(k, "dial.keyframes[0].at");
+    assert!(r.contains("outside the dial") && r.contains("overflow"), "{r}");
+    let (k, _) = error("[dial]\nvertices = { glow = [0.0, -1e200] }\n");
+    assert_eq!(k, "dial.vertices.glow");
+    let (k, _) = error("[dial]\n[[dial.keyframes]]\nat = \"hide\"\nmove = { split = [3e6, 0.0] }\n");
+    assert_eq!(k, "dial.keyframes[0].move.split");
+    let all_zero = "intensity = { hide = 0.0, split = 0.0, glow = 0.0 }";
+    let (k, r) = error(&format!("[dial]\n[[dial.keyframes]]\nat = \"hide\"\n{all_zero}\n"));
+    assert_eq!(k, "dial.keyframes[0].intensity");
+    assert!(r.contains("intensity 0") && r.contains("black"), "{r}");
+    // Off and zero together leave nothing lit either; one light at 0.0 with another on is fine.
+    let (k, _) =
+        error("[dial]\n[[dial.keyframes]]\nat = \"hide\"\noff = [\"split\", \"glow\"]\nintensity = { hide = 0.0 }\n");
+    assert_eq!(k, "dial.keyframes[0].intensity");
+    let ok = scene(
+        "[dial]\n[[dial.keyframes]]\nat = [1e5, -1e5]\nintensity = { hide = 0.0 }\n[[dial.keyframes]]\nat = \"glow\"\n",
+    );
+    assert!(ok.is_ok(), "{:?}", ok.err());
+}
+
 /// Frames with the dial are byte-identical between two factor-model runs, and the dial touches only
 /// the lower-right panel (compared with a run without it).
 #[test]

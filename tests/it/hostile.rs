@@ -372,7 +372,7 @@ fn an_outside_change_is_not_overwritten_silently() {
     assert!(last.contains("changed on disk"), "{last}");
     assert_eq!(std::fs::read_to_string(&path).unwrap(), outside, "the outside change is kept");
     let mine = PaletteFile::load(&mine_path(&path)).expect("the designer's version is saved aside");
-    assert_eq!(mine.palette.colours[0].target, state.palette.colours[0].target);
+    assert_eq!(mine.palette.colours[0].target, state.doc.palette.colours[0].target);
     // Ctrl-s again overwrites (the user chose to).
     let frames = replay_with(&mut state, "Ctrl-s");
     assert!(frames.last().unwrap().contains("saved"), "{}", frames.last().unwrap());
@@ -389,8 +389,8 @@ fn reload_reads_the_outside_change() {
     std::fs::write(&path, &outside).unwrap();
     replay_with(&mut state, "Ctrl-r\nwait-solve");
     let expected = PaletteFile::parse(&outside, &path).unwrap().palette;
-    assert_eq!(state.palette, expected);
-    assert_eq!(state.history.undo.len(), 1, "the reload can be undone");
+    assert_eq!(state.doc.palette, expected);
+    assert_eq!(state.doc.history.undo.len(), 1, "the reload can be undone");
     assert!(!state.is_dirty(), "the reloaded file is the one on screen");
 }
 
@@ -417,22 +417,22 @@ fn csv_import_runs_off_the_ui_thread_and_esc_cancels_it() {
         msgs.push(Msg::End);
         let taken = tui_support::run_live(&mut state, msgs, &mut MemorySaver::default());
         assert!(taken.iter().rev().nth(1).is_some_and(|l| l == "key Esc"), "{taken:?}");
-        assert!(state.import.is_none());
-        assert!(state.message.as_ref().is_some_and(|m| m.text.contains("import of slow.csv cancelled")));
-        assert_eq!(state.palette, palette);
+        assert!(state.doc.import.is_none());
+        assert!(state.ui.message.as_ref().is_some_and(|m| m.text.contains("import of slow.csv cancelled")));
+        assert_eq!(state.doc.palette, palette);
         // Not cancelled (a replay waits for the import), the FIFO's refusal arrives as an error naming it.
         let mut state = State::new(path.clone(), palette.clone(), ColourMode::TrueColor);
         let steps = replay::parse_script(&import("slow.csv")).unwrap();
         let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
         replay::run(&mut state, steps, 100, 30, false, &mut MemorySaver::default(), worker.clone()).unwrap();
-        let m = state.message.clone().expect("a message");
+        let m = state.ui.message.clone().expect("a message");
         assert!(m.is_error && m.text.contains("slow.csv") && m.text.contains("FIFO"), "{}", m.text);
-        assert_eq!(state.palette, palette);
+        assert_eq!(state.doc.palette, palette);
         // A regular CSV is added when its reply arrives.
         let steps = replay::parse_script(&import("grey.csv")).unwrap();
         replay::run(&mut state, steps, 100, 30, false, &mut MemorySaver::default(), worker).unwrap();
-        assert_eq!(state.palette.reflectances.len(), palette.reflectances.len() + 1);
-        assert!(state.palette.reflectances.iter().any(|r| r.name == "grey"));
+        assert_eq!(state.doc.palette.reflectances.len(), palette.reflectances.len() + 1);
+        assert!(state.doc.palette.reflectances.iter().any(|r| r.name == "grey"));
     });
 }
 
@@ -572,3 +572,4 @@ fn the_next_open_offers_the_recovery_copy() {
 }
 
 mod inputs;
+mod sizes;

@@ -11,6 +11,7 @@ mod cli_basis;
 mod cli_bench;
 mod cli_check;
 mod cli_design;
+mod cli_output;
 mod cli_solve;
 mod colour_reference;
 mod design_cases;

@@ -77,6 +77,55 @@ fn builtin_sweep_writes_frames_and_contact_sheet_and_split_ranges_combine() {
     }
 }
 
+/// A long sweep split across machines (README, "Splitting a long sweep across machines"): `--frame-range`
+/// shards written into one folder hold exactly the files of one run, byte for byte, and
+/// `--sheet-from-frames` assembles their contact sheet after, byte-identical to the one-run sheet (frames
+/// without the dial, which a one-run sheet draws anew into each tile).
+#[test]
+fn shards_of_a_sweep_concatenate_to_one_run_and_their_sheet_assembles_after() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["render", "--frames", "7", "--size", "40", "--builtin-volume-size", "32"];
+        args.extend_from_slice(&["-o", out.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        metamer(&args)
+    };
+    let names = |p: &Path| {
+        let mut v: Vec<_> = std::fs::read_dir(p).unwrap().map(|e| e.unwrap().file_name()).collect();
+        v.sort();
+        v
+    };
+    let (one, shards) = (d.join("one"), d.join("shards"));
+    let (one_sheet, shard_sheet) = (d.join("one.png"), d.join("shards.png"));
+    ok(&run(&one, &["--no-dial", "--contact-sheet", one_sheet.to_str().unwrap()]));
+    for r in ["0..2", "2..5", "5.."] {
+        ok(&run(&shards, &["--no-dial", "--frame-range", r]));
+    }
+    assert_eq!(names(&shards), names(&one));
+    assert_eq!(names(&one).len(), 7);
+    for k in 0..7 {
+        assert!(std::fs::read(frame(&shards, k)).unwrap() == std::fs::read(frame(&one, k)).unwrap(), "frame {k}");
+    }
+    let assembled =
+        run(&shards, &["--no-dial", "--contact-sheet", shard_sheet.to_str().unwrap(), "--sheet-from-frames"]);
+    ok(&assembled);
+    assert!(String::from_utf8_lossy(&assembled.stdout).contains("of 7 frames 0..7 of 7"));
+    assert!(std::fs::read(&one_sheet).unwrap() == std::fs::read(&shard_sheet).unwrap(), "sheets differ");
+    // A shard's frames missing: the sheet is refused naming the frame, not assembled with a hole.
+    std::fs::remove_file(frame(&shards, 3)).unwrap();
+    let sheet = d.join("holes.png");
+    let o = run(&shards, &["--no-dial", "--contact-sheet", sheet.to_str().unwrap(), "--sheet-from-frames"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("frame_0003.png"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!sheet.exists());
+    // A frame larger than any `--size` is refused before it is decoded.
+    image::RgbImage::new(4097, 1).save(frame(&shards, 3)).unwrap();
+    let o = run(&shards, &["--no-dial", "--contact-sheet", sheet.to_str().unwrap(), "--sheet-from-frames"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("at most 4096²"), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 /// A scene over the generated volume with the repository's engine palette copied beside it.
 fn write_scene(dir: &Path, body: &str) -> PathBuf {
     std::fs::copy(repo().join("volumes/engine_palette.toml"), dir.join("engine_palette.toml")).unwrap();

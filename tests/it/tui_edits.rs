@@ -12,23 +12,23 @@ use tui_support::{demo_palette, replay, state};
 #[test]
 fn planck_normalise_scale_and_undo() {
     let mut s = state(demo_palette(), ColourMode::TrueColor);
-    let original = s.palette.clone();
+    let original = s.doc.palette.clone();
     // The light row is above the first reflectance: Up selects daylight's swatch.
     replay(&mut s, "Up\np\nCtrl-u\n\"3200\"\nEnter", 100, 30);
-    assert_eq!(s.palette.lights[0].source, Source::Planck(3200.0));
+    assert_eq!(s.doc.palette.lights[0].source, Source::Planck(3200.0));
     let c = Colorimetry::default();
     let y = |e: &Spectrum| (c.q_xyz * e.0)[1];
-    assert!((y(&s.palette.lights[0].spectrum) - 1.0).abs() < 1e-9, "still luminance-normalised");
+    assert!((y(&s.doc.palette.lights[0].spectrum) - 1.0).abs() < 1e-9, "still luminance-normalised");
     replay(&mut s, "N", 100, 30);
-    assert_eq!(s.palette.lights[0].normalize, Normalize::L2);
-    assert!((s.palette.lights[0].spectrum.l2_norm() - 1.0).abs() < 1e-9);
+    assert_eq!(s.doc.palette.lights[0].normalize, Normalize::L2);
+    assert!((s.doc.palette.lights[0].spectrum.l2_norm() - 1.0).abs() < 1e-9);
     replay(&mut s, "s\nCtrl-u\n\"2\"\nEnter", 100, 30);
-    assert!((s.palette.lights[0].spectrum.l2_norm() - 2.0).abs() < 1e-9);
+    assert!((s.doc.palette.lights[0].spectrum.l2_norm() - 2.0).abs() < 1e-9);
     // A bad temperature is refused inside the prompt, which stays open.
     let (text, _) = replay(&mut s, "p\nCtrl-u\n\"-5\"\nEnter", 100, 30);
     assert!(text.contains("the temperature must be a positive number of kelvin"), "{text}");
     replay(&mut s, "Esc\nz\nz\nz", 100, 30);
-    assert_eq!(s.palette, original);
+    assert_eq!(s.doc.palette, original);
     assert!(!s.is_dirty());
 }
 
@@ -37,15 +37,15 @@ fn add_and_remove_spectra() {
     let dir = tempfile::tempdir().expect("temporary folder");
     std::fs::write(dir.path().join("measured.csv"), "nm,value\n380,0.2\n550,0.4\n780,0.6\n").expect("csv");
     let mut s = state(demo_palette(), ColourMode::TrueColor);
-    s.file.path = Some(dir.path().join("demo.toml"));
-    let original = s.palette.clone();
+    s.doc.file.path = Some(dir.path().join("demo.toml"));
+    let original = s.doc.palette.clone();
     // Add illuminant F11 (the list starts at D65: D65 D50 A E F2 F7 F11 …).
     replay(&mut s, "L\nDown *6\nEnter", 100, 30);
-    assert_eq!(s.palette.lights.len(), 4);
-    assert_eq!(s.palette.lights[3].source, Source::Illuminant("F11".into()));
+    assert_eq!(s.doc.palette.lights.len(), 4);
+    assert_eq!(s.doc.palette.lights[3].source, Source::Illuminant("F11".into()));
     // Import a reflectance from CSV (the last entry of the reflectance list).
     let (text, _) = replay(&mut s, "R\nEnd\nDown *30\nEnter\n\"measured.csv\"\nEnter", 100, 30);
-    let added = s.palette.reflectances.last().expect("added");
+    let added = s.doc.palette.reflectances.last().expect("added");
     assert_eq!(added.name, "measured", "{text}");
     assert!((added.spectrum.0[15] - 0.4).abs() < 1e-12, "550 nm resampled");
     // A missing file is refused with the reason.
@@ -53,17 +53,17 @@ fn add_and_remove_spectra() {
     assert!(text.contains("nope.csv"), "{text}");
     replay(&mut s, "Esc", 100, 30);
     // Remove the selected reflectance (its swatch is selected after adding it) with its cells.
-    let n = s.palette.reflectances.len();
+    let n = s.doc.palette.reflectances.len();
     replay(&mut s, "x", 100, 30);
-    assert_eq!(s.palette.reflectances.len(), n - 1);
+    assert_eq!(s.doc.palette.reflectances.len(), n - 1);
     // Remove light `daylight` from a cell: choose l.
     replay(&mut s, "Right\nUp *9\nDown\nx\nl", 100, 30);
-    assert_eq!(s.palette.lights.len(), 3);
-    assert!(s.palette.colours.iter().all(|c| c.light < 3));
+    assert_eq!(s.doc.palette.lights.len(), 3);
+    assert!(s.doc.palette.colours.iter().all(|c| c.light < 3));
     for _ in 0..4 {
         replay(&mut s, "z", 100, 30);
     }
-    assert_eq!(s.palette, original);
+    assert_eq!(s.doc.palette, original);
 }
 
 #[test]
@@ -71,33 +71,33 @@ fn cell_edits_use_free_groups_and_settings() {
     let mut s = state(demo_palette(), ColourMode::TrueColor);
     // skin × daylight has no criterion: u creates one from its colour now.
     replay(&mut s, "u", 100, 30);
-    let cell = s.palette.cell(0, 0).expect("created").clone();
+    let cell = s.doc.palette.cell(0, 0).expect("created").clone();
     assert!(cell.enabled);
-    assert!((cell.target - s.derived.cell(0, 0).expect("derived").full).norm() < 1e-12);
+    assert!((cell.target - s.solve.derived.cell(0, 0).expect("derived").full).norm() < 1e-12);
     replay(&mut s, "u", 100, 30);
-    assert!(!s.palette.cell(0, 0).expect("kept").enabled);
+    assert!(!s.doc.palette.cell(0, 0).expect("kept").enabled);
     // Hex target, weight, free group B with bounds.
     replay(&mut s, "#\nCtrl-u\n\"#ff8800\"\nEnter\nw\nCtrl-u\n\"2.5\"\nEnter\nf\n\"B\"\nEnter", 100, 30);
-    let cell = s.palette.cell(0, 0).expect("cell").clone();
+    let cell = s.doc.palette.cell(0, 0).expect("cell").clone();
     assert_eq!(metamer::colorimetry::linear_to_hex(&cell.target), "#ff8800");
     assert_eq!(cell.weight, 2.5);
     let g = cell.free.expect("in a group");
-    assert_eq!(s.palette.free[g].name, "B");
+    assert_eq!(s.doc.palette.free[g].name, "B");
     replay(&mut s, "b\nCtrl-u\n\"0.1 0.9\"\nEnter", 100, 30);
-    assert_eq!(s.palette.free[g].lower, nalgebra::Vector3::repeat(0.1));
-    assert_eq!(s.palette.free[g].upper, nalgebra::Vector3::repeat(0.9));
+    assert_eq!(s.doc.palette.free[g].lower, nalgebra::Vector3::repeat(0.1));
+    assert_eq!(s.doc.palette.free[g].upper, nalgebra::Vector3::repeat(0.9));
     // Settings: bounds off and on again, smoothness typed, m refused out of range.
     replay(&mut s, "B", 100, 30);
-    assert!(s.palette.settings.reflectance_bounds.is_unbounded());
+    assert!(s.doc.palette.settings.reflectance_bounds.is_unbounded());
     replay(&mut s, "B", 100, 30);
-    assert_eq!(s.palette.settings.reflectance_bounds.upper, 1.0);
+    assert_eq!(s.doc.palette.settings.reflectance_bounds.upper, 1.0);
     replay(&mut s, "Tab\nTab\nRight *5\nEnter\nCtrl-u\n\"0.01\"\nEnter", 100, 30);
-    assert_eq!(s.palette.settings.smoothness, 0.01);
+    assert_eq!(s.doc.palette.settings.smoothness, 0.01);
     let (text, _) = replay(&mut s, "Right *3\nEnter\nCtrl-u\n\"40\"\nEnter", 100, 30);
     assert!(text.contains("the basis dimension is an integer from 1 to 31"), "{text}");
-    assert_eq!(s.palette.settings.basis_dimension, 7);
+    assert_eq!(s.doc.palette.settings.basis_dimension, 7);
     // Design on/off of a reflectance from its swatch with Enter.
     replay(&mut s, "Esc\nEsc\nLeft\nEnter", 100, 30);
-    assert!(s.palette.reflectances[0].design);
-    assert_eq!(s.palette.entries(Kind::Reflectance)[0].name, "skin");
+    assert!(s.doc.palette.reflectances[0].design);
+    assert_eq!(s.doc.palette.entries(Kind::Reflectance)[0].name, "skin");
 }

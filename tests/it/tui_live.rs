@@ -53,7 +53,7 @@ fn the_preview_shows_the_frames_render_writes() {
 fn live_state(graphics: Graphics) -> metamer::tui::State {
     let scene = builtin_scene(32).expect("built-in scene");
     let mut s = state(scene.palette.clone(), ColourMode::TrueColor);
-    s.graphics = graphics;
+    s.preview.graphics = graphics;
     s.set_preview_scene(scene);
     s
 }
@@ -61,19 +61,19 @@ fn live_state(graphics: Graphics) -> metamer::tui::State {
 #[test]
 fn the_raycast_follows_the_panel_size() {
     let mut s = live_state(Graphics::halfblocks());
-    assert!(s.preview.is_none(), "nothing is raycast before the panel is known");
+    assert!(s.preview.ready.is_none(), "nothing is raycast before the panel is known");
     replay(&mut s, "", 100, 30);
-    let small = s.preview.as_ref().expect("raycast").size();
+    let small = s.preview.ready.as_ref().expect("raycast").size();
     assert_eq!(small.0, small.1, "square, as `metamer render`");
-    assert_eq!(s.preview_frame.len(), small.0 * small.1 * 3);
+    assert_eq!(s.preview.frame.len(), small.0 * small.1 * 3);
     replay(&mut s, "", 120, 44);
-    let large = s.preview.as_ref().expect("raycast").size();
+    let large = s.preview.ready.as_ref().expect("raycast").size();
     assert!(large.0 > small.0, "a taller panel raycasts more pixels: {small:?} → {large:?}");
     // Moving the dial relights without a new raycast.
-    let before = s.preview_frame.clone();
+    let before = s.preview.frame.clone();
     replay(&mut s, "] *5", 120, 44);
-    assert_eq!(s.preview.as_ref().map(Preview::size), Some(large));
-    assert_ne!(s.preview_frame, before);
+    assert_eq!(s.preview.ready.as_ref().map(Preview::size), Some(large));
+    assert_ne!(s.preview.frame, before);
 }
 
 #[test]
@@ -82,7 +82,7 @@ fn graphics_protocols_encode_the_relit_frame() {
     {
         let mut s = live_state(Graphics::forced(mode, (8, 16)));
         let (_, buf) = replay(&mut s, "", 100, 30);
-        let (w, h) = s.preview.as_ref().expect("raycast").size();
+        let (w, h) = s.preview.ready.as_ref().expect("raycast").size();
         // 17 panel rows of 16 pixels, less the width of 8-pixel columns: the square is 17·16 = 272 high.
         assert_eq!((w, h), (272, 272), "{mode:?}: the raycast is at the panel's real pixels");
         let escapes: Vec<&str> = buf.content.iter().map(|c| c.symbol()).filter(|t| t.contains('\x1b')).collect();
@@ -111,7 +111,7 @@ fn demo_live() -> metamer::tui::State {
     let palette = tui_support::demo_palette();
     let scene = metamer::render::scene::Scene::builtin(palette.clone(), 32).expect("built-in scene");
     let mut s = state(palette, ColourMode::TrueColor);
-    s.graphics = Graphics::halfblocks();
+    s.preview.graphics = Graphics::halfblocks();
     s.set_preview_scene(scene);
     s
 }
@@ -128,27 +128,27 @@ macro_rules! snap {
 fn dial_widget_states() {
     let mut s = demo_live();
     let (text, _) = replay(&mut s, "g", 100, 30);
-    assert!(s.dial_keys && text.contains("Esc leave"), "{text}");
+    assert!(s.preview.keys && text.contains("Esc leave"), "{text}");
     snap!("dial_keys_100x30", text);
     // The slider moves in small and large steps, and the picture follows.
-    let start = s.dial_state.clone().expect("a dial");
-    let frame = s.preview_frame.clone();
+    let start = s.preview.dial_state().cloned().expect("a dial");
+    let frame = s.preview.frame.clone();
     replay(&mut s, "Right", 100, 30);
-    let small = s.dial_state.as_ref().expect("a dial").slider[0] - start.slider[0];
+    let small = s.preview.dial_state().expect("a dial").slider[0] - start.slider[0];
     replay(&mut s, "L", 100, 30);
-    let large = s.dial_state.as_ref().expect("a dial").slider[0] - start.slider[0] - small;
+    let large = s.preview.dial_state().expect("a dial").slider[0] - start.slider[0] - small;
     assert!(small > 0.0 && (large / small - 10.0).abs() < 1e-9, "steps {small} and {large}");
-    assert_ne!(s.preview_frame, frame, "the preview relights");
+    assert_ne!(s.preview.frame, frame, "the preview relights");
     // Light 2 off: hollow, weight 0.
     let (text, _) = replay(&mut s, "2", 100, 30);
-    let d = s.dial_state.as_ref().expect("a dial");
+    let d = s.preview.dial_state().expect("a dial");
     assert!(!d.lights[1].on && d.weights()[1] == 0.0);
     assert!(text.contains("○2") || text.contains("2○"), "{text}");
     snap!("dial_light_off_100x30", text);
     // Select vertex 1, move it, make it brighter.
-    let before = s.dial_state.as_ref().expect("a dial").lights[0].position;
+    let before = s.preview.dial_state().expect("a dial").lights[0].position;
     let (text, _) = replay(&mut s, "Tab\nK\n+ *2", 100, 30);
-    let d = s.dial_state.as_ref().expect("a dial");
+    let d = s.preview.dial_state().expect("a dial");
     assert!(d.lights[0].position[1] > before[1] && d.lights[0].position[0] == before[0]);
     assert!((d.lights[0].intensity - 1.2).abs() < 1e-9 && text.contains("1.20"), "{text}");
     snap!("dial_vertex_selected_100x30", text);
@@ -156,7 +156,7 @@ fn dial_widget_states() {
     snap!("dial_vertex_selected_80x24", text);
     // Esc leaves the dial keys; the arrows move the matrix selection again.
     replay(&mut s, "Esc", 100, 30);
-    assert!(!s.dial_keys);
+    assert!(!s.preview.keys);
 }
 
 #[test]
@@ -172,12 +172,12 @@ fn saved_keyframes_render_as_previewed() {
     s.set_preview_scene(scene);
     // Between the lights, light 1 off, keyframe; then further, keyframe; save into the scene.
     replay(&mut s, "g\nL\nJ\n1\na\nH *2\na", 100, 30);
-    let keyframes = s.keyframes.clone();
+    let keyframes = s.preview.keyframes.clone();
     assert_eq!(keyframes.len(), 2);
     assert!(!keyframes[0].lights[0].on && keyframes[0].slider != keyframes[1].slider);
     let (text, _) = replay(&mut s, "Ctrl-s", 100, 30);
     assert!(text.contains("saved 2 keyframes"), "{text}");
-    assert!(s.keyframes.is_empty(), "saved keyframes are no longer pending: {:?}", s.message);
+    assert!(s.preview.keyframes.is_empty(), "saved keyframes are no longer pending: {:?}", s.ui.message);
     let saved = metamer::render::scene::Scene::load(&scene_path).expect("the saved scene loads");
     let col = Colorimetry::default();
     let side = 48;
@@ -202,9 +202,9 @@ fn saved_keyframes_render_as_previewed() {
         // The designer's preview itself, after the save, has render's exposure for the saved sweep of its own
         // raycast with the designer's current spectra (the exposure comes from the picture, so it is compared at
         // the live preview's size).
-        let live = s.preview.as_ref().expect("a preview");
+        let live = s.preview.ready.as_ref().expect("a preview");
         let mut fresh = Preview::new(Arc::new(saved.clone()), preview_model(&saved, &col), live.weights.clone(), &col);
-        fresh.frame(&s.palette, &s.derived, key, lut());
+        fresh.frame(&s.doc.palette, &s.solve.derived, key, lut());
         assert!((live.exposure - fresh.exposure).abs() < 1e-12 * fresh.exposure);
         let worst = got.iter().zip(&want).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(255);
         assert!(worst <= 1, "keyframe {k}: the render differs from the preview by {worst}/255");
@@ -236,7 +236,7 @@ fn dial_labels_never_overlap_at_80x24_and_100x30() {
             let palette = palette_with_lights(n);
             let scene = metamer::render::scene::Scene::builtin(palette.clone(), 32).expect("built-in scene");
             let mut s = state(palette, ColourMode::TrueColor);
-            s.graphics = Graphics::halfblocks();
+            s.preview.graphics = Graphics::halfblocks();
             s.set_preview_scene(scene);
             // The slider between the lights, so it is not on a vertex.
             let (text, buf) = replay(&mut s, "g\nJ *3\nH *2", w, h);
@@ -277,27 +277,27 @@ fn the_preview_of_an_unsaved_solve_is_what_render_draws_once_saved() {
     std::fs::write(dir.path().join("scene.toml"), scene_text("demo.toml")).unwrap();
     let scene = metamer::render::scene::Scene::load(&dir.path().join("scene.toml")).expect("scene");
     let mut s = metamer::tui::State::new(palette_path.clone(), start.clone(), ColourMode::TrueColor);
-    s.graphics = Graphics::halfblocks();
+    s.preview.graphics = Graphics::halfblocks();
     s.set_preview_scene(scene.clone());
     // With bases trained, as the designer runs (the preview then draws with the basis of the solved spectra).
     let worker = metamer::tui::worker::BasisMode::Train { sidecar: None };
     let mut saver = metamer::tui::replay::MemorySaver::default();
     tui_support::replay_with(&mut s, "wait-solve", 100, 30, &mut saver, worker);
     // The designed reflectances are solved in memory, not saved.
-    let block = s.palette.reflectance_index("block").expect("block");
-    assert!(s.derived.solved, "the designer shows a solution");
-    let solved = s.derived.reflectance_spectra[block];
+    let block = s.doc.palette.reflectance_index("block").expect("block");
+    assert!(s.solve.derived.solved, "the designer shows a solution");
+    let solved = s.solve.derived.reflectance_spectra[block];
     assert_ne!(solved, start.reflectances[block].spectrum, "the solve changed the designed reflectance");
     assert_eq!(std::fs::read_to_string(&palette_path).unwrap(), on_disk, "nothing was saved");
-    let size = s.preview.as_ref().expect("a preview").size();
+    let size = s.preview.ready.as_ref().expect("a preview").size();
     assert_eq!(size.0, size.1);
     // The same spectra in a palette file of their own, rendered by `metamer render`.
     let solved_path = dir.path().join("solved.toml");
-    let mut with_solution = s.palette.clone();
-    for (e, spectrum) in with_solution.reflectances.iter_mut().zip(&s.derived.reflectance_spectra) {
+    let mut with_solution = s.doc.palette.clone();
+    for (e, spectrum) in with_solution.reflectances.iter_mut().zip(&s.solve.derived.reflectance_spectra) {
         e.spectrum = *spectrum;
     }
-    for (e, spectrum) in with_solution.lights.iter_mut().zip(&s.derived.light_spectra) {
+    for (e, spectrum) in with_solution.lights.iter_mut().zip(&s.solve.derived.light_spectra) {
         e.spectrum = *spectrum;
     }
     PaletteFile::from_palette(&with_solution).save_as(&with_solution, &solved_path).unwrap();
@@ -317,9 +317,9 @@ fn the_preview_of_an_unsaved_solve_is_what_render_draws_once_saved() {
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let want = image::open(out.join(format!("frame_{k:04}.png"))).expect("a frame").to_rgb8().into_raw();
     // The designer's own preview at that frame's dial state.
-    s.dial_state = Some(scene.dial.frame_state(k, frames));
+    s.preview.dial.as_mut().expect("a dial").state = scene.dial.frame_state(k, frames);
     s.relight();
-    let got = s.preview_frame.clone();
+    let got = s.preview.frame.clone();
     assert_eq!(got.len(), want.len());
     let worst = got.iter().zip(&want).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(255);
     assert!(worst <= 1, "the unsaved design's preview differs from the render by {worst}/255");
@@ -327,7 +327,7 @@ fn the_preview_of_an_unsaved_solve_is_what_render_draws_once_saved() {
     let mut before = Preview::new(
         Arc::new(scene.clone()),
         preview_model(&scene, &Colorimetry::default()),
-        s.preview.as_ref().expect("a preview").weights.clone(),
+        s.preview.ready.as_ref().expect("a preview").weights.clone(),
         &Colorimetry::default(),
     );
     let old = before.frame(&start, &Derived::default(), &scene.dial.frame_state(k, frames), lut());

@@ -28,7 +28,7 @@ macro_rules! snap {
 }
 
 fn solved(ticket: u64, generation: u64, state: &State) -> Msg {
-    let solution = design::solve(&state.palette, None, &Colorimetry::default(), &SolveOptions::default());
+    let solution = design::solve(&state.doc.palette, None, &Colorimetry::default(), &SolveOptions::default());
     let result = solution.map(Arc::new);
     Msg::Worker(Reply::Solved(Solved { ticket, generation, result, elapsed: Duration::ZERO, feasibility: None }))
 }
@@ -40,7 +40,7 @@ fn a_worker_reply_is_a_message_and_only_update_applies_it() {
     let effects = update(&mut s, Msg::Start { width: 100, height: 30, trains_bases: false });
     let (ticket, generation) = match effects.as_slice() {
         [Effect::Solve { ticket, generation, palette, .. }] => {
-            assert_eq!(palette, &s.palette);
+            assert_eq!(palette, &s.doc.palette);
             (*ticket, *generation)
         }
         other => panic!("one solve asked for, got {} effects", other.len()),
@@ -74,7 +74,7 @@ fn a_worker_reply_is_a_message_and_only_update_applies_it() {
 #[test]
 fn the_loop_blocks_on_its_channel_and_takes_exactly_the_messages_given() {
     let mut s = state(demo_palette(), ColourMode::TrueColor);
-    let before = s.selection;
+    let before = s.ui.selection;
     let mut msgs = keys("Down\nRight\nRight");
     msgs.push(Msg::End);
     let started = Instant::now();
@@ -89,15 +89,15 @@ fn the_loop_blocks_on_its_channel_and_takes_exactly_the_messages_given() {
         taken.iter().filter(|l| !(l.starts_with("key") || *l == "end" || *l == "start")).collect();
     assert!(others.iter().all(|l| l.starts_with("solved")), "{taken:?}");
     assert_eq!(taken.last().map(String::as_str), Some("end"));
-    assert_eq!((s.selection.row, s.selection.col), (before.row + 1, before.col + 2));
-    assert_eq!(s.ticks, 0);
+    assert_eq!((s.ui.selection.row, s.ui.selection.col), (before.row + 1, before.col + 2));
+    assert_eq!(s.ui.ticks, 0);
 }
 
 #[test]
 fn the_save_as_prompt() {
     let mut s = state(demo_palette(), ColourMode::TrueColor);
     let (text, _) = tui_support::replay(&mut s, "Ctrl-w", 100, 30);
-    assert!(matches!(s.popup, Some(Popup::Prompt(_))));
+    assert!(matches!(s.ui.popup, Some(Popup::Prompt(_))));
     snap!("save_as_prompt_100x30", text);
 }
 
@@ -152,7 +152,7 @@ fn save_as_onto_an_input_or_a_folder_is_refused_and_writes_nothing() {
     for (target, reason) in [("grey.csv", "same file as the CSV spectrum"), ("sub", "not a regular file")] {
         let typed = dir.path().join(target);
         let screen = replay_file(&mut s, &mut saver, &format!("Ctrl-w\nCtrl-u\n\"{}\"\nEnter", typed.display()));
-        match &s.popup {
+        match &s.ui.popup {
             Some(Popup::Prompt(p)) => {
                 let error = p.error.as_ref().map(|e| e.0.to_string()).unwrap_or_default();
                 assert!(error.contains(reason) && error.contains(target), "{target}: {error}");
@@ -161,7 +161,7 @@ fn save_as_onto_an_input_or_a_folder_is_refused_and_writes_nothing() {
         }
         assert!(screen.contains(reason) || screen.contains("refusing"), "{screen}");
         replay_file(&mut s, &mut saver, "Esc");
-        assert!(s.popup.is_none(), "Esc cancels");
+        assert!(s.ui.popup.is_none(), "Esc cancels");
         assert_eq!(s.path(), path, "the designer still works on its file");
         assert_eq!(std::fs::read_to_string(dir.path().join("grey.csv")).unwrap(), csv, "the CSV is untouched");
         assert_eq!(std::fs::read_to_string(&path).unwrap(), WITH_CSV, "the palette is untouched");
@@ -184,7 +184,10 @@ fn after_save_as_the_designer_works_on_the_new_file() {
     assert!(!s.is_dirty());
     assert_eq!(std::fs::read_to_string(&path).unwrap(), WITH_CSV, "the old file is untouched");
     let saved = PaletteFile::load(&copy).expect("the copy reads back");
-    assert_eq!(saved.palette.reflectances[0].spectrum, s.palette.reflectances[0].spectrum, "its CSV still resolves");
+    assert_eq!(
+        saved.palette.reflectances[0].spectrum, s.doc.palette.reflectances[0].spectrum,
+        "its CSV still resolves"
+    );
     // The next save goes to the new file.
     let before = std::fs::read_to_string(&copy).unwrap();
     replay_file(&mut s, &mut saver, "u\nCtrl-s");
@@ -203,7 +206,7 @@ fn the_outside_change_popup_offers_save_as() {
     let outside = WITH_CSV.replace("#806040", "#204080");
     std::fs::write(&path, &outside).unwrap();
     let screen = replay_file(&mut s, &mut saver, "wait-solve\nCtrl-s");
-    assert!(matches!(s.popup, Some(Popup::Conflict { .. })), "{screen}");
+    assert!(matches!(s.ui.popup, Some(Popup::Conflict { .. })), "{screen}");
     assert!(screen.contains("changed on disk") && screen.contains("save as"), "{screen}");
     // `a` in the popup opens the save-as prompt; the designer's version goes to the typed path.
     let mine = dir.path().join("mine.toml");
@@ -211,7 +214,7 @@ fn the_outside_change_popup_offers_save_as() {
     assert!(screen.contains("saved as"), "{screen}");
     assert_eq!(std::fs::read_to_string(&path).unwrap(), outside, "the outside change is kept");
     assert_eq!(s.path(), mine);
-    assert_eq!(PaletteFile::load(&mine).unwrap().palette.colours[0].target, s.palette.colours[0].target);
+    assert_eq!(PaletteFile::load(&mine).unwrap().palette.colours[0].target, s.doc.palette.colours[0].target);
 }
 
 #[test]
@@ -225,14 +228,14 @@ fn save_as_onto_an_existing_file_asks_first_and_never_onto_the_sidecar() {
     let sidecar = dir.path().join("p.basis.json");
     std::fs::write(&sidecar, "{}").unwrap();
     let screen = replay_file(&mut s, &mut saver, &format!("Ctrl-w\nCtrl-u\n\"{}\"\nEnter", sidecar.display()));
-    assert!(matches!(s.popup, Some(Popup::Prompt(_))), "{screen}");
+    assert!(matches!(s.ui.popup, Some(Popup::Prompt(_))), "{screen}");
     assert_eq!(std::fs::read_to_string(&sidecar).unwrap(), "{}", "the sidecar is untouched");
     replay_file(&mut s, &mut saver, "Esc");
     // Another user file: the first Enter asks, the file stays as it was; the second replaces it.
     let other = dir.path().join("notes.toml");
     std::fs::write(&other, "# mine\n").unwrap();
     let screen = replay_file(&mut s, &mut saver, &format!("Ctrl-w\nCtrl-u\n\"{}\"\nEnter", other.display()));
-    match &s.popup {
+    match &s.ui.popup {
         Some(Popup::Prompt(p)) => {
             let error = p.error.as_ref().map(|e| e.0.to_string()).unwrap_or_default();
             assert!(error.contains("exists") && error.contains("Enter again"), "{error}");

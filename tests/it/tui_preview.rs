@@ -21,19 +21,19 @@ fn the_preview_relights_along_the_dial() {
     let mut s = demo_with_preview();
     let (text, buf) = replay(&mut s, "", 100, 30);
     assert!(text.contains("light dial: daylight 100%"), "{text}");
-    let (w, h) = s.preview.as_ref().expect("a preview").size();
-    assert_eq!(s.preview_frame.len(), w * h * 3);
-    assert!(s.preview_frame.iter().any(|v| *v != 0), "something is drawn");
-    let at_start = s.preview_frame.clone();
+    let (w, h) = s.preview.ready.as_ref().expect("a preview").size();
+    assert_eq!(s.preview.frame.len(), w * h * 3);
+    assert!(s.preview.frame.iter().any(|v| *v != 0), "something is drawn");
+    let at_start = s.preview.frame.clone();
     let half_blocks = buf.content.iter().filter(|c| c.symbol() == "▀").count();
     assert!(half_blocks > 500, "the panel is filled with half blocks ({half_blocks})");
     // Half way along a three-light dial is the middle light.
     let (text, _) = replay(&mut s, "] *10", 100, 30);
     assert!(text.contains("light dial: tungsten 100%"), "{text}");
-    assert_ne!(s.preview_frame, at_start, "a different light gives a different picture");
+    assert_ne!(s.preview.frame, at_start, "a different light gives a different picture");
     // Back to the start gives the same picture again; `v` shows the spectra instead.
     let (text, _) = replay(&mut s, "[ *10\nv", 100, 30);
-    assert_eq!(s.preview_frame, at_start);
+    assert_eq!(s.preview.frame, at_start);
     assert!(text.contains(" spectra "), "{text}");
 }
 
@@ -41,12 +41,12 @@ fn the_preview_relights_along_the_dial() {
 fn the_preview_follows_edited_spectra() {
     let mut s = demo_with_preview();
     replay(&mut s, "", 100, 30);
-    let before = s.preview_frame.clone();
+    let before = s.preview.frame.clone();
     // Make daylight a 2000 K black body: the relit picture changes without a new raycast.
     replay(&mut s, "Up\np\nCtrl-u\n\"2000\"\nEnter", 100, 30);
-    assert_ne!(s.preview_frame, before);
+    assert_ne!(s.preview.frame, before);
     replay(&mut s, "z", 100, 30);
-    assert_eq!(s.preview_frame, before);
+    assert_eq!(s.preview.frame, before);
 }
 
 #[test]

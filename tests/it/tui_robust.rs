@@ -69,8 +69,8 @@ proptest! {
         let script: Vec<&str> = keys.iter().map(|k| KEYS[*k]).collect();
         let (text, _) = replay(&mut s, &script.join("\n"), width, height);
         prop_assert_eq!(text.lines().count(), usize::from(height));
-        prop_assert!(s.selection.col <= s.palette.lights.len());
-        prop_assert!(s.selection.row <= s.palette.reflectances.len());
-        prop_assert_eq!(s.derived.cells.len(), s.palette.lights.len() * s.palette.reflectances.len());
+        prop_assert!(s.ui.selection.col <= s.doc.palette.lights.len());
+        prop_assert!(s.ui.selection.row <= s.doc.palette.reflectances.len());
+        prop_assert_eq!(s.solve.derived.cells.len(), s.doc.palette.lights.len() * s.doc.palette.reflectances.len());
     }
 }

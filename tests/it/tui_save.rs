@@ -30,7 +30,7 @@ fn save_then_quit_keeps_comments_and_the_objective() {
     let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
     let steps = replay::parse_script("Ctrl-s\nq").expect("valid script");
     let (frames, _) = replay::run(&mut state, steps, 100, 30, true, &mut saver, worker).expect("replay runs");
-    assert!(state.quit, "q after saving quits without asking");
+    assert!(state.ui.quit, "q after saving quits without asking");
     // Frames: opened, after Ctrl-s, after q.
     assert_eq!(frames.len(), 3);
     assert!(frames[1].contains(&format!("saved {}", path.display())), "{}", frames[1]);

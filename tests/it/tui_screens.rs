@@ -85,7 +85,7 @@ fn workflow_edit_solve_undo_save() {
     use metamer::tui::replay::MemorySaver;
     let mut s = state(demo_palette(), ColourMode::TrueColor);
     let mut saver = MemorySaver::default();
-    let red = |s: &metamer::tui::State| (srgb_encode(s.palette.colours[2].target[0]) * 255.0).round();
+    let red = |s: &metamer::tui::State| (srgb_encode(s.doc.palette.colours[2].target[0]) * 255.0).round();
     let before = red(&s);
     // tissue × daylight: raise R by three steps on the sliders.
     let (text, _) = tui_support::replay_saving(&mut s, "Down *2\nEnter\nRight *3", 100, 30, &mut saver);
@@ -112,13 +112,13 @@ fn quit_asks_first_when_unsaved() {
     let mut s = state(demo_palette(), ColourMode::TrueColor);
     let (text, _) = replay(&mut s, "Down\nu\nq", 100, 30);
     snap!("popup_confirm_quit", text);
-    assert!(!s.quit);
+    assert!(!s.ui.quit);
     let (_, _) = replay(&mut s, "n\nq\ny", 100, 30);
-    assert!(s.quit);
+    assert!(s.ui.quit);
     // A clean palette quits at once.
     let mut s = state(demo_palette(), ColourMode::TrueColor);
     replay(&mut s, "q", 100, 30);
-    assert!(s.quit);
+    assert!(s.ui.quit);
 }
 
 #[test]
@@ -170,15 +170,15 @@ fn main_keys_work_through_help_and_esc_bursts() {
     let mut saver = MemorySaver::default();
     tui_support::replay_saving(&mut s, "Down\nu\n?\nCtrl-s", 100, 30, &mut saver);
     assert_eq!(saver.saved.len(), 1);
-    assert!(s.popup.is_none());
+    assert!(s.ui.popup.is_none());
     replay(&mut s, "?\nq", 100, 30);
-    assert!(s.quit);
+    assert!(s.ui.quit);
     // Esc and a key sent together arrive as Alt+key: taken as Esc, then the key.
     let mut s = state(demo_palette(), ColourMode::TrueColor);
     let mut saver = MemorySaver::default();
     tui_support::replay_saving(&mut s, "Down\nu\n?\nAlt-Ctrl-s", 100, 30, &mut saver);
     assert_eq!(saver.saved.len(), 1);
-    assert!(s.popup.is_none());
+    assert!(s.ui.popup.is_none());
 }
 
 #[test]

@@ -101,9 +101,9 @@ fn subspace_halves_show_the_trained_basis_colour() {
     let mut s = state(p.clone(), ColourMode::TrueColor);
     let (text, buf) =
         tui_support::replay_with(&mut s, "", 100, 30, &mut MemorySaver::default(), BasisMode::Train { sidecar: None });
-    let (key, resolved) = s.basis.clone().expect("the replay waits for the basis");
-    assert_eq!(Some(&key), s.derived.basis_key.as_ref(), "the basis is the shown spectra's");
-    let basis = &resolved.0;
+    let shown = s.solve.basis.clone().expect("the replay waits for the basis");
+    assert_eq!(Some(&shown.key), s.solve.derived.basis_key.as_ref(), "the basis is the shown spectra's");
+    let basis = shown.basis();
     assert_eq!(basis.dimension(), p.settings.basis_dimension);
     let solved = &s.solve.current().expect("solved").palette;
     // skin (fixed) under tungsten: bottom half = factor-model colour, top half = full colour.

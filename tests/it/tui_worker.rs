@@ -39,8 +39,8 @@ fn the_newest_palette_is_always_solved_last() {
 
 #[test]
 fn the_basis_is_trained_once_per_training_set() {
-    use metamer::basis::store::cache_key;
     use metamer::basis::train::TrainingSet;
+    use metamer::tui::model::BasisKey;
     let mut worker =
         Worker::start(WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Train { sidecar: None } })
             .expect("threads");
@@ -49,7 +49,7 @@ fn the_basis_is_trained_once_per_training_set() {
     worker.submit(1, &palette);
     assert!(!worker.training());
     let set = TrainingSet::from_palette(&palette).expect("spectra");
-    let key = cache_key(&set, 7);
+    let key = BasisKey::of(&set, 7);
     worker.request_basis(1, key.clone(), set.clone(), 7);
     assert!(worker.training());
     // The same spectra again (a target edit keeps them): no second training is asked for.
@@ -70,6 +70,6 @@ fn the_basis_is_trained_once_per_training_set() {
     }
     assert_eq!(trained, 1);
     // A new dimension is a new training set.
-    worker.request_basis(3, cache_key(&set, 5), set, 5);
+    worker.request_basis(3, BasisKey::of(&set, 5), set, 5);
     assert!(worker.training());
 }

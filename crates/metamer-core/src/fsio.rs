@@ -6,9 +6,10 @@
 //! alone (a 2 GB sparse file is never read) and never read more than the cap (a file that grows while it is
 //! read is refused too).
 //!
-//! **Writes** ([`write_atomic`]) go to a temporary file in the target's folder, are synced, renamed over the
+//! **Writes** ([`write_atomic`], or [`stage`] then [`Staged::commit`] for outputs written together) go to a temporary file in the target's folder, are synced, renamed over the
 //! target and the folder is synced: a reader (or a crash, or a full disk) sees the old file or the new one,
-//! never a mix. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused; a
+//! never a mix. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused, and so
+//! is one whose mode gives no write permission (read-only) unless the caller passes [`Replace::Force`]; a
 //! symbolic link to a regular file is followed, so the target is rewritten and the link kept. New files follow
 //! the umask (the temporary file is created `0666 & !umask`); an in-place save keeps the old file's mode and,
 //! where permitted, its owner and group.
@@ -41,6 +42,8 @@ pub enum Kind {
     Sidecar,
     /// A text file the tool updates (the README's generated section).
     Text,
+    /// A rendered frame read back (a contact sheet assembled from frames already written).
+    Frame,
 }
 
 const MIB: u64 = 1 << 20;
@@ -58,6 +61,8 @@ impl Kind {
             Kind::KeyScript => 4 * MIB,
             Kind::Sidecar => 64 * MIB,
             Kind::Text => 16 * MIB,
+            // A 4096² RGB PNG that does not compress at all is 48 MiB.
+            Kind::Frame => 64 * MIB,
         }
     }
 
@@ -71,6 +76,7 @@ impl Kind {
             Kind::KeyScript => "key script",
             Kind::Sidecar => "basis sidecar",
             Kind::Text => "text file",
+            Kind::Frame => "frame image",
         }
     }
 }
@@ -91,6 +97,24 @@ pub enum FsError {
     SameFile { path: PathBuf, role: String, other: PathBuf, other_role: String },
     #[error("{}: cannot write: {source}", show(path))]
     Write { path: PathBuf, source: std::io::Error },
+    #[error(
+        "{}: refusing to replace a read-only file (no write permission in its mode): make it writable, or ask \
+         for it explicitly (solve --force)",
+        show(path)
+    )]
+    ReadOnly { path: PathBuf },
+}
+
+/// Whether the one writer may replace a file whose mode gives no write permission (a palette the user
+/// made read-only, `chmod a-w`). The mode is what counts, not whether this process could write it (root
+/// can write any file, and is refused all the same).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Replace {
+    /// Refuse ([`FsError::ReadOnly`]).
+    #[default]
+    Writable,
+    /// Replace it (the command was given an explicit flag); the new file keeps the read-only mode.
+    Force,
 }
 
 impl FsError {
@@ -109,7 +133,8 @@ impl FsError {
             | FsError::TooLarge { path, .. }
             | FsError::NotRegularOutput { path, .. }
             | FsError::SameFile { path, .. }
-            | FsError::Write { path, .. } => path,
+            | FsError::Write { path, .. }
+            | FsError::ReadOnly { path } => path,
         }
     }
 }
@@ -281,20 +306,18 @@ pub fn read_capped(path: &Path, kind: Kind, cap: u64) -> Result<Vec<u8>, FsError
     Ok(bytes)
 }
 
-/// The first `max` bytes (at most) of a regular file of kind `kind` and the file's size: for formats whose
-/// header says how much more may be read (a NRRD file), so a huge file is never read whole to find that
-/// out. The size must be within the kind's cap.
-pub(crate) fn read_head(path: &Path, kind: Kind, max: u64) -> Result<(Vec<u8>, u64), FsError> {
+/// Open a regular file of kind `kind` of at most `cap` bytes to read it in pieces, never whole (the
+/// volume readers stream a file's data straight into the voxel buffer): the same checks as [`read`],
+/// recorded as read. Returns the opened file and its size.
+pub(crate) fn open_capped(path: &Path, kind: Kind, cap: u64) -> Result<(File, u64), FsError> {
     let io = |source| FsError::Read { path: path.to_path_buf(), kind, source };
     note_read(path, kind);
     let before = std::fs::metadata(path).map_err(io)?;
-    check_input(path, kind, kind.cap(), &before)?;
+    check_input(path, kind, cap, &before)?;
     let file = open_nonblocking(path).map_err(io)?;
     let meta = file.metadata().map_err(io)?;
-    check_input(path, kind, kind.cap(), &meta)?;
-    let mut bytes = Vec::with_capacity(usize::try_from(meta.len().min(max)).unwrap_or(0));
-    file.take(max).read_to_end(&mut bytes).map_err(io)?;
-    Ok((bytes, meta.len()))
+    check_input(path, kind, cap, &meta)?;
+    Ok((file, meta.len()))
 }
 
 fn check_input(path: &Path, kind: Kind, cap: u64, meta: &Metadata) -> Result<(), FsError> {
@@ -483,11 +506,55 @@ fn resolve_target(path: &Path) -> std::io::Result<PathBuf> {
 /// Write `bytes` to `path` atomically (see the module docs). Nothing at `path` changes unless the whole
 /// new content is on disk.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FsError> {
+    stage(path, bytes)?.commit()
+}
+
+/// A new content written and synced beside its target (a temporary file in the target's folder) but not
+/// yet in place: [`Staged::commit`] renames it over the target and syncs the folder; dropping it instead
+/// removes the temporary file and leaves the target as it was. A command with several outputs stages them
+/// in parallel (the syncs, mostly waiting for the disk, overlap) and commits them only when every one was
+/// written, so a failure writes none of them.
+#[derive(Debug)]
+pub struct Staged {
+    tmp: tempfile::NamedTempFile,
+    /// The path the caller named (for messages) and the file it resolves to (a link is followed).
+    path: PathBuf,
+    target: PathBuf,
+    dir: PathBuf,
+}
+
+impl Staged {
+    /// Put the staged content in place (a rename over the target), then sync the folder.
+    pub fn commit(self) -> Result<(), FsError> {
+        let Staged { tmp, path, target, dir } = self;
+        tmp.persist(&target).map_err(|e| FsError::Write { path: path.clone(), source: e.error })?;
+        #[cfg(unix)]
+        if let Ok(d) = File::open(&dir) {
+            // Best effort: some file systems refuse to sync a directory.
+            let _ = d.sync_all();
+        }
+        #[cfg(not(unix))]
+        let _ = dir;
+        Ok(())
+    }
+}
+
+/// The first half of [`write_atomic`]: everything up to the rename (see [`Staged`]). The same checks and
+/// refusals; nothing at `path` changes until [`Staged::commit`].
+pub fn stage(path: &Path, bytes: &[u8]) -> Result<Staged, FsError> {
+    stage_with(path, bytes, Replace::Writable)
+}
+
+/// [`stage`], replacing a read-only target only with [`Replace::Force`].
+pub fn stage_with(path: &Path, bytes: &[u8], replace: Replace) -> Result<Staged, FsError> {
     let err = |source| FsError::Write { path: path.to_path_buf(), source };
     let target = resolve_target(path).map_err(err)?;
     let existing = match std::fs::metadata(&target) {
         Ok(m) if !m.is_file() => {
             return Err(FsError::NotRegularOutput { path: path.to_path_buf(), found: describe(&m) });
+        }
+        Ok(m) if m.permissions().readonly() && replace != Replace::Force => {
+            return Err(FsError::ReadOnly { path: path.to_path_buf() });
         }
         Ok(m) => Some(m),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
@@ -523,13 +590,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FsError> {
         }
     }
     tmp.as_file().sync_all().map_err(err)?;
-    tmp.persist(&target).map_err(|e| err(e.error))?;
-    #[cfg(unix)]
-    if let Ok(d) = File::open(&dir) {
-        // Best effort: some file systems refuse to sync a directory.
-        let _ = d.sync_all();
-    }
-    Ok(())
+    Ok(Staged { tmp, path: path.to_path_buf(), target, dir })
 }
 
 /// The folder a file lives in: its parent, or `.` for a bare file name (relative paths in a file, its
@@ -551,6 +612,29 @@ mod tests {
         assert_eq!(escape("plain"), "plain");
         assert_eq!(escape_lines("a\nb\x1b"), "a\nb\\u{1b}");
         assert_eq!(escape("a\nb"), "a\\nb");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_read_only_file_is_replaced_only_when_forced() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.toml");
+        std::fs::write(&path, "old").unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o444)).unwrap();
+        let refused = write_atomic(&path, b"new");
+        assert!(matches!(refused, Err(FsError::ReadOnly { .. })), "{refused:?}");
+        assert!(refused.unwrap_err().to_string().contains("read-only"));
+        assert_eq!(std::fs::read(&path).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file is left");
+        stage_with(&path, b"new", Replace::Force).unwrap().commit().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"new");
+        assert_eq!(std::fs::metadata(&path).unwrap().permissions().mode() & 0o777, 0o444, "the mode is kept");
+        // A writable file is replaced as before.
+        let other = dir.path().join("q.toml");
+        std::fs::write(&other, "old").unwrap();
+        write_atomic(&other, b"new").unwrap();
+        assert_eq!(std::fs::read(&other).unwrap(), b"new");
     }
 
     #[test]

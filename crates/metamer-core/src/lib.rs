@@ -14,6 +14,7 @@ pub mod basis;
 pub mod colorimetry;
 pub mod design;
 pub mod fsio;
+pub mod memory;
 pub mod optimize;
 pub mod palette;
 pub mod render;

@@ -32,7 +32,7 @@ impl Widget for FeasibilityOverlay<'_> {
         let rect = Rect::new(area.x + area.width - w, area.y + area.height - h, w, h);
         Clear.render(rect, buf);
         let cell = state.feasibility_cell();
-        let view = state.feasibility.as_ref().filter(|v| Some(v.cell) == cell);
+        let view = state.solve.feasibility.as_ref().filter(|v| Some(v.cell) == cell);
         let title = match view.and_then(|v| v.result.as_ref().ok()) {
             Some(p) => format!(" reachable · {} ", p.label),
             None => " reachable colours ".to_string(),

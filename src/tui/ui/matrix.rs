@@ -23,23 +23,23 @@ const MAX_NAME: usize = 24;
 
 /// The reflectance-name width that shows every name whole (within limits).
 fn ideal_name_width(state: &State) -> usize {
-    state.palette.reflectances.iter().map(|r| r.name.chars().count()).max().unwrap_or(0).clamp(MIN_NAME, MAX_NAME)
+    state.doc.palette.reflectances.iter().map(|r| r.name.chars().count()).max().unwrap_or(0).clamp(MIN_NAME, MAX_NAME)
 }
 
 /// The width of light `j`'s column: its whole name and a gap (within limits).
 fn column_width(state: &State, j: usize) -> usize {
-    state.palette.lights.get(j).map_or(0, |l| l.name.chars().count() + 1).clamp(MIN_COLUMN, MAX_COLUMN)
+    state.doc.palette.lights.get(j).map_or(0, |l| l.name.chars().count() + 1).clamp(MIN_COLUMN, MAX_COLUMN)
 }
 
 /// Rows the matrix needs with two rows per reflectance (`compact`: one).
 pub(crate) fn rows_needed(state: &State, compact: bool) -> u16 {
-    let n = state.palette.reflectances.len() as u16;
+    let n = state.doc.palette.reflectances.len() as u16;
     2 + if compact { n } else { 2 * n }
 }
 
 /// Columns the whole matrix needs to show every light with its whole name.
 pub(crate) fn width_needed(state: &State) -> u16 {
-    let columns: usize = (0..state.palette.lights.len()).map(|j| column_width(state, j)).sum();
+    let columns: usize = (0..state.doc.palette.lights.len()).map(|j| column_width(state, j)).sum();
     (ideal_name_width(state) + 6 + columns) as u16
 }
 
@@ -73,9 +73,9 @@ pub fn geometry(state: &State, area: Rect) -> Geometry {
     let name_width = ideal_name_width(state).min(width.saturating_sub(6 + MIN_COLUMN)).max(MIN_NAME);
     let left_width = name_width + 6;
     let room = width.saturating_sub(left_width);
-    let n = state.palette.lights.len();
+    let n = state.doc.palette.lights.len();
     let widths: Vec<usize> = (0..n).map(|j| column_width(state, j).min(room.max(MIN_COLUMN))).collect();
-    let selected = state.selection.col.saturating_sub(1).min(n.saturating_sub(1));
+    let selected = state.ui.selection.col.saturating_sub(1).min(n.saturating_sub(1));
     // First column: 0 when the selection fits from there, else the leftmost that keeps it in view.
     let mut first = 0;
     while first < selected && widths[first..=selected].iter().sum::<usize>() > room {
@@ -91,9 +91,9 @@ pub fn geometry(state: &State, area: Rect) -> Geometry {
         x += w;
     }
     let rows = usize::from(area.height).saturating_sub(2);
-    let row_height = if rows >= 2 * state.palette.reflectances.len() { 2 } else { 1 };
+    let row_height = if rows >= 2 * state.doc.palette.reflectances.len() { 2 } else { 1 };
     let visible_reflectances = (rows / row_height).max(1);
-    let sel_reflectance = state.selection.row.saturating_sub(1);
+    let sel_reflectance = state.ui.selection.row.saturating_sub(1);
     let first_reflectance =
         if sel_reflectance >= visible_reflectances { sel_reflectance + 1 - visible_reflectances } else { 0 };
     Geometry { name_width, left_width, columns, first_reflectance, visible_reflectances, row_height }
@@ -101,10 +101,10 @@ pub fn geometry(state: &State, area: Rect) -> Geometry {
 
 /// The style of a cell's three colours.
 fn cell_styles(state: &State, cell: &CellView) -> (Style, Style) {
-    let mode = state.colour_mode;
+    let mode = state.ui.colour_mode;
     let full = mode.linear(&cell.full);
     // While the basis of the shown spectra is being trained the lower half is grey, never a stale colour.
-    let pending = state.derived.subspace_pending && state.solve.basis_error.is_none();
+    let pending = state.solve.derived.subspace_pending && state.solve.basis_error.is_none();
     let sub = match &cell.subspace {
         Some(s) => mode.linear(s),
         None if pending => Color::DarkGray,
@@ -126,8 +126,8 @@ fn cell_styles(state: &State, cell: &CellView) -> (Style, Style) {
 impl Widget for Matrix<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let state = self.0;
-        let p = &state.palette;
-        let d = &state.derived;
+        let p = &state.doc.palette;
+        let d = &state.solve.derived;
         if area.height == 0 || area.width == 0 {
             return;
         }
@@ -137,7 +137,7 @@ impl Widget for Matrix<'_> {
         }
         let g = geometry(state, area);
         let target = state.target();
-        let sel = if state.focus == Focus::Matrix {
+        let sel = if state.ui.focus == Focus::Matrix {
             selected_style()
         } else {
             selected_style().remove_modifier(Modifier::BOLD).fg(Color::Green)
@@ -152,7 +152,7 @@ impl Widget for Matrix<'_> {
                 if matches!(target, Target::Light(l) if l == j) { head.fg(Color::LightGreen) } else { head };
             put(buf, area, x + 1, 0, &fit(&entry.name, width - 1), name_style);
             if let Some(rgb) = d.light_swatches.get(j) {
-                put(buf, area, x + 1, 1, "████", swatch(state.colour_mode, rgb));
+                put(buf, area, x + 1, 1, "████", swatch(state.ui.colour_mode, rgb));
             }
             if entry.design {
                 put(buf, area, x + 6, 1, "D", design_style());
@@ -184,7 +184,7 @@ impl Widget for Matrix<'_> {
             let sx = (g.name_width + 2) as u16;
             if let Some(rgb) = d.reflectance_swatches.get(i) {
                 for dy in 0..height {
-                    put(buf, area, sx, y + dy, "██", swatch(state.colour_mode, rgb));
+                    put(buf, area, sx, y + dy, "██", swatch(state.ui.colour_mode, rgb));
                 }
             }
             if selected_row {

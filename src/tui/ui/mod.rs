@@ -82,7 +82,7 @@ pub struct PreviewAreas {
 /// Where the scene preview goes on a screen of `screen`, when it is shown (the event loop raycasts at
 /// this size).
 pub fn preview_areas(state: &State, screen: Rect) -> Option<PreviewAreas> {
-    if !(state.show_preview && state.has_scene()) {
+    if !(state.preview.shown && state.preview.has_scene()) {
         return None;
     }
     let inner = Block::bordered().inner(screen);
@@ -134,10 +134,10 @@ impl Widget for &State {
                 }
             }
         }
-        if self.show_feasibility {
+        if self.ui.show_feasibility {
             feasibility::FeasibilityOverlay(self).render(Block::bordered().inner(area), buf);
         }
-        if self.popup.is_some() {
+        if self.ui.popup.is_some() {
             popup::PopupView(self).render(area, buf);
         }
     }

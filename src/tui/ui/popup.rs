@@ -91,7 +91,7 @@ pub(crate) fn help_rows(width: u16) -> Vec<HelpRow> {
 impl Widget for PopupView<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let state = self.0;
-        let Some(popup) = &state.popup else { return };
+        let Some(popup) = &state.ui.popup else { return };
         let bold = Style::new().add_modifier(Modifier::BOLD);
         let grey = Style::new().fg(Color::Gray);
         match popup {
@@ -169,8 +169,8 @@ impl Widget for PopupView<'_> {
             Popup::ChooseSpectrum { op, light, reflectance } => {
                 let r = centred(area, 60, 5);
                 let inner = frame(r, buf, op.label());
-                let l = state.palette.lights.get(*light).map_or("", |e| e.name.as_str());
-                let rf = state.palette.reflectances.get(*reflectance).map_or("", |e| e.name.as_str());
+                let l = state.doc.palette.lights.get(*light).map_or("", |e| e.name.as_str());
+                let rf = state.doc.palette.reflectances.get(*reflectance).map_or("", |e| e.name.as_str());
                 put(buf, inner, 1, 0, &format!("l  the light {l}"), Style::new());
                 put(buf, inner, 1, 1, &format!("r  the reflectance {rf}"), Style::new());
             }

@@ -31,9 +31,9 @@ pub(crate) fn caption(dial: &DialState) -> String {
 }
 /// The panel's title: where the dial is, the keys, the protocol.
 pub(crate) fn title(state: &State) -> String {
-    let caption = state.dial_state.as_ref().map_or_else(|| "no lights".to_string(), caption);
-    let keys = if state.dial_keys { "Esc leave" } else { "g dial keys" };
-    format!(" light dial: {caption} · {keys} · {} ", state.graphics.name())
+    let caption = state.preview.dial_state().map_or_else(|| "no lights".to_string(), caption);
+    let keys = if state.preview.keys { "Esc leave" } else { "g dial keys" };
+    format!(" light dial: {caption} · {keys} · {} ", state.preview.graphics.name())
 }
 
 /// The preview image of a state (a progress line while it is raycast).
@@ -45,25 +45,26 @@ impl Widget for PreviewPanel<'_> {
         if area.width == 0 || area.height == 0 {
             return;
         }
-        if let Some(text) = &state.preview_loading {
+        let loading = state.preview.loading();
+        if let Some(text) = &loading {
             let style = Style::new().fg(Color::Yellow);
             buf.set_stringn(area.x, area.y, text, usize::from(area.width), style);
         }
-        let Some(preview) = &state.preview else { return };
+        let Some(preview) = &state.preview.ready else { return };
         let (pw, ph) = preview.size();
-        let pixels = &state.preview_frame;
+        let pixels = &state.preview.frame;
         if pw == 0 || ph == 0 || pixels.len() != pw * ph * 3 {
             return;
         }
-        let first = if state.preview_loading.is_some() { 1 } else { 0 };
+        let first = if loading.is_some() { 1 } else { 0 };
         let area = Rect { y: area.y + first, height: area.height - first, ..area };
-        if !state.graphics.is_halfblocks()
-            && let Some(cells) = state.graphics.encoded_cells()
+        if !state.preview.graphics.is_halfblocks()
+            && let Some(cells) = state.preview.graphics.encoded_cells()
         {
             let x = area.x + area.width.saturating_sub(cells.width) / 2;
             let y = area.y + area.height.saturating_sub(cells.height) / 2;
             let at = Rect { x, y, width: area.width - (x - area.x), height: area.height - (y - area.y) };
-            if state.graphics.render(at, buf) {
+            if state.preview.graphics.render(at, buf) {
                 return;
             }
         }
@@ -85,8 +86,8 @@ impl Widget for PreviewPanel<'_> {
         };
         for cy in 0..h / 2 {
             for x in 0..w {
-                let top = state.colour_mode.color(sample(x, 2 * cy));
-                let bottom = state.colour_mode.color(sample(x, 2 * cy + 1));
+                let top = state.ui.colour_mode.color(sample(x, 2 * cy));
+                let bottom = state.ui.colour_mode.color(sample(x, 2 * cy + 1));
                 if let Some(cell) = buf.cell_mut((x0 + x as u16, y0 + cy as u16)) {
                     cell.set_symbol("▀").set_style(Style::new().fg(top).bg(bottom));
                 }
@@ -100,7 +101,7 @@ fn light_colour(state: &State, e: &Spectrum) -> Color {
     let rgb = state.colorimetry.rgb(e, &Spectrum::flat(1.0));
     let peak = rgb.max();
     let rgb = if peak > 1e-12 { rgb / peak } else { rgb };
-    state.colour_mode.linear(&rgb)
+    state.ui.colour_mode.linear(&rgb)
 }
 
 /// The light dial beside the preview image (seed §5.1's 2D dial): each light's vertex in its colour with
@@ -111,9 +112,9 @@ pub(crate) struct DialPanel<'a>(pub &'a State);
 impl Widget for DialPanel<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let state = self.0;
-        let (Some(dial), Some(preview)) = (&state.dial_state, &state.preview) else { return };
+        let (Some(dial), Some(preview)) = (state.preview.dial_state(), &state.preview.ready) else { return };
         // The designer's current spectra colour the vertices.
-        let dial = preview.current_dial(&state.palette, &state.derived, dial);
+        let dial = preview.current_dial(&state.doc.palette, &state.solve.derived, dial);
         let n = dial.lights.len();
         // The dial keeps at least half the panel (and 3 rows): with many lights on a short panel the
         // intensity list scrolls to keep the selected light in view.
@@ -128,8 +129,8 @@ impl Widget for DialPanel<'_> {
         let aspect = f64::from(canvas_area.width.max(1)) / (2.0 * f64::from(canvas_area.height.max(1)));
         let (hx, hy) = if aspect >= 1.0 { (half * aspect, half) } else { (half, half / aspect) };
         let colours: Vec<Color> = dial.lights.iter().map(|l| light_colour(state, &l.spectrum)).collect();
-        let selected = if state.dial_keys { state.dial_selected } else { None };
-        let keys = state.dial_keys;
+        let selected = if state.preview.keys { state.preview.selected } else { None };
+        let keys = state.preview.keys;
         let (left, right, bottom, top) = (cx - hx, cx + hx, cy - hy, cy + hy);
         let canvas =
             Canvas::default().marker(Marker::Braille).x_bounds([left, right]).y_bounds([bottom, top]).paint(|ctx| {
@@ -214,7 +215,7 @@ impl Widget for DialPanel<'_> {
         }
         if usize::from(list_rows) > n {
             let y = list_area.y + n as u16;
-            let text = format!("keyframes {} new", state.keyframes.len());
+            let text = format!("keyframes {} new", state.preview.keyframes.len());
             buf.set_stringn(area.x, y, text, usize::from(area.width), Style::new().fg(Color::DarkGray));
         }
     }

@@ -13,13 +13,13 @@ pub(crate) struct SettingsRow<'a>(pub &'a State);
 
 /// The text of each field, in [`SettingField::ALL`] order; `short` abbreviates for narrow screens.
 pub(crate) fn field_texts(state: &State, short: bool) -> Vec<String> {
-    let s = &state.palette.settings;
+    let s = &state.doc.palette.settings;
     let check = |on: bool| if on { "[x]" } else { "[ ]" };
     let label = |long: &'static str, abbreviated: &'static str| if short { abbreviated } else { long };
     SettingField::ALL
         .iter()
         .map(|f| match f {
-            SettingField::Bounds => format!("{} bounds", check(state.palette.settings.bounded())),
+            SettingField::Bounds => format!("{} bounds", check(state.doc.palette.settings.bounded())),
             SettingField::ReflectanceLower => format!("{} {}", label("refl", "R"), num(s.reflectance_bounds.lower)),
             SettingField::ReflectanceUpper => format!("… {}", num(s.reflectance_bounds.upper)),
             SettingField::LightLower => format!("{} {}", label("light", "L"), num(s.light_bounds.lower)),
@@ -49,7 +49,7 @@ impl Widget for SettingsRow<'_> {
         let gap = if total + 1 < usize::from(area.width) { "  " } else { " " };
         let mut x = 1u16;
         for (k, text) in texts.iter().enumerate() {
-            let focused = state.focus == Focus::Settings && state.setting == k;
+            let focused = state.ui.focus == Focus::Settings && state.ui.setting == k;
             let style = if focused {
                 Style::new().fg(Color::Black).bg(Color::LightGreen).add_modifier(Modifier::BOLD)
             } else {

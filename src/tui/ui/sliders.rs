@@ -18,8 +18,8 @@ pub(crate) struct CompactSliders<'a>(pub &'a State);
 
 /// Values of the selected cell's sliders: display sRGB target (0–1) and weight.
 pub(crate) fn slider_values(state: &State, light: usize, reflectance: usize) -> [f64; 4] {
-    let cell = state.palette.cell(light, reflectance);
-    let target = cell.map(|c| c.target).or_else(|| state.derived.cell(light, reflectance).map(|c| c.full));
+    let cell = state.doc.palette.cell(light, reflectance);
+    let target = cell.map(|c| c.target).or_else(|| state.solve.derived.cell(light, reflectance).map(|c| c.full));
     let t = target.unwrap_or_default();
     let enc = |v: f64| srgb_encode(v).clamp(0.0, 1.0);
     [enc(t[0]), enc(t[1]), enc(t[2]), cell.map_or(0.0, |c| c.weight)]
@@ -49,7 +49,7 @@ fn source_text(source: &Source) -> String {
 impl Widget for Sliders<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let state = self.0;
-        let p = &state.palette;
+        let p = &state.doc.palette;
         let w = usize::from(area.width);
         let x0 = 1u16;
         match state.target() {
@@ -77,7 +77,7 @@ impl Widget for Sliders<'_> {
                 let bar_width = w.saturating_sub(12).max(4);
                 for (k, slider) in Slider::ALL.iter().enumerate() {
                     let y = 1 + k as u16;
-                    let focused = state.focus == Focus::Sliders && state.slider == k;
+                    let focused = state.ui.focus == Focus::Sliders && state.ui.slider == k;
                     let (label, colour, fraction, value) = match slider {
                         Slider::Red => ("R", Color::Red, values[0], format!("{:.2}", values[0])),
                         Slider::Green => ("G", Color::Green, values[1], format!("{:.2}", values[1])),
@@ -92,29 +92,29 @@ impl Widget for Sliders<'_> {
                     put(buf, area, x, y, &rest, Style::new().fg(Color::DarkGray));
                     put(buf, area, x0 + 3 + bar_width as u16, y, &value, label_style);
                 }
-                let view = state.derived.cell(light, reflectance);
+                let view = state.solve.derived.cell(light, reflectance);
                 let hex = view.and_then(|c| c.desired).map_or("—".to_string(), |d| linear_to_hex(&d));
                 let de = |v: Option<f64>| v.map_or("–".to_string(), |d| format!("{d:.1}"));
                 let m = p.settings.basis_dimension;
                 // Never a stale V7 number: while the basis of the shown spectra is being trained, say so.
-                let updating = state.derived.subspace_pending && state.solve.basis_error.is_none();
+                let updating = state.solve.derived.subspace_pending && state.solve.basis_error.is_none();
                 let v7 = if updating { "updating".to_string() } else { de(view.and_then(|c| c.delta_e_subspace)) };
                 let line = format!("{hex}  full ΔE {}  V{m} ΔE {v7}", de(view.and_then(|c| c.delta_e_full)));
                 put(buf, area, x0, 5, &line, Style::new());
-                if let Some(mean) = state.solve.basis_poor {
+                if let Some(mean) = state.solve.basis_poor() {
                     let warn = Style::new().fg(Color::Yellow);
                     let text = format!("⚠ V{m} model poor: ΔE00 {mean:.2} > {}", crate::basis::POOR_MODEL_MEAN_DE00);
                     put(buf, area, x0, 8, &fit(&text, w.saturating_sub(2)), warn);
                     let fix = format!("fix: raise m, subspace error, fit V{m}");
                     put(buf, area, x0, 9, &fit(&fix, w.saturating_sub(2)), warn);
                 }
-                let cell_index = state.cell_index(light, reflectance);
+                let cell_index = state.doc.cell_index(light, reflectance);
                 if let Some(d) = state.diagnostics().iter().find(|d| d.cell.is_some() && d.cell == cell_index) {
                     let text = format!("⚠ {}", d.message);
                     put(buf, area, x0, 7, &fit(&text, w.saturating_sub(2)), Style::new().fg(Color::Yellow));
                 }
                 if let Some(v) = view {
-                    let mode = state.colour_mode;
+                    let mode = state.ui.colour_mode;
                     let mut x = put(buf, area, x0, 6, "target ", Style::new().fg(Color::Gray));
                     x = match &v.desired {
                         Some(d) => put(buf, area, x, 6, "██", swatch(mode, d)),
@@ -180,8 +180,8 @@ impl Widget for CompactSliders<'_> {
         let state = self.0;
         let Target::Cell { light, reflectance } = state.target() else {
             let text = match state.target() {
-                Target::Light(l) => format!("light {}", state.palette.lights[l].name),
-                Target::Reflectance(r) => format!("reflectance {}", state.palette.reflectances[r].name),
+                Target::Light(l) => format!("light {}", state.doc.palette.lights[l].name),
+                Target::Reflectance(r) => format!("reflectance {}", state.doc.palette.reflectances[r].name),
                 _ => String::new(),
             };
             put(buf, area, 0, 0, &text, Style::new().add_modifier(Modifier::BOLD));
@@ -198,16 +198,17 @@ impl Widget for CompactSliders<'_> {
         .iter()
         .enumerate()
         {
-            let focused = state.focus == Focus::Sliders && state.slider == k;
+            let focused = state.ui.focus == Focus::Sliders && state.ui.slider == k;
             let style = if focused { selected_style().add_modifier(Modifier::REVERSED) } else { Style::new() };
             x = put(buf, area, x, 0, &format!("{label} {value}"), style);
             x = put(buf, area, x, 0, "  ", Style::new());
         }
-        let view = state.derived.cell(light, reflectance);
+        let view = state.solve.derived.cell(light, reflectance);
         let hex = view.and_then(|c| c.desired).map_or("—".to_string(), |d| linear_to_hex(&d));
         let de = view.and_then(|c| c.delta_e_full).map_or("–".to_string(), |d| format!("{d:.1}"));
         x = put(buf, area, x, 0, &format!("{hex}  ΔE {de}  "), Style::new());
-        let name = format!("{} × {}", state.palette.reflectances[reflectance].name, state.palette.lights[light].name);
+        let name =
+            format!("{} × {}", state.doc.palette.reflectances[reflectance].name, state.doc.palette.lights[light].name);
         let room = usize::from(area.width.saturating_sub(x));
         put(buf, area, x, 0, &fit(&name, room), Style::new().fg(Color::Gray));
     }

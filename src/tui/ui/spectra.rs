@@ -20,7 +20,7 @@ fn points(s: &Spectrum) -> Vec<(f64, f64)> {
 impl Widget for SpectraPlot<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let state = self.0;
-        let d = &state.derived;
+        let d = &state.solve.derived;
         let (light, reflectance) = state.plotted();
         let light_points = light.and_then(|l| d.light_spectra.get(l)).map(points);
         let refl_points = reflectance.and_then(|r| d.reflectance_spectra.get(r)).map(points);
@@ -28,7 +28,7 @@ impl Widget for SpectraPlot<'_> {
             |name: &str, kind: &str, design: bool| format!("{name} ({kind}{})", if design { ", designed" } else { "" });
         let mut datasets = Vec::new();
         if let (Some(l), Some(data)) = (light, light_points.as_deref()) {
-            let e = &state.palette.lights[l];
+            let e = &state.doc.palette.lights[l];
             datasets.push(
                 Dataset::default()
                     .name(label(&e.name, "light", e.design))
@@ -39,7 +39,7 @@ impl Widget for SpectraPlot<'_> {
             );
         }
         if let (Some(r), Some(data)) = (reflectance, refl_points.as_deref()) {
-            let e = &state.palette.reflectances[r];
+            let e = &state.doc.palette.reflectances[r];
             datasets.push(
                 Dataset::default()
                     .name(label(&e.name, "reflectance", e.design))

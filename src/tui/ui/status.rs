@@ -22,7 +22,7 @@ pub(crate) fn title_left(state: &State, compact: bool) -> Line<'static> {
     if state.is_dirty() {
         spans.push(Span::styled("● ", Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD)));
     }
-    if state.colour_mode == ColourMode::Indexed256 {
+    if state.ui.colour_mode == ColourMode::Indexed256 {
         let text = if compact { "256c " } else { "· 256 colours " };
         spans.push(Span::styled(text, Style::new().fg(Color::Gray)));
     }
@@ -36,10 +36,11 @@ fn time_text(seconds: f64) -> String {
 /// The live objective, worst ΔE00 and solve time, or the solve's progress or failure; `compact` abbreviates.
 pub(crate) fn title_right(state: &State, compact: bool) -> Line<'static> {
     let s = &state.solve;
-    let spin = SPINNER[(state.ticks as usize) % SPINNER.len()];
-    let elapsed = if state.hide_times { String::new() } else { format!(" {}", time_text(s.running_for.as_secs_f64())) };
+    let spin = SPINNER[(state.ui.ticks as usize) % SPINNER.len()];
+    let elapsed =
+        if state.ui.hide_times { String::new() } else { format!(" {}", time_text(s.running_for.as_secs_f64())) };
     if s.running.is_some() {
-        let what = if s.training && crate::basis::store::palette_uses_basis(&state.palette) {
+        let what = if s.training && crate::basis::store::palette_uses_basis(&state.doc.palette) {
             "training basis, solving…"
         } else {
             "solving…"
@@ -48,8 +49,8 @@ pub(crate) fn title_right(state: &State, compact: bool) -> Line<'static> {
     }
     let mut spans = Vec::new();
     if let Some(sol) = s.current() {
-        let worst = state.derived.worst_delta_e.map_or("–".to_string(), |d| format!("{d:.2}"));
-        let t = if state.hide_times {
+        let worst = state.solve.derived.worst_delta_e.map_or("–".to_string(), |d| format!("{d:.2}"));
+        let t = if state.ui.hide_times {
             "time hidden".to_string()
         } else {
             time_text(s.last_time.map_or(sol.seconds, |d| d.as_secs_f64()))
@@ -74,8 +75,8 @@ pub(crate) fn title_right(state: &State, compact: bool) -> Line<'static> {
     }
     if s.training {
         spans.push(Span::styled(format!("{spin} basis "), Style::new().fg(Color::Yellow)));
-    } else if s.basis_poor.is_some() {
-        let m = state.palette.settings.basis_dimension;
+    } else if s.basis_poor().is_some() {
+        let m = state.doc.palette.settings.basis_dimension;
         spans.push(Span::styled(format!("⚠ V{m} poor "), Style::new().fg(Color::Yellow)));
     }
     Line::from(spans)
@@ -119,7 +120,7 @@ const ALWAYS: &str = "^s save · ? help · q quit";
 /// A message when there is one, else the key hints that fit in `width`.
 pub(crate) fn bottom_line(state: &State, width: u16) -> Line<'static> {
     let width = usize::from(width);
-    if let Some(m) = &state.message {
+    if let Some(m) = &state.ui.message {
         let style = if m.is_error { Style::new().fg(Color::LightRed) } else { Style::new().fg(Color::LightGreen) };
         return Line::from(Span::styled(format!(" {} ", fit(&m.text, width.saturating_sub(2))), style));
     }

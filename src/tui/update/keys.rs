@@ -25,7 +25,7 @@ pub struct Wants {
     pub(crate) reload: bool,
     /// Save the palette to this path, which becomes the palette file.
     pub(crate) save_as: Option<std::path::PathBuf>,
-    /// Start the CSV import recorded in `state.import`.
+    /// Start the CSV import recorded in `state.doc.import`.
     pub(crate) import: bool,
 }
 
@@ -54,13 +54,13 @@ pub(super) fn try_edit(
     key: EditKey,
     f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult,
 ) -> Result<Wants, EditError> {
-    let mut next = state.palette.clone();
+    let mut next = state.doc.palette.clone();
     f(&mut next, &state.colorimetry)?;
-    if next == state.palette {
+    if next == state.doc.palette {
         return Ok(Wants::NONE);
     }
-    state.remember(key);
-    state.palette = next;
+    state.doc.remember(key);
+    state.doc.palette = next;
     Ok(changed(state))
 }
 
@@ -75,7 +75,7 @@ pub(super) fn changed(state: &mut State) -> Wants {
 /// An action on the main screen: one handler per group of keys.
 pub(super) fn update_main(state: &mut State, action: Action) -> Wants {
     if !matches!(action, Action::Move(_) | Action::BigStep { .. }) {
-        state.history.last_edit = None;
+        state.doc.history.last_edit = None;
     }
     match action {
         Action::Move(_)
@@ -141,21 +141,21 @@ fn on_navigation(state: &mut State, action: Action) -> Wants {
         Action::BigStep { up } => step_slider(state, if up { 1.0 } else { -1.0 }, true),
         Action::FocusNext | Action::FocusPrev => {
             let order = [Focus::Matrix, Focus::Sliders, Focus::Settings];
-            let at = order.iter().position(|f| *f == state.focus).unwrap_or(0);
+            let at = order.iter().position(|f| *f == state.ui.focus).unwrap_or(0);
             let step = if action == Action::FocusNext { 1 } else { order.len() - 1 };
-            state.focus = order[(at + step) % order.len()];
-            if state.focus == Focus::Sliders && !matches!(state.target(), Target::Cell { .. }) {
-                state.focus = order[(at + 2 * step) % order.len()];
+            state.ui.focus = order[(at + step) % order.len()];
+            if state.ui.focus == Focus::Sliders && !matches!(state.target(), Target::Cell { .. }) {
+                state.ui.focus = order[(at + 2 * step) % order.len()];
             }
             Wants::NONE
         }
         Action::Activate => activate(state),
         _ => {
-            if let Some(import) = state.import.take() {
+            if let Some(import) = state.doc.import.take() {
                 state.say(format!("import of {} cancelled", crate::fsio::escape(&import.path)));
                 return Wants::NONE;
             }
-            state.focus = Focus::Matrix;
+            state.ui.focus = Focus::Matrix;
             Wants::NONE
         }
     }
@@ -165,7 +165,7 @@ fn on_navigation(state: &mut State, action: Action) -> Wants {
 fn on_cell(state: &mut State, action: Action) -> Wants {
     match action {
         Action::HexEntry => with_cell(state, |state, light, reflectance| {
-            let current = state.derived.cell(light, reflectance).and_then(|c| c.desired).unwrap_or_default();
+            let current = state.solve.derived.cell(light, reflectance).and_then(|c| c.desired).unwrap_or_default();
             open_prompt(
                 state,
                 "target colour",
@@ -175,7 +175,7 @@ fn on_cell(state: &mut State, action: Action) -> Wants {
             )
         }),
         Action::EditWeight => with_cell(state, |state, light, reflectance| {
-            let w = state.palette.cell(light, reflectance).map_or(1.0, |c| c.weight);
+            let w = state.doc.palette.cell(light, reflectance).map_or(1.0, |c| c.weight);
             open_prompt(state, "weight", "a number ≥ 0", format!("{w}"), PromptPurpose::Weight { light, reflectance })
         }),
         Action::ToggleUse => with_cell(state, |state, light, reflectance| {
@@ -183,8 +183,8 @@ fn on_cell(state: &mut State, action: Action) -> Wants {
             edit(state, EditKey::Other, |p, _| edits::toggle_use(p, light, reflectance, now))
         }),
         Action::AssignFree => with_cell(state, |state, light, reflectance| {
-            let now = state.palette.cell(light, reflectance).and_then(|c| c.free);
-            let name = now.and_then(|g| state.palette.free.get(g)).map(|g| g.name.clone()).unwrap_or_default();
+            let now = state.doc.palette.cell(light, reflectance).and_then(|c| c.free);
+            let name = now.and_then(|g| state.doc.palette.free.get(g)).map(|g| g.name.clone()).unwrap_or_default();
             open_prompt(
                 state,
                 "free-colour group",
@@ -200,6 +200,7 @@ fn on_cell(state: &mut State, action: Action) -> Wants {
         }),
         _ => {
             let fits: Vec<(usize, usize, Vector3<f64>)> = state
+                .doc
                 .palette
                 .colours
                 .iter()
@@ -215,13 +216,13 @@ fn on_cell(state: &mut State, action: Action) -> Wants {
 
 /// `b`: the bounds of the selected cell's free-colour group.
 fn free_bounds(state: &mut State, light: usize, reflectance: usize) -> Wants {
-    match state.palette.cell(light, reflectance).and_then(|c| c.free) {
+    match state.doc.palette.cell(light, reflectance).and_then(|c| c.free) {
         None => {
             state.complain("this cell is in no free-colour group (press f first)");
             Wants::NONE
         }
         Some(group) => {
-            let g = &state.palette.free[group];
+            let g = &state.doc.palette.free[group];
             let text =
                 format!("{} {} {}  {} {} {}", g.lower[0], g.lower[1], g.lower[2], g.upper[0], g.upper[1], g.upper[2]);
             let title = format!("bounds of free group {}", g.name);
@@ -250,7 +251,7 @@ fn on_add(state: &mut State, action: Action) -> Wants {
         items.push(PickItem::Flat(0.5));
     }
     items.push(PickItem::Csv);
-    state.popup = Some(Popup::Pick { kind, items, selected: 0 });
+    state.ui.popup = Some(Popup::Pick { kind, items, selected: 0 });
     Wants::NONE
 }
 
@@ -265,9 +266,9 @@ fn on_palette(state: &mut State, action: Action) -> Wants {
         Action::Undo | Action::Redo => {
             let undo = action == Action::Undo;
             let (from, to) = if undo {
-                (&mut state.history.undo, &mut state.history.redo)
+                (&mut state.doc.history.undo, &mut state.doc.history.redo)
             } else {
-                (&mut state.history.redo, &mut state.history.undo)
+                (&mut state.doc.history.redo, &mut state.doc.history.undo)
             };
             match from.pop() {
                 None => {
@@ -275,9 +276,9 @@ fn on_palette(state: &mut State, action: Action) -> Wants {
                     Wants::NONE
                 }
                 Some(other) => {
-                    let now = std::mem::replace(&mut state.palette, other);
+                    let now = std::mem::replace(&mut state.doc.palette, other);
                     to.push(now);
-                    state.history.last_edit = None;
+                    state.doc.history.last_edit = None;
                     state.say(if undo { "undone" } else { "redone" });
                     changed(state)
                 }
@@ -286,15 +287,15 @@ fn on_palette(state: &mut State, action: Action) -> Wants {
         Action::Save => Wants { save: true, ..Wants::NONE },
         Action::SaveAs => {
             let now = state.path().display().to_string();
-            state.popup = Some(Popup::Prompt(super::replies::save_as_prompt(now, None)));
+            state.ui.popup = Some(Popup::Prompt(super::replies::save_as_prompt(now, None)));
             Wants::NONE
         }
         Action::Reload => Wants { reload: true, ..Wants::NONE },
         _ => {
             if state.is_dirty() {
-                state.popup = Some(Popup::ConfirmQuit);
+                state.ui.popup = Some(Popup::ConfirmQuit);
             } else {
-                state.quit = true;
+                state.ui.quit = true;
             }
             Wants::NONE
         }
@@ -305,40 +306,42 @@ fn on_palette(state: &mut State, action: Action) -> Wants {
 fn on_view(state: &mut State, action: Action) -> Wants {
     const NO_SCENE: &str = "no scene preview: start with --scene SCENE.toml";
     match action {
-        Action::Help => state.popup = Some(Popup::Help { scroll: 0 }),
+        Action::Help => state.ui.popup = Some(Popup::Help { scroll: 0 }),
         Action::Diagnostics => {
             if state.diagnostics().is_empty() {
                 state.say("no diagnostics: every criterion is met");
             } else {
-                state.popup = Some(Popup::Diagnostics { scroll: 0 });
+                state.ui.popup = Some(Popup::Diagnostics { scroll: 0 });
             }
         }
         Action::Feasibility => {
-            state.show_feasibility = !state.show_feasibility;
-            if state.show_feasibility && state.feasibility_cell().is_none() {
+            state.ui.show_feasibility = !state.ui.show_feasibility;
+            if state.ui.show_feasibility && state.feasibility_cell().is_none() {
                 state.say("mismatch region: select a cell with a colour criterion");
             }
         }
-        _ if !state.has_scene() => state.complain(NO_SCENE),
+        _ if !state.preview.has_scene() => state.complain(NO_SCENE),
         Action::Dial { forward } => {
-            let step = if forward { 0.05 } else { -0.05 };
-            state.dial = ((state.dial + step) * 20.0).round().clamp(0.0, 20.0) / 20.0;
-            state.show_preview = true;
-            state.dial_state = state.scene().map(|s| s.dial.state_at(state.dial));
+            let p = &mut state.preview;
+            p.shown = true;
+            let scene = p.ready.as_ref().map(|r| r.scene.clone()).or_else(|| p.waiting.clone());
+            if let (Some(scene), Some(dial)) = (scene, p.dial.as_mut()) {
+                dial.step_along(&scene, forward);
+            }
             state.relight();
         }
         Action::DialKeys => {
-            state.show_preview = true;
-            state.dial_keys = true;
+            state.preview.shown = true;
+            state.preview.keys = true;
         }
-        _ => state.show_preview = !state.show_preview,
+        _ => state.preview.shown = !state.preview.shown,
     }
     Wants::NONE
 }
 
 /// The colour the cell has now (solved where solved), for fit colour and new criteria.
 pub(super) fn current_colour(state: &State, light: usize, reflectance: usize) -> Vector3<f64> {
-    state.derived.cell(light, reflectance).map(|c| c.full).unwrap_or_default()
+    state.solve.derived.cell(light, reflectance).map(|c| c.full).unwrap_or_default()
 }
 
 /// Run `f` on the selected cell, or say that a cell must be selected.
@@ -353,16 +356,16 @@ pub(super) fn with_cell(state: &mut State, f: impl FnOnce(&mut State, usize, usi
 }
 
 pub(super) fn open_prompt(state: &mut State, title: &str, hint: &str, input: String, purpose: PromptPurpose) -> Wants {
-    state.popup =
+    state.ui.popup =
         Some(Popup::Prompt(Prompt { title: title.to_string(), hint: hint.to_string(), input, purpose, error: None }));
     Wants::NONE
 }
 
 fn move_in_focus(state: &mut State, d: Direction) -> Wants {
-    match state.focus {
+    match state.ui.focus {
         Focus::Matrix => {
-            let (nl, nr) = (state.palette.lights.len(), state.palette.reflectances.len());
-            let s = &mut state.selection;
+            let (nl, nr) = (state.doc.palette.lights.len(), state.doc.palette.reflectances.len());
+            let s = &mut state.ui.selection;
             match d {
                 Direction::Up if s.row > 1 || (s.row == 1 && s.col > 0) => s.row -= 1,
                 Direction::Down if s.row < nr => s.row += 1,
@@ -374,11 +377,11 @@ fn move_in_focus(state: &mut State, d: Direction) -> Wants {
         }
         Focus::Sliders => match d {
             Direction::Up => {
-                state.slider = state.slider.saturating_sub(1);
+                state.ui.slider = state.ui.slider.saturating_sub(1);
                 Wants::NONE
             }
             Direction::Down => {
-                state.slider = (state.slider + 1).min(Slider::ALL.len() - 1);
+                state.ui.slider = (state.ui.slider + 1).min(Slider::ALL.len() - 1);
                 Wants::NONE
             }
             Direction::Left => step_slider(state, -1.0, false),
@@ -386,8 +389,8 @@ fn move_in_focus(state: &mut State, d: Direction) -> Wants {
         },
         Focus::Settings => {
             match d {
-                Direction::Left => state.setting = state.setting.saturating_sub(1),
-                Direction::Right => state.setting = (state.setting + 1).min(SettingField::ALL.len() - 1),
+                Direction::Left => state.ui.setting = state.ui.setting.saturating_sub(1),
+                Direction::Right => state.ui.setting = (state.ui.setting + 1).min(SettingField::ALL.len() - 1),
                 Direction::Up | Direction::Down => {}
             }
             Wants::NONE
@@ -397,18 +400,18 @@ fn move_in_focus(state: &mut State, d: Direction) -> Wants {
 
 /// Move the focused slider of the selected cell by one small or big step in direction `sign`.
 fn step_slider(state: &mut State, sign: f64, big: bool) -> Wants {
-    if state.focus != Focus::Sliders {
+    if state.ui.focus != Focus::Sliders {
         return Wants::NONE;
     }
     let Target::Cell { light, reflectance } = state.target() else {
         return Wants::NONE;
     };
-    let slider = Slider::ALL[state.slider.min(Slider::ALL.len() - 1)];
-    let key = EditKey::Slider { light, reflectance, slider: state.slider };
+    let slider = Slider::ALL[state.ui.slider.min(Slider::ALL.len() - 1)];
+    let key = EditKey::Slider { light, reflectance, slider: state.ui.slider };
     let now = current_colour(state, light, reflectance);
     match slider {
         Slider::Weight => {
-            let w = state.palette.cell(light, reflectance).map_or(1.0, |c| c.weight);
+            let w = state.doc.palette.cell(light, reflectance).map_or(1.0, |c| c.weight);
             let step = if big { 1.0 } else { 0.1 };
             let next = ((w + sign * step) * 10.0).round() / 10.0;
             edit(state, key, |p, _| edits::set_weight(p, light, reflectance, next.max(0.0), now))
@@ -419,7 +422,7 @@ fn step_slider(state: &mut State, sign: f64, big: bool) -> Wants {
                 Slider::Green => 1,
                 _ => 2,
             };
-            let target = state.palette.cell(light, reflectance).map_or(now, |c| c.target);
+            let target = state.doc.palette.cell(light, reflectance).map_or(now, |c| c.target);
             let display = srgb_encode(target[k]).clamp(0.0, 1.0);
             let step = if big { BIG_STEP } else { SMALL_STEP };
             let next = ((display + sign * step) * 255.0).round().clamp(0.0, 255.0) / 255.0;
@@ -431,21 +434,21 @@ fn step_slider(state: &mut State, sign: f64, big: bool) -> Wants {
 }
 
 fn activate(state: &mut State) -> Wants {
-    match state.focus {
+    match state.ui.focus {
         Focus::Matrix => match state.target() {
             Target::Cell { .. } => {
-                state.focus = Focus::Sliders;
+                state.ui.focus = Focus::Sliders;
                 Wants::NONE
             }
             Target::Light(_) | Target::Reflectance(_) => spectrum_op(state, SpectrumOp::ToggleDesign),
             Target::Nothing => Wants::NONE,
         },
         Focus::Sliders => {
-            state.focus = Focus::Matrix;
+            state.ui.focus = Focus::Matrix;
             Wants::NONE
         }
         Focus::Settings => {
-            let field = SettingField::ALL[state.setting.min(SettingField::ALL.len() - 1)];
+            let field = SettingField::ALL[state.ui.setting.min(SettingField::ALL.len() - 1)];
             match field {
                 SettingField::Bounds => toggle_bounds(state),
                 SettingField::FitInSubspace => edit(state, EditKey::Other, |p, _| {
@@ -453,7 +456,7 @@ fn activate(state: &mut State) -> Wants {
                     Ok(())
                 }),
                 other => {
-                    let s = &state.palette.settings;
+                    let s = &state.doc.palette.settings;
                     let value = match other {
                         SettingField::ReflectanceLower => s.reflectance_bounds.lower.to_string(),
                         SettingField::ReflectanceUpper => s.reflectance_bounds.upper.to_string(),
@@ -485,16 +488,16 @@ fn setting_prompt_text(field: SettingField) -> (&'static str, &'static str) {
 }
 
 fn toggle_bounds(state: &mut State) -> Wants {
-    if state.palette.settings.bounded() {
-        let s = &state.palette.settings;
-        state.remembered_bounds = (s.reflectance_bounds, s.light_bounds);
+    if state.doc.palette.settings.bounded() {
+        let s = &state.doc.palette.settings;
+        state.doc.remembered_bounds = (s.reflectance_bounds, s.light_bounds);
         edit(state, EditKey::Other, |p, _| {
             p.settings.reflectance_bounds = Bounds::UNBOUNDED;
             p.settings.light_bounds = Bounds::UNBOUNDED;
             Ok(())
         })
     } else {
-        let (r, l) = state.remembered_bounds;
+        let (r, l) = state.doc.remembered_bounds;
         edit(state, EditKey::Other, |p, _| {
             p.settings.reflectance_bounds = r;
             p.settings.light_bounds = l;
@@ -515,7 +518,7 @@ fn spectrum_op(state: &mut State, op: SpectrumOp) -> Wants {
             apply_spectrum_op(state, op, Kind::Light, light)
         }
         Target::Cell { light, reflectance } => {
-            state.popup = Some(Popup::ChooseSpectrum { op, light, reflectance });
+            state.ui.popup = Some(Popup::ChooseSpectrum { op, light, reflectance });
             Wants::NONE
         }
         Target::Nothing => {
@@ -526,7 +529,7 @@ fn spectrum_op(state: &mut State, op: SpectrumOp) -> Wants {
 }
 
 pub(super) fn apply_spectrum_op(state: &mut State, op: SpectrumOp, kind: Kind, index: usize) -> Wants {
-    let Some(name) = state.palette.entries(kind).get(index).map(|e| e.name.clone()) else {
+    let Some(name) = state.doc.palette.entries(kind).get(index).map(|e| e.name.clone()) else {
         return Wants::NONE;
     };
     match op {
@@ -544,7 +547,7 @@ pub(super) fn apply_spectrum_op(state: &mut State, op: SpectrumOp, kind: Kind, i
             Wants::NONE
         }
         SpectrumOp::Planck => {
-            let t = match state.palette.lights[index].source {
+            let t = match state.doc.palette.lights[index].source {
                 Source::Planck(t) => t,
                 _ => 6500.0,
             };
@@ -553,7 +556,7 @@ pub(super) fn apply_spectrum_op(state: &mut State, op: SpectrumOp, kind: Kind, i
         }
         SpectrumOp::Scale => {
             let title = format!("scale of {name}");
-            let now = super::prompt::num_text(state.palette.entries(kind)[index].scale);
+            let now = super::prompt::num_text(state.doc.palette.entries(kind)[index].scale);
             let hint = if kind == Kind::Light {
                 "spectrum = normalised source × scale"
             } else {

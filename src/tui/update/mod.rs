@@ -27,11 +27,11 @@ pub fn update(state: &mut State, msg: Msg) -> Vec<Effect> {
     let mut effects = Vec::new();
     match msg {
         Msg::Start { width, height, trains_bases } => {
-            state.screen = (width, height);
-            state.trains_bases = trains_bases;
+            state.ui.screen = (width, height);
+            state.solve.trains_bases = trains_bases;
             replies::submit(state, &mut effects);
         }
-        Msg::Resize { width, height } => state.screen = (width, height),
+        Msg::Resize { width, height } => state.ui.screen = (width, height),
         Msg::Key(key) => {
             // Each key is looked up in the keymap in force after the one before it acted.
             for key in keys_for(state, key) {
@@ -53,7 +53,7 @@ pub fn update(state: &mut State, msg: Msg) -> Vec<Effect> {
         }
         Msg::File(outcome) => replies::file(state, outcome, &mut effects),
         Msg::Tick(now) => {
-            state.ticks += 1;
+            state.ui.ticks += 1;
             if let Some(started) = state.solve.started
                 && (state.solve.running.is_some() || state.solve.training)
             {
@@ -83,9 +83,9 @@ fn keys_for(state: &State, key: KeyEvent) -> Vec<KeyEvent> {
 /// One user action: the focused popup's handler or the main screen's; the mismatch-region overlay follows
 /// the selection (a new cell needs its region computed).
 fn on_action(state: &mut State, action: Action) -> Wants {
-    state.message = None;
+    state.ui.message = None;
     let wanted = state.feasibility_cell();
-    let mut wants = match state.popup.take() {
+    let mut wants = match state.ui.popup.take() {
         Some(popup) => popups::update_popup(state, popup, action),
         None => keys::update_main(state, action),
     };

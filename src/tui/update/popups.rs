@@ -23,7 +23,7 @@ pub(super) fn update_popup(state: &mut State, popup: Popup, action: Action) -> W
 
 /// Help and diagnostics: arrows scroll, Esc closes, any other key closes and acts on the main screen.
 fn on_scroll(state: &mut State, action: Action, scroll: u16, max: u16, popup: impl Fn(u16) -> Popup) -> Wants {
-    state.popup = match action {
+    state.ui.popup = match action {
         Action::Back => None,
         Action::Move(Direction::Up) => Some(popup(scroll.saturating_sub(1))),
         Action::Move(Direction::Down) => Some(popup(scroll.saturating_add(1).min(max))),
@@ -50,7 +50,7 @@ fn on_prompt(state: &mut State, mut prompt: Prompt, action: Action) -> Wants {
         Action::ClearInput => prompt.input.clear(),
         _ => {}
     }
-    state.popup = Some(Popup::Prompt(prompt));
+    state.ui.popup = Some(Popup::Prompt(prompt));
     Wants::NONE
 }
 
@@ -61,7 +61,7 @@ fn on_choose(state: &mut State, action: Action, op: SpectrumOp, light: usize, re
         Action::ChooseReflectance => super::keys::apply_spectrum_op(state, op, Kind::Reflectance, reflectance),
         Action::Back => Wants::NONE,
         _ => {
-            state.popup = Some(Popup::ChooseSpectrum { op, light, reflectance });
+            state.ui.popup = Some(Popup::ChooseSpectrum { op, light, reflectance });
             Wants::NONE
         }
     }
@@ -79,7 +79,7 @@ fn on_pick(state: &mut State, action: Action, kind: Kind, items: Vec<PickItem>, 
         Action::BigStep { up: false } => (selected + 10).min(last),
         _ => selected,
     };
-    state.popup = Some(Popup::Pick { kind, items, selected });
+    state.ui.popup = Some(Popup::Pick { kind, items, selected });
     Wants::NONE
 }
 
@@ -87,13 +87,13 @@ fn on_pick(state: &mut State, action: Action, kind: Kind, items: Vec<PickItem>, 
 fn on_confirm_quit(state: &mut State, action: Action) -> Wants {
     match action {
         Action::Discard => {
-            state.quit = true;
+            state.ui.quit = true;
             Wants::NONE
         }
         Action::SaveAndQuit => Wants { save: true, quit_after_save: true, ..Wants::NONE },
         Action::Back => Wants::NONE,
         _ => {
-            state.popup = Some(Popup::ConfirmQuit);
+            state.ui.popup = Some(Popup::ConfirmQuit);
             Wants::NONE
         }
     }
@@ -106,7 +106,7 @@ fn on_conflict(state: &mut State, action: Action, text: String) -> Wants {
         Action::Save | Action::Reload | Action::SaveAs => update_main(state, action),
         Action::Back => Wants::NONE,
         _ => {
-            state.popup = Some(Popup::Conflict { text });
+            state.ui.popup = Some(Popup::Conflict { text });
             Wants::NONE
         }
     }
@@ -144,8 +144,8 @@ fn pick(state: &mut State, kind: Kind, item: Option<PickItem>) -> Wants {
 }
 
 pub(super) fn add_spectrum(state: &mut State, kind: Kind, base: &str, source: Source) -> Wants {
-    let name = edits::unique_name(&state.palette, kind, base);
-    let base_dir = state.base_dir();
+    let name = edits::unique_name(&state.doc.palette, kind, base);
+    let base_dir = state.doc.base_dir();
     let effects = edit(state, EditKey::Other, |p, c| edits::add(p, kind, &name, source, &base_dir, c));
     if effects.solve {
         state.say(format!("added {} {name}", kind.as_str()));
@@ -161,19 +161,19 @@ pub fn start_import(state: &mut State, kind: Kind, path: &str) -> Wants {
         .file_stem()
         .map(|s| s.to_string_lossy().to_string())
         .unwrap_or_else(|| "imported".into());
-    let name = edits::unique_name(&state.palette, kind, &base);
+    let name = edits::unique_name(&state.doc.palette, kind, &base);
     state.say(format!("reading {}… (Esc cancels)", crate::fsio::escape(path)));
-    state.imports += 1;
-    state.import =
-        Some(Import { id: state.imports, path: path.to_string(), kind, name, before: state.palette.clone() });
+    state.doc.imports += 1;
+    state.doc.import =
+        Some(Import { id: state.doc.imports, path: path.to_string(), kind, name, before: state.doc.palette.clone() });
     Wants { import: true, ..Wants::NONE }
 }
 
 /// Select the swatch of the newest light or reflectance.
 pub(super) fn select_newest(state: &mut State, kind: Kind) {
-    state.selection = match kind {
-        Kind::Light => Selection { col: state.palette.lights.len(), row: 0 },
-        Kind::Reflectance => Selection { col: 0, row: state.palette.reflectances.len() },
+    state.ui.selection = match kind {
+        Kind::Light => Selection { col: state.doc.palette.lights.len(), row: 0 },
+        Kind::Reflectance => Selection { col: 0, row: state.doc.palette.reflectances.len() },
     };
     state.clamp_selection();
 }

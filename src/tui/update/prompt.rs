@@ -89,9 +89,9 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Wants {
                 // Nothing the user made is replaced unasked: an existing file other than the palette
                 // itself is refused once, with the question; Enter on the same path again replaces it.
                 // (Inputs and files that are not regular are left to the saver, which refuses them.)
-                let own = state.file.path.as_deref().is_some_and(|own| crate::fsio::same_file(own, &path));
+                let own = state.doc.file.path.as_deref().is_some_and(|own| crate::fsio::same_file(own, &path));
                 let mut inputs = crate::fsio::Outputs::new();
-                state.file.record_inputs("palette", &mut inputs);
+                state.doc.file.record_inputs("palette", &mut inputs);
                 let an_input = inputs.check("palette", &path).is_err();
                 let asked = matches!(prompt.error.as_ref().map(|r| &*r.0), Some(EditError::Exists(p)) if *p == input);
                 if path.is_file() && !own && !an_input && !asked {
@@ -108,9 +108,9 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Wants {
     match result {
         Ok(effects) => effects,
         Err(reason) => {
-            state.message = None;
+            state.ui.message = None;
             prompt.error = Some(reason.into());
-            state.popup = Some(Popup::Prompt(prompt));
+            state.ui.popup = Some(Popup::Prompt(prompt));
             Wants::NONE
         }
     }

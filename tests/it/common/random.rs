@@ -2,7 +2,9 @@
 //!
 //! * [`capacity_palette`]: the TOG 2009 Fig. 3 protocol — n lights × n reflectances, all designed, every
 //!   cell a uniform random linear-RGB target, positivity bounds, smoothness 0.001;
-//! * [`batch_palette`]: many independent designed reflectances under 3 fixed lights with `[0, 1]` bounds;
+//! * [`batch_palette`]: many independent designed reflectances under 3 fixed lights with `[0, 1]` bounds
+//!   (targets perturbed, most designs press on the bounds); [`reachable_batch_palette`]: the same with every
+//!   target the colour of a reflectance in the bounds;
 //! * [`convex_palette`]: random mixes of designed lights or reflectances (never both in one cell), free
 //!   groups, weights across decades and bounds, for checking optimality against an independent solver.
 //!
@@ -183,6 +185,18 @@ pub fn capacity_palette_with(n: usize, seed: u64, colorimetry: &Colorimetry, opt
 /// Targets are the colours of random smooth reflectances, perturbed per channel by ±25 % so that most
 /// designs press against the bounds.
 pub fn batch_palette(count: usize, seed: u64, colorimetry: &Colorimetry) -> Palette {
+    batch_palette_with(count, seed, colorimetry, true)
+}
+
+/// As [`batch_palette`], but every target is the colour of its random smooth reflectance (in `[0, 1]`), so
+/// every target is reachable; smoothness still pulls the designs from the exact colours a little.
+pub fn reachable_batch_palette(count: usize, seed: u64, colorimetry: &Colorimetry) -> Palette {
+    let mut p = batch_palette_with(count, seed, colorimetry, false);
+    p.name = format!("reachable batch {count} seed {seed}");
+    p
+}
+
+fn batch_palette_with(count: usize, seed: u64, colorimetry: &Colorimetry, perturb: bool) -> Palette {
     let mut rng = Rng::new(seed);
     let lights: Vec<SpectrumEntry> = ["D65", "A", "F11"]
         .iter()
@@ -195,8 +209,8 @@ pub fn batch_palette(count: usize, seed: u64, colorimetry: &Colorimetry) -> Pale
         reflectances.push(entry(&format!("r{r}"), Kind::Reflectance, Spectrum::flat(0.5), true));
         for (l, light) in lights.iter().enumerate() {
             let c = colorimetry.rgb(&light.spectrum, &truth);
-            let t =
-                Vector3::new(c[0] * rng.range(0.75, 1.25), c[1] * rng.range(0.75, 1.25), c[2] * rng.range(0.75, 1.25));
+            let mut jitter = || if perturb { rng.range(0.75, 1.25) } else { 1.0 };
+            let t = Vector3::new(c[0] * jitter(), c[1] * jitter(), c[2] * jitter());
             colours.push(cell(l, r, t, 1.0));
         }
     }

@@ -161,7 +161,7 @@ pub fn run_live(
 pub fn keys(script: &str) -> Vec<metamer::tui::msg::Msg> {
     replay::parse_script(script)
         .expect("valid script")
-        .into_iter()
+        .steps()
         .map(|s| match s {
             replay::Step::Key(k) => metamer::tui::msg::Msg::Key(k),
             replay::Step::WaitSolve => metamer::tui::msg::Msg::WaitSolve,

@@ -157,6 +157,83 @@ struct Entry {
     /// The accuracy report measured at training (an entry without one is retrained).
     #[serde(default)]
     accuracy: Option<AccuracyReport>,
+    /// SHA-256 (hex) of the entry's own content, everything above serialised as compact JSON with this field
+    /// absent ([`Entry::content_checksum`]). An entry without one, or whose content does not hash to it, is
+    /// not used.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    checksum: Option<String>,
+}
+
+impl Entry {
+    /// SHA-256 of the entry as compact JSON without its checksum. Numbers are written with serde_json's
+    /// shortest round-trip formatting and read back bit-identical (`float_roundtrip`), so a stored entry
+    /// hashes to the same value when it is read again.
+    fn content_checksum(&self) -> String {
+        use sha2::{Digest, Sha256};
+        let unsigned = Entry { checksum: None, ..self.clone() };
+        // Serialising this plain struct of numbers, strings and vectors cannot fail.
+        let bytes = serde_json::to_vec(&unsigned).unwrap_or_default();
+        Sha256::digest(&bytes).iter().map(|b| format!("{b:02x}")).collect()
+    }
+}
+
+/// The largest balanced condition number (unit-norm columns) a stored basis may have: above it `B⁺` loses
+/// more than half of f64's digits and the factor model's colours are not to be trusted. The training's
+/// conditioning term (negligible up to ~10³, see [`train::DEFAULT_CONDITIONING_WEIGHT`]) keeps trained
+/// bases far below it; a basis trained above it would be retrained on every load, with the note saying why.
+pub(crate) const MAX_STORED_CONDITION: f64 = 1e8;
+
+/// Relative tolerance of the accuracy re-measured on load against the stored figure: the same arithmetic
+/// on bit-identical inputs gives identical results; the margin covers a different summation order only.
+const ACCURACY_RECHECK_TOLERANCE: f64 = 1e-9;
+
+/// Check a stored entry before it is believed: its checksum, the basis's invariants (finite `B`, `B⁺` and
+/// product tensor, full rank — [`Basis::from_matrix`] — and a balanced condition number below
+/// [`MAX_STORED_CONDITION`] that agrees with the stored one), and its stored factor-model accuracy
+/// re-measured on this training set's pairs. `Err` says why, for the note that goes with the retraining.
+fn verify(
+    entry: &Entry,
+    basis: &Basis,
+    set: &TrainingSet,
+    colorimetry: &Colorimetry,
+) -> Result<AccuracyReport, String> {
+    match &entry.checksum {
+        None => return Err("it has no checksum (written by an older metamer or by hand)".into()),
+        Some(c) if *c != entry.content_checksum() => {
+            return Err("its content does not match its checksum (edited or corrupted)".into());
+        }
+        Some(_) => {}
+    }
+    let finite = |m: &DMatrix<f64>| m.iter().all(|v| v.is_finite());
+    if !finite(&basis.b_pinv) || !basis.products.iter().all(finite) {
+        return Err("its pseudo-inverse is not finite".into());
+    }
+    let condition = train::balanced_condition(&basis.b);
+    if condition.is_nan() || condition > MAX_STORED_CONDITION {
+        return Err(format!("its condition number {condition:.3e} exceeds {MAX_STORED_CONDITION:.0e}"));
+    }
+    let close = |a: f64, b: f64| (a - b).abs() <= ACCURACY_RECHECK_TOLERANCE * a.abs().max(b.abs()).max(1.0);
+    if let Some(stored) = entry.condition
+        && !close(stored, condition)
+    {
+        return Err(format!("its stored condition number {stored:.6e} is not its basis's ({condition:.6e})"));
+    }
+    let Some(accuracy) = entry.accuracy.clone() else {
+        return Err("it has no accuracy report".into());
+    };
+    let measured = accuracy::stats(set, Model::Factor(basis), colorimetry);
+    let stored = &accuracy.factor_model;
+    if !(measured.mean.is_finite() && measured.max.is_finite()) {
+        return Err("its factor-model colours on this palette are not finite".into());
+    }
+    if measured.count != stored.count || !close(measured.mean, stored.mean) || !close(measured.max, stored.max) {
+        return Err(format!(
+            "its stored accuracy (mean ΔE00 {:.6}, max {:.6}) is not what it gives on this palette's pairs \
+             (mean {:.6}, max {:.6})",
+            stored.mean, stored.max, measured.mean, measured.max
+        ));
+    }
+    Ok(accuracy)
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -209,10 +286,18 @@ pub fn for_set(
         Some(path) => read_sidecar(path, &mut notes),
         None => (Sidecar { format: FORMAT.into(), entries: Vec::new() }, true),
     };
-    if let Some((basis, entry)) =
-        sidecar.entries.iter().find(|e| e.key == key).and_then(|e| entry_basis(e, m, &colorimetry))
-        && let Some(accuracy) = entry.accuracy.clone()
-    {
+    let hit = sidecar.entries.iter().find(|e| e.key == key).and_then(|e| entry_basis(e, m, &colorimetry));
+    let verified = hit.and_then(|(basis, entry)| match verify(entry, &basis, set, &colorimetry) {
+        Ok(accuracy) => Some((basis, entry, accuracy)),
+        Err(why) => {
+            notes.push(format!(
+                "did not use the stored basis {key} in {}: {why}; trained it again",
+                cache.map(crate::fsio::show).unwrap_or_default()
+            ));
+            None
+        }
+    });
+    if let Some((basis, entry, accuracy)) = verified {
         notes.extend(entry.notes.iter().cloned());
         let report = Report {
             dimension: m,
@@ -264,7 +349,11 @@ pub fn for_set(
             candidates: trained.candidates.clone(),
             condition: Some(trained.condition),
             accuracy: Some(accuracy.clone()),
+            checksum: None,
         });
+        if let Some(e) = sidecar.entries.last_mut() {
+            e.checksum = Some(e.content_checksum());
+        }
         let excess = sidecar.entries.len().saturating_sub(MAX_ENTRIES);
         sidecar.entries.drain(..excess);
         match write_sidecar(path, &sidecar) {
@@ -408,6 +497,98 @@ mod tests {
         let (_, r4) = for_palette_with(&p, 5, Some(&path), &quick()).unwrap();
         assert!(!r4.from_cache);
         assert_ne!(r4.key, r1.key);
+    }
+
+    /// Train into a sidecar, then rewrite its one entry with `edit` (re-signing it when `resign`), and load.
+    fn load_after_edit(edit: impl Fn(&mut Entry), resign: bool) -> (Basis, Basis, Report) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.basis.json");
+        let p = palette();
+        let (trained, r) = for_palette_with(&p, 5, Some(&path), &quick()).unwrap();
+        assert!(r.stored);
+        let mut sidecar: Sidecar = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        assert_eq!(sidecar.entries.len(), 1);
+        let e = &mut sidecar.entries[0];
+        assert_eq!(e.checksum.as_deref(), Some(e.content_checksum().as_str()), "stored entries are signed");
+        edit(e);
+        if resign {
+            e.checksum = Some(e.content_checksum());
+        }
+        write_sidecar(&path, &sidecar).unwrap();
+        let (loaded, report) = for_palette_with(&p, 5, Some(&path), &quick()).unwrap();
+        // Whatever was refused, the retrained entry is stored again and is then believed.
+        if !report.from_cache {
+            let (again, r2) = for_palette_with(&p, 5, Some(&path), &quick()).unwrap();
+            assert!(r2.from_cache && r2.notes.is_empty(), "{:?}", r2.notes);
+            assert_eq!(again, loaded);
+        }
+        (trained, loaded, report)
+    }
+
+    fn refused_because(report: &Report, why: &str) {
+        assert!(!report.from_cache, "a refused entry must not be used");
+        assert!(
+            report
+                .notes
+                .iter()
+                .any(|n| n.contains("did not use the stored basis") && n.contains("p.basis.json") && n.contains(why)),
+            "{:?}",
+            report.notes
+        );
+    }
+
+    #[test]
+    fn an_untouched_entry_is_believed() {
+        let (trained, loaded, report) = load_after_edit(|_| {}, false);
+        assert!(report.from_cache && report.notes.is_empty(), "{:?}", report.notes);
+        assert_eq!(trained, loaded);
+    }
+
+    #[test]
+    fn a_basis_edited_under_the_right_key_is_retrained_not_believed() {
+        // Another valid basis (one column scaled, one shifted) under the same key and the old checksum.
+        let edit = |e: &mut Entry| {
+            e.basis[0].iter_mut().for_each(|v| *v *= 1.5);
+            e.basis[1][10] += 0.2;
+        };
+        let (trained, loaded, report) = load_after_edit(edit, false);
+        refused_because(&report, "does not match its checksum");
+        assert_eq!(trained, loaded, "the retrained basis is the trained one");
+    }
+
+    #[test]
+    fn a_re_signed_foreign_basis_fails_its_accuracy_recheck() {
+        // The checksum and the stored condition number made to agree with the edited content: only the
+        // re-measured accuracy gives it away.
+        let edit = |e: &mut Entry| {
+            e.basis[1][10] += 0.2;
+            e.basis[3].reverse();
+            let b = columns_basis(&e.basis, 5, &Colorimetry::default()).unwrap();
+            e.condition = Some(train::balanced_condition(&b.b));
+        };
+        let (trained, loaded, report) = load_after_edit(edit, true);
+        refused_because(&report, "stored accuracy");
+        assert_eq!(trained, loaded);
+    }
+
+    #[test]
+    fn a_sidecar_of_tiny_numbers_never_reaches_the_colours() {
+        // Re-signed, so only the basis's own invariants can refuse it.
+        let edit = |e: &mut Entry| e.basis.iter_mut().flatten().for_each(|v| *v *= 1e-300);
+        let (trained, loaded, report) = load_after_edit(edit, true);
+        assert!(!report.from_cache, "{:?}", report.notes);
+        assert!(report.notes.iter().any(|n| n.contains("did not use the stored basis")), "{:?}", report.notes);
+        assert_eq!(trained, loaded);
+        let c = Colorimetry::default();
+        let stats = accuracy::stats(&TrainingSet::from_palette(&palette()).unwrap(), Model::Factor(&loaded), &c);
+        assert!(stats.mean.is_finite() && stats.max.is_finite());
+    }
+
+    #[test]
+    fn an_unsigned_entry_is_retrained_once() {
+        let (trained, loaded, report) = load_after_edit(|e| e.checksum = None, false);
+        refused_because(&report, "no checksum");
+        assert_eq!(trained, loaded);
     }
 
     #[test]

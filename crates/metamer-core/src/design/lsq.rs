@@ -5,8 +5,11 @@
 //!    (see [`NORMAL_EQUATIONS_MAX_COND`]) one step of refinement by QR of A with the rows sorted by weight
 //!    recovers what the SVD's normwise rounding and cut-off lose on graded rows. If it already satisfies the
 //!    bounds exactly, that is the answer;
-//! 2. otherwise L-BFGS-B ([`super::lbfgsb`]) from the SVD solution projected onto the box, which finds
-//!    the active set approximately;
+//! 2. otherwise, on ill-conditioned systems (the QR path below), L-BFGS-B ([`super::lbfgsb`]) from the SVD
+//!    solution projected onto the box, which finds the active set approximately; well-conditioned systems
+//!    start the finish from the projected SVD solution itself (its clamped support is the first guess of the
+//!    active set). On the batch designs that takes about 16 releases per design against 11 from L-BFGS-B's
+//!    point, but saves the L-BFGS-B run, which cost more than the releases (12 % of the whole process);
 //! 3. then an exact active-set finish (bounded-variable least squares in the manner of Stark & Parker
 //!    1995): fix the active bounds, solve the free variables' least squares exactly, walk back to the
 //!    box when the solution leaves it (adding the bounds it hits), and release the bound whose Lagrange
@@ -18,6 +21,10 @@
 //!    iterative refinement, and multipliers from the transformed residual, so that the light rows keep
 //!    their own precision instead of drowning in the heavy rows' rounding. There the normal equations first
 //!    find the active set roughly and the QR finish starts from it, which keeps the QR solves few.
+//!
+//! On the normal-equations path the final free set is solved once more from a fresh factor (free
+//! variables in ascending order, `Work::polish` in `lsq_finish.rs`), so the result is a function of the
+//! active set alone, whatever path of binds and releases led to it: both starts give the same bits.
 //!
 //! The reported objective and KKT residual are computed from the residual `Ax − b`.
 //! The factorisation (SVD pseudo-inverse, `AᵀA` and `cond(A)`) depends on A only; [`Factor`]s are shared
@@ -156,12 +163,28 @@ fn kkt_of(sys: &LinearSystem, x: &DVector<f64>, r: &DVector<f64>, grad_scale: f6
     projected_gradient_norm(x, &g, &sys.lower, &sys.upper) / grad_scale
 }
 
-/// Solve the bounded system. `factor` must be `Factor::new(&sys.a)`.
-pub fn solve(sys: &LinearSystem, factor: &Factor) -> LsqOutcome {
-    with_work(sys, factor.needs_qr(), |work| solve_in(sys, factor, work))
+/// Where the active-set finish starts when the unconstrained solution leaves the box.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Start {
+    /// The unconstrained (SVD) solution clamped to the box: its clamped support is the first guess of the
+    /// active set (the normal-equations path).
+    Clamped,
+    /// L-BFGS-B's point after [`LBFGSB_ITERATIONS`] from the clamped solution (always on the QR path; on the
+    /// normal-equations path only for the tests that check both starts end at the same bits).
+    Lbfgsb,
 }
 
-fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work) -> LsqOutcome {
+/// Solve the bounded system. `factor` must be `Factor::new(&sys.a)`.
+pub fn solve(sys: &LinearSystem, factor: &Factor) -> LsqOutcome {
+    solve_from_start(sys, factor, Start::Clamped)
+}
+
+/// [`solve`] with the finish's start chosen (the QR path always starts from L-BFGS-B).
+pub(crate) fn solve_from_start(sys: &LinearSystem, factor: &Factor, start: Start) -> LsqOutcome {
+    with_work(sys, factor.needs_qr(), |work| solve_in(sys, factor, work, start))
+}
+
+fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) -> LsqOutcome {
     let n = sys.a.ncols();
     let atb = sys.a.tr_mul(&sys.b);
     let grad_scale = 1.0 + 2.0 * atb.amax();
@@ -204,16 +227,20 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work) -> LsqOutcome 
     for i in 0..n {
         x0[i] = if x0[i].is_finite() { x0[i] } else { 0.0 }.max(sys.lower[i]).min(sys.upper[i]);
     }
-    let bb = sys.b.norm_squared();
-    let problem = Objective { sys, h: &factor.h, atb: &atb, bb, from_residual: use_qr, last: Default::default() };
-    // L-BFGS-B only has to find the active set roughly; the active-set finish makes it exact.
-    let solver = LBfgsB::new(sys.lower.clone(), sys.upper.clone())
-        .with_memory(5)
-        .with_pg_tol(1e-9 * grad_scale)
-        .with_f_tol(1e-12, bb);
-    let (x1, iters) = match run_lbfgsb(problem, solver, x0.clone(), LBFGSB_ITERATIONS) {
-        Some(r) => r,
-        None => (x0, 0),
+    let (x1, iters) = if use_qr || start == Start::Lbfgsb {
+        let bb = sys.b.norm_squared();
+        let problem = Objective { sys, h: &factor.h, atb: &atb, bb, from_residual: use_qr, last: Default::default() };
+        // L-BFGS-B only has to find the active set roughly; the active-set finish makes it exact.
+        let solver = LBfgsB::new(sys.lower.clone(), sys.upper.clone())
+            .with_memory(5)
+            .with_pg_tol(1e-9 * grad_scale)
+            .with_f_tol(1e-12, bb);
+        match run_lbfgsb(problem, solver, x0.clone(), LBFGSB_ITERATIONS) {
+            Some(r) => r,
+            None => (x0, 0),
+        }
+    } else {
+        (x0, 0)
     };
     let steps = if use_qr {
         // A QR solve per step costs O(m·n·|F|): let the normal equations find the active set first (they
@@ -227,7 +254,9 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work) -> LsqOutcome 
         work.set_path(true);
         rough + work.finish(sys, &factor.h, &atb, &x_rough)
     } else {
-        work.finish(sys, &factor.h, &atb, &x1)
+        let steps = work.finish(sys, &factor.h, &atb, &x1);
+        work.polish(sys, &factor.h, &atb);
+        steps
     };
     let x2 = DVector::from_column_slice(&work.x);
     // Keep whichever is better (the finish can only improve on a convex problem; this guards rounding).

@@ -220,6 +220,49 @@ impl Work {
         }
     }
 
+    /// Solve the final free set once more from a fresh Cholesky factor of `H_FF` (free variables added in
+    /// ascending order, `H x_B` summed in ascending order: what [`Work::finish`] does before its first
+    /// step), so that the result depends on the active set alone, not on the binds and releases (Givens
+    /// deletions, appended rows) that led to it. Kept only when it is finite and inside the box (else the
+    /// finish's own point stays); normal-equations path only. Returns whether it was kept.
+    pub(super) fn polish(&mut self, sys: &LinearSystem, h: &DMatrix<f64>, atb: &DVector<f64>) -> bool {
+        if self.use_qr {
+            return false;
+        }
+        let (lo, hi) = (sys.lower.as_slice(), sys.upper.as_slice());
+        self.free.clear();
+        self.chol.ok = true;
+        self.chol.l.resize(self.n * self.n, 0.0);
+        self.hb.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..self.n {
+            if self.is_free[i] {
+                self.chol.add(h, &self.free, i);
+                self.free.push(i);
+            }
+        }
+        for j in 0..self.n {
+            if !self.is_free[j] && self.x[j] != 0.0 {
+                axpy(self.x[j], column(h, j), &mut self.hb);
+            }
+        }
+        if self.free.is_empty() {
+            return true;
+        }
+        if !self.chol.ok {
+            return false;
+        }
+        self.z.clear();
+        self.z.extend(self.free.iter().map(|&i| atb[i] - self.hb[i]));
+        self.chol.solve_in_place(&mut self.z);
+        let inside = self.free.iter().zip(&self.z).all(|(&i, &v)| v.is_finite() && v >= lo[i] && v <= hi[i]);
+        if inside {
+            for (k, &i) in self.free.iter().enumerate() {
+                self.x[i] = self.z[k];
+            }
+        }
+        inside
+    }
+
     /// The exact active-set finish from `x0` projected onto the box (see the module docs). Leaves the result
     /// in `self.x`; returns the number of releases (outer steps).
     pub(super) fn finish(

@@ -112,3 +112,54 @@ fn rank_deficient_gives_minimum_norm() {
     let out = solve_system(&sys);
     assert!((out.x[0] - 1.0).abs() < 1e-12 && (out.x[1] - 1.0).abs() < 1e-12);
 }
+
+/// The batch designs' systems (bounded single reflectances under 3 fixed lights), as the solve assembles them.
+fn batch_systems(count: usize, seed: u64) -> Vec<LinearSystem> {
+    use crate::design::system::{Design, Layout};
+    let col = crate::colorimetry::Colorimetry::default();
+    let p = crate::design::random::batch_palette(count, seed, &col);
+    let design = Design::new(&p, None, &col).expect("the batch palette is valid");
+    let v = design.start_values();
+    design.blocks().iter().map(|b| design.linear_system(&Layout::new(&b.units), &b.terms, &v)).collect()
+}
+
+#[test]
+fn both_starts_end_at_the_same_bits_and_the_optimum() {
+    // The finish from the clamped SVD solution and from L-BFGS-B's point end at the same active set, and the
+    // fresh solve of that set makes the result the same to the bit.
+    let mut bounded = 0;
+    for sys in batch_systems(300, 5) {
+        let factor = Factor::new(&sys.a);
+        assert!(!factor.needs_qr(), "the batch designs take the normal-equations path");
+        let a = solve_from_start(&sys, &factor, Start::Clamped);
+        let b = solve_from_start(&sys, &factor, Start::Lbfgsb);
+        let bits = |x: &DVector<f64>| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&a.x), bits(&b.x));
+        assert_eq!(a.objective.to_bits(), b.objective.to_bits());
+        assert!(a.kkt < 1e-12, "kkt {}", a.kkt);
+        assert!((0..a.x.len()).all(|i| a.x[i] >= sys.lower[i] && a.x[i] <= sys.upper[i]));
+        bounded += a.bounds_active as usize;
+    }
+    assert!(bounded > 200, "most batch designs press against the bounds ({bounded} of 300)");
+}
+
+#[test]
+fn clamped_start_matches_brute_force_on_small_random_systems() {
+    let mut seed = 23u64;
+    for _ in 0..40 {
+        let (m, n) = (4 + (lcg(&mut seed) * 4.0) as usize, 2 + (lcg(&mut seed) * 4.0) as usize);
+        let a = DMatrix::from_fn(m, n, |_, _| lcg(&mut seed) * 2.0 - 1.0);
+        let b = DVector::from_fn(m, |_, _| lcg(&mut seed) * 4.0 - 2.0);
+        let lower = DVector::from_fn(n, |_, _| -lcg(&mut seed) * 0.3);
+        let upper = DVector::from_fn(n, |_, _| lcg(&mut seed) * 0.3);
+        let sys = LinearSystem { a, b, lower, upper };
+        let factor = Factor::new(&sys.a);
+        if factor.needs_qr() {
+            continue;
+        }
+        let out = solve_from_start(&sys, &factor, Start::Clamped);
+        let best = brute_force(&sys);
+        assert!(out.objective <= best * (1.0 + 1e-9) + 1e-14, "{} vs {best}", out.objective);
+        assert!(out.kkt < 1e-9, "kkt {}", out.kkt);
+    }
+}

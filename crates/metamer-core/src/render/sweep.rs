@@ -306,6 +306,56 @@ pub fn write_sweep(
     Ok(SweepReport { written, seconds: start.elapsed().as_secs_f64() })
 }
 
+/// The contact sheet of frames already written to `dir` (frames `range` of an N = `frames` sweep, e.g. by
+/// `--frame-range` runs on several machines), read back through the one bounded reader, shrunk to tiles
+/// and labelled as [`write_sweep`] does; returns how many frames it holds. A tile shrinks its frame as it
+/// was written, so with the dial drawn into the frames the tiles show it shrunk (a one-run sheet draws it
+/// anew at the tile's size); frames written without the dial give a sheet byte-identical to a one-run
+/// sheet's. Every frame must be there and of one size.
+pub fn contact_sheet_from_frames(
+    dir: &Path,
+    range: Range<usize>,
+    frames: usize,
+    dial: &Dial,
+    title: Option<&str>,
+    sheet: &Path,
+) -> Result<usize, RenderError> {
+    let bad = |path: &Path, reason: String| RenderError::Invalid(format!("{}: {reason}", crate::fsio::show(path)));
+    let mut size = None;
+    let mut layout = None;
+    let mut tiles = Vec::with_capacity(range.len());
+    for k in range.clone() {
+        let path = dir.join(frame_name(k));
+        let bytes = crate::fsio::read(&path, crate::fsio::Kind::Frame).map_err(|e| {
+            RenderError::Invalid(format!(
+                "{e} (frame {k} of the range {}..{}: is every shard's output here?)",
+                range.start, range.end
+            ))
+        })?;
+        // Frames are at most 4096² (`--size`): a PNG claiming more is refused before it is decoded.
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(4096);
+        limits.max_image_height = Some(4096);
+        let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png);
+        reader.limits(limits);
+        let rgb = reader.decode().map_err(|e| bad(&path, format!("not a PNG frame of at most 4096²: {e}")))?.to_rgb8();
+        let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+        match size {
+            None => size = Some((w, h)),
+            Some((w0, h0)) if (w0, h0) != (w, h) => {
+                return Err(bad(&path, format!("is {w}×{h}, the first frame of the range is {w0}×{h0}")));
+            }
+            Some(_) => {}
+        }
+        let l = *layout.get_or_insert_with(|| SheetLayout::new(range.len(), w, h));
+        tiles.push(l.thumbnail(rgb.as_raw(), w, h).ok_or_else(|| bad(&path, "cannot shrink".into()))?);
+    }
+    let layout = layout.ok_or_else(|| RenderError::Invalid("the frame range is empty".into()))?;
+    let labels: Vec<String> = range.clone().map(|k| frame_label(dial, k, frames)).collect();
+    write_contact_sheet_image(sheet, &layout.assemble(&tiles, &labels, title))?;
+    Ok(tiles.len())
+}
+
 /// Every frame and the contact sheet go through the one atomic writer ([`crate::fsio::write_atomic`]):
 /// a FIFO or device in the output folder is refused, an interrupted sweep leaves whole frames only.
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {

@@ -8,6 +8,7 @@
 //! Every reader returns a [`VolumeError`] naming the file and the reason; none panics on bad input.
 
 pub mod data;
+pub(crate) mod fill;
 pub mod generate;
 pub mod nrrd;
 pub mod raw;
@@ -25,12 +26,9 @@ pub enum VolumeError {
     File(crate::fsio::FsError),
     #[error("{}: {reason}", crate::fsio::show(path))]
     Invalid { path: PathBuf, reason: String },
-}
-
-/// Read a volume file (header, attached or detached data) through the one bounded reader
-/// ([`crate::fsio::read`]): regular files only, at most [`crate::fsio::Kind::Volume`]'s cap.
-pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, VolumeError> {
-    crate::fsio::read(path, crate::fsio::Kind::Volume).map_err(VolumeError::File)
+    /// The volume is too large for the machine's memory (refused before it is allocated).
+    #[error("{0}")]
+    Memory(Box<crate::memory::MemoryError>),
 }
 
 impl VolumeError {
@@ -102,45 +100,6 @@ pub enum Endian {
     #[default]
     Little,
     Big,
-}
-
-/// Decode the values of `ty` in `bytes` (`bytes.len() / size` of them): the kept types into a buffer of
-/// their own type, `u32`, `i32` and `f64` converted to `f32`.
-pub(crate) fn decode_voxels(bytes: &[u8], ty: ScalarType, endian: Endian) -> Voxels {
-    fn kept<T: Voxel>(bytes: &[u8], endian: Endian) -> Buf<T> {
-        let mut buf = Buf::<T>::zeroed(bytes.len() / std::mem::size_of::<T>());
-        let n = buf.len() * std::mem::size_of::<T>();
-        buf.bytes_mut().copy_from_slice(&bytes[..n]);
-        to_native(&mut buf, endian);
-        buf
-    }
-    macro_rules! conv {
-        ($t:ty, $n:expr) => {
-            Voxels::F32(Buf::from(
-                bytes
-                    .chunks_exact($n)
-                    .map(|c| {
-                        let mut a = [0u8; $n];
-                        a.copy_from_slice(c);
-                        (match endian {
-                            Endian::Little => <$t>::from_le_bytes(a),
-                            Endian::Big => <$t>::from_be_bytes(a),
-                        }) as f32
-                    })
-                    .collect::<Vec<f32>>(),
-            ))
-        };
-    }
-    match ty {
-        ScalarType::U8 => Voxels::U8(kept(bytes, endian)),
-        ScalarType::I8 => Voxels::I8(kept(bytes, endian)),
-        ScalarType::U16 => Voxels::U16(kept(bytes, endian)),
-        ScalarType::I16 => Voxels::I16(kept(bytes, endian)),
-        ScalarType::F32 => Voxels::F32(kept(bytes, endian)),
-        ScalarType::U32 => conv!(u32, 4),
-        ScalarType::I32 => conv!(i32, 4),
-        ScalarType::F64 => conv!(f64, 8),
-    }
 }
 
 /// Turn values read in `endian` byte order into the machine's.
@@ -297,15 +256,20 @@ mod tests {
 
     #[test]
     fn decode_respects_endianness() {
-        let v = decode_voxels(&[0x01, 0x02], ScalarType::U16, Endian::Little);
+        let decode = |bytes: &[u8], ty: ScalarType, endian: Endian| {
+            let mut f = fill::Filler::new(Path::new("t"), [1, 1, 1], ty, endian).unwrap();
+            assert_eq!(f.read_from(&mut &bytes[..], bytes.len()).unwrap(), bytes.len());
+            f.finish()
+        };
+        let v = decode(&[0x01, 0x02], ScalarType::U16, Endian::Little);
         assert_eq!(v, Voxels::from(vec![513u16]));
-        let v = decode_voxels(&[0x01, 0x02], ScalarType::U16, Endian::Big);
+        let v = decode(&[0x01, 0x02], ScalarType::U16, Endian::Big);
         assert_eq!(v, Voxels::from(vec![258u16]));
-        let v = decode_voxels(&(-2.5f64).to_be_bytes(), ScalarType::F64, Endian::Big);
+        let v = decode(&(-2.5f64).to_be_bytes(), ScalarType::F64, Endian::Big);
         assert_eq!(v, Voxels::from(vec![-2.5f32]));
-        let v = decode_voxels(&[0xff], ScalarType::I8, Endian::Little);
+        let v = decode(&[0xff], ScalarType::I8, Endian::Little);
         assert_eq!(v, Voxels::from(vec![-1i8]));
-        let v = decode_voxels(&(-1.5f32).to_be_bytes(), ScalarType::F32, Endian::Big);
+        let v = decode(&(-1.5f32).to_be_bytes(), ScalarType::F32, Endian::Big);
         assert_eq!(v, Voxels::from(vec![-1.5f32]));
     }
 

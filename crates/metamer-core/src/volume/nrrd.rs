@@ -4,9 +4,11 @@
 //! `spacings` (or `space directions`), `byte skip` (including −1 for raw data at the end of the file)
 //! and `line skip`.
 
-use super::{Endian, ScalarType, Volume, VolumeError, Voxels, decode_voxels, voxel_count};
-use flate2::read::MultiGzDecoder;
-use std::io::Read;
+use super::fill::{Filler, check_memory, has_more, skip as skip_bytes};
+use super::raw::MAX_DEFLATE_RATIO;
+use super::{Endian, ScalarType, Volume, VolumeError, Voxels, voxel_count};
+use flate2::bufread::MultiGzDecoder;
+use std::io::{BufRead, BufReader, Cursor, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,10 +38,15 @@ pub(crate) const HEADER_CAP: u64 = 1 << 20;
 /// Read a `.nhdr` or `.nrrd` file. Reads are bounded by what the header says: first at most
 /// [`HEADER_CAP`] bytes (the header must end within them), then the data (attached, or the detached `data
 /// file`) only when its size fits the header's sizes and type ([`data_cap`]), so a huge or sparse file is
-/// refused from its size, never read whole.
+/// refused from its size, never read whole. The data are streamed (raw) or inflated (gzip) straight into
+/// the voxel buffer, which is allocated once the file's size is known to fit ([`super::fill`]).
 pub fn read(path: &Path) -> Result<Volume, VolumeError> {
-    let (head, size) =
-        crate::fsio::read_head(path, crate::fsio::Kind::Volume, HEADER_CAP).map_err(VolumeError::File)?;
+    let kind = crate::fsio::Kind::Volume;
+    let (file, size) = crate::fsio::open_capped(path, kind, kind.cap()).map_err(VolumeError::File)?;
+    let io = |e: std::io::Error| VolumeError::invalid(path, format!("cannot be read: {e}"));
+    let mut r = BufReader::with_capacity(1 << 16, file);
+    let mut head = Vec::with_capacity(usize::try_from(size.min(HEADER_CAP)).unwrap_or(0));
+    (&mut r).take(HEADER_CAP).read_to_end(&mut head).map_err(io)?;
     let complete = head.len() as u64 >= size;
     if !complete && !head.windows(2).any(|w| w == b"\n\n") && !head.windows(3).any(|w| w == b"\n\r\n") {
         return Err(VolumeError::invalid(
@@ -51,25 +58,27 @@ pub fn read(path: &Path) -> Result<Volume, VolumeError> {
     let header = parse_header(path, header_text)?;
     let count = voxel_count(path, header.dims)?;
     let cap = data_cap(&header, count);
-    let (data_path, file_bytes) = match &header.data_file {
+    let values = match &header.data_file {
         Some(f) => {
-            // The detached data file goes through the same bounded reader: only regular files (a header
+            // The detached data file goes through the same bounded opener: only regular files (a header
             // naming `/dev/zero` or a FIFO is refused, never read), at most what the header allows.
             let p = data_file_path(path, f);
-            let b = read_data(&p, cap)?;
-            (p, b)
+            let (data, data_size) = match crate::fsio::open_capped(&p, kind, cap) {
+                Err(crate::fsio::FsError::TooLarge { size, cap, .. }) => return Err(oversized(&p, size, cap)),
+                other => other.map_err(VolumeError::File)?,
+            };
+            decode_payload(path, &p, &header, BufReader::with_capacity(1 << 16, data), data_size, count)?
         }
         None => {
             let allowed = (data_start as u64).saturating_add(cap);
             if size > allowed {
                 return Err(oversized(path, size, allowed));
             }
-            let mut bytes = if complete { head } else { read_data(path, allowed)? };
-            bytes.drain(..data_start.min(bytes.len()));
-            (path.to_path_buf(), bytes)
+            let start = (data_start as u64).min(size);
+            r.seek(SeekFrom::Start(start)).map_err(io)?;
+            decode_payload(path, path, &header, r, size - start, count)?
         }
     };
-    let values = decode_payload(&data_path, &header, &file_bytes, count)?;
     Ok(Volume::new(path, header.dims, header.spacing, values)?.converted(header.ty))
 }
 
@@ -102,13 +111,6 @@ fn data_cap(h: &Header, count: usize) -> u64 {
     stored.saturating_add(lines).saturating_add(HEADER_CAP).min(cap)
 }
 
-fn read_data(path: &Path, cap: u64) -> Result<Vec<u8>, VolumeError> {
-    match crate::fsio::read_capped(path, crate::fsio::Kind::Volume, cap) {
-        Err(crate::fsio::FsError::TooLarge { size, cap, .. }) => Err(oversized(path, size, cap)),
-        other => other.map_err(VolumeError::File),
-    }
-}
-
 fn oversized(path: &Path, size: u64, allowed: u64) -> VolumeError {
     VolumeError::invalid(
         path,
@@ -126,30 +128,15 @@ fn excerpt(text: &str) -> String {
 /// Read an attached NRRD held in memory (`origin` names it in errors). A header that names a detached
 /// `data file` is refused: there is no folder to find it in.
 pub fn from_bytes(origin: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
-    parse(origin, bytes, |p| {
-        Err(VolumeError::invalid(p, "names a detached data file, which cannot be read from memory"))
-    })
-}
-
-/// Parse a NRRD file's bytes; `load` reads a detached data file (given its path beside `path`).
-fn parse(
-    path: &Path,
-    bytes: &[u8],
-    load: impl FnOnce(&Path) -> Result<Vec<u8>, VolumeError>,
-) -> Result<Volume, VolumeError> {
-    let (header_text, data_start) = split_header(path, bytes)?;
-    let header = parse_header(path, header_text)?;
-    let count = voxel_count(path, header.dims)?;
-    let (data_path, file_bytes): (PathBuf, Vec<u8>) = match &header.data_file {
-        Some(f) => {
-            let p = data_file_path(path, f);
-            let b = load(&p)?;
-            (p, b)
-        }
-        None => (path.to_path_buf(), bytes[data_start.min(bytes.len())..].to_vec()),
-    };
-    let values = decode_payload(&data_path, &header, &file_bytes, count)?;
-    Ok(Volume::new(path, header.dims, header.spacing, values)?.converted(header.ty))
+    let (header_text, data_start) = split_header(origin, bytes)?;
+    let header = parse_header(origin, header_text)?;
+    let count = voxel_count(origin, header.dims)?;
+    if header.data_file.is_some() {
+        return Err(VolumeError::invalid(origin, "names a detached data file, which cannot be read from memory"));
+    }
+    let data = &bytes[data_start.min(bytes.len())..];
+    let values = decode_payload(origin, origin, &header, Cursor::new(data), data.len() as u64, count)?;
+    Ok(Volume::new(origin, header.dims, header.spacing, values)?.converted(header.ty))
 }
 
 /// Split the file into header text (lines up to the first empty line or EOF) and the offset of the
@@ -314,62 +301,134 @@ fn parse_header(path: &Path, text: &str) -> Result<Header, VolumeError> {
     Ok(Header { ty, dims, spacing, encoding, endian, data_file, byte_skip, line_skip })
 }
 
-fn decode_payload(data_path: &Path, h: &Header, bytes: &[u8], count: usize) -> Result<Voxels, VolumeError> {
+/// Decode the stored data of `h` from `r` (`stored` bytes long: what follows the header, or the data
+/// file) into the voxels of `origin` (the volume, named when memory is short); `data_path` names the data
+/// in errors. Sizes are checked against the header before the voxel buffer is allocated: raw data exactly,
+/// gzip data by what deflate can inflate at most.
+fn decode_payload(
+    origin: &Path,
+    data_path: &Path,
+    h: &Header,
+    mut r: impl BufRead + Seek,
+    stored: u64,
+    count: usize,
+) -> Result<Voxels, VolumeError> {
+    let io = |e: std::io::Error| VolumeError::invalid(data_path, format!("cannot be read: {e}"));
     // Line skip applies to the file as stored.
-    let mut start = 0usize;
+    let mut used = 0u64;
     for _ in 0..h.line_skip {
-        match bytes[start..].iter().position(|&b| b == b'\n') {
-            Some(i) => start += i + 1,
+        match skip_line(&mut r).map_err(io)? {
+            Some(n) => used += n,
             None => {
                 return Err(VolumeError::invalid(data_path, format!("has fewer than {} lines to skip", h.line_skip)));
             }
         }
     }
-    let stored = &bytes[start..];
+    let left = stored.saturating_sub(used);
     let expected = count * h.ty.size();
     let endian = h.endian.unwrap_or_default();
-    let payload: Vec<u8> = match h.encoding {
-        Encoding::Text => return parse_text(data_path, stored, count, h.byte_skip).map(Voxels::from),
+    match h.encoding {
+        Encoding::Text => {
+            // Text of `left` bytes holds at most (left + 1) / 2 values (a digit and a separator each): when
+            // it can hold the volume, the memory is checked before it is read (values become f32).
+            if left.saturating_add(1) / 2 >= count as u64 {
+                check_memory(origin, h.dims, ScalarType::F32)?;
+            }
+            // Bounded by the data cap the file's size was checked against.
+            let mut text = Vec::with_capacity(usize::try_from(left).unwrap_or(0));
+            r.read_to_end(&mut text).map_err(io)?;
+            parse_text(data_path, &text, count, h.byte_skip).map(Voxels::from)
+        }
         Encoding::Raw => {
             let skip = if h.byte_skip == -1 {
-                stored.len().checked_sub(expected).ok_or_else(|| truncated(data_path, expected, stored.len()))?
+                left.checked_sub(expected as u64).ok_or_else(|| truncated(data_path, expected, left))?
             } else {
-                h.byte_skip as usize
+                h.byte_skip as u64
             };
-            stored.get(skip..).unwrap_or(&[]).to_vec()
-        }
-        Encoding::Gzip => {
-            // Inflate no more than the header needs (plus one byte to notice excess): a small file must not
-            // inflate without bound, and a huge `byte skip` must not overflow.
-            let skip = usize::try_from(h.byte_skip.max(0)).unwrap_or(usize::MAX);
-            let limit = expected.saturating_add(skip).saturating_add(1);
-            let mut out = Vec::with_capacity(limit.min(1 << 24));
-            MultiGzDecoder::new(stored)
-                .take(u64::try_from(limit).unwrap_or(u64::MAX))
-                .read_to_end(&mut out)
-                .map_err(|e| VolumeError::invalid(data_path, format!("gzip data cannot be decompressed: {e}")))?;
-            if out.len() == limit {
+            let data = left.saturating_sub(skip);
+            if data < expected as u64 {
+                return Err(truncated(data_path, expected, data));
+            }
+            if data > expected as u64 {
                 return Err(VolumeError::invalid(
                     data_path,
-                    format!("gzip data inflates to more than the {} bytes the header needs", limit - 1),
+                    format!("holds {data} data bytes but the header's sizes and type need {expected}"),
                 ));
             }
-            out.get(skip..).unwrap_or(&[]).to_vec()
+            r.seek(SeekFrom::Current(skip as i64)).map_err(io)?;
+            let mut fill = Filler::new(origin, h.dims, h.ty, endian)?;
+            let got = fill.read_from(&mut r, expected).map_err(io)?;
+            if got < expected {
+                return Err(truncated(data_path, expected, got as u64));
+            }
+            Ok(fill.finish())
         }
-    };
-    if payload.len() < expected {
-        return Err(truncated(data_path, expected, payload.len()));
+        Encoding::Gzip => {
+            // Inflated straight into the voxel buffer, no more than the header needs (plus one byte to notice
+            // excess): a small file must not inflate without bound, and a huge `byte skip` must not overflow.
+            let skip = u64::try_from(h.byte_skip.max(0)).unwrap_or(0);
+            let needed = skip.saturating_add(expected as u64);
+            if left.saturating_mul(MAX_DEFLATE_RATIO).saturating_add(1 << 16) < needed {
+                return Err(VolumeError::invalid(
+                    data_path,
+                    format!(
+                        "data is truncated: the header needs {needed} bytes, more than {left} bytes of gzip data can \
+                         inflate to"
+                    ),
+                ));
+            }
+            let gz =
+                |e: std::io::Error| VolumeError::invalid(data_path, format!("gzip data cannot be decompressed: {e}"));
+            let short = |got: u64| {
+                VolumeError::invalid(
+                    data_path,
+                    format!("data is truncated: the header needs {needed} bytes, the gzip data inflates to {got}"),
+                )
+            };
+            let mut z = MultiGzDecoder::new(r);
+            let skipped = skip_bytes(&mut z, skip).map_err(gz)?;
+            if skipped < skip {
+                return Err(short(skipped));
+            }
+            let mut fill = Filler::new(origin, h.dims, h.ty, endian)?;
+            let got = fill.read_from(&mut z, expected).map_err(gz)?;
+            if got < expected {
+                return Err(short(skip + got as u64));
+            }
+            if has_more(&mut z).map_err(gz)? {
+                return Err(VolumeError::invalid(
+                    data_path,
+                    format!("gzip data inflates to more than the {needed} bytes the header needs"),
+                ));
+            }
+            Ok(fill.finish())
+        }
     }
-    if payload.len() > expected {
-        return Err(VolumeError::invalid(
-            data_path,
-            format!("holds {} data bytes but the header's sizes and type need {expected}", payload.len()),
-        ));
-    }
-    Ok(decode_voxels(&payload, h.ty, endian))
 }
 
-fn truncated(path: &Path, expected: usize, found: usize) -> VolumeError {
+/// Skip one line of `r` (through its `\n`): the bytes skipped, or None when `r` ends first.
+fn skip_line(r: &mut impl BufRead) -> std::io::Result<Option<u64>> {
+    let mut n = 0u64;
+    loop {
+        let buf = r.fill_buf()?;
+        if buf.is_empty() {
+            return Ok(None);
+        }
+        match buf.iter().position(|&b| b == b'\n') {
+            Some(i) => {
+                r.consume(i + 1);
+                return Ok(Some(n + i as u64 + 1));
+            }
+            None => {
+                let k = buf.len();
+                r.consume(k);
+                n += k as u64;
+            }
+        }
+    }
+}
+
+fn truncated(path: &Path, expected: usize, found: u64) -> VolumeError {
     VolumeError::invalid(path, format!("data is truncated: the header needs {expected} bytes, the file holds {found}"))
 }
 

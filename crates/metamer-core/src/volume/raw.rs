@@ -1,10 +1,17 @@
 //! Raw volumes: a headerless file of voxel values with dimensions, type and byte order given by the
-//! caller (gzip-compressed files are recognised by their magic bytes).
+//! caller (gzip-compressed files are recognised by their magic bytes). The file is streamed straight into
+//! the voxel buffer ([`super::fill`]); its size is checked against the dimensions before anything is
+//! allocated.
 
-use super::{Endian, ScalarType, Volume, VolumeError, decode_voxels, voxel_count};
-use flate2::read::MultiGzDecoder;
-use std::io::Read;
+use super::fill::{Filler, has_more};
+use super::{Endian, ScalarType, Volume, VolumeError, voxel_count};
+use flate2::bufread::MultiGzDecoder;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
+
+/// Deflate's largest ratio of inflated to compressed bytes (a stream of one repeated byte): a gzip
+/// payload of `n` bytes cannot inflate to more than `n × MAX_DEFLATE_RATIO` (plus a block's worth).
+pub(crate) const MAX_DEFLATE_RATIO: u64 = 1032;
 
 /// Read a raw volume of `dims` values of type `ty` (x fastest) with the given byte order and spacing.
 /// The file must hold exactly that many bytes (after gzip decompression when it is gzipped).
@@ -18,9 +25,9 @@ pub fn read(
     let count = voxel_count(path, dims)?;
     let expected = count * ty.size();
     // Never more than the volume needs (plus what gzip may add): a huge or sparse file is refused from its
-    // size, not read whole.
+    // size, not read.
     let cap = (expected as u64).saturating_add(expected as u64 / 64).saturating_add(1 << 20);
-    let stored = match crate::fsio::read_capped(path, crate::fsio::Kind::Volume, cap) {
+    let (file, size) = match crate::fsio::open_capped(path, crate::fsio::Kind::Volume, cap) {
         Err(crate::fsio::FsError::TooLarge { size, .. }) => {
             return Err(VolumeError::invalid(
                 path,
@@ -29,31 +36,56 @@ pub fn read(
         }
         other => other.map_err(VolumeError::File)?,
     };
-    let bytes = if stored.starts_with(&[0x1f, 0x8b]) {
-        let mut out = Vec::new();
-        // Inflate at most one byte more than the volume needs: a small gzip bomb stays small.
-        MultiGzDecoder::new(&stored[..])
-            .take(u64::try_from(expected).unwrap_or(u64::MAX).saturating_add(1))
-            .read_to_end(&mut out)
-            .map_err(|e| VolumeError::invalid(path, format!("gzip data cannot be decompressed: {e}")))?;
-        out
-    } else {
-        stored
+    let io = |e: std::io::Error| VolumeError::invalid(path, format!("cannot be read: {e}"));
+    let mut r = BufReader::with_capacity(1 << 16, file);
+    let gzipped = r.fill_buf().map_err(io)?.starts_with(&[0x1f, 0x8b]);
+    let truncated = |got: usize| {
+        VolumeError::invalid(
+            path,
+            format!("data is truncated: {dims:?} values of {ty:?} need {expected} bytes, the file holds {got}"),
+        )
     };
-    if bytes.len() < expected {
-        return Err(VolumeError::invalid(
-            path,
-            format!(
-                "data is truncated: {dims:?} values of {ty:?} need {expected} bytes, the file holds {}",
-                bytes.len()
-            ),
-        ));
-    }
-    if bytes.len() > expected {
-        return Err(VolumeError::invalid(
-            path,
-            format!("holds {} bytes but {dims:?} values of {ty:?} need {expected}", bytes.len()),
-        ));
-    }
-    Ok(Volume::new(path, dims, spacing, decode_voxels(&bytes, ty, endian))?.converted(ty))
+    let voxels = if gzipped {
+        if size.saturating_mul(MAX_DEFLATE_RATIO).saturating_add(1 << 16) < expected as u64 {
+            return Err(VolumeError::invalid(
+                path,
+                format!(
+                    "data is truncated: {dims:?} values of {ty:?} need {expected} bytes, more than {size} bytes of \
+                     gzip can inflate to"
+                ),
+            ));
+        }
+        let gz_err = |e: std::io::Error| VolumeError::invalid(path, format!("gzip data cannot be decompressed: {e}"));
+        let mut fill = Filler::new(path, dims, ty, endian)?;
+        // Inflated straight into the voxels, and one byte more to notice excess: a gzip bomb stays small.
+        let mut z = MultiGzDecoder::new(r);
+        let got = fill.read_from(&mut z, expected).map_err(gz_err)?;
+        if got < expected {
+            return Err(truncated(got));
+        }
+        if has_more(&mut z).map_err(gz_err)? {
+            return Err(VolumeError::invalid(
+                path,
+                format!("gzip data inflates to more than the {expected} bytes {dims:?} values of {ty:?} need"),
+            ));
+        }
+        fill.finish()
+    } else {
+        if size < expected as u64 {
+            return Err(truncated(size as usize));
+        }
+        if size > expected as u64 {
+            return Err(VolumeError::invalid(
+                path,
+                format!("holds {size} bytes but {dims:?} values of {ty:?} need {expected}"),
+            ));
+        }
+        let mut fill = Filler::new(path, dims, ty, endian)?;
+        let got = fill.read_from(&mut r, expected).map_err(io)?;
+        if got < expected {
+            return Err(truncated(got));
+        }
+        fill.finish()
+    };
+    Ok(Volume::new(path, dims, spacing, voxels)?.converted(ty))
 }

@@ -3,31 +3,63 @@
 //! `AppendedData`) or `"ascii"`, optionally compressed by `vtkZLibDataCompressor` in blocks, with
 //! `UInt32` or `UInt64` headers and either byte order. The XML is small and regular, so it is read by a
 //! light hand parser (attributes of the few tags we need), not a general XML library.
+//!
+//! The file is never read whole: its first [`XML_CAP`] bytes hold the XML up to the array (and the
+//! `<AppendedData>` tag), the file's size is checked against what its extent can take, and the array is
+//! then streamed straight into the voxel buffer ([`super::fill`]): base64 decoded in chunks, each zlib
+//! block inflated into its own place in the buffer, never more than the extent requires.
 
-use super::{Endian, ScalarType, Volume, VolumeError, Voxels, decode_voxels, voxel_count};
+use super::fill::{Filler, has_more, read_full, skip as skip_bytes};
+use super::raw::MAX_DEFLATE_RATIO;
+use super::{Endian, ScalarType, Volume, VolumeError, Voxels, voxel_count};
 use base64::Engine;
 use base64::engine::general_purpose::STANDARD;
 use flate2::read::ZlibDecoder;
 use std::collections::HashMap;
-use std::io::Read;
+use std::io::{BufRead, BufReader, Cursor, Read, Seek, SeekFrom};
 use std::path::Path;
+
+/// The most bytes of XML read before the array's data (the tags it needs must end within them).
+pub const XML_CAP: u64 = 1 << 20;
+
+/// The most bytes a point (or cell) can take in one data array of any file: 9 components of 8 bytes as
+/// ASCII text of up to 48 characters each, with room to spare. A file larger than its arrays can take at
+/// this rate is refused from its size.
+const BYTES_PER_POINT_PER_ARRAY: u64 = 512;
 
 /// Read a `.vti` file.
 pub fn read(path: &Path) -> Result<Volume, VolumeError> {
-    let bytes = super::read_file(path)?;
-    from_bytes(path, &bytes)
+    let kind = crate::fsio::Kind::Volume;
+    let (file, size) = crate::fsio::open_capped(path, kind, kind.cap()).map_err(VolumeError::File)?;
+    parse(path, BufReader::with_capacity(1 << 16, file), size)
 }
 
 /// Read `.vti` content held in memory (`path` names it in errors).
 pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
+    parse(path, Cursor::new(bytes), bytes.len() as u64)
+}
+
+fn parse(path: &Path, mut r: impl BufRead + Seek, size: u64) -> Result<Volume, VolumeError> {
     let bad = |reason: String| VolumeError::invalid(path, reason);
+    let io = |e: std::io::Error| VolumeError::invalid(path, format!("cannot be read: {e}"));
+    let mut bytes = Vec::with_capacity(usize::try_from(size.min(XML_CAP)).unwrap_or(0));
+    (&mut r).take(XML_CAP).read_to_end(&mut bytes).map_err(io)?;
+    let complete = bytes.len() as u64 >= size;
     // The appended section may hold raw binary; the XML before it is text.
-    let appended_at = find(bytes, b"<AppendedData");
+    let appended_at = find(&bytes, b"<AppendedData");
     let xml_end = appended_at.unwrap_or(bytes.len());
-    let xml = std::str::from_utf8(&bytes[..xml_end]).map_err(|_| bad("the XML is not UTF-8 text".into()))?;
+    let xml = match std::str::from_utf8(&bytes[..xml_end]) {
+        Ok(x) => x,
+        // The first XML_CAP bytes may end inside a character.
+        Err(e) if !complete && appended_at.is_none() && e.error_len().is_none() => {
+            std::str::from_utf8(&bytes[..e.valid_up_to()]).map_err(|_| bad("the XML is not UTF-8 text".into()))?
+        }
+        Err(_) => return Err(bad("the XML is not UTF-8 text".into())),
+    };
+    let within = if complete { String::new() } else { format!(" within the first {XML_CAP} bytes") };
 
     let (_, file_attrs) =
-        tag(xml, "VTKFile", 0).ok_or_else(|| bad("no <VTKFile> element: not a VTK XML file".into()))?;
+        tag(xml, "VTKFile", 0).ok_or_else(|| bad(format!("no <VTKFile> element{within}: not a VTK XML file")))?;
     if file_attrs.get("type").map(String::as_str) != Some("ImageData") {
         return Err(bad(format!("VTKFile type is {:?}, expected \"ImageData\"", file_attrs.get("type"))));
     }
@@ -47,8 +79,8 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
         Some(o) => return Err(bad(format!("VTKFile compressor `{o}` is unsupported (vtkZLibDataCompressor)"))),
     };
 
-    let (_, image) = tag(xml, "ImageData", 0).ok_or_else(|| bad("no <ImageData> element".into()))?;
-    let (piece_at, piece) = tag(xml, "Piece", 0).ok_or_else(|| bad("no <Piece> element".into()))?;
+    let (_, image) = tag(xml, "ImageData", 0).ok_or_else(|| bad(format!("no <ImageData> element{within}")))?;
+    let (piece_at, piece) = tag(xml, "Piece", 0).ok_or_else(|| bad(format!("no <Piece> element{within}")))?;
     if tag(xml, "Piece", piece_at + 1).is_some() {
         return Err(bad("the file holds several pieces; only single-piece image data is supported".into()));
     }
@@ -78,8 +110,23 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
     };
     let count = voxel_count(path, dims)?;
 
+    // What the header implies against the file's size, before anything more is read: every array of the
+    // file holds one value (of up to 9 components) per point or cell.
+    let arrays = xml.matches("<DataArray").count().max(1) as u64;
+    let allowed = XML_CAP.saturating_add(arrays.saturating_mul(count as u64).saturating_mul(BYTES_PER_POINT_PER_ARRAY));
+    if size > allowed {
+        return Err(bad(format!(
+            "is {size} bytes, far more than its extent {}×{}×{} can take in {arrays} data array{} (at most {allowed} \
+             bytes; not read)",
+            dims[0],
+            dims[1],
+            dims[2],
+            if arrays == 1 { "" } else { "s" }
+        )));
+    }
+
     let (pd_at, point_data) =
-        tag(xml, "PointData", piece_at).ok_or_else(|| bad("the piece has no <PointData>".into()))?;
+        tag(xml, "PointData", piece_at).ok_or_else(|| bad(format!("the piece has no <PointData>{within}")))?;
     let pd_end = xml[pd_at..].find("</PointData>").map(|i| pd_at + i).unwrap_or(xml.len());
     let wanted = point_data.get("Scalars");
     let mut chosen = None;
@@ -95,7 +142,7 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
         }
         at = pos + 1;
     }
-    let (arr_at, arr) = chosen.ok_or_else(|| bad(format!("PointData holds no DataArray named {wanted:?}")))?;
+    let (arr_at, arr) = chosen.ok_or_else(|| bad(format!("PointData holds no DataArray named {wanted:?}{within}")))?;
     let name = arr.get("Name").cloned().unwrap_or_default();
     let ty_name = arr.get("type").ok_or_else(|| bad(format!("DataArray `{name}` has no type")))?;
     let ty =
@@ -104,32 +151,39 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
     if !matches!(comps, Ok(None) | Ok(Some(1))) {
         return Err(bad(format!("DataArray `{name}` has {comps:?} components; only scalar data is supported")));
     }
-    let expected = count * ty.size();
     let format = arr.get("format").map(String::as_str).unwrap_or("ascii");
-    let ctx = Ctx { path, header_size, endian, compressed, array: &name };
-    let payload: Vec<u8> = match format {
+    let ctx = Ctx { path, header_size, endian, compressed, array: &name, dims, ty };
+    let voxels = match format {
         "ascii" | "binary" => {
             let open_end = xml[arr_at..]
                 .find('>')
                 .map(|i| arr_at + i + 1)
                 .ok_or_else(|| bad("unterminated DataArray tag".into()))?;
-            let close = xml[open_end..]
-                .find("</DataArray>")
-                .map(|i| open_end + i)
-                .ok_or_else(|| bad(format!("DataArray `{name}` is not closed (file truncated?)")))?;
-            let body = &xml[open_end..close];
+            r.seek(SeekFrom::Start(open_end as u64)).map_err(io)?;
+            let left = size.saturating_sub(open_end as u64);
             if format == "ascii" {
-                return finish(path, dims, spacing, Voxels::from(parse_ascii(&ctx, body, count)?));
+                // As for NRRD text: the memory is checked when the text can hold the volume.
+                if left.saturating_add(1) / 2 >= count as u64 {
+                    super::fill::check_memory(path, dims, ScalarType::F32)?;
+                }
+                // A value as text: a number of up to 40 characters and a separator.
+                let cap = (count as u64).saturating_mul(48).saturating_add(XML_CAP);
+                let mut body = Vec::with_capacity(usize::try_from(left.min(cap)).unwrap_or(0));
+                (&mut r).take(cap).read_to_end(&mut body).map_err(io)?;
+                let close = find(&body, b"</DataArray>")
+                    .ok_or_else(|| bad(format!("DataArray `{name}` is not closed (file truncated?)")))?;
+                let text = std::str::from_utf8(&body[..close]).map_err(|_| bad("the XML is not UTF-8 text".into()))?;
+                return Volume::new(path, dims, spacing, Voxels::from(parse_ascii(&ctx, text, count)?));
             }
-            let chars: Vec<u8> = body.bytes().filter(|b| !b.is_ascii_whitespace()).collect();
-            ctx.decode_base64_array(&chars)?
+            ctx.decode_array(&mut Base64::new(r), left / 4 * 3)?
         }
         "appended" => {
-            let offset: usize = arr
+            let offset: u64 = arr
                 .get("offset")
                 .and_then(|o| o.trim().parse().ok())
                 .ok_or_else(|| bad(format!("appended DataArray `{name}` has no valid offset")))?;
-            let at = appended_at.ok_or_else(|| bad("DataArray is appended but there is no <AppendedData>".into()))?;
+            let at = appended_at
+                .ok_or_else(|| bad(format!("DataArray is appended but there is no <AppendedData>{within}")))?;
             let head_end = bytes[at..]
                 .iter()
                 .position(|&b| b == b'>')
@@ -142,28 +196,29 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Volume, VolumeError> {
                 .position(|&b| b == b'_')
                 .map(|i| head_end + i + 1)
                 .ok_or_else(|| bad("AppendedData lacks its `_` marker".into()))?;
-            let data = &bytes[underscore..];
+            let left = size.saturating_sub(underscore as u64);
             match enc.as_str() {
-                "raw" => ctx.decode_binary_array(data.get(offset..).ok_or_else(|| ctx.truncated(expected, 0))?)?,
+                "raw" => {
+                    if offset > left {
+                        return Err(ctx.truncated(ctx.expected() as u64, 0));
+                    }
+                    r.seek(SeekFrom::Start(underscore as u64 + offset)).map_err(io)?;
+                    ctx.decode_array(&mut r, left - offset)?
+                }
                 "base64" => {
-                    let end = find(data, b"</AppendedData>").unwrap_or(data.len());
-                    let chars: Vec<u8> = data[..end].iter().copied().filter(|b| !b.is_ascii_whitespace()).collect();
-                    ctx.decode_base64_array(chars.get(offset..).ok_or_else(|| ctx.truncated(expected, 0))?)?
+                    r.seek(SeekFrom::Start(underscore as u64)).map_err(io)?;
+                    let mut b64 = Base64::new(r);
+                    if b64.skip_chars(offset).map_err(|e| ctx.bad(format!("invalid base64: {e}")))? < offset {
+                        return Err(ctx.truncated(ctx.expected() as u64, 0));
+                    }
+                    ctx.decode_array(&mut b64, left.saturating_sub(offset) / 4 * 3)?
                 }
                 o => return Err(bad(format!("AppendedData encoding `{o}` is unsupported (raw, base64)"))),
             }
         }
         o => return Err(bad(format!("DataArray `{name}` format `{o}` is unsupported (ascii, binary, appended)"))),
     };
-    if payload.len() < expected {
-        return Err(ctx.truncated(expected, payload.len()));
-    }
-    // Appended raw data may be followed by other arrays: use exactly what the extent needs.
-    Ok(finish(path, dims, spacing, decode_voxels(&payload[..expected], ty, endian))?.converted(ty))
-}
-
-fn finish(path: &Path, dims: [usize; 3], spacing: [f64; 3], values: Voxels) -> Result<Volume, VolumeError> {
-    Volume::new(path, dims, spacing, values)
+    Ok(Volume::new(path, dims, spacing, voxels)?.converted(ty))
 }
 
 struct Ctx<'a> {
@@ -172,6 +227,8 @@ struct Ctx<'a> {
     endian: Endian,
     compressed: bool,
     array: &'a str,
+    dims: [usize; 3],
+    ty: ScalarType,
 }
 
 impl Ctx<'_> {
@@ -179,8 +236,13 @@ impl Ctx<'_> {
         VolumeError::invalid(self.path, format!("DataArray `{}`: {reason}", self.array))
     }
 
-    fn truncated(&self, expected: usize, found: usize) -> VolumeError {
+    fn truncated(&self, expected: u64, found: u64) -> VolumeError {
         self.bad(format!("data is truncated: the extent needs {expected} bytes, the file holds {found}"))
+    }
+
+    /// Bytes of data the extent needs.
+    fn expected(&self) -> usize {
+        self.dims.iter().product::<usize>() * self.ty.size()
     }
 
     fn word(&self, b: &[u8]) -> u64 {
@@ -200,93 +262,207 @@ impl Ctx<'_> {
         u64::from_le_bytes(a)
     }
 
-    /// Number of header words: 1 (byte count) uncompressed, `3 + blocks` compressed.
-    fn header_words(&self, first: u64) -> Result<usize, VolumeError> {
-        if !self.compressed {
-            return Ok(1);
+    /// The next header word of `src` (`what` names it when the data end first).
+    fn read_word(&self, src: &mut impl Read, what: &str) -> Result<u64, VolumeError> {
+        let mut b = [0u8; 8];
+        let hs = self.header_size;
+        let got = read_full(src, &mut b[..hs]).map_err(|e| self.stream_error(e))?;
+        if got < hs {
+            return Err(self.bad(format!("data is truncated: the file ends in the header's {what}")));
         }
-        usize::try_from(first)
-            .ok()
-            .filter(|n| *n < 1 << 32)
-            .map(|n| n + 3)
-            .ok_or_else(|| self.bad(format!("{first} blocks is absurd")))
+        Ok(self.word(&b[..hs]))
     }
 
-    /// Base64 data: VTK encodes the header and the data as two separate base64 runs; files written as one
-    /// run are accepted too.
-    fn decode_base64_array(&self, chars: &[u8]) -> Result<Vec<u8>, VolumeError> {
-        let hs = self.header_size;
-        let first_chars = hs.div_ceil(3) * 4;
-        let first = STANDARD
-            .decode(chars.get(..first_chars).ok_or_else(|| self.truncated(hs, chars.len() * 3 / 4))?)
-            .map_err(|e| self.bad(format!("invalid base64: {e}")))?;
-        if first.len() < hs {
-            return Err(self.truncated(hs, first.len()));
-        }
-        let words = self.header_words(self.word(&first))?;
-        let header_chars = (words * hs).div_ceil(3) * 4;
-        let separate = || -> Result<Vec<u8>, VolumeError> {
-            let head = STANDARD
-                .decode(chars.get(..header_chars).ok_or_else(|| self.truncated(words * hs, chars.len() * 3 / 4))?)
-                .map_err(|e| self.bad(format!("invalid base64 in the header: {e}")))?;
-            let data = STANDARD.decode(&chars[header_chars..]).map_err(|e| self.bad(format!("invalid base64: {e}")))?;
-            let head = head.get(..words * hs).ok_or_else(|| self.truncated(words * hs, head.len()))?;
-            self.unpack(head, &data)
-        };
-        match separate() {
-            Ok(v) => Ok(v),
-            Err(first_err) => {
-                let all = STANDARD.decode(chars).map_err(|_| first_err)?;
-                self.decode_binary_array(&all)
+    fn stream_error(&self, e: std::io::Error) -> VolumeError {
+        self.bad(format!("cannot be read: {e}"))
+    }
+
+    /// The array's header and data from `src` (at most `left` bytes remain in the file) into the voxels:
+    /// uncompressed data read straight into the buffer, compressed blocks each inflated into its place.
+    /// The header's sizes must add up to exactly what the extent needs before anything is allocated.
+    fn decode_array(&self, src: &mut impl Read, left: u64) -> Result<Voxels, VolumeError> {
+        let expected = self.expected();
+        let first = self.read_word(src, "byte count")?;
+        if !self.compressed {
+            if first != expected as u64 {
+                return Err(self.bad(format!("its header says {first} bytes, the extent needs {expected}")));
             }
+            if left < expected as u64 {
+                return Err(self.truncated(expected as u64, left));
+            }
+            let mut fill = Filler::new(self.path, self.dims, self.ty, self.endian)?;
+            let got = fill.read_from(src, expected).map_err(|e| self.stream_error(e))?;
+            if got < expected {
+                return Err(self.truncated(expected as u64, got as u64));
+            }
+            return Ok(fill.finish());
         }
-    }
-
-    /// Header followed directly by data, as in raw appended data.
-    fn decode_binary_array(&self, bytes: &[u8]) -> Result<Vec<u8>, VolumeError> {
-        let hs = self.header_size;
-        if bytes.len() < hs {
-            return Err(self.truncated(hs, bytes.len()));
+        let blocks = first;
+        let block_size = self.read_word(src, "block size")?;
+        let last_size = self.read_word(src, "last block size")?;
+        let last = if last_size == 0 { block_size } else { last_size };
+        // What the blocks hold must be what the extent needs: never the header's own claim.
+        let total = blocks
+            .checked_sub(1)
+            .and_then(|b| b.checked_mul(block_size))
+            .and_then(|t| t.checked_add(last))
+            .filter(|_| last <= block_size);
+        if total != Some(expected as u64) {
+            return Err(self.bad(format!(
+                "its compressed blocks hold {} ({blocks} blocks of {block_size} bytes, the last {last}), the extent \
+                 needs {expected} bytes",
+                total.map_or("an impossible size".into(), |t| format!("{t} bytes"))
+            )));
         }
-        let words = self.header_words(self.word(bytes))?;
-        let head = bytes.get(..words * hs).ok_or_else(|| self.truncated(words * hs, bytes.len()))?;
-        self.unpack(head, &bytes[words * hs..])
-    }
-
-    /// Given the header words and the bytes that follow, return the uncompressed data.
-    fn unpack(&self, head: &[u8], data: &[u8]) -> Result<Vec<u8>, VolumeError> {
-        let hs = self.header_size;
-        let w: Vec<u64> = head.chunks_exact(hs).map(|c| self.word(c)).collect();
-        if !self.compressed {
-            let n = usize::try_from(w[0]).map_err(|_| self.bad("byte count overflows".into()))?;
-            return data.get(..n).map(<[u8]>::to_vec).ok_or_else(|| self.truncated(n, data.len()));
+        // The block sizes are read before the data: at most one word per 256 bytes of voxels (VTK writes
+        // blocks of 32 KiB), and they must fit in the file.
+        let most = expected as u64 / 256 + 16;
+        if blocks > most {
+            return Err(
+                self.bad(format!("{blocks} compressed blocks for {expected} bytes are too many (at most {most})"))
+            );
         }
-        let (blocks, block_size, last_size) = (w[0] as usize, w[1] as usize, w[2] as usize);
-        let last_size = if last_size == 0 { block_size } else { last_size };
-        // The header's sizes are not trusted for the reservation (the blocks' real sizes are checked below).
-        let mut out = Vec::with_capacity(blocks.saturating_mul(block_size).min(data.len()).min(1 << 24));
-        let mut at = 0usize;
-        for (i, cs) in w[3..].iter().enumerate() {
-            let cs = *cs as usize;
-            let end = at.checked_add(cs).filter(|e| *e <= data.len()).ok_or_else(|| {
-                self.bad(format!("data is truncated: compressed block {} of {blocks} runs past the end", i + 1))
-            })?;
-            let want = if i + 1 == blocks { last_size } else { block_size };
-            let before = out.len();
-            ZlibDecoder::new(&data[at..end])
-                .take(want as u64 + 1)
-                .read_to_end(&mut out)
-                .map_err(|e| self.bad(format!("compressed block {} cannot be inflated: {e}", i + 1)))?;
-            if out.len() - before != want {
+        let header_bytes = blocks.saturating_mul(self.header_size as u64);
+        if header_bytes > left {
+            return Err(self.truncated(header_bytes, left));
+        }
+        let sizes: Vec<u64> =
+            (0..blocks).map(|_| self.read_word(src, "compressed block sizes")).collect::<Result<_, _>>()?;
+        let packed = sizes.iter().fold(0u64, |a, s| a.saturating_add(*s));
+        if packed > left - header_bytes {
+            return Err(self.bad(format!(
+                "data is truncated: its compressed blocks take {packed} bytes, the file holds {}",
+                left - header_bytes
+            )));
+        }
+        let mut fill = Filler::new(self.path, self.dims, self.ty, self.endian)?;
+        for (i, cs) in sizes.iter().enumerate() {
+            let want = if i as u64 + 1 == blocks { last } else { block_size } as usize;
+            if cs.saturating_mul(MAX_DEFLATE_RATIO).saturating_add(1 << 10) < want as u64 {
+                return Err(self.bad(format!(
+                    "compressed block {} of {blocks} is {cs} bytes, too few to inflate to {want}",
+                    i + 1
+                )));
+            }
+            let inflate = |e: std::io::Error| self.bad(format!("compressed block {} cannot be inflated: {e}", i + 1));
+            let mut block = (&mut *src).take(*cs);
+            let mut z = ZlibDecoder::new(&mut block);
+            let got = fill.read_from(&mut z, want).map_err(inflate)?;
+            if got < want || has_more(&mut z).map_err(inflate)? {
                 return Err(self.bad(format!(
                     "compressed block {} inflates to {} bytes, its header says {want}",
                     i + 1,
-                    out.len() - before
+                    if got < want { got.to_string() } else { "more".into() }
                 )));
             }
-            at = end;
+            drop(z);
+            // Whatever of the block the zlib stream did not use.
+            skip_bytes(&mut block, u64::MAX).map_err(|e| self.stream_error(e))?;
         }
-        Ok(out)
+        Ok(fill.finish())
+    }
+}
+
+/// Base64 text (whitespace ignored) decoded a chunk at a time, up to the `<` that ends the element or the
+/// end of the file. Padding may end a run inside the text: VTK writes an array's header and its data as two
+/// runs, each padded.
+struct Base64<R> {
+    r: R,
+    /// Characters gathered, not yet decoded.
+    chars: Vec<u8>,
+    /// Decoded bytes not yet read, from `at`.
+    out: Vec<u8>,
+    at: usize,
+    ended: bool,
+}
+
+/// Characters decoded per chunk.
+const BASE64_CHUNK: usize = 1 << 16;
+
+impl<R: BufRead> Base64<R> {
+    fn new(r: R) -> Base64<R> {
+        Base64 { r, chars: Vec::with_capacity(BASE64_CHUNK), out: Vec::new(), at: 0, ended: false }
+    }
+
+    /// Gather up to `max` more characters into `chars` (fewer at the end of the text).
+    fn gather(&mut self, max: usize) -> std::io::Result<()> {
+        while !self.ended && self.chars.len() < max {
+            let buf = self.r.fill_buf()?;
+            if buf.is_empty() {
+                self.ended = true;
+                break;
+            }
+            let mut used = 0;
+            for &b in buf {
+                if self.chars.len() >= max {
+                    break;
+                }
+                used += 1;
+                if b == b'<' {
+                    self.ended = true;
+                    break;
+                }
+                if !b.is_ascii_whitespace() {
+                    self.chars.push(b);
+                }
+            }
+            self.r.consume(used);
+        }
+        Ok(())
+    }
+
+    /// Skip `n` characters (the offset of an array in appended base64 data); how many were skipped.
+    fn skip_chars(&mut self, n: u64) -> std::io::Result<u64> {
+        let mut done = 0u64;
+        while done < n {
+            let step = (n - done).min(BASE64_CHUNK as u64) as usize;
+            self.gather(step)?;
+            if self.chars.is_empty() {
+                break;
+            }
+            done += self.chars.len() as u64;
+            self.chars.clear();
+        }
+        Ok(done)
+    }
+
+    /// Decode the next chunk into `out`; false at the end of the text.
+    fn refill(&mut self) -> std::io::Result<bool> {
+        self.gather(BASE64_CHUNK)?;
+        if self.chars.is_empty() {
+            return Ok(false);
+        }
+        // Up to and including the first padded group (a run ends there), else whole groups.
+        let cut = match self.chars.iter().position(|&c| c == b'=') {
+            Some(p) => (p / 4 + 1) * 4,
+            None => self.chars.len() / 4 * 4,
+        };
+        if cut == 0 || cut > self.chars.len() {
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, "base64 text ends inside a group"));
+        }
+        self.out.clear();
+        self.out.resize(cut / 4 * 3, 0);
+        let n = STANDARD
+            .decode_slice(&self.chars[..cut], &mut self.out)
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("invalid base64: {e}")))?;
+        self.out.truncate(n);
+        self.at = 0;
+        self.chars.drain(..cut);
+        Ok(true)
+    }
+}
+
+impl<R: BufRead> Read for Base64<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        while self.at == self.out.len() {
+            if !self.refill()? {
+                return Ok(0);
+            }
+        }
+        let n = buf.len().min(self.out.len() - self.at);
+        buf[..n].copy_from_slice(&self.out[self.at..self.at + n]);
+        self.at += n;
+        Ok(n)
     }
 }
 

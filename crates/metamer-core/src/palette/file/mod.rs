@@ -333,26 +333,56 @@ impl PaletteFile {
     /// it back before anything is written (a save by tables, in debug builds); on any error
     /// the file on disk is left as it was.
     pub fn save_as(&mut self, palette: &Palette, path: &Path) -> Result<(), PaletteError> {
-        if let Some(saved) = self.save_by_tables(palette, path) {
-            write_atomically(path, &saved.text)
-                .map_err(|cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) })?;
-            self.palette = saved.palette;
-            self.tables = Some(saved.tables);
-            self.original = saved.text;
-            self.document = OnceLock::new();
-            self.path = Some(path.to_path_buf());
-            return Ok(());
+        let staged = self.stage_save_as(palette, path, crate::fsio::Replace::Writable)?;
+        self.commit(staged)
+    }
+
+    /// The first half of [`PaletteFile::save_as`]: the new text rendered, checked, written and synced beside
+    /// `path` ([`crate::fsio::stage`]) but not yet in place, and this file unchanged. [`PaletteFile::commit`]
+    /// puts it in place; dropping it leaves the file on disk as it was (a command whose other output failed).
+    /// A read-only file at `path` is replaced only with [`crate::fsio::Replace::Force`].
+    pub fn stage_save_as(
+        &self,
+        palette: &Palette,
+        path: &Path,
+        replace: crate::fsio::Replace,
+    ) -> Result<StagedSave, PaletteError> {
+        let stage = |path: &Path, text: &str| crate::fsio::stage_with(path, text.as_bytes(), replace);
+        let write_error = |cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) };
+        let (staged, update) = match self.save_by_tables(palette, path) {
+            Some(saved) => (stage(path, &saved.text).map_err(write_error)?, Update::Tables(Box::new(saved))),
+            None => {
+                let (document, reread) = self.render(palette, path)?;
+                let staged = stage(path, &self.text_of(&document)).map_err(write_error)?;
+                (staged, Update::Document(Box::new((document, reread))))
+            }
+        };
+        Ok(StagedSave { staged, path: path.to_path_buf(), update })
+    }
+
+    /// Put a staged save in place and make this file what was written (its path, text and palette).
+    pub fn commit(&mut self, save: StagedSave) -> Result<(), PaletteError> {
+        let StagedSave { staged, path, update } = save;
+        staged.commit().map_err(|cause| PaletteError::Write { path: path.clone(), cause: Box::new(cause) })?;
+        match update {
+            Update::Tables(saved) => {
+                let saved = *saved;
+                self.palette = saved.palette;
+                self.tables = Some(saved.tables);
+                self.original = saved.text;
+                self.document = OnceLock::new();
+            }
+            Update::Document(both) => {
+                let (document, reread) = *both;
+                self.document = OnceLock::from(document);
+                self.palette = reread.palette;
+                self.csv_raw = reread.csv_raw;
+                self.warnings = reread.warnings;
+                self.tables = reread.tables;
+                self.original = reread.original;
+            }
         }
-        let (document, reread) = self.render(palette, path)?;
-        write_atomically(path, &self.text_of(&document))
-            .map_err(|cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) })?;
-        self.document = OnceLock::from(document);
-        self.palette = reread.palette;
-        self.csv_raw = reread.csv_raw;
-        self.warnings = reread.warnings;
-        self.tables = reread.tables;
-        self.original = reread.original;
-        self.path = Some(path.to_path_buf());
+        self.path = Some(path);
         Ok(())
     }
 
@@ -396,7 +426,15 @@ impl PaletteFile {
     }
 }
 
-/// Write `text` to `path` through the one atomic writer ([`crate::fsio::write_atomic`]).
-fn write_atomically(path: &Path, text: &str) -> Result<(), crate::fsio::FsError> {
-    crate::fsio::write_atomic(path, text.as_bytes())
+/// A palette save written and synced beside its file but not yet in place ([`PaletteFile::stage_save_as`]).
+pub struct StagedSave {
+    staged: crate::fsio::Staged,
+    path: PathBuf,
+    update: Update,
+}
+
+/// What the file becomes once a staged save is committed.
+enum Update {
+    Tables(Box<tables::Saved>),
+    Document(Box<(DocumentMut, PaletteFile)>),
 }

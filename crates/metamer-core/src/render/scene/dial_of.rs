@@ -16,9 +16,43 @@ fn dial_lights(palette: &Palette) -> Vec<DialLight> {
         .collect()
 }
 
+/// The largest dial coordinate accepted (either axis, for vertices, moves and keyframe points): the light
+/// dial's Shepard weights divide by squared distances, which overflow to infinity from about 1e154 (and
+/// every weight is then 0: black frames). Dials are drawn around the unit circle; ±1e6 leaves room.
+pub(crate) const MAX_DIAL_COORDINATE: f64 = 1e6;
+
+/// `p` when both coordinates are finite and within ±[`MAX_DIAL_COORDINATE`], else an error naming `key`.
+fn check_point(path: &Path, key: String, p: [f64; 2]) -> Result<[f64; 2], RenderError> {
+    if !(p[0].is_finite() && p[1].is_finite()) {
+        return Err(scene_err(path, key, format!("[{}, {}] is not a pair of finite numbers", p[0], p[1])));
+    }
+    if p.iter().any(|c| c.abs() > MAX_DIAL_COORDINATE) {
+        return Err(scene_err(
+            path,
+            key,
+            format!(
+                "[{:e}, {:e}] is outside the dial (coordinates within ±{MAX_DIAL_COORDINATE:e}; the light mix's \
+                 distances would overflow)",
+                p[0], p[1]
+            ),
+        ));
+    }
+    Ok(p)
+}
+
+/// The palette's dial positions, checked as the scene's own points are.
+fn check_palette_positions(path: &Path, lights: &[DialLight]) -> Result<(), RenderError> {
+    for l in lights {
+        check_point(path, format!("palette light `{}` dial", escape(&l.name)), l.position)?;
+    }
+    Ok(())
+}
+
 /// The dial: the named path, else the lights with `dial` positions in angular order, else all lights.
 pub(super) fn dial_of(path: &Path, palette: &Palette, names: Option<&[String]>) -> Result<Dial, RenderError> {
-    let base = DialState::new(dial_lights(palette)).map_err(|e| scene_err(path, "dial", e.to_string()))?;
+    let lights = dial_lights(palette);
+    check_palette_positions(path, &lights)?;
+    let base = DialState::new(lights).map_err(|e| scene_err(path, "dial", e.to_string()))?;
     path_dial(path, palette, base, names)
 }
 
@@ -68,14 +102,9 @@ pub(super) fn dial_of_file(path: &Path, palette: &Palette, d: &DialFile) -> Resu
             scene_err(path, key, format!("`{}` is not a light of the palette ({})", escape(name), all()))
         })
     };
-    let point = |key: String, p: [f64; 2]| {
-        if p[0].is_finite() && p[1].is_finite() {
-            Ok(p)
-        } else {
-            Err(scene_err(path, key, format!("[{}, {}] is not a pair of finite numbers", p[0], p[1])))
-        }
-    };
+    let point = |key: String, p: [f64; 2]| check_point(path, key, p);
     let mut lights = dial_lights(palette);
+    check_palette_positions(path, &lights)?;
     for (name, p) in d.vertices.iter().flatten() {
         let i = light(format!("dial.vertices.{}", escape(name)), name)?;
         lights[i].position = point(format!("dial.vertices.{}", escape(name)), *p)?;
@@ -123,6 +152,14 @@ pub(super) fn dial_of_file(path: &Path, palette: &Palette, d: &DialFile) -> Resu
                 path,
                 key("off"),
                 "this keyframe switches every light off (the frames would be black)",
+            ));
+        }
+        // The same for intensities: lights that are on but all at 0 light nothing.
+        if state.lights.iter().all(|l| !l.on || l.intensity == 0.0) {
+            return Err(scene_err(
+                path,
+                key("intensity"),
+                "this keyframe leaves every light that is on at intensity 0 (the frames would be black)",
             ));
         }
         let at = match &f.at {

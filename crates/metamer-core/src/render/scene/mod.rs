@@ -262,6 +262,24 @@ impl Scene {
                 None => Volume::open(&vpath)?,
             }
         };
+        if let Some(thin) = volume.dims.iter().position(|d| *d < 2) {
+            // A 2-D image (or one slice of a volume) has no thickness: every ray would take 0 samples and
+            // the frames would be black.
+            let d = volume.dims;
+            return Err(scene_err(
+                path,
+                if volume_override.is_some() { "--volume" } else { "volume" },
+                format!(
+                    "{} is {}×{}×{} voxels, a single voxel thick along {}: rendering needs at least 2 voxels along \
+                     every axis (a 2-D image is not a volume)",
+                    volume_path.as_deref().map_or("the volume".to_string(), crate::fsio::show),
+                    d[0],
+                    d[1],
+                    d[2],
+                    ["x", "y", "z"][thin]
+                ),
+            ));
+        }
         let camera = camera_of(path, file.camera.as_ref())?;
         let materials = materials_of(path, &palette, &file.materials)?;
         let dial = match &file.dial {
