@@ -23,7 +23,7 @@ fn raycast(c: &mut Criterion) {
         ("no_termination", false, true),
         ("both_off", false, false),
     ] {
-        let accel = Acceleration { early_termination: et, empty_space_skipping: ess };
+        let accel = Acceleration { early_termination: et, empty_space_skipping: ess, ..Acceleration::default() };
         group.bench_function(name, |b| {
             b.iter(|| render_views(black_box(&scene), vec![model.clone()], 256, 256, accel, Some(&bricks)))
         });

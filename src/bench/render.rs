@@ -157,6 +157,14 @@ pub(crate) fn process_cpu_seconds() -> Option<f64> {
     Some(ticks / 100.0)
 }
 
+/// The peak resident memory of this process so far (`VmHWM` in Linux `/proc/self/status`), bytes.
+pub(crate) fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
 /// The 1-minute load average (Linux), to judge how contended the timings were.
 pub(crate) fn load_average() -> Option<f64> {
     std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
@@ -206,7 +214,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
     let factor = colour_model(&scene, Mode::Factor, &col)?;
     let mut raycast = Vec::new();
     for (et, ess) in [(true, true), (true, false), (false, true), (false, false)] {
-        let accel = Acceleration { early_termination: et, empty_space_skipping: ess };
+        let accel = Acceleration { early_termination: et, empty_space_skipping: ess, ..Acceleration::default() };
         let size = options.raycast_size;
         let cpu0 = process_cpu_seconds();
         let (timing, views) =

@@ -128,6 +128,8 @@ pub struct Args {
     pub(crate) no_empty_space_skipping: bool,
 }
 
+const MIB: f64 = 1024.0 * 1024.0;
+
 /// Parse `A..B` (end exclusive); either end may be omitted.
 fn parse_range(s: &str, frames: usize) -> anyhow::Result<std::ops::Range<usize>> {
     let (a, b) = s.split_once("..").with_context(|| format!("--frame-range `{s}`: expected A..B"))?;
@@ -276,6 +278,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     let accel = Acceleration {
         early_termination: !args.no_early_termination,
         empty_space_skipping: !args.no_empty_space_skipping,
+        ..Acceleration::default()
     };
     let start = Instant::now();
     let ss = args.ss as usize;
@@ -335,15 +338,32 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         path.join(" → "),
         crate::fsio::show(&args.output)
     );
+    let st = &view.stats;
     summary.push_str(&format!(
-        "raycast {:.1} ms at {}² ({} samples, {} skipped), exposure {exposure:.3}, relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms\n",
+        "raycast {:.1} ms at {}² ({} samples, {} skipped), exposure {exposure:.3}, relight + PNG {:.1} ms ({:.2} ms/frame), total {:.1} ms, peak memory {}\n",
         view.seconds * 1e3,
         args.size * ss,
-        view.stats.samples,
-        view.stats.skipped,
+        st.samples,
+        st.skipped,
         report.seconds * 1e3,
         report.seconds * 1e3 / report.written.len().max(1) as f64,
-        start.elapsed().as_secs_f64() * 1e3
+        start.elapsed().as_secs_f64() * 1e3,
+        crate::bench::render::peak_memory_bytes().map_or("unknown".into(), |b| format!("{:.0} MiB", b as f64 / MIB))
+    ));
+    summary.push_str(&format!(
+        "skipped: {} steps over {} empty-brick crossings ({} of {} bricks empty for this transfer function); {} samples in \
+         {} single-material bricks taken without reconstruction; {} rays stopped at transmittance < {}; derived fields {} \
+         blocks, {:.1} MiB\n",
+        st.skipped,
+        st.skipped_bricks,
+        st.empty_bricks,
+        st.bricks,
+        st.uniform,
+        st.uniform_bricks,
+        st.terminated,
+        accel.termination_transmittance,
+        st.field_blocks,
+        st.field_bytes as f64 / MIB,
     ));
     if let Some(sheet) = &args.contact_sheet {
         summary.push_str(&format!("contact sheet {}\n", crate::fsio::show(sheet)));

@@ -50,7 +50,8 @@ pub struct Args {
     /// Never train a basis just for reporting subspace colours.
     #[arg(long)]
     pub(crate) no_subspace: bool,
-    /// Wall-clock cap in seconds for the iterative parts (joint design).
+    /// Wall-clock cap in seconds, counted from the start: the iterative parts (joint design) stop at it,
+    /// and --feasibility analyses no unmet cell after it (those are reported as not analysed).
     #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
     pub(crate) time_limit: f64,
     /// Print only the summary and the unmet cells, not the per-cell table.
@@ -128,8 +129,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // (mostly waiting for the disk) in parallel with each other and with the table's formatting, then put in
     // place together: when either cannot be written, neither replaces anything and nothing is printed.
     let seconds = started.elapsed().as_secs_f64();
-    let feasibility =
-        args.feasibility.then(|| feasibility_of(&solution, basis.as_ref().map(|b| &b.0), &colorimetry, args.tolerance));
+    let feasibility = args.feasibility.then(|| {
+        let deadline = started.checked_add(options.time_limit);
+        let basis = basis.as_ref().map(|b| &b.0);
+        feasibility_of(&solution, basis, &colorimetry, args.tolerance, deadline, args.time_limit)
+    });
     let replace = if args.force { crate::fsio::Replace::Force } else { crate::fsio::Replace::Writable };
     let saved_context = |out: &Path| format!("{}: cannot write the solved palette", out.display());
     let ((saved, table), report) = rayon::join(
@@ -468,6 +472,8 @@ fn feasibility_of(
     basis: Option<&Basis>,
     colorimetry: &Colorimetry,
     tolerance: f64,
+    deadline: Option<std::time::Instant>,
+    time_limit: f64,
 ) -> Vec<FeasibilityJson> {
     use design::feasibility::{self as fz, RegionCache};
     use rayon::prelude::*;
@@ -492,6 +498,15 @@ fn feasibility_of(
                 l_range: None,
                 line: String::new(),
             };
+            // A cell is begun only before the deadline (one cell's analysis, a fraction of a second to a
+            // few seconds, may run past it on each thread); the rest are reported, not silently dropped.
+            if deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+                out.line = format!(
+                    "cell {}: not analysed: the time limit ({time_limit} s, --time-limit) was reached",
+                    fz::cell_label(p, k)
+                );
+                return out;
+            }
             let analysed = fz::Problem::new(p, basis, colorimetry, &values, k, tolerance)
                 .and_then(|problem| fz::analyse(&problem, &cache, fz::DEFAULT_DIRECTIONS));
             match analysed {

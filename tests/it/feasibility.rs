@@ -444,3 +444,38 @@ fn solve_reports_feasibility_of_unmet_cells() {
         .expect("runs");
     assert!(!out.status.success());
 }
+
+/// `--time-limit` binds the feasibility analysis too: a cell not begun by the deadline is reported as not
+/// analysed (in the table and in the JSON report, with no placement), never silently dropped.
+#[test]
+fn feasibility_honours_the_time_limit() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let palette = dir.path().join("reach.toml");
+    let report = dir.path().join("r.json");
+    std::fs::write(&palette, UNMET_PALETTE).expect("write");
+    let run = |limit: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_metamer"))
+            .args(["solve", "--feasibility", "--time-limit", limit, "--report"])
+            .arg(&report)
+            .arg(&palette)
+            .output()
+            .expect("runs")
+    };
+    // A microsecond: the solve itself is direct (not iterative), so it is done before the analysis starts.
+    let out = run("0.000001");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = text.lines().filter(|l| l.starts_with("feasibility: cell")).collect();
+    assert!(!lines.is_empty(), "{text}");
+    for l in &lines {
+        assert!(l.contains("not analysed: the time limit (0.000001 s, --time-limit) was reached"), "{l}");
+    }
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
+    let entries = json["feasibility"].as_array().expect("a feasibility array");
+    assert_eq!(entries.len(), lines.len());
+    assert!(entries.iter().all(|e| e["placement"].is_null()));
+    // With the default limit the same cells are analysed.
+    let out = run("60");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.lines().filter(|l| l.starts_with("feasibility: cell")).all(|l| !l.contains("not analysed")), "{text}");
+}

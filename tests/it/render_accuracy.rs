@@ -4,7 +4,7 @@
 //! printed beside it (it is expected to be worse, but is not bounded here).
 
 use metamer::colorimetry::Colorimetry;
-use metamer::render::accuracy::compare_models;
+use metamer::render::accuracy::{compare_models, compare_views};
 use metamer::render::scene::{Scene, engine_check_scene, generated_check_scene};
 use metamer::volume::Volume;
 
@@ -42,4 +42,69 @@ fn factor_model_tracks_full_spectra_on_the_shared_engine() {
     };
     let vol = Volume::open(&dir.join("engine.nhdr")).expect("engine.nhdr reads");
     check(&engine_check_scene(vol), 128, 9, "shared engine");
+}
+
+/// What the skips change (issue 24): empty bricks stepped over, single-material bricks taken from the
+/// brick table, rays stopped at transmittance 0.01, against the same raycast with both switches off.
+fn skips_against_reference(scene: &Scene, size: usize, what: &str) {
+    use metamer::render::relight::Mode;
+    use metamer::render::{Acceleration, colour_model, render_views};
+    let col = Colorimetry::default();
+    let model = colour_model(scene, Mode::Factor, &col).expect("model");
+    let view = |accel| render_views(scene, vec![model.clone()], size, size, accel, None).pop().expect("view");
+    let off = Acceleration { early_termination: false, empty_space_skipping: false, ..Acceleration::default() };
+    let reference = view(off);
+    let skipping = view(Acceleration { empty_space_skipping: true, ..off });
+    // The default threshold, and the cost and error of others (printed).
+    for t in [0.01, 0.005, 0.002] {
+        let v = view(Acceleration { termination_transmittance: t, ..Acceleration::default() });
+        let e = compare_views(scene, &col, &reference, &v, 9);
+        println!(
+            "{what}: termination at transmittance {t}: {} samples, ΔE00 p99 {:.3} max {:.3}",
+            v.stats.samples, e.p99, e.max
+        );
+    }
+    let both = view(Acceleration::default());
+    let s = both.stats;
+    assert!(s.skipped > 0 && s.uniform > 0 && s.terminated > 0, "{what}: nothing skipped: {s:?}");
+    assert!(s.samples < reference.stats.samples, "{what}: {s:?} vs {:?}", reference.stats);
+    let (e_skip, e_both) =
+        (compare_views(scene, &col, &reference, &skipping, 9), compare_views(scene, &col, &reference, &both, 9));
+    println!(
+        "{what}: default termination {}: samples {} → {} ({} in single-material bricks, {} steps skipped, {} rays stopped); ΔE00 skipping only: \
+         mean {:.4} p99 {:.3} max {:.3}; with early termination: mean {:.4} p99 {:.3} max {:.3} over {} px",
+        Acceleration::default().termination_transmittance,
+        reference.stats.samples,
+        s.samples,
+        s.uniform,
+        s.skipped,
+        s.terminated,
+        e_skip.mean,
+        e_skip.p99,
+        e_skip.max,
+        e_both.mean,
+        e_both.p99,
+        e_both.max,
+        e_both.pixels
+    );
+    assert!(e_both.pixels > size * size / 20, "{what}: too few pixels compared ({})", e_both.pixels);
+    // Skipping empty and single-material bricks reconstructs the same samples: at most 8-bit rounding.
+    assert!(e_skip.p99 < 0.05 && e_skip.max < 1.0, "{what}: skipping changed the frames: {e_skip:?}");
+    assert!(e_both.p99 < 0.5, "{what}: early termination p99 ΔE00 {:.3} ≥ 0.5", e_both.p99);
+}
+
+#[test]
+fn skips_stay_within_half_a_delta_e_at_p99_on_the_generated_engine() {
+    skips_against_reference(&generated_check_scene(96), 128, "generated engine");
+}
+
+#[test]
+fn skips_stay_within_half_a_delta_e_at_p99_on_the_shared_engine() {
+    let Some(dir) = crate::common::data::volumes_or_skip(
+        "render_accuracy::skips_stay_within_half_a_delta_e_at_p99_on_the_shared_engine",
+    ) else {
+        return;
+    };
+    let vol = Volume::open(&dir.join("engine.nhdr")).expect("engine.nhdr reads");
+    skips_against_reference(&engine_check_scene(vol), 192, "shared engine");
 }

@@ -108,6 +108,68 @@ pub fn compare_models(
     })
 }
 
+/// ΔE00 statistics of one rendering against a reference rendering of the same scene.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameError {
+    pub mean: f64,
+    pub p99: f64,
+    pub max: f64,
+    /// Pixels compared (covered in either frame, summed over frames).
+    pub pixels: usize,
+}
+
+/// How far `other` strays from `reference` (two raycasts of `scene` in the same colour model, e.g. with a
+/// skip or a quality step turned off in one): CIEDE2000 per pixel over an N-frame sweep of the scene's
+/// dial, on the 8-bit frames as written (one exposure, the reference's conservative one), over the
+/// pixels that are not black in both. The images must have the same size (`other` is box-filtered down
+/// when it is a whole multiple larger, as a supersampled reference is).
+pub fn compare_views(
+    scene: &Scene,
+    colorimetry: &Colorimetry,
+    reference: &super::RenderedView,
+    other: &super::RenderedView,
+    frames: usize,
+) -> FrameError {
+    let reflectances: Vec<_> = scene.materials.iter().map(|m| m.spectrum).collect();
+    let exposure = sweep_exposure(colorimetry, &reflectances, &scene.dial, frames, scene.settings.exposure);
+    let lut = SrgbLut::new();
+    let (r, o) = (&reference.image, &other.image);
+    let o = if o.width > r.width && r.width > 0 && o.width % r.width == 0 {
+        std::borrow::Cow::Owned(super::sweep::downsample(o, o.width / r.width))
+    } else {
+        std::borrow::Cow::Borrowed(o)
+    };
+    if (o.width, o.height, o.channels) != (r.width, r.height, r.channels) {
+        return FrameError { mean: f64::INFINITY, p99: f64::INFINITY, max: f64::INFINITY, pixels: 0 };
+    }
+    let mut all: Vec<f64> = (0..frames.max(1))
+        .into_par_iter()
+        .flat_map_iter(|k| {
+            let light = scene.dial.light_at(Dial::position(k, frames));
+            let a = frame_srgb8(r, &reference.model, &scene.dial, k, frames, exposure, &lut);
+            let b = frame_srgb8(&o, &other.model, &scene.dial, k, frames, exposure, &lut);
+            let lin = |f: &[u8], p: usize| {
+                Vector3::new(
+                    srgb_decode(f64::from(f[3 * p]) / 255.0),
+                    srgb_decode(f64::from(f[3 * p + 1]) / 255.0),
+                    srgb_decode(f64::from(f[3 * p + 2]) / 255.0),
+                )
+            };
+            (0..a.len() / 3)
+                .filter(|p| a[3 * p..3 * p + 3].iter().chain(&b[3 * p..3 * p + 3]).any(|v| *v != 0))
+                .map(|p| colorimetry.delta_e00_under(&lin(&a, p), &lin(&b, p), &light))
+                .collect::<Vec<f64>>()
+        })
+        .collect();
+    if all.is_empty() {
+        return FrameError::default();
+    }
+    all.sort_by(f64::total_cmp);
+    let mean = all.iter().sum::<f64>() / all.len() as f64;
+    let p99 = all[((all.len() - 1) as f64 * 0.99).round() as usize];
+    FrameError { mean, p99, max: all[all.len() - 1], pixels: all.len() }
+}
+
 fn stats(v: &mut [f64]) -> ModelError {
     if v.is_empty() {
         return ModelError::default();

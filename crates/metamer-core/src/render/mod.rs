@@ -51,15 +51,22 @@ pub struct RenderedView {
 }
 
 /// Switches of the raycaster that do not change the picture (beyond the termination threshold).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Acceleration {
     pub early_termination: bool,
     pub empty_space_skipping: bool,
+    /// Transmittance below which early termination stops a ray
+    /// ([`raycast::TERMINATION_TRANSMITTANCE`] by default).
+    pub termination_transmittance: f64,
 }
 
 impl Default for Acceleration {
     fn default() -> Self {
-        Acceleration { early_termination: true, empty_space_skipping: true }
+        Acceleration {
+            early_termination: true,
+            empty_space_skipping: true,
+            termination_transmittance: raycast::TERMINATION_TRANSMITTANCE,
+        }
     }
 }
 
@@ -86,6 +93,7 @@ pub fn raycast_options(scene: &Scene, width: usize, height: usize, accel: Accele
         interpolation: scene.settings.interpolation,
         early_termination: accel.early_termination,
         empty_space_skipping: accel.empty_space_skipping,
+        termination_transmittance: accel.termination_transmittance,
         ..RaycastOptions::default()
     }
 }

@@ -19,6 +19,11 @@ pub(super) struct Classifier {
     pub(super) alpha_sub: Vec<f32>,
     /// Prefix count of occupied bins.
     pub(super) occupied_prefix: Vec<u32>,
+    /// Per bin: the first bin of the run of bins with its material (a value range whose bins all lie
+    /// in one run maps to one material, whatever the interpolation).
+    run_start: Vec<u16>,
+    /// Per material: one of its bins (every bin of a material has the same opacities).
+    pub(super) material_bin: Vec<u16>,
     /// Per material: whether it attenuates the ray.
     pub(super) absorbs: Vec<bool>,
     /// Per material: its step-corrected opacity (0 when it never shows).
@@ -61,6 +66,16 @@ impl Classifier {
         for b in 0..LUT_BINS {
             occupied_prefix[b + 1] = occupied_prefix[b] + u32::from(material[b] != 0);
         }
+        let mut run_start = vec![0u16; LUT_BINS];
+        for b in 1..LUT_BINS {
+            run_start[b] = if material[b] == material[b - 1] { run_start[b - 1] } else { b as u16 };
+        }
+        let mut material_bin = vec![0u16; materials.len()];
+        for b in (0..LUT_BINS).rev() {
+            if material[b] != 0 {
+                material_bin[usize::from(material[b]) - 1] = b as u16;
+            }
+        }
         let absorbs = materials.iter().map(|m| m.absorbs).collect();
         let material_alpha = materials.iter().map(|m| corrected(m.opacity, step)).collect();
         let material_alpha_sub = materials.iter().map(|m| corrected(m.opacity, sub)).collect();
@@ -71,6 +86,8 @@ impl Classifier {
             alpha,
             alpha_sub,
             occupied_prefix,
+            run_start,
+            material_bin,
             absorbs,
             material_alpha,
             material_alpha_sub,
@@ -88,10 +105,63 @@ impl Classifier {
         (((v - self.lo) * self.inv_bin + 0.5) as usize).min(LUT_BINS - 1)
     }
 
-    /// True when some value in `[a, b]` belongs to a material.
-    pub(super) fn any_in(&self, a: f32, b: f32) -> bool {
+    /// What every value in `[a, b]` maps to: [`EMPTY`] (no material, or only zero opacity), one
+    /// material (its index + 1) or [`MIXED`]. Bins are monotone in the value, so a value between `a`
+    /// and `b` (a trilinear blend of voxels in that range) falls in a bin between theirs.
+    pub(super) fn class_of(&self, a: f32, b: f32) -> u8 {
         let (ba, bb) = (self.bin(a), self.bin(b));
-        self.occupied_prefix[bb + 1] > self.occupied_prefix[ba]
+        if self.occupied_prefix[bb + 1] == self.occupied_prefix[ba] {
+            EMPTY
+        } else if usize::from(self.run_start[bb]) <= ba {
+            self.material[ba]
+        } else {
+            MIXED
+        }
+    }
+}
+
+/// A brick no sample inside maps to a material: stepped over whole.
+pub(super) const EMPTY: u8 = 0;
+/// A brick whose values map to more than one material (or to a material and to nothing): sampled in
+/// full, refined at boundaries.
+pub(super) const MIXED: u8 = u8::MAX;
+
+/// The per-brick table of one raycast: each brick of a [`BrickMap`] classified against this transfer
+/// function as [`EMPTY`], one material (index + 1: no value reconstruction or lookup needed, no
+/// boundary to refine inside it) or [`MIXED`].
+pub(super) struct BrickTable {
+    pub(super) class: Vec<u8>,
+    pub(super) empty: usize,
+    pub(super) uniform: usize,
+}
+
+impl BrickTable {
+    /// `uniform`: whether single-material bricks may be taken as such (false in label mode, whose
+    /// occupancy field depends on the neighbours, so only empty and mixed are used); `dilate`: bricks
+    /// within this many bricks of an occupied one count as mixed (a label field spreads a material).
+    pub(super) fn new(bricks: &BrickMap, classifier: &Classifier, uniform: bool, dilate: usize) -> BrickTable {
+        let mut class: Vec<u8> = bricks
+            .min
+            .iter()
+            .zip(&bricks.max)
+            .map(|(lo, hi)| match classifier.class_of(*lo, *hi) {
+                EMPTY => EMPTY,
+                m if uniform => m,
+                _ => MIXED,
+            })
+            .collect();
+        if dilate > 0 {
+            let empty: Vec<bool> = class.iter().map(|c| *c == EMPTY).collect();
+            let grown = super::dilate_occupied(&empty, bricks.counts, dilate);
+            for (c, e) in class.iter_mut().zip(grown) {
+                if !e && *c == EMPTY {
+                    *c = MIXED;
+                }
+            }
+        }
+        let empty = class.iter().filter(|c| **c == EMPTY).count();
+        let uniform = class.iter().filter(|c| **c != EMPTY && **c != MIXED).count();
+        BrickTable { class, empty, uniform }
     }
 }
 

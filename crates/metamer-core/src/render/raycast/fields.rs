@@ -185,12 +185,27 @@ impl<'a> Fields<'a> {
         let h = if opacity { 2 } else { 1 };
         let den = 2.0 * h as f32;
         let inv = 1.0 / self.scale;
-        let q = |c: f32| (c * inv).round().clamp(-f32::from(i16::MAX), f32::from(i16::MAX)) as i16;
-        let at = |x: usize, y: usize, z: usize| {
-            let v = data[x + d[0] * (y + d[1] * z)].to_f32();
-            if opacity { self.classifier.alpha_of(v) } else { v }
-        };
+        let max = f32::from(i16::MAX);
+        let q = |c: f32| round_half_away((c * inv).clamp(-max, max)) as i16;
         let o = b.map(|v| v << SHIFT);
+        // The field over the block grown by h each side (coordinates clamped into the grid), read once:
+        // entry j along an axis is voxel clamp(o − h + j).
+        let n = S + 2 * h;
+        let coord = |a: usize, j: usize| (o[a] + j).saturating_sub(h).min(d[a] - 1);
+        let mut field = vec![0f32; n * n * n];
+        for z in 0..n {
+            let vz = coord(2, z);
+            for y in 0..n {
+                let row = d[0] * (coord(1, y) + d[1] * vz);
+                let dst = &mut field[n * (y + n * z)..][..n];
+                for (x, f) in dst.iter_mut().enumerate() {
+                    let v = data[row + coord(0, x)].to_f32();
+                    *f = if opacity { self.classifier.alpha_of(v) } else { v };
+                }
+            }
+        }
+        // The field at grid coordinate c (c within the grown block).
+        let at = |c: [usize; 3]| field[(c[0] + h - o[0]) + n * ((c[1] + h - o[1]) + n * (c[2] + h - o[2]))];
         let mut grad = vec![[0i16; 3]; S3];
         for lz in 0..S {
             let z = (o[2] + lz).min(d[2] - 1);
@@ -202,15 +217,24 @@ impl<'a> Fields<'a> {
                     let x = (o[0] + lx).min(d[0] - 1);
                     let (x0, x1) = (x.saturating_sub(h), (x + h).min(d[0] - 1));
                     grad[lx + S * (ly + S * lz)] = [
-                        q((at(x1, y, z) - at(x0, y, z)) / den),
-                        q((at(x, y1, z) - at(x, y0, z)) / den),
-                        q((at(x, y, z1) - at(x, y, z0)) / den),
+                        q((at([x1, y, z]) - at([x0, y, z])) / den),
+                        q((at([x, y1, z]) - at([x, y0, z])) / den),
+                        q((at([x, y, z1]) - at([x, y, z0])) / den),
                     ];
                 }
             }
         }
         grad
     }
+}
+
+/// `c.round()` (half away from zero) without the library call `round` is on x86-64's baseline, for
+/// |c| < 2²³: the fraction `c − trunc(c)` is exact there.
+#[inline(always)]
+fn round_half_away(c: f32) -> i32 {
+    let t = c as i32;
+    let frac = c - t as f32;
+    t + i32::from(frac >= 0.5) - i32::from(frac <= -0.5)
 }
 
 /// Trilinear weights of the eight corners (`x + 2y + 4z`) at fractions `f`.
@@ -231,3 +255,17 @@ pub(super) fn corner_weights(f: [f32; 3]) -> [f32; 8] {
 
 /// Local offsets of the eight corners of a block cell (`x + 2y + 4z`).
 pub(super) const CORNERS: [usize; 8] = [0, 1, S, S + 1, S * S, S * S + 1, S * S + S, S * S + S + 1];
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn rounding_without_the_library_call_is_round() {
+        for i in -40_000..40_000 {
+            let c = i as f32 * 0.25 + if i % 3 == 0 { 1e-3 } else { 0.0 };
+            assert_eq!(super::round_half_away(c), c.round() as i32, "{c}");
+        }
+        for c in [0.49999997f32, -0.49999997, 0.5, -0.5, 32767.0, -32767.0, 1.5e6 + 0.5] {
+            assert_eq!(super::round_half_away(c), c.round() as i32, "{c}");
+        }
+    }
+}

@@ -1,6 +1,6 @@
 //! Marching one ray: sample reconstruction, classification, shading and front-to-back compositing.
 
-use super::classify::{BrickMap, Classifier};
+use super::classify::{BrickMap, Classifier, EMPTY, MIXED};
 use super::fields::{Block, CORNERS, FIELD_BRICK, Fields, S3, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 use super::view::View;
@@ -78,6 +78,15 @@ pub(super) fn near_band(volume: &Volume, step: f64) -> f32 {
     (0.5 * f64::from(labels::LABEL_RAMP) + in_plane_step(volume, step)) as f32
 }
 
+/// Where a sample falls: its trilinear cell's first voxel (as an index and as coordinates) and the
+/// fractions along each axis.
+#[derive(Clone, Copy)]
+struct Located {
+    b: usize,
+    i: [usize; 3],
+    f: [f32; 3],
+}
+
 /// A value-classified sample before compositing.
 struct ValueSample {
     /// Material index + 1 (0 = none).
@@ -85,10 +94,7 @@ struct ValueSample {
     bin: usize,
     /// The bin's step opacity.
     alpha: f32,
-    b: usize,
-    i: [usize; 3],
-    strides: [usize; 3],
-    f: [f32; 3],
+    at: Located,
     cell: Option<Cell>,
 }
 
@@ -138,7 +144,9 @@ impl Edge {
 trait Sampler<'a> {
     type Sample;
     /// The sample at index-space point `p`, or the field brick no material reaches (label mode).
-    fn sample(ctx: &RayContext<'a>, p: [f64; 3]) -> Result<Self::Sample, [usize; 3]>;
+    /// `uniform`: the material (index + 1) every value of the sample's brick maps to, or
+    /// [`MIXED`] (value classes only; label mode always passes `MIXED`).
+    fn sample(ctx: &RayContext<'a>, p: [f64; 3], at: Located, uniform: u8) -> Result<Self::Sample, [usize; 3]>;
     fn edge(s: &Self::Sample) -> Edge;
     /// Whether the step between samples with these edges is refined.
     fn refine(a: &Edge, b: &Edge) -> bool;
@@ -157,8 +165,8 @@ struct Labels;
 impl<'a> Sampler<'a> for Values {
     type Sample = ValueSample;
     #[inline(always)]
-    fn sample(ctx: &RayContext<'a>, p: [f64; 3]) -> Result<ValueSample, [usize; 3]> {
-        Ok(ctx.value_sample(p))
+    fn sample(ctx: &RayContext<'a>, p: [f64; 3], at: Located, uniform: u8) -> Result<ValueSample, [usize; 3]> {
+        Ok(if uniform == MIXED { ctx.value_sample(p, at) } else { ctx.uniform_sample(at, uniform) })
     }
     #[inline(always)]
     fn edge(s: &ValueSample) -> Edge {
@@ -182,8 +190,8 @@ impl<'a> Sampler<'a> for Values {
 impl<'a> Sampler<'a> for Labels {
     type Sample = LabelSample<'a>;
     #[inline(always)]
-    fn sample(ctx: &RayContext<'a>, p: [f64; 3]) -> Result<LabelSample<'a>, [usize; 3]> {
-        ctx.label_sample(p)
+    fn sample(ctx: &RayContext<'a>, _: [f64; 3], at: Located, _: u8) -> Result<LabelSample<'a>, [usize; 3]> {
+        ctx.label_sample(at)
     }
     #[inline(always)]
     fn edge(s: &LabelSample<'a>) -> Edge {
@@ -205,14 +213,37 @@ impl<'a> Sampler<'a> for Labels {
     }
 }
 
+/// The volume's grid as the inner loop needs it, computed once per raycast.
+pub(super) struct Grid {
+    /// The largest index-space coordinate along each axis (dims − 1).
+    hi: [f64; 3],
+    /// The largest first voxel of a cell (dims − 2, 0 along an axis of one voxel).
+    imax: [usize; 3],
+    /// The strides to the next voxel along x, y and z (0 along an axis of one voxel).
+    strides: [usize; 3],
+}
+
+impl Grid {
+    pub(super) fn new(volume: &Volume) -> Grid {
+        let d = volume.dims;
+        Grid {
+            hi: d.map(|n| (n.max(1) - 1) as f64),
+            imax: d.map(|n| n.saturating_sub(2)),
+            strides: [usize::from(d[0] > 1), if d[1] > 1 { d[0] } else { 0 }, if d[2] > 1 { d[0] * d[1] } else { 0 }],
+        }
+    }
+}
+
 pub(super) struct RayContext<'a> {
     pub(crate) volume: &'a Volume,
     pub(crate) classifier: &'a Classifier,
     /// The lazily built per-brick fields: smooth gradients and, in label mode, smoothed occupancy
     /// (None when neither is needed).
     pub(crate) fields: Option<&'a Fields<'a>>,
-    pub(crate) bricks: Option<(&'a BrickMap, &'a [bool])>,
+    /// The min/max bricks and their table for this transfer function ([`EMPTY`], a material, [`MIXED`]).
+    pub(crate) bricks: Option<(&'a BrickMap, &'a [u8])>,
     pub(crate) view: &'a View,
+    pub(crate) grid: Grid,
     pub(crate) options: &'a RaycastOptions,
     /// Substeps a step that crosses a boundary is split into (1: refinement off, see [`substeps`]).
     pub(crate) substeps: usize,
@@ -233,30 +264,29 @@ impl<'a> RayContext<'a> {
         self.volume.voxels.get(x + d[0] * (y + d[1] * z))
     }
 
-    /// Where index-space point p (clamped into [0, dims−1]) falls: its trilinear cell's first voxel (as
-    /// an index and as coordinates), the strides to the next voxel along x, y and z (0 along an axis of
-    /// one voxel) and the fractions along each axis.
+    /// Where index-space point p (clamped into [0, dims−1]) falls.
     #[inline(always)]
-    fn locate(&self, p: [f64; 3]) -> (usize, [usize; 3], [usize; 3], [f32; 3]) {
-        let d = self.volume.dims;
+    fn locate(&self, p: [f64; 3]) -> Located {
         let mut i = [0usize; 3];
         let mut f = [0f32; 3];
         for a in 0..3 {
-            // p ≥ 0 after the clamp, so truncation is floor (and avoids a libm call).
-            let q = p[a].clamp(0.0, (d[a] - 1) as f64);
-            i[a] = (q as usize).min(d[a].saturating_sub(2));
+            // `max` maps NaN to 0, so q is a number in [0, dims − 1].
+            let q = p[a].max(0.0).min(self.grid.hi[a]);
+            // SAFETY: q is finite and in [0, dims − 1] ⊂ [0, 2³²) (a volume has at most 2³² voxels), so
+            // the truncation is in range for i64 (and is floor, as q ≥ 0); the saturating `as` would
+            // cost a dozen instructions per axis in the inner loop.
+            let t = unsafe { q.to_int_unchecked::<i64>() } as usize;
+            i[a] = t.min(self.grid.imax[a]);
             f[a] = (q - i[a] as f64) as f32;
         }
-        let sx = usize::from(d[0] > 1);
-        let sy = if d[1] > 1 { d[0] } else { 0 };
-        let sz = if d[2] > 1 { d[0] * d[1] } else { 0 };
-        let b = i[0] + d[0] * (i[1] + d[1] * i[2]);
-        (b, i, [sx, sy, sz], f)
+        let d = self.volume.dims;
+        Located { b: i[0] + d[0] * (i[1] + d[1] * i[2]), i, f }
     }
 
     /// The trilinear cell of the volume's values at a located sample.
     #[inline(always)]
-    fn cell_at(&self, b: usize, [sx, sy, sz]: [usize; 3], f: [f32; 3]) -> Cell {
+    fn cell_at(&self, Located { b, f, .. }: Located) -> Cell {
+        let [sx, sy, sz] = self.grid.strides;
         crate::with_voxels!(&self.volume.voxels, v => Cell {
             v: [
                 v[b].to_f32(),
@@ -306,17 +336,24 @@ impl<'a> RayContext<'a> {
 
     /// Value-classified sample (trilinear or nearest): its material and where it sits.
     #[inline(always)]
-    fn value_sample(&self, p: [f64; 3]) -> ValueSample {
-        let (b, i, strides, f) = self.locate(p);
+    fn value_sample(&self, p: [f64; 3], at: Located) -> ValueSample {
         let trilinear = self.options.interpolation == Interpolation::Trilinear;
-        let cell = trilinear.then(|| self.cell_at(b, strides, f));
+        let cell = trilinear.then(|| self.cell_at(at));
         let v = match &cell {
             Some(c) => c.value(),
             None => self.nearest(p),
         };
         let bin = self.classifier.bin(v);
         let material = self.classifier.material[bin];
-        ValueSample { material, bin, alpha: self.classifier.alpha[bin], b, i, strides, f, cell }
+        ValueSample { material, bin, alpha: self.classifier.alpha[bin], at, cell }
+    }
+
+    /// A sample in a brick whose values all map to material `m` (index + 1): located, not
+    /// reconstructed (the bin is one of the material's, whose opacities are all alike).
+    #[inline(always)]
+    fn uniform_sample(&self, at: Located, m: u8) -> ValueSample {
+        let bin = usize::from(self.classifier.material_bin[usize::from(m) - 1]);
+        ValueSample { material: m, bin, alpha: self.classifier.alpha[bin], at, cell: None }
     }
 
     /// Composite a value sample with opacities `alpha` (per bin, for the step it stands for): adds its
@@ -330,9 +367,9 @@ impl<'a> RayContext<'a> {
         let alpha = alpha[s.bin];
         let shade = match (self.options.shading, self.options.gradient) {
             (Shading::Unshaded, _) => 1.0,
-            (_, Gradient::Smooth) => self.shade(self.smooth_gradient(s.i, s.f)),
+            (_, Gradient::Smooth) => self.shade(self.smooth_gradient(s.at.i, s.at.f)),
             (_, Gradient::Cell) => {
-                self.shade(s.cell.as_ref().map_or_else(|| self.cell_at(s.b, s.strides, s.f).gradient(), Cell::gradient))
+                self.shade(s.cell.as_ref().map_or_else(|| self.cell_at(s.at).gradient(), Cell::gradient))
             }
         };
         out[m - 1] += transmittance * alpha * shade;
@@ -342,7 +379,7 @@ impl<'a> RayContext<'a> {
     /// Label sample: every nearby material's signed distance, interpolated trilinearly and turned into
     /// an occupancy ([`labels::ramp`]). `Err` names the field brick when no material reaches it.
     #[inline(always)]
-    fn label_sample(&self, p: [f64; 3]) -> Result<LabelSample<'a>, [usize; 3]> {
+    fn label_sample(&self, at: Located) -> Result<LabelSample<'a>, [usize; 3]> {
         let Some(fields) = self.fields else {
             return Ok(LabelSample {
                 block: None,
@@ -353,7 +390,7 @@ impl<'a> RayContext<'a> {
                 near: false,
             });
         };
-        let (_, i, _, f) = self.locate(p);
+        let Located { i, f, .. } = at;
         let (block, base) = fields.block(i);
         let n = block.mats.len();
         if n == 0 {
@@ -490,20 +527,25 @@ impl<'a> RayContext<'a> {
         while k + jitter <= t1 {
             let t = k + jitter;
             let p = [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
-            if let Some((bm, empty)) = self.bricks {
-                let b = [0, 1, 2].map(|a| ((p[a].max(0.0) as usize) >> bm.shift).min(bm.counts[a] - 1));
-                let bi = b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2]);
-                if empty[bi] {
+            let at = self.locate(p);
+            let mut uniform = MIXED;
+            if let Some((bm, table)) = self.bricks {
+                // The brick of the sample's cell (it bounds the cell's eight voxels).
+                let b = [0, 1, 2].map(|a| (at.i[a] >> bm.shift).min(bm.counts[a] - 1));
+                uniform = table[b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2])];
+                if uniform == EMPTY {
                     prev = Edge::EMPTY;
                     carry = false;
                     let next = brick_exit(origin, dir, b, bm.size, jitter, k);
                     stats.skipped += (next - k) as u64;
+                    stats.skipped_bricks += 1;
                     k = next;
                     continue;
                 }
             }
             stats.samples += 1;
-            let sample = match K::sample(self, p) {
+            stats.uniform += u64::from(uniform != MIXED);
+            let sample = match K::sample(self, p, at, uniform) {
                 Ok(s) => s,
                 // No material reaches this field brick: with skipping on, jump over it.
                 Err(b) => {
@@ -512,6 +554,7 @@ impl<'a> RayContext<'a> {
                     if self.bricks.is_some() {
                         let next = brick_exit(origin, dir, b, FIELD_BRICK, jitter, k);
                         stats.skipped += (next - k - 1.0) as u64;
+                        stats.skipped_bricks += 1;
                         k = next;
                     } else {
                         k += 1.0;
@@ -535,7 +578,8 @@ impl<'a> RayContext<'a> {
                     }
                     let pj = [origin[0] + tj * dir[0], origin[1] + tj * dir[1], origin[2] + tj * dir[2]];
                     stats.samples += 1;
-                    let Ok(sj) = K::sample(self, pj) else { continue };
+                    // A substep may lie in the brick before this sample's: reconstruct it in full.
+                    let Ok(sj) = K::sample(self, pj, self.locate(pj), MIXED) else { continue };
                     if self.attenuate(K::composite(self, &sj, true, transmittance, out), &mut transmittance, stats) {
                         return;
                     }

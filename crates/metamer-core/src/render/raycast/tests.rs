@@ -50,12 +50,42 @@ fn skipping_and_termination_switches_keep_the_image() {
     let max_diff = all_on.data.iter().zip(&a.data).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max);
     assert!(max_diff < 1e-5, "skipping changed the image by {max_diff}");
     assert!(s_on.skipped > 0 && s_on.samples < s_a.samples, "{s_on:?} {s_a:?}");
+    assert!(s_on.skipped_bricks > 0 && s_a.uniform == 0, "{s_on:?} {s_a:?}");
     // Termination leaves out at most the remaining transmittance (1%) per ray.
     let none = RaycastOptions { empty_space_skipping: false, early_termination: false, ..base };
     let (b, _) = raycast(&vol, &mats, None, &cam, &none);
     for (px_a, px_b) in a.data.chunks(3).zip(b.data.chunks(3)) {
         let (sa, sb): (f32, f32) = (px_a.iter().sum(), px_b.iter().sum());
         assert!((sb - sa) >= -1e-5 && (sb - sa) <= 0.01 + 1e-5, "{sa} vs {sb}");
+    }
+}
+
+#[test]
+fn single_material_bricks_are_sampled_from_the_brick_table_with_the_same_image() {
+    // A translucent cube (rays cross its inside) holding a denser core: empty, single-material and
+    // mixed bricks.
+    let n = 64;
+    let mut vol = cube(n, 100.0);
+    let mut data = vol.voxels.to_f32_vec();
+    for z in 28..36 {
+        for y in 28..36 {
+            for x in 28..36 {
+                data[x + n * (y + n * z)] = 200.0;
+            }
+        }
+    }
+    vol = Volume::new(Path::new("cube"), [n, n, n], [1.0; 3], data).unwrap();
+    let mats = [MaterialClass::new([50.0, 150.0], 0.03), MaterialClass::new([180.0, 255.0], 0.5)];
+    let cam = Camera { azimuth_deg: 20.0, elevation_deg: 15.0, ..Camera::default() };
+    for gradient in [Gradient::Smooth, Gradient::Cell] {
+        let on = RaycastOptions { width: 48, height: 48, gradient, ..Default::default() };
+        let off = RaycastOptions { empty_space_skipping: false, ..on.clone() };
+        let ((a, s), (b, s_off)) = (raycast(&vol, &mats, None, &cam, &on), raycast(&vol, &mats, None, &cam, &off));
+        assert!(s.empty_bricks > 0 && s.uniform_bricks > 0 && s.empty_bricks + s.uniform_bricks < s.bricks, "{s:?}");
+        assert!(s.uniform > s.samples / 4 && s_off.uniform == 0, "{s:?}");
+        let max_diff = a.data.iter().zip(&b.data).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max);
+        assert!(max_diff < 1e-5, "{gradient:?}: the brick table changed the image by {max_diff}");
+        assert!(a.data.iter().any(|v| *v > 0.1));
     }
 }
 
