@@ -19,6 +19,8 @@ File formats (reference pages in the source repository):
   docs/formats/scene.md     scenes for `render` and `design --scene`: palette, volume, materials, camera, dial
   docs/formats/dial.md      the light dial's keyframes
   docs/formats/report.md    the table and the JSON report of `solve`
+  docs/formats/keys.md      key scripts for `design --replay` and the screens it writes
+  docs/DESIGN_SPEC.md       the pinned colour pipeline, objective, formats and command line
 Data: scenes find their volume from `render --volume PATH`, the scene's `volume` key, or the folder named by
 METAMER_DATA (README, section Data, says where each public dataset comes from).";
 

@@ -87,6 +87,9 @@ fn help_names_the_format_pages_and_they_exist() {
     }
     assert!(help(&["solve", "--help"]).contains("docs/formats/report.md"));
     assert!(help(&["render", "--help"]).contains("docs/formats/scene.md"));
+    for page in ["docs/formats/dial.md", "docs/formats/keys.md", "docs/DESIGN_SPEC.md"] {
+        assert!(top.contains(page) && repo.join(page).is_file(), "`metamer --help` names {page} and it exists:\n{top}");
+    }
     assert!(top.contains("METAMER_DATA"));
 }
 

@@ -18,6 +18,7 @@ mod design_cases;
 mod design_oracle;
 mod dial_figures;
 mod dial_scene;
+mod doc_claims;
 mod feasibility;
 mod frog_palettes;
 mod fuzz_regressions;

@@ -1,0 +1,199 @@
+//! What the docs claim about the repository, checked: every repository path README.md and docs/ name exists,
+//! every `DESIGN_SPEC §N` citation in code and docs names a section of docs/DESIGN_SPEC.md, and every key the
+//! scene reader accepts is documented in docs/formats/scene.md (dial keyframe keys in dial.md).
+
+use metamer_core::render::scene::Scene;
+use std::path::{Path, PathBuf};
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Markdown files under `dir`, recursively.
+fn markdown(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            markdown(&p, out);
+        } else if p.extension().is_some_and(|x| x == "md") {
+            out.push(p);
+        }
+    }
+}
+
+/// Files of the given extensions under `dir`, recursively.
+fn sources(dir: &Path, exts: &[&str], out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            sources(&p, exts, out);
+        } else if p.extension().and_then(|x| x.to_str()).is_some_and(|x| exts.contains(&x)) {
+            out.push(p);
+        }
+    }
+}
+
+const TOP: [&str; 12] = [
+    "crates/",
+    "src/",
+    "tests/",
+    "docs/",
+    "volumes/",
+    "palettes/",
+    "benches/",
+    "examples/",
+    "fuzz/",
+    "data/",
+    "snapshots/",
+    ".ci/",
+];
+
+/// The repository paths a text names: tokens starting with one of [`TOP`] (optionally after `../`).
+fn named_paths(text: &str) -> Vec<String> {
+    let ok = |c: char| c.is_ascii_alphanumeric() || "_./*-".contains(c);
+    let mut out = Vec::new();
+    let bytes: Vec<char> = text.chars().collect();
+    let mut i = 0;
+    while i < bytes.len() {
+        let before_ok = i == 0 || !ok(bytes[i - 1]);
+        if before_ok && ok(bytes[i]) {
+            let mut j = i;
+            while j < bytes.len() && ok(bytes[j]) {
+                j += 1;
+            }
+            let tok: String = bytes[i..j].iter().collect();
+            let tok = tok.trim_end_matches(['.', ',']);
+            let bare = tok.trim_start_matches("../");
+            if TOP.iter().any(|t| bare.starts_with(t)) && bare.len() > 4 {
+                out.push(tok.to_string());
+            }
+            i = j;
+        } else {
+            i += 1;
+        }
+    }
+    out
+}
+
+fn exists(doc: &Path, p: &str) -> bool {
+    let candidates = [root().join(p.trim_start_matches("../")), doc.parent().unwrap_or(root()).join(p)];
+    candidates.iter().any(|c| {
+        if let Some((dir, pattern)) = c.to_str().and_then(|s| s.rsplit_once('/')).filter(|(_, f)| f.contains('*')) {
+            // `volumes/*.toml`, `tests/it/tui_*.rs`: the folder holds a file of that shape.
+            let (pre, post) = pattern.split_once('*').unwrap_or((pattern, ""));
+            std::fs::read_dir(dir).into_iter().flatten().flatten().any(|e| {
+                let n = e.file_name().to_string_lossy().into_owned();
+                n.starts_with(pre) && n.ends_with(post.trim_start_matches('*'))
+            })
+        } else {
+            c.exists()
+        }
+    })
+}
+
+#[test]
+fn every_path_the_docs_name_exists() {
+    let mut docs = vec![root().join("README.md")];
+    markdown(&root().join("docs"), &mut docs);
+    assert!(docs.len() >= 8, "README and the docs/ pages are found: {docs:?}");
+    let mut missing = Vec::new();
+    let mut checked = 0;
+    for doc in &docs {
+        let text = std::fs::read_to_string(doc).expect("a doc is readable");
+        for p in named_paths(&text) {
+            checked += 1;
+            if !exists(doc, &p) {
+                missing.push(format!("{}: {p}", doc.strip_prefix(root()).unwrap_or(doc).display()));
+            }
+        }
+    }
+    assert!(checked > 50, "only {checked} paths named: the scan is broken");
+    assert!(missing.is_empty(), "paths the docs name that do not exist:\n{}", missing.join("\n"));
+}
+
+#[test]
+fn every_design_spec_citation_resolves() {
+    let spec = std::fs::read_to_string(root().join("docs/DESIGN_SPEC.md")).expect("docs/DESIGN_SPEC.md exists");
+    let sections: Vec<String> = spec
+        .lines()
+        .filter_map(|l| l.strip_prefix("## "))
+        .filter_map(|l| l.split_once('.').map(|(n, _)| n.trim().to_string()))
+        .collect();
+    assert!(sections.len() >= 5, "DESIGN_SPEC's numbered sections: {sections:?}");
+    let mut files = vec![root().join("README.md")];
+    for d in ["src", "crates", "tests", "benches", "examples", "docs"] {
+        sources(&root().join(d), &["rs", "md", "toml", "py", "sh"], &mut files);
+    }
+    let mut citations = 0;
+    let mut bad = Vec::new();
+    for f in &files {
+        if f.ends_with("tests/it/doc_claims.rs") {
+            continue; // this file names the form in its own checks
+        }
+        let Ok(text) = std::fs::read_to_string(f) else { continue };
+        for (at, _) in text.match_indices("DESIGN_SPEC §") {
+            let rest = &text[at + "DESIGN_SPEC §".len()..];
+            let n: String = rest.chars().take_while(char::is_ascii_digit).collect();
+            if n.is_empty() && rest.starts_with('N') {
+                continue; // `DESIGN_SPEC §N`: the form of a citation, not one
+            }
+            citations += 1;
+            if !sections.contains(&n) {
+                bad.push(format!("{}: §{n}", f.strip_prefix(root()).unwrap_or(f).display()));
+            }
+        }
+    }
+    assert!(citations > 20, "only {citations} citations found: the scan is broken");
+    assert!(bad.is_empty(), "citations of sections docs/DESIGN_SPEC.md does not have:\n{}", bad.join("\n"));
+}
+
+/// The keys the scene reader accepts in one table: what it names when it refuses an unknown key there.
+fn accepted_keys(scene: &str) -> Vec<String> {
+    let err = match Scene::parse(scene, Path::new("probe.toml")) {
+        Ok(_) => panic!("an unknown key was accepted:\n{scene}"),
+        Err(e) => e.to_string(),
+    };
+    let list = err.split_once("expected one of").map(|(_, l)| l.to_string()).unwrap_or_else(|| {
+        panic!("the reader's refusal of an unknown key does not list the known ones: {err}");
+    });
+    list.split('`').skip(1).step_by(2).map(str::to_string).collect()
+}
+
+#[test]
+fn every_scene_key_the_reader_accepts_is_documented() {
+    let scene_md = std::fs::read_to_string(root().join("docs/formats/scene.md")).expect("scene.md");
+    let dial_md = std::fs::read_to_string(root().join("docs/formats/dial.md")).expect("dial.md");
+    let head = "palette = \"p.toml\"\nvolume = \"v.nhdr\"\n";
+    let probes = [
+        ("top level", "zz_unknown = 1\n".to_string(), &scene_md),
+        ("[[materials]]", format!("{head}[[materials]]\nzz_unknown = 1\n"), &scene_md),
+        ("[camera]", format!("{head}[camera]\nzz_unknown = 1\n"), &scene_md),
+        ("[dial]", format!("{head}[dial]\nzz_unknown = 1\n"), &scene_md),
+        ("[[dial.keyframes]]", format!("{head}[[dial.keyframes]]\nzz_unknown = 1\n"), &dial_md),
+        ("[render]", format!("{head}[render]\nzz_unknown = 1\n"), &scene_md),
+        ("[raw]", format!("{head}[raw]\nzz_unknown = 1\n"), &scene_md),
+    ];
+    let mut undocumented = Vec::new();
+    for (table, text, doc) in probes {
+        let keys = accepted_keys(&text);
+        assert!(!keys.is_empty(), "{table}: no keys listed");
+        for k in keys {
+            // A row of a key table (`| `k` |`, tables as `| `[k]` |` or `| `[[k]]` |`), or a key of a
+            // commented TOML example at the start of a line (dial.md's keyframe block).
+            let documented =
+                [format!("| `{k}` |"), format!("| `[{k}]` |"), format!("| `[[{k}]]` |"), format!("\n{k} = ")]
+                    .iter()
+                    .any(|form| doc.contains(form.as_str()));
+            if !documented {
+                undocumented.push(format!("{table}: `{k}`"));
+            }
+        }
+    }
+    assert!(
+        undocumented.is_empty(),
+        "scene keys the reader accepts but the format pages do not list:\n{}",
+        undocumented.join("\n")
+    );
+}
