@@ -1,9 +1,13 @@
-//! Per-brick fields the marcher samples besides the raw values, built lazily: a brick's block is
-//! computed the first time a ray needs it (under a `OnceLock`, so each block is built once whichever
-//! thread gets there first, and its contents depend only on the volume and the transfer function:
-//! frames stay byte-identical run to run). Rays stop at the first opaque surface and skip empty
-//! bricks, so only the bricks rays actually reach are ever built — a fraction of the volume — instead
-//! of a whole-volume grid per raycast.
+//! Per-brick fields the marcher samples besides the raw values, built on demand and bounded: a brick's
+//! block is computed the first time a ray needs it (under its slot's lock, so each resident block is
+//! built once whichever thread gets there first, and its contents depend only on the volume and the
+//! transfer function). Rays stop at the first opaque surface and skip empty bricks, so only the bricks
+//! rays actually reach are built — a fraction of the volume — instead of a whole-volume grid per
+//! raycast. A thin transfer function lets rays reach every brick, so the resident blocks are capped
+//! ([`default_field_cache`]: half the voxels' bytes, at least 64 MiB; `RaycastOptions::field_cache`) and
+//! the least recently used are evicted (a clock with a second chance); a block needed again is rebuilt,
+//! identical, so frames are byte-identical whatever the cap (`tests.rs` checks it with a cap that
+//! evicts almost everything).
 //!
 //! A block covers the `BRICK + 1` voxels per axis of one 8³ brick plus the one-voxel seam to its
 //! upper neighbours, so every trilinear cell that starts in the brick finds its eight corners in it.
@@ -15,16 +19,15 @@
 //!   cell fetch). The field is the value (trilinear mode, `h` = 1) or the step-corrected opacity
 //!   (nearest mode, `h` = 2).
 //! - **label fields** (label mode): per material present, the shape-based signed distance of
-//!   `labels` (see there, `u16`) and its gradient, one `i16` triple per material and entry. Label
-//!   mode also classifies every voxel once per raycast (one byte a voxel), so blocks read materials
-//!   without a transfer-function lookup.
+//!   `labels` (see there, `u16`) and its gradient, one `i16` triple per material and entry; a block
+//!   classifies the voxels around it by the transfer function's table as it is built.
 
 use super::classify::Classifier;
 use super::labels;
 use crate::volume::Volume;
-use rayon::prelude::*;
-use std::sync::OnceLock;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 
 /// log2 of the brick edge.
 pub(super) const SHIFT: u32 = 3;
@@ -35,6 +38,16 @@ const BRICK: usize = FIELD_BRICK;
 pub(super) const S: usize = BRICK + 1;
 /// Block entries.
 pub(super) const S3: usize = S * S * S;
+
+/// The least cap of the resident blocks (within the 160 MiB that [`crate::memory::render_estimate`] gives
+/// besides the voxels and their half): a small volume keeps all the blocks its rays reach.
+pub const MIN_FIELD_CACHE: u64 = 64 * crate::memory::MIB;
+
+/// The default cap of the resident field blocks for a volume of `voxel_bytes`: half its voxels (the
+/// derived-field share of [`crate::memory::render_estimate`]), at least [`MIN_FIELD_CACHE`].
+pub fn default_field_cache(voxel_bytes: u64) -> u64 {
+    (voxel_bytes / 2).max(MIN_FIELD_CACHE)
+}
 
 /// What a [`Fields`] holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,24 +70,69 @@ pub(super) struct Block {
     pub(crate) sdf: Vec<u16>,
 }
 
-/// The lazily built per-brick blocks of one raycast.
+impl Block {
+    /// Heap and header bytes.
+    fn bytes(&self) -> u64 {
+        (self.grad.len() * 6 + self.sdf.len() * 2 + self.mats.len() + std::mem::size_of::<Block>()) as u64
+    }
+}
+
+/// One brick's place in the cache: its block while resident, and whether a ray used it since the
+/// clock hand last passed (the second chance).
+struct Slot {
+    block: Mutex<Option<Arc<Block>>>,
+    used: AtomicBool,
+}
+
+/// A ray's hold on the block it is in: rays stay in a brick for several samples, so the cache is asked
+/// once per brick a ray enters, and the block stays alive for the ray even when the cache evicts it.
+#[derive(Default)]
+pub(super) struct Cursor {
+    brick: usize,
+    block: Option<Arc<Block>>,
+}
+
+/// Counters of a [`Fields`] after a raycast.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct Usage {
+    /// Blocks built (a block evicted and needed again is built again, and counted again).
+    pub(super) built: u64,
+    /// Their bytes.
+    pub(super) built_bytes: u64,
+    /// Blocks evicted to keep the resident bytes within the cap.
+    pub(super) evicted: u64,
+    /// The cap, and the most bytes resident at once (blocks and the per-brick slots).
+    pub(super) cap: u64,
+    pub(super) peak: u64,
+}
+
+/// The per-brick blocks of one raycast, built on demand and bounded: at most `cap` bytes of blocks are
+/// resident (beyond those the running rays hold, one per thread), the least recently used evicted first
+/// (approximated by a clock with a second chance: a block used since the hand last passed is kept once
+/// more). An evicted block needed again is rebuilt — identical, since it depends only on the volume
+/// and the transfer function — so frames are the same whatever the cap.
 pub(super) struct Fields<'a> {
     volume: &'a Volume,
     classifier: &'a Classifier,
     kind: Kind,
     gradients: bool,
     counts: [usize; 3],
-    blocks: Vec<OnceLock<Block>>,
-    /// Label mode: every voxel's material (index + 1, 0 for none), classified once per raycast.
-    materials: Vec<u8>,
+    slots: Vec<Slot>,
+    /// Resident bricks in the order they were built (the clock's circle).
+    clock: Mutex<VecDeque<u32>>,
+    cap: u64,
+    resident: AtomicU64,
+    peak: AtomicU64,
     /// Field units per stored gradient unit.
     pub(crate) scale: f32,
-    bytes: AtomicU64,
+    built_bytes: AtomicU64,
     built: AtomicU64,
+    evicted: AtomicU64,
 }
 
 impl<'a> Fields<'a> {
-    pub fn new(volume: &'a Volume, classifier: &'a Classifier, kind: Kind, gradients: bool) -> Fields<'a> {
+    /// `cap`: the most bytes of blocks kept resident.
+    pub fn new(volume: &'a Volume, classifier: &'a Classifier, kind: Kind, gradients: bool, cap: u64) -> Fields<'a> {
         let d = volume.dims;
         let counts = [0, 1, 2].map(|a| d[a].div_ceil(BRICK).max(1));
         let n = counts[0] * counts[1] * counts[2];
@@ -89,29 +147,36 @@ impl<'a> Fields<'a> {
             _ if bound > 0.0 && bound.is_finite() => bound / f32::from(i16::MAX),
             _ => 1.0,
         };
+        let slots: Vec<Slot> =
+            (0..n).map(|_| Slot { block: Mutex::new(None), used: AtomicBool::new(false) }).collect();
+        let slot_bytes = (n * std::mem::size_of::<Slot>()) as u64;
         Fields {
             volume,
             classifier,
             kind,
             gradients,
             counts,
-            blocks: (0..n).map(|_| OnceLock::new()).collect(),
-            materials: if kind == Kind::Labels {
-                crate::with_voxels!(&volume.voxels, data => {
-                    data.par_iter().map(|v| classifier.material[classifier.bin(v.to_f32())]).collect()
-                })
-            } else {
-                Vec::new()
-            },
+            slots,
+            clock: Mutex::new(VecDeque::new()),
+            cap,
+            resident: AtomicU64::new(slot_bytes),
+            peak: AtomicU64::new(slot_bytes),
             scale,
-            bytes: AtomicU64::new(0),
+            built_bytes: AtomicU64::new(0),
             built: AtomicU64::new(0),
+            evicted: AtomicU64::new(0),
         }
     }
 
-    /// Blocks built so far and their bytes (with the label mode's material map).
-    pub(crate) fn usage(&self) -> (u64, u64) {
-        (self.built.load(Ordering::Relaxed), self.bytes.load(Ordering::Relaxed) + self.materials.len() as u64)
+    /// What the cache did.
+    pub(super) fn usage(&self) -> Usage {
+        Usage {
+            built: self.built.load(Ordering::Relaxed),
+            built_bytes: self.built_bytes.load(Ordering::Relaxed),
+            evicted: self.evicted.load(Ordering::Relaxed),
+            cap: self.cap,
+            peak: self.peak.load(Ordering::Relaxed),
+        }
     }
 
     /// The brick holding cell start `i`.
@@ -120,14 +185,80 @@ impl<'a> Fields<'a> {
         [0, 1, 2].map(|a| (i[a] >> SHIFT).min(self.counts[a] - 1))
     }
 
-    /// The block of the brick holding cell start `i`, and the local index of `i` in it.
+    /// The block of the brick holding cell start `i` (held by the ray's `cursor`), and the local index of
+    /// `i` in it.
     #[inline(always)]
-    pub(crate) fn block(&self, i: [usize; 3]) -> (&Block, usize) {
+    pub(crate) fn block<'c>(&self, i: [usize; 3], cursor: &'c mut Cursor) -> (&'c Arc<Block>, usize) {
         let b = self.brick_of(i);
         let l = [0, 1, 2].map(|a| i[a] - (b[a] << SHIFT));
         let bi = b[0] + self.counts[0] * (b[1] + self.counts[1] * b[2]);
-        let block = self.blocks[bi].get_or_init(|| self.build(b));
-        (block, l[0] + S * (l[1] + S * l[2]))
+        let local = l[0] + S * (l[1] + S * l[2]);
+        if cursor.brick != bi || cursor.block.is_none() {
+            cursor.block = Some(self.fetch(bi, b));
+            cursor.brick = bi;
+        }
+        match &cursor.block {
+            Some(block) => (block, local),
+            None => unreachable!("the cursor was just filled"),
+        }
+    }
+
+    /// The resident block of brick `bi` (at `b`), built when it is not.
+    #[cold]
+    fn fetch(&self, bi: usize, b: [usize; 3]) -> Arc<Block> {
+        let slot = &self.slots[bi];
+        // A panic while a slot was locked (building its block) leaves it empty or whole: either is valid.
+        let mut held = slot.block.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(block) = &*held {
+            if !slot.used.load(Ordering::Relaxed) {
+                slot.used.store(true, Ordering::Relaxed);
+            }
+            return Arc::clone(block);
+        }
+        // Built under the slot's lock: a thread that wants the same brick waits for it rather than building it
+        // twice.
+        let block = Arc::new(self.build(b));
+        *held = Some(Arc::clone(&block));
+        drop(held);
+        let bytes = block.bytes();
+        self.built_bytes.fetch_add(bytes, Ordering::Relaxed);
+        self.built.fetch_add(1, Ordering::Relaxed);
+        self.admit(bi, bytes);
+        block
+    }
+
+    /// Count a newly built block of brick `bi` as resident, evicting others while the cap is exceeded.
+    fn admit(&self, bi: usize, bytes: u64) {
+        let mut clock = self.clock.lock().unwrap_or_else(PoisonError::into_inner);
+        clock.push_back(bi as u32);
+        let mut resident = self.resident.fetch_add(bytes, Ordering::Relaxed) + bytes;
+        // Every block is passed at most twice (the second time its mark is cleared), so this ends.
+        let mut turns = 2 * clock.len();
+        while resident > self.cap && turns > 0 && clock.len() > 1 {
+            turns -= 1;
+            let Some(j) = clock.pop_front() else { break };
+            let slot = &self.slots[j as usize];
+            if j as usize == bi || slot.used.swap(false, Ordering::Relaxed) {
+                clock.push_back(j);
+                continue;
+            }
+            let gone = slot.block.lock().unwrap_or_else(PoisonError::into_inner).take();
+            if let Some(g) = gone {
+                resident = self.resident.fetch_sub(g.bytes(), Ordering::Relaxed) - g.bytes();
+                self.evicted.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        self.peak.fetch_max(resident, Ordering::Relaxed);
+    }
+
+    fn build(&self, b: [usize; 3]) -> Block {
+        match self.kind {
+            Kind::Values | Kind::Opacity => Block { grad: self.build_gradient(b), mats: vec![], sdf: vec![] },
+            Kind::Labels => {
+                let l = labels::build(self.volume, self.classifier, b, self.gradients);
+                Block { grad: l.grad, mats: l.mats, sdf: l.sdf }
+            }
+        }
     }
 
     /// The trilinear interpolation of the block's gradients at local index `base` and fractions `f`
@@ -157,20 +288,6 @@ impl<'a> Fields<'a> {
             out[2] += wc * f32::from(v[2]);
         }
         out.map(|c| c * self.scale)
-    }
-
-    fn build(&self, b: [usize; 3]) -> Block {
-        let block = match self.kind {
-            Kind::Values | Kind::Opacity => Block { grad: self.build_gradient(b), mats: vec![], sdf: vec![] },
-            Kind::Labels => {
-                let l = labels::build(self.volume, &self.materials, b, self.gradients);
-                Block { grad: l.grad, mats: l.mats, sdf: l.sdf }
-            }
-        };
-        let bytes = block.grad.len() * 6 + block.sdf.len() * 2 + block.mats.len() + std::mem::size_of::<Block>();
-        self.bytes.fetch_add(bytes as u64, Ordering::Relaxed);
-        self.built.fetch_add(1, Ordering::Relaxed);
-        block
     }
 
     /// Central differences of the value (or opacity) field, exactly as a whole-volume grid would hold

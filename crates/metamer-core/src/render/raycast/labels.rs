@@ -16,6 +16,7 @@
 //! Shading normals are each material's own distance gradient (central differences one voxel either
 //! side, stored as `i16` triples and interpolated trilinearly): continuous across cells and slices.
 
+use super::classify::Classifier;
 use super::fields::{S, S3, SHIFT};
 use crate::volume::Volume;
 
@@ -63,9 +64,8 @@ pub(super) struct LabelBlock {
 /// most REACH.
 pub(super) const GRAD_SCALE: f32 = LABEL_REACH / i16::MAX as f32;
 
-/// Build the label fields of brick `b`.
-/// `materials`: every voxel's material (index + 1, 0 for none).
-pub(super) fn build(volume: &Volume, materials: &[u8], b: [usize; 3], gradients: bool) -> LabelBlock {
+/// Build the label fields of brick `b`, each voxel's material (index + 1, 0 for none) by `classifier`.
+pub(super) fn build(volume: &Volume, classifier: &Classifier, b: [usize; 3], gradients: bool) -> LabelBlock {
     const R: usize = LABEL_RADIUS;
     let d = volume.dims;
     let sp = volume.spacing;
@@ -86,17 +86,19 @@ pub(super) fn build(volume: &Volume, materials: &[u8], b: [usize; 3], gradients:
     ];
     let coord = |a: usize, j: usize| (o[a] + j as isize).clamp(0, d[a] as isize - 1) as usize;
     let mut labels = vec![0u8; nx * ny * nz];
-    for z in 0..nz {
-        let vz = coord(2, z);
-        for y in 0..ny {
-            let row = d[0] * (coord(1, y) + d[1] * vz);
-            let src = &materials[row..row + d[0]];
-            let dst = &mut labels[nx * (y + ny * z)..][..nx];
-            for (x, l) in dst.iter_mut().enumerate() {
-                *l = src[coord(0, x)];
+    crate::with_voxels!(&volume.voxels, data => {
+        for z in 0..nz {
+            let vz = coord(2, z);
+            for y in 0..ny {
+                let row = d[0] * (coord(1, y) + d[1] * vz);
+                let src = &data[row..row + d[0]];
+                let dst = &mut labels[nx * (y + ny * z)..][..nx];
+                for (x, l) in dst.iter_mut().enumerate() {
+                    *l = classifier.material[classifier.bin(src[coord(0, x)].to_f32())];
+                }
             }
         }
-    }
+    });
     // The blurred distance is read over the block and its one-voxel rim (G³); the unblurred one over
     // that grown by the blur (W per axis), whose window starts at (x0, y0) in the region.
     const G: usize = S + 2;

@@ -1,13 +1,14 @@
 //! Marching one ray: sample reconstruction, classification, shading and front-to-back compositing.
 
 use super::classify::{BrickMap, Classifier, EMPTY, MIXED};
-use super::fields::{Block, CORNERS, FIELD_BRICK, Fields, S3, corner_weights};
+use super::fields::{Block, CORNERS, Cursor, FIELD_BRICK, Fields, S3, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 use super::view::View;
 use super::{
     Gradient, Interpolation, MAX_MATERIALS, RaycastOptions, RaycastStats, Shading, interleaved_gradient_noise,
 };
 use crate::volume::Volume;
+use std::sync::Arc;
 
 /// The eight voxels around a sample and the sample's fractional position among them
 /// (`v[x + 2y + 4z]`).
@@ -99,8 +100,9 @@ struct ValueSample {
 }
 
 /// A label sample before compositing.
-struct LabelSample<'a> {
-    block: Option<&'a Block>,
+struct LabelSample {
+    /// Held here: the substeps before this sample's composite may move the ray's cursor.
+    block: Option<Arc<Block>>,
     base: usize,
     f: [f32; 3],
     /// Occupancy per material of the block (normalised to sum at most 1).
@@ -146,7 +148,13 @@ trait Sampler<'a> {
     /// The sample at index-space point `p`, or the field brick no material reaches (label mode).
     /// `uniform`: the material (index + 1) every value of the sample's brick maps to, or
     /// [`MIXED`] (value classes only; label mode always passes `MIXED`).
-    fn sample(ctx: &RayContext<'a>, p: [f64; 3], at: Located, uniform: u8) -> Result<Self::Sample, [usize; 3]>;
+    fn sample(
+        ctx: &RayContext<'a>,
+        p: [f64; 3],
+        at: Located,
+        uniform: u8,
+        cursor: &mut Cursor,
+    ) -> Result<Self::Sample, [usize; 3]>;
     fn edge(s: &Self::Sample) -> Edge;
     /// Whether the step between samples with these edges is refined.
     fn refine(a: &Edge, b: &Edge) -> bool;
@@ -154,7 +162,14 @@ trait Sampler<'a> {
     fn dense(e: &Edge) -> bool;
     /// Composite a sample standing for a whole step (`sub` false) or a substep: adds its weights,
     /// returns the opacity absorbed.
-    fn composite(ctx: &RayContext<'a>, s: &Self::Sample, sub: bool, transmittance: f32, out: &mut [f32]) -> f32;
+    fn composite(
+        ctx: &RayContext<'a>,
+        s: &Self::Sample,
+        sub: bool,
+        transmittance: f32,
+        out: &mut [f32],
+        cursor: &mut Cursor,
+    ) -> f32;
 }
 
 /// Value classes (trilinear or nearest).
@@ -165,7 +180,7 @@ struct Labels;
 impl<'a> Sampler<'a> for Values {
     type Sample = ValueSample;
     #[inline(always)]
-    fn sample(ctx: &RayContext<'a>, p: [f64; 3], at: Located, uniform: u8) -> Result<ValueSample, [usize; 3]> {
+    fn sample(ctx: &RayContext<'a>, p: [f64; 3], at: Located, uniform: u8, _: &mut Cursor) -> Result<ValueSample, [usize; 3]> {
         Ok(if uniform == MIXED { ctx.value_sample(p, at) } else { ctx.uniform_sample(at, uniform) })
     }
     #[inline(always)]
@@ -181,20 +196,27 @@ impl<'a> Sampler<'a> for Values {
         e.level >= Edge::DENSE
     }
     #[inline(always)]
-    fn composite(ctx: &RayContext<'a>, s: &ValueSample, sub: bool, transmittance: f32, out: &mut [f32]) -> f32 {
+    fn composite(
+        ctx: &RayContext<'a>,
+        s: &ValueSample,
+        sub: bool,
+        transmittance: f32,
+        out: &mut [f32],
+        cursor: &mut Cursor,
+    ) -> f32 {
         let c = ctx.classifier;
-        ctx.composite_values(s, if sub { &c.alpha_sub } else { &c.alpha }, transmittance, out)
+        ctx.composite_values(s, if sub { &c.alpha_sub } else { &c.alpha }, transmittance, out, cursor)
     }
 }
 
 impl<'a> Sampler<'a> for Labels {
-    type Sample = LabelSample<'a>;
+    type Sample = LabelSample;
     #[inline(always)]
-    fn sample(ctx: &RayContext<'a>, _: [f64; 3], at: Located, _: u8) -> Result<LabelSample<'a>, [usize; 3]> {
-        ctx.label_sample(at)
+    fn sample(ctx: &RayContext<'a>, _: [f64; 3], at: Located, _: u8, cursor: &mut Cursor) -> Result<LabelSample, [usize; 3]> {
+        ctx.label_sample(at, cursor)
     }
     #[inline(always)]
-    fn edge(s: &LabelSample<'a>) -> Edge {
+    fn edge(s: &LabelSample) -> Edge {
         Edge { near: s.near, material: 0, level: s.total }
     }
     #[inline(always)]
@@ -207,7 +229,7 @@ impl<'a> Sampler<'a> for Labels {
         false
     }
     #[inline(always)]
-    fn composite(ctx: &RayContext<'a>, s: &LabelSample<'a>, sub: bool, transmittance: f32, out: &mut [f32]) -> f32 {
+    fn composite(ctx: &RayContext<'a>, s: &LabelSample, sub: bool, transmittance: f32, out: &mut [f32], _: &mut Cursor) -> f32 {
         let c = ctx.classifier;
         ctx.composite_labels(s, if sub { &c.material_alpha_sub } else { &c.material_alpha }, transmittance, out)
     }
@@ -312,9 +334,9 @@ impl<'a> RayContext<'a> {
 
     /// The smooth gradient at a located sample (cell start `i`, fractions `f`).
     #[inline(always)]
-    fn smooth_gradient(&self, i: [usize; 3], f: [f32; 3]) -> [f32; 3] {
+    fn smooth_gradient(&self, i: [usize; 3], f: [f32; 3], cursor: &mut Cursor) -> [f32; 3] {
         let Some(fields) = self.fields else { return [0.0; 3] };
-        let (block, base) = fields.block(i);
+        let (block, base) = fields.block(i, cursor);
         fields.gradient(block, base, f)
     }
 
@@ -359,7 +381,14 @@ impl<'a> RayContext<'a> {
     /// Composite a value sample with opacities `alpha` (per bin, for the step it stands for): adds its
     /// material's weight, returns the opacity it absorbs.
     #[inline(always)]
-    fn composite_values(&self, s: &ValueSample, alpha: &[f32], transmittance: f32, out: &mut [f32]) -> f32 {
+    fn composite_values(
+        &self,
+        s: &ValueSample,
+        alpha: &[f32],
+        transmittance: f32,
+        out: &mut [f32],
+        cursor: &mut Cursor,
+    ) -> f32 {
         let m = usize::from(s.material);
         if m == 0 {
             return 0.0;
@@ -367,7 +396,7 @@ impl<'a> RayContext<'a> {
         let alpha = alpha[s.bin];
         let shade = match (self.options.shading, self.options.gradient) {
             (Shading::Unshaded, _) => 1.0,
-            (_, Gradient::Smooth) => self.shade(self.smooth_gradient(s.at.i, s.at.f)),
+            (_, Gradient::Smooth) => self.shade(self.smooth_gradient(s.at.i, s.at.f, cursor)),
             (_, Gradient::Cell) => {
                 self.shade(s.cell.as_ref().map_or_else(|| self.cell_at(s.at).gradient(), Cell::gradient))
             }
@@ -379,7 +408,7 @@ impl<'a> RayContext<'a> {
     /// Label sample: every nearby material's signed distance, interpolated trilinearly and turned into
     /// an occupancy ([`labels::ramp`]). `Err` names the field brick when no material reaches it.
     #[inline(always)]
-    fn label_sample(&self, at: Located) -> Result<LabelSample<'a>, [usize; 3]> {
+    fn label_sample(&self, at: Located, cursor: &mut Cursor) -> Result<LabelSample, [usize; 3]> {
         let Some(fields) = self.fields else {
             return Ok(LabelSample {
                 block: None,
@@ -391,7 +420,7 @@ impl<'a> RayContext<'a> {
             });
         };
         let Located { i, f, .. } = at;
-        let (block, base) = fields.block(i);
+        let (block, base) = fields.block(i, cursor);
         let n = block.mats.len();
         if n == 0 {
             return Err(fields.brick_of(i));
@@ -423,7 +452,7 @@ impl<'a> RayContext<'a> {
             occ[..n].iter_mut().for_each(|o| *o /= sum);
             sum = 1.0;
         }
-        Ok(LabelSample { block: Some(block), base, f, occ, total: sum, near })
+        Ok(LabelSample { block: Some(Arc::clone(block)), base, f, occ, total: sum, near })
     }
 
     /// Composite a label sample with per-material opacities `alpha` (for the step it stands for): each
@@ -431,7 +460,7 @@ impl<'a> RayContext<'a> {
     /// returns the opacity absorbed.
     #[inline(always)]
     fn composite_labels(&self, s: &LabelSample, alpha: &[f32], transmittance: f32, out: &mut [f32]) -> f32 {
-        let (Some(block), Some(fields)) = (s.block, self.fields) else { return 0.0 };
+        let (Some(block), Some(fields)) = (s.block.as_deref(), self.fields) else { return 0.0 };
         if s.total <= 0.0 {
             return 0.0;
         }
@@ -524,6 +553,7 @@ impl<'a> RayContext<'a> {
         let mut prev = Edge::EMPTY;
         // The step after a refined entry into a dense material is refined as well.
         let mut carry = false;
+        let mut cursor = Cursor::default();
         while k + jitter <= t1 {
             let t = k + jitter;
             let p = [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
@@ -545,7 +575,7 @@ impl<'a> RayContext<'a> {
             }
             stats.samples += 1;
             stats.uniform += u64::from(uniform != MIXED);
-            let sample = match K::sample(self, p, at, uniform) {
+            let sample = match K::sample(self, p, at, uniform, &mut cursor) {
                 Ok(s) => s,
                 // No material reaches this field brick: with skipping on, jump over it.
                 Err(b) => {
@@ -579,13 +609,15 @@ impl<'a> RayContext<'a> {
                     let pj = [origin[0] + tj * dir[0], origin[1] + tj * dir[1], origin[2] + tj * dir[2]];
                     stats.samples += 1;
                     // A substep may lie in the brick before this sample's: reconstruct it in full.
-                    let Ok(sj) = K::sample(self, pj, self.locate(pj), MIXED) else { continue };
-                    if self.attenuate(K::composite(self, &sj, true, transmittance, out), &mut transmittance, stats) {
+                    let Ok(sj) = K::sample(self, pj, self.locate(pj), MIXED, &mut cursor) else { continue };
+                    let absorbed = K::composite(self, &sj, true, transmittance, out, &mut cursor);
+                    if self.attenuate(absorbed, &mut transmittance, stats) {
                         return;
                     }
                 }
             }
-            if self.attenuate(K::composite(self, &sample, refine, transmittance, out), &mut transmittance, stats) {
+            let absorbed = K::composite(self, &sample, refine, transmittance, out, &mut cursor);
+            if self.attenuate(absorbed, &mut transmittance, stats) {
                 break;
             }
             k += 1.0;

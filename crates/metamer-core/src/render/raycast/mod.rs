@@ -7,7 +7,8 @@
 //! Files: this one holds the public types and [`raycast`] (setup and tiles); `classify` the transfer
 //! function's lookup tables, the min/max [`BrickMap`] and the framed voxels (their runs along x, which
 //! the camera projects to fit their silhouette); `view` the camera
-//! geometry; `fields` the lazily built per-brick fields (smooth gradients, smoothed label occupancy);
+//! geometry; `fields` the per-brick fields built on demand, capped with least-recently-used eviction
+//! (smooth gradients, smoothed label occupancy);
 //! `march` one ray's sampling, shading and compositing.
 //!
 //! Sampling quality (each switchable in [`RaycastOptions`], costs in `metamer bench render`):
@@ -27,7 +28,9 @@
 //!   for CT, opacity for nearest sampling, smoothed total opacity for labels) one voxel either side,
 //!   which is the gradient of a smoothed field: continuous across voxel cells, so no faceted terraces.
 //!   They are precomputed per voxel (`i16` triples) only in the bricks rays reach, each brick's block
-//!   built the first time a ray needs it, and interpolated trilinearly at shaded samples only.
+//!   built the first time a ray needs it (at most [`RaycastOptions::field_cache`] bytes resident, the
+//!   least recently used evicted and rebuilt when needed again), and interpolated trilinearly at
+//!   shaded samples only.
 //! - **shape-based labels** ([`Interpolation::Labels`]): for label volumes each material gets, per
 //!   brick reached, the signed distance to its boundary within each z slice (a 2D distance transform,
 //!   clamped at [`LABEL_REACH`] voxels), smoothed by a small Gaussian ([`LABEL_SIGMA`] voxels,
@@ -168,6 +171,9 @@ pub struct RaycastOptions {
     pub empty_space_skipping: bool,
     /// Edge of a skipping brick in voxels (rounded up to a power of two).
     pub brick_size: usize,
+    /// The most bytes of derived-field blocks (smooth gradients, label distances) kept resident; None:
+    /// [`default_field_cache`] of the volume. The cap changes the time, never the frame.
+    pub field_cache: Option<u64>,
 }
 
 impl Default for RaycastOptions {
@@ -186,6 +192,7 @@ impl Default for RaycastOptions {
             termination_transmittance: TERMINATION_TRANSMITTANCE,
             empty_space_skipping: true,
             brick_size: 8,
+            field_cache: None,
         }
     }
 }
@@ -250,9 +257,14 @@ pub struct RaycastStats {
     pub bricks: u64,
     pub empty_bricks: u64,
     pub uniform_bricks: u64,
-    /// Per-brick field blocks built (smooth gradients, smoothed label occupancy) and their bytes.
+    /// Per-brick field blocks built (smooth gradients, smoothed label occupancy; one evicted and needed
+    /// again counts again) and their bytes.
     pub field_blocks: u64,
     pub field_bytes: u64,
+    /// Field blocks evicted to stay within the cap, the cap, and the most bytes resident at once.
+    pub field_evicted: u64,
+    pub field_cap: u64,
+    pub field_peak: u64,
 }
 
 impl RaycastStats {
@@ -276,6 +288,7 @@ mod view;
 
 pub use classify::BrickMap;
 use classify::{BrickTable, Classifier, MaterialRows};
+pub use fields::{MIN_FIELD_CACHE, default_field_cache};
 use fields::{Fields, Kind};
 pub use labels::{LABEL_RADIUS, LABEL_RAMP, LABEL_REACH, LABEL_SIGMA};
 pub use march::REFINED_STEP;
@@ -322,7 +335,8 @@ pub fn raycast(
         Interpolation::Nearest => Kind::Opacity,
         Interpolation::Labels => Kind::Labels,
     };
-    let fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients));
+    let cap = options.field_cache.unwrap_or_else(|| default_field_cache(volume.voxels.bytes() as u64));
+    let fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients, cap));
     let ctx = RayContext {
         volume,
         classifier: &classifier,
@@ -382,7 +396,9 @@ pub fn raycast(
         }
     }
     if let Some(f) = &fields {
-        (stats.field_blocks, stats.field_bytes) = f.usage();
+        let u = f.usage();
+        (stats.field_blocks, stats.field_bytes, stats.field_evicted, stats.field_cap, stats.field_peak) =
+            (u.built, u.built_bytes, u.evicted, u.cap, u.peak);
     }
     if let Some(t) = &table {
         (stats.bricks, stats.empty_bricks, stats.uniform_bricks) =

@@ -316,6 +316,49 @@ fn fields_are_built_only_where_rays_reach() {
     assert!(max_diff < 1e-5, "skipping changed the smoothed-label image by {max_diff}");
 }
 
+#[test]
+fn a_field_cache_that_evicts_keeps_the_frames_byte_identical() {
+    // Thin materials let rays reach most bricks; a cap of a few blocks evicts nearly every block many
+    // times over (rebuilt on the next visit, on whichever thread), and the image must not change by a bit.
+    let engine = crate::volume::generate::engine_like(64);
+    let thin = [
+        MaterialClass::new([18.0, 75.0], 0.02),
+        MaterialClass::new([105.0, 175.0], 0.03),
+        MaterialClass::new([200.0, 255.0], 0.2),
+    ];
+    let plane = tilted_plane(48);
+    let label = [MaterialClass::new([3.0, 3.0], 0.9)];
+    let cam = Camera { azimuth_deg: 20.0, elevation_deg: 60.0, ..Camera::default() };
+    for (vol, mats, interpolation) in [
+        (&engine, &thin[..], Interpolation::Trilinear),
+        (&engine, &thin[..], Interpolation::Nearest),
+        (&plane, &label[..], Interpolation::Labels),
+    ] {
+        let base = RaycastOptions { width: 64, height: 64, interpolation, ..Default::default() };
+        let (whole, s_whole) = raycast(vol, mats, None, &cam, &base);
+        assert_eq!(s_whole.field_evicted, 0, "{interpolation:?}: the default cap holds a small volume's blocks");
+        assert_eq!(s_whole.field_cap, MIN_FIELD_CACHE);
+        // Room for the slots and about four blocks.
+        let slots = s_whole.field_peak - s_whole.field_bytes;
+        let one = s_whole.field_bytes / s_whole.field_blocks;
+        let cap = slots + 4 * one;
+        let tiny = RaycastOptions { field_cache: Some(cap), ..base };
+        for run in 0..2 {
+            let (capped, s) = raycast(vol, mats, None, &cam, &tiny);
+            assert!(capped.data == whole.data, "{interpolation:?} run {run}: the cap changed the image");
+            assert!(
+                s.field_evicted > s_whole.field_blocks / 2 && s.field_blocks > s_whole.field_blocks,
+                "{interpolation:?}: {s:?} vs {s_whole:?}"
+            );
+            // Resident after each admission: within the cap, or the one block just built beyond it (at
+            // most 8 bytes an entry per material in label mode, a gradient triple otherwise).
+            let largest = if interpolation == Interpolation::Labels { mats.len() * 8 } else { 6 } * 729 + 128;
+            assert!(s.field_peak <= cap + largest as u64, "{interpolation:?}: {} resident, cap {cap}", s.field_peak);
+            assert_eq!(s.samples, s_whole.samples);
+        }
+    }
+}
+
 /// A horizontal plate `slices` slices thick through the middle of an `n × n × nz` grid (slices `dz`
 /// apart), `value` in 0.
 fn thin_plate(n: usize, nz: usize, dz: f64, value: f32, slices: usize) -> Volume {
