@@ -12,7 +12,7 @@ use crate::render::overlay::{Corner, DialOverlay};
 use crate::render::raycast::{Gradient, Shading};
 use crate::render::relight::Mode;
 use crate::render::scene::Scene;
-use crate::render::sweep::{SweepOptions, downsample, render_exposure, write_sweep};
+use crate::render::sweep::{PngCompression, SweepOptions, downsample, render_exposure, write_sweep};
 use crate::render::{Acceleration, colour_model, render_views};
 
 /// The dial's formula and scene format, shown by `metamer render --help` (docs/formats/dial.md has more).
@@ -126,6 +126,11 @@ pub struct Args {
     /// Turn off empty-space skipping (for benchmarking).
     #[arg(long)]
     pub(crate) no_empty_space_skipping: bool,
+    /// PNG compression of the frames and the contact sheet: fast (the png crate's fast deflate, the
+    /// default), default (zlib's balanced level, adaptive filters: smaller files, slower) or best (the
+    /// smallest files, slowest). The pixels are the same.
+    #[arg(long, value_enum, default_value_t = CompressionArg::Fast)]
+    pub(crate) png_compression: CompressionArg,
 }
 
 const MIB: f64 = 1024.0 * 1024.0;
@@ -154,6 +159,24 @@ pub(crate) enum ModeArg {
     Factor,
     Full,
     Rgb,
+}
+
+/// `--png-compression`: [`PngCompression`] as command-line values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum CompressionArg {
+    Fast,
+    Default,
+    Best,
+}
+
+impl From<CompressionArg> for PngCompression {
+    fn from(c: CompressionArg) -> PngCompression {
+        match c {
+            CompressionArg::Fast => PngCompression::Fast,
+            CompressionArg::Default => PngCompression::Default,
+            CompressionArg::Best => PngCompression::Best,
+        }
+    }
 }
 
 impl From<ModeArg> for Mode {
@@ -322,6 +345,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
             o
         }),
         title: args.title.clone(),
+        compression: args.png_compression.into(),
         ..SweepOptions::new(args.frames, exposure, args.output.clone())
     };
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
@@ -400,6 +424,7 @@ fn assemble_sheet(
         &scene.dial,
         args.title.as_deref(),
         sheet,
+        args.png_compression.into(),
     )?;
     println!(
         "contact sheet {} of {n} frames {}..{} of {} from {}",

@@ -31,7 +31,7 @@ fn builtin_sweep_writes_frames_and_contact_sheet_and_split_ranges_combine() {
     let all = dir.path().join("all");
     let sheet = dir.path().join("sheet.png");
     let (a, s) = (all.to_str().unwrap(), sheet.to_str().unwrap());
-    ok(&metamer(&[
+    let out = metamer(&[
         "render",
         "--frames",
         "5",
@@ -43,7 +43,15 @@ fn builtin_sweep_writes_frames_and_contact_sheet_and_split_ranges_combine() {
         a,
         "--contact-sheet",
         s,
-    ]));
+    ]);
+    ok(&out);
+    // The summary says what the derived fields took: blocks built, the most resident and the cap (a 32³
+    // volume's blocks fit the 64 MiB floor, so none is evicted).
+    let summary = String::from_utf8_lossy(&out.stdout);
+    let fields = summary.split("derived fields ").nth(1).unwrap_or_default();
+    let built: u64 = fields.split(' ').next().and_then(|n| n.parse().ok()).unwrap_or(0);
+    assert!(built > 0 && fields.contains("resident of a 64 MiB cap (0 evicted)"), "{summary}");
+    assert!(summary.contains("peak memory ") && summary.contains(" MiB\n"), "{summary}");
     for k in 0..5 {
         let img = image::open(frame(&all, k)).unwrap().to_rgb8();
         assert_eq!(img.dimensions(), (40, 40));
@@ -75,6 +83,31 @@ fn builtin_sweep_writes_frames_and_contact_sheet_and_split_ranges_combine() {
     for k in 2..4 {
         assert_eq!(std::fs::read(frame(&part, k)).unwrap(), std::fs::read(frame(&all, k)).unwrap(), "frame {k}");
     }
+}
+
+#[test]
+fn png_compression_changes_the_file_not_the_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |c: Option<&str>| {
+        let out = dir.path().join(c.unwrap_or("unset"));
+        let mut args = vec!["render", "--frames", "2", "--size", "96", "--builtin-volume-size", "48", "-o"];
+        args.push(out.to_str().unwrap());
+        if let Some(c) = c {
+            args.extend(["--png-compression", c]);
+        }
+        ok(&metamer(&args));
+        std::fs::read(frame(&out, 1)).unwrap()
+    };
+    let (unset, fast, default, best) = (run(None), run(Some("fast")), run(Some("default")), run(Some("best")));
+    // fast is the default.
+    assert_eq!(unset, fast);
+    let pixels = |b: &[u8]| image::load_from_memory(b).unwrap().to_rgb8();
+    assert!(pixels(&default) == pixels(&fast) && pixels(&best) == pixels(&fast));
+    assert_ne!(best, fast, "best must be another encoding");
+    assert!(best.len() <= fast.len() && default.len() <= fast.len(), "{} {} {}", fast.len(), default.len(), best.len());
+    let bad = metamer(&["render", "--png-compression", "tiny", "-o", dir.path().join("x").to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && err.contains("--png-compression") && err.contains("best"), "{err}");
 }
 
 /// A long sweep split across machines (README, "Splitting a long sweep across machines"): `--frame-range`

@@ -76,10 +76,28 @@ pub fn frame_srgb8(
     out
 }
 
-/// Encode 8-bit RGB as PNG bytes (fast deflate).
-pub fn encode_png(rgb: &[u8], width: usize, height: usize) -> Result<Vec<u8>, String> {
+/// How hard frames are compressed: the pixels are the same, only the time and the file size differ.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PngCompression {
+    /// The `png` crate's fast deflate with the Sub filter (the default: encoding costs about as much as
+    /// relighting a frame).
+    #[default]
+    Fast,
+    /// zlib's balanced level with adaptive filters: smaller files, several times the encoding time.
+    Default,
+    /// The highest level with adaptive filters: the smallest files, the slowest.
+    Best,
+}
+
+/// Encode 8-bit RGB as PNG bytes.
+pub fn encode_png(rgb: &[u8], width: usize, height: usize, compression: PngCompression) -> Result<Vec<u8>, String> {
     let mut buf = Vec::with_capacity(rgb.len() / 2);
-    PngEncoder::new_with_quality(&mut buf, CompressionType::Fast, FilterType::Sub)
+    let (level, filter) = match compression {
+        PngCompression::Fast => (CompressionType::Fast, FilterType::Sub),
+        PngCompression::Default => (CompressionType::Default, FilterType::Adaptive),
+        PngCompression::Best => (CompressionType::Best, FilterType::Adaptive),
+    };
+    PngEncoder::new_with_quality(&mut buf, level, filter)
         .write_image(rgb, width as u32, height as u32, ExtendedColorType::Rgb8)
         .map_err(|e| e.to_string())?;
     Ok(buf)
@@ -215,6 +233,8 @@ pub struct SweepOptions {
     pub title: Option<String>,
     /// Draw the light dial into every frame before it is written, and so into its tile (None: `--no-dial`).
     pub overlay: Option<super::overlay::DialOverlay>,
+    /// PNG compression of the frames and the contact sheet.
+    pub compression: PngCompression,
 }
 
 impl SweepOptions {
@@ -229,6 +249,7 @@ impl SweepOptions {
             contact_sheet: None,
             title: None,
             overlay: None,
+            compression: PngCompression::Fast,
         }
     }
 }
@@ -284,7 +305,7 @@ pub fn write_sweep(
             if let Some(o) = &options.overlay {
                 o.draw_frame(&mut rgb, image.width, image.height, dial, k, options.frames);
             }
-            let png = encode_png(&rgb, image.width, image.height).map_err(bad)?;
+            let png = encode_png(&rgb, image.width, image.height, options.compression).map_err(bad)?;
             write_file(&path, &png)?;
             drop(rgb);
             progress();
@@ -301,7 +322,7 @@ pub fn write_sweep(
     if let (Some(sheet), Some(layout)) = (&options.contact_sheet, &layout) {
         let labels: Vec<String> = range.clone().map(|k| frame_label(dial, k, options.frames)).collect();
         let img = layout.assemble(&thumbs, &labels, options.title.as_deref());
-        write_contact_sheet_image(sheet, &img)?;
+        write_contact_sheet_image(sheet, &img, options.compression)?;
     }
     Ok(SweepReport { written, seconds: start.elapsed().as_secs_f64() })
 }
@@ -319,6 +340,7 @@ pub fn contact_sheet_from_frames(
     dial: &Dial,
     title: Option<&str>,
     sheet: &Path,
+    compression: PngCompression,
 ) -> Result<usize, RenderError> {
     let bad = |path: &Path, reason: String| RenderError::Invalid(format!("{}: {reason}", crate::fsio::show(path)));
     let mut size = None;
@@ -352,7 +374,7 @@ pub fn contact_sheet_from_frames(
     }
     let layout = layout.ok_or_else(|| RenderError::Invalid("the frame range is empty".into()))?;
     let labels: Vec<String> = range.clone().map(|k| frame_label(dial, k, frames)).collect();
-    write_contact_sheet_image(sheet, &layout.assemble(&tiles, &labels, title))?;
+    write_contact_sheet_image(sheet, &layout.assemble(&tiles, &labels, title), compression)?;
     Ok(tiles.len())
 }
 
@@ -379,8 +401,12 @@ pub(crate) fn frame_label(dial: &Dial, k: usize, frames: usize) -> String {
 }
 
 /// Write a finished contact sheet as PNG (creating its folder).
-pub(crate) fn write_contact_sheet_image(path: &Path, sheet: &RgbImage) -> Result<(), RenderError> {
-    let png = encode_png(sheet.as_raw(), sheet.width() as usize, sheet.height() as usize)
+pub(crate) fn write_contact_sheet_image(
+    path: &Path,
+    sheet: &RgbImage,
+    compression: PngCompression,
+) -> Result<(), RenderError> {
+    let png = encode_png(sheet.as_raw(), sheet.width() as usize, sheet.height() as usize, compression)
         .map_err(|reason| RenderError::Output { path: path.to_path_buf(), reason })?;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)

@@ -147,8 +147,7 @@ impl<'a> Fields<'a> {
             _ if bound > 0.0 && bound.is_finite() => bound / f32::from(i16::MAX),
             _ => 1.0,
         };
-        let slots: Vec<Slot> =
-            (0..n).map(|_| Slot { block: Mutex::new(None), used: AtomicBool::new(false) }).collect();
+        let slots: Vec<Slot> = (0..n).map(|_| Slot { block: Mutex::new(None), used: AtomicBool::new(false) }).collect();
         let slot_bytes = (n * std::mem::size_of::<Slot>()) as u64;
         Fields {
             volume,

@@ -180,7 +180,13 @@ struct Labels;
 impl<'a> Sampler<'a> for Values {
     type Sample = ValueSample;
     #[inline(always)]
-    fn sample(ctx: &RayContext<'a>, p: [f64; 3], at: Located, uniform: u8, _: &mut Cursor) -> Result<ValueSample, [usize; 3]> {
+    fn sample(
+        ctx: &RayContext<'a>,
+        p: [f64; 3],
+        at: Located,
+        uniform: u8,
+        _: &mut Cursor,
+    ) -> Result<ValueSample, [usize; 3]> {
         Ok(if uniform == MIXED { ctx.value_sample(p, at) } else { ctx.uniform_sample(at, uniform) })
     }
     #[inline(always)]
@@ -212,7 +218,13 @@ impl<'a> Sampler<'a> for Values {
 impl<'a> Sampler<'a> for Labels {
     type Sample = LabelSample;
     #[inline(always)]
-    fn sample(ctx: &RayContext<'a>, _: [f64; 3], at: Located, _: u8, cursor: &mut Cursor) -> Result<LabelSample, [usize; 3]> {
+    fn sample(
+        ctx: &RayContext<'a>,
+        _: [f64; 3],
+        at: Located,
+        _: u8,
+        cursor: &mut Cursor,
+    ) -> Result<LabelSample, [usize; 3]> {
         ctx.label_sample(at, cursor)
     }
     #[inline(always)]
@@ -229,7 +241,14 @@ impl<'a> Sampler<'a> for Labels {
         false
     }
     #[inline(always)]
-    fn composite(ctx: &RayContext<'a>, s: &LabelSample, sub: bool, transmittance: f32, out: &mut [f32], _: &mut Cursor) -> f32 {
+    fn composite(
+        ctx: &RayContext<'a>,
+        s: &LabelSample,
+        sub: bool,
+        transmittance: f32,
+        out: &mut [f32],
+        _: &mut Cursor,
+    ) -> f32 {
         let c = ctx.classifier;
         ctx.composite_labels(s, if sub { &c.material_alpha_sub } else { &c.material_alpha }, transmittance, out)
     }

@@ -288,8 +288,8 @@ mod view;
 
 pub use classify::BrickMap;
 use classify::{BrickTable, Classifier, MaterialRows};
-pub use fields::{MIN_FIELD_CACHE, default_field_cache};
 use fields::{Fields, Kind};
+pub use fields::{MIN_FIELD_CACHE, default_field_cache};
 pub use labels::{LABEL_RADIUS, LABEL_RAMP, LABEL_REACH, LABEL_SIGMA};
 pub use march::REFINED_STEP;
 use march::RayContext;
