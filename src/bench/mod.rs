@@ -19,7 +19,9 @@ pub fn output_files(suite: report::Suite) -> &'static [&'static str] {
     match suite {
         report::Suite::Solve => &["solve.md", "solve_scaling.png", "solve_pareto.png"],
         report::Suite::Basis => &["basis.md", "basis_error.png", "basis_cost.png", "basis_pareto.png"],
-        report::Suite::Render => &["render.md", "render_pareto.png", "render_raycast.png", "render_relight.png"],
+        report::Suite::Render => {
+            &["render.md", "render_pareto.png", "render_raycast.png", "render_relight.png", "render_pareto_quality.png"]
+        }
     }
 }
 

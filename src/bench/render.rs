@@ -7,9 +7,20 @@
 //!   RGB (3) models, against the memory-bandwidth bound (bytes a frame must touch ÷ measured bandwidth);
 //! - a 48-frame sweep at 384² (raycast once, relight + PNG per frame) against a single frame: the
 //!   budget is one frame + 20 ms per extra frame;
-//! - mean / p95 / max CIEDE2000 of the factor and RGB models against the full-spectrum frames.
+//! - mean / p95 / max CIEDE2000 of the factor and RGB models against the full-spectrum frames;
+//! - throughput: ns per sample and samples per second per core (process CPU time), what was skipped;
+//! - a large generated u16 volume (512×512×384 in the full run, [`generate::engine_like_u16`]): raycast
+//!   time, throughput, the derived-field cache and the process's peak memory against the budget
+//!   ([`crate::memory::render_estimate`]);
+//! - time against error: each quality setting's raycast time and p99 ΔE00 to a high-quality reference
+//!   (step 0.25, `--ss 2`), with the Pareto front;
+//! - the VTK ratio: `benches/vtk_compare.py` run on the engine CT when it and VTK are there (else the
+//!   reason it was not measured).
 //!
-//! Writes `render.md` and `render_raycast.png`, `render_relight.png` into the output folder.
+//! Writes `render.md` and `render_raycast.png`, `render_relight.png`, `render_pareto_quality.png` into the
+//! output folder.
+//!
+//! [`generate::engine_like_u16`]: crate::volume::generate::engine_like_u16
 
 use super::plot::{Scale, Series, XyPlot, draw};
 use super::{format_seconds, markdown_table, time_runs};
@@ -41,6 +52,10 @@ pub struct RenderBenchOptions {
     pub(crate) accuracy_frames: usize,
     /// Use this volume instead of looking for the shared engine.
     pub(crate) volume: Option<PathBuf>,
+    /// The large generated u16 volume's grid.
+    pub(crate) large_dims: [usize; 3],
+    /// Frames of the time-against-error comparison.
+    pub(crate) quality_frames: usize,
 }
 
 impl Default for RenderBenchOptions {
@@ -54,6 +69,8 @@ impl Default for RenderBenchOptions {
             accuracy_size: 256,
             accuracy_frames: 24,
             volume: None,
+            large_dims: [512, 512, 384],
+            quality_frames: 5,
         }
     }
 }
@@ -67,6 +84,7 @@ pub(crate) struct RaycastRow {
     pub(crate) cpu_s: Option<f64>,
     pub(crate) samples: u64,
     pub(crate) skipped: u64,
+    pub(crate) skipped_bricks: u64,
 }
 
 /// One relight model's timing.
@@ -82,11 +100,37 @@ pub(crate) struct RelightRow {
     pub(crate) bound_s: f64,
 }
 
-/// One sampling-quality configuration's raycast time.
+/// One sampling-quality configuration's raycast time and its error against the high-quality reference.
 #[derive(Clone, Debug)]
 pub(crate) struct QualityRow {
     pub(crate) what: String,
     pub(crate) median_s: f64,
+    pub(crate) error: crate::render::accuracy::FrameError,
+}
+
+/// The large generated volume's raycast.
+#[derive(Clone, Debug)]
+pub(crate) struct LargeRow {
+    pub(crate) dims: [usize; 3],
+    pub(crate) voxel_bytes: u64,
+    pub(crate) generate_s: f64,
+    pub(crate) size: usize,
+    pub(crate) median_s: f64,
+    pub(crate) cpu_s: Option<f64>,
+    pub(crate) stats: crate::render::raycast::RaycastStats,
+    /// Relight + PNG of a few frames after the raycast, per frame.
+    pub(crate) per_frame_s: f64,
+    /// The process's peak resident memory during the raycasts and frames (VmHWM reset before them), and
+    /// what it was measured as.
+    pub(crate) peak_bytes: Option<u64>,
+    pub(crate) peak_note: &'static str,
+}
+
+/// VTK's CPU raycaster on the engine CT against metamer's raycast of the same view.
+#[derive(Clone, Debug)]
+pub(crate) enum VtkRatio {
+    Measured { vtk_s: f64, metamer_s: f64, size: usize, version: String },
+    NotMeasured(String),
 }
 
 impl RenderBenchReport {
@@ -137,6 +181,8 @@ pub struct RenderBenchReport {
     pub(crate) sweep_frames: usize,
     pub(crate) sweep_size: usize,
     pub(crate) accuracy: AccuracyReport,
+    pub(crate) large: LargeRow,
+    pub(crate) vtk: VtkRatio,
     pub(crate) markdown: String,
 }
 
@@ -228,6 +274,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
             cpu_s,
             samples: stats.samples,
             skipped: stats.skipped,
+            skipped_bricks: stats.skipped_bricks,
         });
     }
 
@@ -327,15 +374,27 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
             1,
         ),
         ("default at --ss 2 (raycast 2× per side, averaged)".into(), scene.clone(), 2),
+        ("default at step 2".into(), with(&|s| s.settings.step = 2.0), 1),
+        ("default at step 0.5".into(), with(&|s| s.settings.step = 0.5), 1),
     ];
+    // The reference: every quality step on, step 0.25, --ss 2.
+    let reference = {
+        let sc = with(&|s| s.settings.step = 0.25);
+        let mut v = render_views(&sc, vec![factor.clone()], size * 2, size * 2, Acceleration::default(), None)
+            .pop()
+            .ok_or_else(|| RenderError::Invalid("no view".into()))?;
+        v.image = crate::render::sweep::downsample(&v.image, 2);
+        v
+    };
     let mut quality = Vec::new();
     for (what, sc, ss) in configs {
-        let (timing, _) = time_runs(runs.min(3), || {
-            render_views(&sc, vec![factor.clone()], size * ss, size * ss, Acceleration::default(), None)
-                .pop()
-                .map(|v| crate::render::sweep::downsample(&v.image, ss))
+        let (timing, view) = time_runs(runs.min(3), || {
+            render_views(&sc, vec![factor.clone()], size * ss, size * ss, Acceleration::default(), None).pop()
         });
-        quality.push(QualityRow { what, median_s: timing.median });
+        let view = view.ok_or_else(|| RenderError::Invalid("no view".into()))?;
+        // compare_views box-filters a supersampled view down to the reference's size.
+        let error = crate::render::accuracy::compare_views(&scene, &col, &reference, &view, options.quality_frames);
+        quality.push(QualityRow { what, median_s: timing.median, error });
     }
 
     // The dial overlay alone, per frame (state, trail, panel drawing, labels), on a mid-grey frame.
@@ -353,6 +412,8 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
     };
 
     let accuracy = compare_models(&scene, &col, options.accuracy_size, options.accuracy_frames)?;
+    let large = large_volume(options, &col, &tmp)?;
+    let vtk = vtk_ratio(options, volume_path.as_deref(), &col, runs, &tmp);
 
     let mut report = RenderBenchReport {
         volume: volume_name,
@@ -372,6 +433,8 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
         sweep_frames: options.sweep_frames,
         sweep_size: options.sweep_size,
         accuracy,
+        large,
+        vtk,
         markdown: String::new(),
     };
     report.markdown = markdown(&report, options);
@@ -380,6 +443,119 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
         .map_err(|e| RenderError::Output { path: md.clone(), reason: e.to_string() })?;
     plots(&report, &options.out_dir)?;
     Ok(report)
+}
+
+/// Reset this process's peak resident memory to what it holds now (Linux: `5` into
+/// `/proc/self/clear_refs`); false when it cannot be.
+fn reset_peak_memory() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// The large generated u16 volume: generated, raycast at the raycast size, a few frames relit and written.
+fn large_volume(
+    options: &RenderBenchOptions,
+    col: &Colorimetry,
+    tmp: &tempfile::TempDir,
+) -> Result<LargeRow, RenderError> {
+    let t = Instant::now();
+    let scene = crate::render::scene::generated_u16_check_scene(options.large_dims);
+    let generate_s = t.elapsed().as_secs_f64();
+    let dims = scene.volume.dims;
+    let voxel_bytes = scene.volume.voxels.bytes() as u64;
+    let factor = colour_model(&scene, Mode::Factor, col)?;
+    let reset = reset_peak_memory();
+    let size = options.raycast_size;
+    let runs = options.runs.clamp(1, 3);
+    let cpu0 = process_cpu_seconds();
+    let (timing, view) =
+        time_runs(runs, || render_views(&scene, vec![factor.clone()], size, size, Acceleration::default(), None).pop());
+    let cpu_s = cpu0.zip(process_cpu_seconds()).map(|(a, b)| (b - a) / (runs + 1) as f64);
+    let view = view.ok_or_else(|| RenderError::Invalid("no view".into()))?;
+    let frames = 8;
+    let reflectances: Vec<_> = scene.materials.iter().map(|m| m.spectrum).collect();
+    let exposure = sweep_exposure(col, &reflectances, &scene.dial, frames, 1.0);
+    let mut opts = SweepOptions::new(frames, exposure, tmp.path().join("large"));
+    opts.overlay = Some(DialOverlay::new(&scene.dial, col, size, size));
+    let sweep = write_sweep(&view.image, &view.model, &scene.dial, &opts, &|| {})?;
+    Ok(LargeRow {
+        dims,
+        voxel_bytes,
+        generate_s,
+        size,
+        median_s: timing.median,
+        cpu_s,
+        stats: view.stats,
+        per_frame_s: sweep.seconds / frames as f64,
+        peak_bytes: peak_memory_bytes(),
+        peak_note: if reset {
+            "VmHWM reset after generating the volume: the raycasts and frames, with all the benchmark holds"
+        } else {
+            "VmHWM of the whole benchmark (it could not be reset here)"
+        },
+    })
+}
+
+/// VTK's raycast of the engine CT (`benches/vtk_compare.py`, from the working folder) against metamer's
+/// raycast of the same view (`volumes/engine.toml`, headlight shading, as the script's docstring says).
+fn vtk_ratio(
+    options: &RenderBenchOptions,
+    engine: Option<&Path>,
+    col: &Colorimetry,
+    runs: usize,
+    tmp: &tempfile::TempDir,
+) -> VtkRatio {
+    use crate::render::raycast::Shading;
+    let script = Path::new("benches/vtk_compare.py");
+    let scene_file = Path::new("volumes/engine.toml");
+    let Some(engine) = engine.filter(|p| p.extension().is_some_and(|e| e == "nhdr")) else {
+        return VtkRatio::NotMeasured("no engine CT (engine.nhdr) found: the script renders that volume".into());
+    };
+    if !script.is_file() || !scene_file.is_file() {
+        return VtkRatio::NotMeasured("benches/vtk_compare.py or volumes/engine.toml not in the working folder".into());
+    }
+    let size = options.raycast_size;
+    let out = std::process::Command::new("python3")
+        .arg(script)
+        .arg(engine)
+        .args(["--size", &size.to_string(), "--repeat", &runs.max(3).to_string(), "-o"])
+        .arg(tmp.path().join("vtk.png"))
+        .output();
+    let out = match out {
+        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).into_owned(),
+        Ok(o) => {
+            let err = String::from_utf8_lossy(&o.stderr);
+            let last = err.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("no message");
+            return VtkRatio::NotMeasured(format!(
+                "the script failed (is vtk importable?): {}",
+                crate::fsio::escape(last)
+            ));
+        }
+        Err(e) => return VtkRatio::NotMeasured(format!("python3 did not run: {e}")),
+    };
+    // "VTK 9.7.2 fixed-point raycast 512²: median 123.4 ms of 5 …"
+    let parsed = out.lines().find(|l| l.starts_with("VTK ")).and_then(|l| {
+        let version = l.split_whitespace().nth(1)?.to_string();
+        let ms: f64 = l.split("median ").nth(1)?.split_whitespace().next()?.parse().ok()?;
+        Some((version, ms / 1e3))
+    });
+    let Some((version, vtk_s)) = parsed else {
+        return VtkRatio::NotMeasured("the script's output has no `VTK … median … ms` line".into());
+    };
+    let scene = match Scene::load_with_volume(scene_file, Some(engine)) {
+        Ok(mut s) => {
+            s.settings.shading = Shading::Headlight;
+            s
+        }
+        Err(e) => return VtkRatio::NotMeasured(format!("volumes/engine.toml: {e}")),
+    };
+    let factor = match colour_model(&scene, Mode::Factor, col) {
+        Ok(f) => f,
+        Err(e) => return VtkRatio::NotMeasured(e.to_string()),
+    };
+    let (timing, _) = time_runs(runs.max(3), || {
+        render_views(&scene, vec![factor.clone()], size, size, Acceleration::default(), None).pop()
+    });
+    VtkRatio::Measured { vtk_s, metamer_s: timing.median, size, version }
 }
 
 fn onoff(b: bool) -> &'static str {
@@ -403,6 +579,8 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
                 x.cpu_s.map_or("–".into(), format_seconds),
                 format!("{:.1}", x.samples as f64 / 1e6),
                 format!("{:.1}", x.skipped as f64 / 1e6),
+                format!("{:.2}", x.skipped_bricks as f64 / 1e6),
+                per_sample(x.cpu_s, x.samples),
                 format!("{:.2}×", base / x.median_s.max(1e-12)),
             ]
         })
@@ -426,6 +604,8 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
             "CPU time (all threads)",
             "samples (M)",
             "skipped steps (M)",
+            "empty bricks stepped over (M)",
+            "ns per sample per core (M samples/s per core)",
             "speed-up vs both off",
         ],
         &rows,
@@ -481,14 +661,96 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         r.sweep_size,
         format_seconds(r.overlay_s)
     );
-    s += &format!("\n## Sampling quality: cost of each step (one raycast at {0}×{0})\n\n", o.raycast_size);
+    s += &format!(
+        "\nCPU time per sample is the process's user + system time of a raycast (all threads) over its samples; \
+         the machine's other load inflates wall time, not CPU time.\n"
+    );
+    let l = &r.large;
+    let budget = crate::memory::render_estimate(l.voxel_bytes);
+    s += &format!(
+        "\n## A large generated volume: u16 {}×{}×{} ({} MiB of voxels, generated in {})\n\n",
+        l.dims[0],
+        l.dims[1],
+        l.dims[2],
+        crate::memory::show_mib(l.voxel_bytes),
+        format_seconds(l.generate_s)
+    );
+    s += &markdown_table(
+        &[
+            "image",
+            "median raycast",
+            "samples (M)",
+            "ns per sample per core (M samples/s per core)",
+            "empty bricks stepped over (M)",
+            "field blocks built / evicted, most resident of the cap",
+            "relight + PNG per frame",
+            "peak memory",
+            "budget 1.5 × voxels + 160 MiB",
+        ],
+        &[vec![
+            format!("{0}×{0}", l.size),
+            format_seconds(l.median_s),
+            format!("{:.1}", l.stats.samples as f64 / 1e6),
+            per_sample(l.cpu_s, l.stats.samples),
+            format!("{:.2}", l.stats.skipped_bricks as f64 / 1e6),
+            format!(
+                "{} / {}, {} of {} MiB",
+                l.stats.field_blocks,
+                l.stats.field_evicted,
+                crate::memory::show_mib(l.stats.field_peak),
+                crate::memory::show_mib(l.stats.field_cap)
+            ),
+            format_seconds(l.per_frame_s),
+            l.peak_bytes.map_or("unknown".into(), |b| format!("{} MiB", crate::memory::show_mib(b))),
+            format!(
+                "{} MiB{}",
+                crate::memory::show_mib(budget),
+                match l.peak_bytes {
+                    Some(b) if b <= budget => " ✓ within",
+                    Some(_) => " ✗ over",
+                    None => "",
+                }
+            ),
+        ]],
+    );
+    s += &format!("\nPeak memory: {}.\n", l.peak_note);
+    s += "\n## VTK\n\n";
+    s += &match &r.vtk {
+        VtkRatio::Measured { vtk_s, metamer_s, size, version } => format!(
+            "VTK {version}'s CPU raycaster (`vtkFixedPointVolumeRayCastMapper`, `benches/vtk_compare.py`) renders one RGB \
+             frame of the engine CT at {size}² in {} (median); metamer's raycast of the same view (`volumes/engine.toml`, \
+             headlight, every quality step on, m channels per pixel) takes {}: {:.2}× VTK's frame. Every further frame \
+             of a sweep is a relight, where VTK renders again.\n",
+            format_seconds(*vtk_s),
+            format_seconds(*metamer_s),
+            metamer_s / vtk_s.max(1e-12)
+        ),
+        VtkRatio::NotMeasured(why) => format!("Not measured: {why}.\n"),
+    };
+    s += &format!(
+        "\n## Sampling quality: cost of each step and its error (one raycast at {0}×{0})\n\n\
+         Error: CIEDE2000 per pixel against a high-quality reference (every step on, step 0.25, --ss 2) over a \
+         {1}-frame sweep of 8-bit frames; the Pareto plot `render_pareto_quality.png` sets them against time.\n\n",
+        o.raycast_size, o.quality_frames
+    );
     let base_q = r.quality.first().map_or(1.0, |q| q.median_s);
     let qrows: Vec<Vec<String>> = r
         .quality
         .iter()
-        .map(|q| vec![q.what.clone(), format_seconds(q.median_s), format!("{:.2}×", q.median_s / base_q.max(1e-12))])
+        .map(|q| {
+            vec![
+                q.what.clone(),
+                format_seconds(q.median_s),
+                format!("{:.2}×", q.median_s / base_q.max(1e-12)),
+                format!("{:.3}", q.error.mean),
+                format!("{:.2}", q.error.p99),
+            ]
+        })
         .collect();
-    s += &markdown_table(&["configuration", "median raycast", "against no quality steps"], &qrows);
+    s += &markdown_table(
+        &["configuration", "median raycast", "against no quality steps", "mean ΔE00", "p99 ΔE00"],
+        &qrows,
+    );
     // Jitter's cost in words that agree with the table: it adds no samples, but what it costs is measured.
     let jitter = r.quality.iter().find(|q| q.what == "+ jitter").map(|q| q.median_s / base_q.max(1e-12));
     s += &match jitter {
@@ -507,7 +769,7 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
             .into(),
     };
     s += "The smooth gradient interpolates per-voxel central differences \
-          (i16, 6 bytes an entry) at shaded samples only, built lazily per 8³ brick the first time a ray reaches it; shape-based \
+          (i16, 6 bytes an entry) at shaded samples only, built per 8³ brick the first time a ray reaches it (capped at half the voxels' bytes, least recently used evicted); shape-based \
           labels build, per brick reached, each nearby material's in-slice signed distance (a 2D distance transform per \
           slice, smoothed; u16 per material present) and sample it trilinearly, with one distance gradient per material \
           (here on the CT's value classes; on a label volume such as the frog it replaces voxel terraces by smooth \
@@ -542,9 +804,46 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
     s
 }
 
+/// "ns (M samples/s)" per core from a CPU time and a sample count.
+fn per_sample(cpu_s: Option<f64>, samples: u64) -> String {
+    match cpu_s {
+        Some(c) if c > 0.0 && samples > 0 => {
+            format!("{:.0} ({:.2})", c * 1e9 / samples as f64, samples as f64 / c / 1e6)
+        }
+        _ => "–".into(),
+    }
+}
+
 fn plots(r: &RenderBenchReport, dir: &Path) -> Result<(), RenderError> {
     let plot_err =
         |p: &Path, e: super::plot::PlotError| RenderError::Output { path: p.to_path_buf(), reason: e.to_string() };
+    let series = r
+        .quality
+        .iter()
+        .map(|q| Series {
+            label: q.what.clone(),
+            points: vec![(q.median_s * 1e3, q.error.p99.max(1e-3))],
+            workload: Some("engine".into()),
+            ..Series::default()
+        })
+        .collect();
+    let p = dir.join("render_pareto_quality.png");
+    draw(
+        &XyPlot {
+            title: "Raycast time against p99 ΔE00 to the reference (step 0.25, --ss 2)".into(),
+            x_label: "raycast time (ms)".into(),
+            y_label: "p99 ΔE00".into(),
+            x_scale: Scale::Log,
+            y_scale: Scale::Log,
+            series,
+            pareto: true,
+            ..XyPlot::default()
+        },
+        &p,
+        900,
+        600,
+    )
+    .map_err(|e| plot_err(&p, e))?;
     let series = r
         .raycast
         .iter()

@@ -376,6 +376,8 @@ fn render_section(options: &ReportOptions, report: &mut BenchReport) -> Result<S
         bench.sweep_frames = 4;
         bench.accuracy_size = 48;
         bench.accuracy_frames = 3;
+        bench.large_dims = [128, 128, 96];
+        bench.quality_frames = 2;
     }
     if let Some(r) = options.runs {
         bench.runs = r.max(1);

@@ -36,6 +36,35 @@ fn quick_report_of_every_suite_is_complete() {
         assert!(img.width() >= 600, "{l}");
     }
     assert!(report.headlines.len() >= 5, "{:?}", report.headlines);
+    // The renderer's report: throughput, the large u16 workload with its memory against the budget, the
+    // time-against-error table with its Pareto plot, and the VTK ratio or why it was not measured.
+    let render = std::fs::read_to_string(dir.path().join("render.md")).unwrap();
+    for needle in [
+        "ns per sample per core (M samples/s per core)",
+        "## A large generated volume: u16 128×128×96 (",
+        "budget 1.5 × voxels + 160 MiB",
+        "against a high-quality reference (every step on, step 0.25, --ss 2)",
+        "| default at step 0.5 |",
+        "## VTK",
+    ] {
+        assert!(render.contains(needle), "missing `{needle}` in\n{render}");
+    }
+    assert!(render.contains("× VTK's frame") || render.contains("Not measured: "), "{render}");
+    // The large row reports a peak memory and the field cache, measured, not placeholders.
+    let large =
+        render.lines().find(|l| l.starts_with("| 96×96 |")).unwrap_or_else(|| panic!("no large row:\n{render}"));
+    assert!(large.contains(" MiB |") && large.contains(" of 64 MiB |") && !large.contains("| – |"), "{large}");
+    // Every quality row has a finite error (the reference is a different raycast, so at least one is > 0).
+    let p99: Vec<f64> = render
+        .lines()
+        .skip_while(|l| !l.starts_with("| configuration |"))
+        .skip(2)
+        .take_while(|l| l.starts_with('|'))
+        .filter_map(|l| l.trim_end_matches('|').rsplit('|').next()?.trim().parse().ok())
+        .collect();
+    assert!(p99.len() >= 9 && p99.iter().all(|e| e.is_finite()) && p99.iter().any(|e| *e > 0.0), "{p99:?}");
+    let plot = image::open(dir.path().join("render_pareto_quality.png")).expect("the Pareto plot");
+    assert!(plot.width() >= 600);
 }
 
 #[test]

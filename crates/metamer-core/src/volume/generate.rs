@@ -16,46 +16,67 @@ pub(crate) const INNER_RANGE: [f32; 2] = [200.0, 255.0];
 pub(crate) fn engine_like(size: usize) -> Volume {
     let n = size.clamp(16, 512);
     let dims = [n, n, (n / 2).max(8)];
+    let data: Vec<u8> = engine_values(dims, |v| v.round().clamp(0.0, 255.0) as u8);
+    // The generator only produces finite values in 0..=255 with matching sizes: this cannot fail.
+    Volume::new(Path::new("generated:engine_like"), dims, [1.0; 3], data)
+        .unwrap_or_else(|e| unreachable!("generated volume is consistent: {e}"))
+}
+
+/// Value scale of [`engine_like_u16`]: 8-bit value v becomes v × 257 (255 → 65535).
+pub const U16_SCALE: f32 = 257.0;
+
+/// The same engine-like block on any grid (each axis clamped to 16..=4096), as 16-bit values (the 8-bit
+/// values × [`U16_SCALE`], before rounding, so the parts keep fine gradations): a large CT-like volume in
+/// a modern scanner's type for the renderer's benchmark. The same dims always give the same volume.
+pub fn engine_like_u16(dims: [usize; 3]) -> Volume {
+    let dims = dims.map(|n| n.clamp(16, 4096));
+    let data: Vec<u16> = engine_values(dims, |v| (v * f64::from(U16_SCALE)).round().clamp(0.0, 65535.0) as u16);
+    Volume::new(Path::new("generated:engine_like_u16"), dims, [1.0; 3], data)
+        .unwrap_or_else(|e| unreachable!("generated volume is consistent: {e}"))
+}
+
+/// The engine's values (0–255, unrounded) over `dims`, each turned into a voxel by `cast`; slices in
+/// parallel, in order.
+fn engine_values<T: Send>(dims: [usize; 3], cast: impl Fn(f64) -> T + Sync) -> Vec<T> {
+    use rayon::prelude::*;
     let scale = [1.0 / (dims[0] - 1) as f64, 1.0 / (dims[1] - 1) as f64, 1.0 / (dims[2] - 1) as f64];
     // One voxel in normalised units along x, used to turn distances into coverage.
     let voxel = scale[0];
     let cover = |d: f64| (0.5 - d / voxel).clamp(0.0, 1.0);
-    let mut data = Vec::with_capacity(dims[0] * dims[1] * dims[2]);
-    for z in 0..dims[2] {
-        for y in 0..dims[1] {
-            for x in 0..dims[0] {
-                let (u, v, w) = (x as f64 * scale[0], y as f64 * scale[1], z as f64 * scale[2]);
-                // Smoke: two octaves of value noise, kept only where it is dense enough.
-                let s = 0.65 * value_noise(u * 6.0, v * 6.0, w * 3.0, 1)
-                    + 0.35 * value_noise(u * 14.0, v * 14.0, w * 7.0, 2);
-                // Block: a rounded box.
-                let block = rounded_box(u - 0.5, v - 0.5, (w - 0.5) * 0.5, [0.3, 0.24, 0.18], 0.04);
-                // Smoke hangs in a shell around the block, like reconstruction noise.
-                let s = s - 2.0 * (block - 0.08).max(0.0);
-                let smoke = if s > 0.55 { 20.0 + 100.0 * (s - 0.55) } else { 0.0 };
-                let mut val = smoke.min(70.0);
-                let grain = 12.0 * (hash3(x as i64, y as i64, z as i64, 7) - 0.5);
-                val = lerp(val, 135.0 + grain, cover(block));
-                // Two bores along z through the top of the block.
-                let bore = cylinder_z(u, v, [0.38, 0.5], 0.085)
-                    .max(0.3 - w)
-                    .min(cylinder_z(u, v, [0.62, 0.5], 0.085).max(0.3 - w));
-                val = lerp(val, 0.0, cover(bore));
-                // Pistons inside the bores, and a crankshaft along x below them.
-                let piston = cylinder_z(u, v, [0.38, 0.5], 0.055)
-                    .max((w - 0.85).max(0.35 - w))
-                    .min(cylinder_z(u, v, [0.62, 0.5], 0.055).max((w - 0.75).max(0.35 - w)));
-                let shaft =
-                    (((v - 0.5).powi(2) + ((w - 0.5) * 0.5 + 0.1).powi(2)).sqrt() - 0.035).max((u - 0.5).abs() - 0.42);
-                val = lerp(val, 235.0 + 0.5 * grain, cover(piston.min(shaft)));
-                data.push(val.round().clamp(0.0, 255.0) as u8);
-            }
-        }
-    }
-    let spacing = [1.0, 1.0, 1.0];
-    // The generator only produces finite values in 0..=255 with matching sizes: this cannot fail.
-    Volume::new(Path::new("generated:engine_like"), dims, spacing, data)
-        .unwrap_or_else(|e| unreachable!("generated volume is consistent: {e}"))
+    (0..dims[2])
+        .into_par_iter()
+        .flat_map_iter(|z| {
+            let cast = &cast;
+            (0..dims[1]).flat_map(move |y| {
+                (0..dims[0]).map(move |x| {
+                    let (u, v, w) = (x as f64 * scale[0], y as f64 * scale[1], z as f64 * scale[2]);
+                    // Smoke: two octaves of value noise, kept only where it is dense enough.
+                    let s = 0.65 * value_noise(u * 6.0, v * 6.0, w * 3.0, 1)
+                        + 0.35 * value_noise(u * 14.0, v * 14.0, w * 7.0, 2);
+                    // Block: a rounded box.
+                    let block = rounded_box(u - 0.5, v - 0.5, (w - 0.5) * 0.5, [0.3, 0.24, 0.18], 0.04);
+                    // Smoke hangs in a shell around the block, like reconstruction noise.
+                    let s = s - 2.0 * (block - 0.08).max(0.0);
+                    let smoke = if s > 0.55 { 20.0 + 100.0 * (s - 0.55) } else { 0.0 };
+                    let mut val = smoke.min(70.0);
+                    let grain = 12.0 * (hash3(x as i64, y as i64, z as i64, 7) - 0.5);
+                    val = lerp(val, 135.0 + grain, cover(block));
+                    // Two bores along z through the top of the block.
+                    let bore = cylinder_z(u, v, [0.38, 0.5], 0.085)
+                        .max(0.3 - w)
+                        .min(cylinder_z(u, v, [0.62, 0.5], 0.085).max(0.3 - w));
+                    val = lerp(val, 0.0, cover(bore));
+                    // Pistons inside the bores, and a crankshaft along x below them.
+                    let piston = cylinder_z(u, v, [0.38, 0.5], 0.055)
+                        .max((w - 0.85).max(0.35 - w))
+                        .min(cylinder_z(u, v, [0.62, 0.5], 0.055).max((w - 0.75).max(0.35 - w)));
+                    let shaft = (((v - 0.5).powi(2) + ((w - 0.5) * 0.5 + 0.1).powi(2)).sqrt() - 0.035)
+                        .max((u - 0.5).abs() - 0.42);
+                    cast(lerp(val, 235.0 + 0.5 * grain, cover(piston.min(shaft))))
+                })
+            })
+        })
+        .collect()
 }
 
 fn lerp(a: f64, b: f64, t: f64) -> f64 {
@@ -130,5 +151,18 @@ mod tests {
             assert!(share > lo && share < hi, "{name} covers {share}");
         }
         assert_eq!(a.value_range[0], 0.0);
+    }
+
+    #[test]
+    fn the_u16_engine_is_the_8_bit_one_scaled() {
+        let a = engine_like(32);
+        let b = engine_like_u16([32, 32, 16]);
+        let (Voxels::U8(x), Voxels::U16(y)) = (&a.voxels, &b.voxels) else { panic!("u8 and u16") };
+        assert_eq!(b.dims, a.dims);
+        // The same value before rounding: within half an 8-bit step (and a rounding of each).
+        for (p, q) in x.iter().zip(y) {
+            assert!((f32::from(*q) / U16_SCALE - f32::from(*p)).abs() <= 0.51, "{p} vs {q}");
+        }
+        assert!(b.value_range[1] > 200.0 * U16_SCALE, "{:?}", b.value_range);
     }
 }

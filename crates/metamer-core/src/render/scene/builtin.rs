@@ -112,6 +112,15 @@ pub fn engine_check_scene(volume: Volume) -> Scene {
     )
 }
 
+/// [`generated_check_scene`]'s materials over the 16-bit engine-like volume of `dims`
+/// ([`generate::engine_like_u16`], ranges scaled as its values are).
+pub fn generated_u16_check_scene(dims: [usize; 3]) -> Scene {
+    let (s, b, i) = (generate::SMOKE_RANGE, generate::BLOCK_RANGE, generate::INNER_RANGE);
+    let k = generate::U16_SCALE;
+    let ranges = [s, b, [i[0], 230.0], [230.5, i[1]]].map(|r| r.map(|v| v * k));
+    colorchecker_check_scene(generate::engine_like_u16(dims), ranges, [0.05, 0.15, 0.6, 0.6])
+}
+
 /// [`colorchecker_check_scene`] over the generated engine-like volume.
 pub fn generated_check_scene(size: usize) -> Scene {
     let (s, b, i) = (generate::SMOKE_RANGE, generate::BLOCK_RANGE, generate::INNER_RANGE);
