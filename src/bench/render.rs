@@ -661,10 +661,8 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         r.sweep_size,
         format_seconds(r.overlay_s)
     );
-    s += &format!(
-        "\nCPU time per sample is the process's user + system time of a raycast (all threads) over its samples; \
-         the machine's other load inflates wall time, not CPU time.\n"
-    );
+    s += "\nCPU time per sample is the process's user + system time of a raycast (all threads) over its samples; \
+          the machine's other load inflates wall time, not CPU time.\n";
     let l = &r.large;
     let budget = crate::memory::render_estimate(l.voxel_bytes);
     s += &format!(
