@@ -160,7 +160,7 @@ mod tests {
         let (Voxels::U8(x), Voxels::U16(y)) = (&a.voxels, &b.voxels) else { panic!("u8 and u16") };
         assert_eq!(b.dims, a.dims);
         // The same value before rounding: within half an 8-bit step (and a rounding of each).
-        for (p, q) in x.iter().zip(y) {
+        for (p, q) in x.iter().zip(y.iter()) {
             assert!((f32::from(*q) / U16_SCALE - f32::from(*p)).abs() <= 0.51, "{p} vs {q}");
         }
         assert!(b.value_range[1] > 200.0 * U16_SCALE, "{:?}", b.value_range);
