@@ -297,10 +297,11 @@ impl Dial {
             Sweep::Keyframes(k) => k
                 .iter()
                 .map(|s| {
-                    let at = s.lights.iter().find(|l| dist(l.position, s.slider) < 1e-9).map_or_else(
-                        || format!("[{:.2}, {:.2}]", s.slider[0], s.slider[1]),
-                        |l| l.name.clone(),
-                    );
+                    let at = s
+                        .lights
+                        .iter()
+                        .find(|l| dist(l.position, s.slider) < 1e-9)
+                        .map_or_else(|| format!("[{:.2}, {:.2}]", s.slider[0], s.slider[1]), |l| l.name.clone());
                     let off: Vec<&str> = s.lights.iter().filter(|l| !l.on).map(|l| l.name.as_str()).collect();
                     if off.is_empty() { at } else { format!("{at} ({} off)", off.join(", ")) }
                 })
@@ -421,7 +422,8 @@ mod tests {
 
     #[test]
     fn stages_follow_the_keyframes_in_their_order_with_the_lights_off() {
-        let mut k: Vec<DialState> = [2, 0, 1].iter().map(|&i| DialState { slider: lights()[i].position, ..state() }).collect();
+        let mut k: Vec<DialState> =
+            [2, 0, 1].iter().map(|&i| DialState { slider: lights()[i].position, ..state() }).collect();
         let mut between = state();
         between.slider = [0.25, 0.5];
         between.set_on(2, false).unwrap();

@@ -81,7 +81,8 @@ impl Classifier {
         let absorbs = materials.iter().map(|m| m.absorbs).collect();
         let material_alpha = materials.iter().map(|m| corrected(m.opacity, step)).collect();
         let material_alpha_sub = materials.iter().map(|m| corrected(m.opacity, sub)).collect();
-        let inv_max_gradient = materials.iter().map(|m| m.max_gradient.map_or(0.0, |g| 1.0 / g.max(f32::EPSILON))).collect();
+        let inv_max_gradient =
+            materials.iter().map(|m| m.max_gradient.map_or(0.0, |g| 1.0 / g.max(f32::EPSILON))).collect();
         Classifier {
             lo,
             inv_bin: 1.0 / bin_width,
