@@ -13,7 +13,7 @@ if [ -z "${METAMER:-}" ]; then cargo build --release --quiet; fi
 bin=${METAMER:-target/release/metamer}
 out=target/gallery
 $bin render volumes/engine.toml --frames 12 --size 1024 --ss 2 -o "$out/engine" \
-    --contact-sheet docs/gallery/engine_sheet.png --title "GE engine CT (seed Fig. 6): hide → split → glow"
+    --contact-sheet docs/gallery/engine_sheet.png --title "GE engine CT sweep (volumes/engine.toml; seed Fig. 6 is docs/figures/fig6_engine.png): hide → split → glow"
 cp "$out/engine/frame_0006.png" docs/gallery/engine_frame.png
 $bin render volumes/frog.toml --frames 12 --size 1024 --ss 2 -o "$out/frog" \
     --contact-sheet docs/gallery/frog_sheet.png --title "Whole Frog tissue labels (seed Fig. 7): daylight → reveal → fluorescent"

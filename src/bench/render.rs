@@ -180,6 +180,8 @@ pub struct RenderBenchReport {
     pub(crate) quality: Vec<QualityRow>,
     pub(crate) sweep_frames: usize,
     pub(crate) sweep_size: usize,
+    /// The image size (pixels per side) of the raycast timings.
+    pub(crate) raycast_size: usize,
     pub(crate) accuracy: AccuracyReport,
     pub(crate) large: LargeRow,
     pub(crate) vtk: VtkRatio,
@@ -247,6 +249,13 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
             generated_check_scene(256),
             "generated engine-like 256×256×128 (engine.nhdr not found: set METAMER_DATA or pass --volume)".into(),
         ),
+    };
+    // The data set named with its size (the plots and the report say what was measured).
+    let volume_name = if volume_path.is_some() {
+        let [x, y, z] = scene.volume.dims;
+        format!("{volume_name} ({x}×{y}×{z})")
+    } else {
+        volume_name
     };
     std::fs::create_dir_all(&options.out_dir)
         .map_err(|e| RenderError::Output { path: options.out_dir.clone(), reason: e.to_string() })?;
@@ -432,6 +441,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
         quality,
         sweep_frames: options.sweep_frames,
         sweep_size: options.sweep_size,
+        raycast_size: options.raycast_size,
         accuracy,
         large,
         vtk,
@@ -858,11 +868,12 @@ fn plots(r: &RenderBenchReport, dir: &Path) -> Result<(), RenderError> {
     let p = dir.join("render_raycast.png");
     draw(
         &XyPlot {
-            title: "Raycast: time against samples taken".into(),
+            title: format!("Raycast of {} at {}²: time against samples taken", r.volume, r.raycast_size),
             x_label: "samples (millions)".into(),
             y_label: "time (ms)".into(),
             x_scale: Scale::Linear,
             y_scale: Scale::Linear,
+            y_from_zero: true,
             series,
             ..XyPlot::default()
         },

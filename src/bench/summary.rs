@@ -261,6 +261,7 @@ pub(crate) fn render_tradeoff_plot(report: &RenderBenchReport, path: &Path) -> R
                     .into(),
                 "One workload per frame size.".into(),
             ],
+            y_from_zero: false,
         },
         path,
         900,

@@ -350,7 +350,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     };
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
     bar.finish_and_clear();
-    let path: Vec<String> = scene.dial.visited().iter().map(|l| crate::fsio::escape(&l.name).into_owned()).collect();
+    let path: Vec<String> = scene.dial.stages().iter().map(|l| crate::fsio::escape(l).into_owned()).collect();
     let mut summary = format!(
         "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}\n",
         report.written.len(),

@@ -115,6 +115,8 @@ pub(crate) struct XyPlot {
     pub(crate) x_refs: Vec<(f64, String)>,
     /// Sentences written under the legend (what was left out and why, beyond the automatic counts).
     pub(crate) notes: Vec<String>,
+    /// A linear y axis starts at 0 (so the heights of points compare as ratios); ignored on a log axis.
+    pub(crate) y_from_zero: bool,
 }
 
 impl Default for XyPlot {
@@ -129,6 +131,7 @@ impl Default for XyPlot {
             pareto: false,
             x_refs: Vec::new(),
             notes: Vec::new(),
+            y_from_zero: false,
         }
     }
 }
@@ -331,7 +334,8 @@ pub(crate) fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Resul
     let y_bars = bar_ends(|s| &s.y_spread);
     let refs: Vec<f64> = plot.x_refs.iter().map(|r| r.0).collect();
     let xr = range(all().map(|p| p.0).chain(x_bars).chain(refs), xs).ok_or(PlotError::Empty)?;
-    let yr = range(all().map(|p| p.1).chain(y_bars), ys).ok_or(PlotError::Empty)?;
+    let zero = (plot.y_from_zero && ys == Scale::Linear && all().next().is_some()).then_some(0.0);
+    let yr = range(all().map(|p| p.1).chain(y_bars).chain(zero), ys).ok_or(PlotError::Empty)?;
     let legend_w = LEGEND_W.min(width / 3);
     let chart_w = width - legend_w;
     let x_px = chart_w.saturating_sub(2 * MARGIN + Y_LABEL_AREA).max(50);

@@ -165,6 +165,7 @@ fn draws_a_png_with_text_and_points() {
         y_label: "mean ΔE00".into(),
         x_scale: Scale::Log,
         y_scale: Scale::Linear,
+        y_from_zero: false,
         series: vec![Series {
             label: "a".into(),
             points: vec![(1e-3, 2.0), (1e-2, 1.0), (1e-1, 1.5)],

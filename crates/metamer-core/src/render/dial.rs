@@ -288,11 +288,24 @@ impl Dial {
         }
     }
 
-    /// The lights a frame sweep visits, in order (path: the path; keyframes: every light).
-    pub fn visited(&self) -> Vec<&DialLight> {
+    /// The stages of the sweep in order, as a person reads them: path: the lights visited; keyframes:
+    /// each keyframe's slider as the light whose vertex it sits on (else its point `[0.70, 0.90]`),
+    /// followed by the lights off there (`[0.70, 0.90] (purple off)`). Names are not escaped.
+    pub fn stages(&self) -> Vec<String> {
         match &self.sweep {
-            Sweep::Path(p) => p.iter().map(|&i| &self.base.lights[i]).collect(),
-            Sweep::Keyframes(_) => self.base.lights.iter().collect(),
+            Sweep::Path(p) => p.iter().map(|&i| self.base.lights[i].name.clone()).collect(),
+            Sweep::Keyframes(k) => k
+                .iter()
+                .map(|s| {
+                    let at = s
+                        .lights
+                        .iter()
+                        .find(|l| dist(l.position, s.slider) < 1e-9)
+                        .map_or_else(|| format!("[{:.2}, {:.2}]", s.slider[0], s.slider[1]), |l| l.name.clone());
+                    let off: Vec<&str> = s.lights.iter().filter(|l| !l.on).map(|l| l.name.as_str()).collect();
+                    if off.is_empty() { at } else { format!("{at} ({} off)", off.join(", ")) }
+                })
+                .collect(),
         }
     }
 
@@ -405,6 +418,19 @@ mod tests {
 
     fn state() -> DialState {
         DialState::new(lights()).unwrap()
+    }
+
+    #[test]
+    fn stages_follow_the_keyframes_in_their_order_with_the_lights_off() {
+        let mut k: Vec<DialState> =
+            [2, 0, 1].iter().map(|&i| DialState { slider: lights()[i].position, ..state() }).collect();
+        let mut between = state();
+        between.slider = [0.25, 0.5];
+        between.set_on(2, false).unwrap();
+        k.push(between);
+        let d = Dial::keyframes(state(), k).unwrap();
+        assert_eq!(d.stages(), ["c", "a", "b", "[0.25, 0.50] (c off)"]);
+        assert_eq!(Dial::path(state(), vec![1, 2, 0]).unwrap().stages(), ["b", "c", "a"]);
     }
 
     #[test]

@@ -386,7 +386,9 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
 }
 
 /// The two-line label of frame k of N on a contact sheet: `frame 12 · t 0.26` and the light mix
-/// `hide 48% split 52%` (the lights with a weight of at least 0.5 %).
+/// `hide 48% split 52%` (the lights with a weight of at least 0.5 %), then the lights switched off
+/// (`· purple off`). When the sheet has one frame per stage (N = the keyframes, at most 26), the first
+/// line starts with the panel's letter, `(a) frame 0 · t 0.00`, as the seed's figures are labelled.
 pub(crate) fn frame_label(dial: &Dial, k: usize, frames: usize) -> String {
     let t = Dial::position(k, frames);
     let state = dial.state_at(t);
@@ -397,7 +399,19 @@ pub(crate) fn frame_label(dial: &Dial, k: usize, frames: usize) -> String {
         .filter(|(_, w)| *w >= 0.005)
         .map(|(l, w)| format!("{} {:.0}%", crate::fsio::escape(&l.name), w * 100.0))
         .collect();
-    format!("frame {k} · t {t:.2}\n{}", mix.join(" "))
+    let off: Vec<String> =
+        state.lights.iter().filter(|l| !l.on).map(|l| format!("{} off", crate::fsio::escape(&l.name))).collect();
+    let mut second = mix.join(" ");
+    if !off.is_empty() {
+        second = format!("{second} · {}", off.join(" "));
+    }
+    // One frame per stage (a figure's panels, at most 26): lettered (a), (b), … like the paper's.
+    let panel = if frames == dial.keyframe_count() && frames <= 26 {
+        format!("({}) ", char::from(b'a' + k as u8))
+    } else {
+        String::new()
+    };
+    format!("{panel}frame {k} · t {t:.2}\n{second}")
 }
 
 /// Write a finished contact sheet as PNG (creating its folder).
@@ -591,6 +605,11 @@ mod tests {
         let lit = |x: u32| sheet.get_pixel(x, row2_y).0[0] > 60;
         assert!(!lit(layout.gap + 2) && lit(layout.gap + cell_w / 2 + 2), "last row not centred");
         assert!(frame_label(&dial(), 2, 5).contains("dim 50% bright 50%"));
+        // A sweep of many frames is not lettered; one frame per stage is, (a) … like the seed's figures.
+        assert!(frame_label(&dial(), 2, 5).starts_with("frame 2"));
+        let stages = dial().keyframe_count();
+        assert!(frame_label(&dial(), 0, stages).starts_with("(a) frame 0"), "{}", frame_label(&dial(), 0, stages));
+        assert!(frame_label(&dial(), 1, stages).starts_with("(b) frame 1"));
     }
 
     #[test]

@@ -30,6 +30,8 @@ pub(super) struct Classifier {
     pub(super) material_alpha: Vec<f32>,
     /// Per material: its opacity corrected for a substep.
     pub(super) material_alpha_sub: Vec<f32>,
+    /// Per material: 1 / its `max_gradient` (0: the opacity does not depend on the gradient).
+    pub(super) inv_max_gradient: Vec<f32>,
 }
 
 /// Opacity `a` per voxel step corrected for a step of `step` voxels: `1 − (1 − a)^step`.
@@ -79,6 +81,8 @@ impl Classifier {
         let absorbs = materials.iter().map(|m| m.absorbs).collect();
         let material_alpha = materials.iter().map(|m| corrected(m.opacity, step)).collect();
         let material_alpha_sub = materials.iter().map(|m| corrected(m.opacity, sub)).collect();
+        let inv_max_gradient =
+            materials.iter().map(|m| m.max_gradient.map_or(0.0, |g| 1.0 / g.max(f32::EPSILON))).collect();
         Classifier {
             lo,
             inv_bin: 1.0 / bin_width,
@@ -91,7 +95,26 @@ impl Classifier {
             absorbs,
             material_alpha,
             material_alpha_sub,
+            inv_max_gradient,
         }
+    }
+
+    /// The share of a material's step opacity kept at gradient `g` (value units per voxel index):
+    /// `max(0, 1 − |g| / max_gradient)`, 1 for a material without `max_gradient`. Scaling the
+    /// step-corrected opacity instead of the per-voxel one differs by under 1 % for opacities ≤ 0.1.
+    #[inline(always)]
+    pub(super) fn gradient_share(&self, m: usize, g: [f32; 3]) -> f32 {
+        let inv = self.inv_max_gradient[m];
+        if inv == 0.0 {
+            return 1.0;
+        }
+        (1.0 - (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt() * inv).max(0.0)
+    }
+
+    /// Whether material `m`'s opacity depends on the gradient.
+    #[inline(always)]
+    pub(super) fn gradient_dependent(&self, m: usize) -> bool {
+        self.inv_max_gradient[m] != 0.0
     }
 
     /// Step-corrected opacity of a value (0 outside every material).

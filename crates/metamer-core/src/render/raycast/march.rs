@@ -412,7 +412,15 @@ impl<'a> RayContext<'a> {
         if m == 0 {
             return 0.0;
         }
-        let alpha = alpha[s.bin];
+        let mut alpha = alpha[s.bin];
+        if self.classifier.gradient_dependent(m - 1) {
+            // A transfer function over value and gradient (`max_gradient`): the trilinear gradient.
+            let g = s.cell.as_ref().map_or_else(|| self.cell_at(s.at).gradient(), Cell::gradient);
+            alpha *= self.classifier.gradient_share(m - 1, g);
+            if alpha <= 0.0 {
+                return 0.0;
+            }
+        }
         let shade = match (self.options.shading, self.options.gradient) {
             (Shading::Unshaded, _) => 1.0,
             (_, Gradient::Smooth) => self.shade(self.smooth_gradient(s.at.i, s.at.f, cursor)),

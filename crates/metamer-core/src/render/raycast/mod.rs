@@ -108,12 +108,16 @@ pub struct MaterialClass {
     pub(crate) opacity: f32,
     /// False for an emissive-only material: it adds its colour without attenuating the ray.
     pub absorbs: bool,
+    /// A transfer function over value *and* gradient: the opacity falls linearly with the gradient
+    /// magnitude of the trilinear interpolant (value units per voxel index), from the full `opacity`
+    /// at 0 to 0 at this magnitude (None: the opacity depends on the value alone). Value classes only.
+    pub max_gradient: Option<f32>,
 }
 
 impl MaterialClass {
     /// An absorbing material (the emission–absorption default).
     pub fn new(range: [f32; 2], opacity: f32) -> MaterialClass {
-        MaterialClass { range, opacity, absorbs: true }
+        MaterialClass { range, opacity, absorbs: true, max_gradient: None }
     }
 }
 

@@ -466,3 +466,30 @@ fn framing_centres_the_silhouette_not_the_bounding_box() {
     // Fitted: the larger side fills the frame up to the 4% margin (and a voxel's rim).
     assert!(left.min(top) <= 4, "margins l {left} r {right} t {top} b {bottom}");
 }
+
+/// `max_gradient` (a transfer function over value and gradient): a thin material keeps its opacity
+/// where the field is flat and loses it where the field crosses its range steeply (the skin a smoke
+/// range would otherwise leave on every surface of a denser material).
+#[test]
+fn max_gradient_keeps_flat_smoke_and_drops_the_skin_of_steep_boundaries() {
+    let smoke = MaterialClass::new([5.0, 20.0], 0.05);
+    let fading = MaterialClass { max_gradient: Some(6.0), ..smoke.clone() };
+    let cam = Camera { azimuth_deg: 0.0, elevation_deg: 0.0, ..Camera::default() };
+    let opts = RaycastOptions { width: 32, height: 32, shading: Shading::Unshaded, ..Default::default() };
+    let total = |w: &MaterialWeights, m: usize| w.data.iter().skip(m).step_by(w.materials).sum::<f32>();
+    // A flat cube of smoke (gradient 0 inside): nearly all its weight is kept.
+    let flat = cube(32, 10.0);
+    let (plain, _) = raycast(&flat, std::slice::from_ref(&smoke), None, &cam, &opts);
+    let (faded, _) = raycast(&flat, std::slice::from_ref(&fading), None, &cam, &opts);
+    let (p, f) = (total(&plain, 0), total(&faded, 0));
+    assert!(p > 0.0 && f > 0.8 * p && f <= p, "flat smoke {f} of {p}");
+    // A dense cube: its surface (0 → 200 within a voxel) passes the smoke's range with a gradient of
+    // about 200 per voxel, so the faded smoke leaves no skin there; without the limit it does.
+    let steep = cube(32, 200.0);
+    let block = MaterialClass::new([100.0, 255.0], 0.02);
+    let (skin, _) = raycast(&steep, &[smoke, block.clone()], None, &cam, &opts);
+    let (none, _) = raycast(&steep, &[fading, block], None, &cam, &opts);
+    assert!(total(&skin, 0) > 0.0, "the plain smoke range leaves a skin");
+    assert_eq!(total(&none, 0), 0.0, "no skin with max_gradient");
+    assert!((total(&skin, 1) - total(&none, 1)).abs() < 0.01 * total(&skin, 1));
+}

@@ -9,6 +9,7 @@
 //! range = [80, 255]
 //! opacity = 0.6
 //! absorbs = true             # optional; false = emissive only (adds colour, hides nothing behind it)
+//! max_gradient = 8.0         # optional; opacity falls linearly to 0 at this gradient magnitude (value/voxel)
 //! [camera]
 //! azimuth_deg = 30.0
 //! elevation_deg = 20.0
@@ -122,6 +123,7 @@ struct MaterialFile {
     range: [f64; 2],
     opacity: f64,
     absorbs: Option<bool>,
+    max_gradient: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -282,6 +284,15 @@ impl Scene {
         }
         let camera = camera_of(path, file.camera.as_ref())?;
         let materials = materials_of(path, &palette, &file.materials)?;
+        if settings.interpolation == Interpolation::Labels
+            && let Some(i) = materials.iter().position(|m| m.class.max_gradient.is_some())
+        {
+            return Err(scene_err(
+                path,
+                format!("materials[{i}].max_gradient"),
+                "works on value classes only (render.interpolation \"trilinear\" or \"nearest\"), not \"labels\"",
+            ));
+        }
         let dial = match &file.dial {
             Some(d) => dial_of_file(path, &palette, d)?,
             None => dial_of(path, &palette, None)?,
@@ -323,6 +334,7 @@ impl Scene {
                 range: [f64::from(r[0]), f64::from(r[1])],
                 opacity: *o,
                 absorbs: None,
+                max_gradient: None,
             })
             .collect();
         let materials = materials_of(origin, &palette, &files)?;
@@ -526,6 +538,11 @@ fn materials_of(path: &Path, palette: &Palette, files: &[MaterialFile]) -> Resul
             if !(m.opacity.is_finite() && (0.0..=1.0).contains(&m.opacity)) {
                 return Err(scene_err(path, key("opacity"), format!("{} is outside 0..=1", m.opacity)));
             }
+            if let Some(g) = m.max_gradient
+                && !(g.is_finite() && g > 0.0)
+            {
+                return Err(scene_err(path, key("max_gradient"), format!("{g} is not a positive number")));
+            }
             Ok(Material {
                 reflectance: m.reflectance.clone(),
                 spectrum: palette.reflectances[idx].spectrum,
@@ -533,6 +550,7 @@ fn materials_of(path: &Path, palette: &Palette, files: &[MaterialFile]) -> Resul
                     range: [lo as f32, hi as f32],
                     opacity: m.opacity as f32,
                     absorbs: m.absorbs.unwrap_or(true),
+                    max_gradient: m.max_gradient.map(|g| g as f32),
                 },
             })
         })
