@@ -171,14 +171,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => {
             let mut guard = TerminalGuard::enter()
                 .context("metamer design needs a terminal (use --replay KEYS.txt for headless runs)")?;
-            if state.preview.has_scene() {
-                let (graphics, warning) = Graphics::for_terminal(args.preview);
-                state.preview.graphics = graphics;
-                if let Some(w) = warning {
-                    state.complain(w);
-                }
-            }
-            let mut events = TerminalEvents::new().context("cannot listen for SIGTERM and SIGHUP")?;
+            // The terminal is asked for its graphics once the first screen is drawn, by the input thread.
+            let probe = (state.preview.has_scene() && args.preview != PreviewMode::Halfblocks).then_some(args.preview);
+            state.preview.probing = probe.is_some();
+            let mut events = TerminalEvents::new(probe).context("cannot listen for SIGTERM and SIGHUP")?;
             event_loop::run_main_loop(
                 &mut guard.terminal,
                 &mut state,

@@ -255,12 +255,13 @@ impl State {
     }
 
     /// True while something runs off the UI thread whose outcome will come back as a message: a solve, a
-    /// basis training, a raycast, a CSV import, a file operation.
+    /// basis training, a raycast, a CSV import, a file operation, the terminal's graphics probe.
     pub fn busy(&self) -> bool {
         self.solve.running.is_some()
             || self.solve.training
             || self.preview.pending.is_some()
             || self.preview.saving
+            || self.preview.probing
             || self.doc.import.is_some()
             || self.doc.file_busy
     }

@@ -325,8 +325,10 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
         Some(period) if !synchronous => Some(Ticker::start(tx.clone(), period)?),
         _ => None,
     };
-    events.start(&tx)?;
     let mut runner = Runner { tx, worker, loader: None, saver };
+    // The source starts once the first screen is drawn (a terminal is asked for its graphics then; keys
+    // typed before are read after, none lost).
+    let mut started = false;
     let size = terminal.size().map_err(backend_error)?;
     let mut next = Some(Msg::Start { width: size.width, height: size.height, trains_bases });
     loop {
@@ -344,6 +346,10 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
                     if state.ui.quit {
                         return Ok(());
                     }
+                }
+                if !started {
+                    started = true;
+                    events.start(&runner.tx)?;
                 }
                 if let Some(t) = ticker.as_mut() {
                     t.set(state.busy());

@@ -73,6 +73,9 @@ pub enum Msg {
     Key(KeyEvent),
     /// A user action as such (tests; the keymap's output).
     Action(Action),
+    /// The terminal answered the graphics probe (or its deadline passed): how the preview is drawn, and a
+    /// warning when it had to guess.
+    Graphics { graphics: crate::tui::graphics::Graphics, warning: Option<String> },
     /// The terminal changed size.
     Resize { width: u16, height: u16 },
     /// The solve or basis worker finished something.
@@ -105,6 +108,7 @@ impl Msg {
             Msg::Key(k) => format!("key {:?}", k.code),
             Msg::Action(a) => format!("action {a:?}"),
             Msg::Resize { .. } => "resize".into(),
+            Msg::Graphics { graphics, .. } => format!("graphics {}", graphics.name()),
             Msg::Worker(Reply::Solved(s)) => format!("solved {}", s.generation),
             Msg::Worker(Reply::Trained(_)) => "trained".into(),
             Msg::Preview(_) => "preview".into(),

@@ -339,3 +339,70 @@ fn the_dial_s_scene_save_is_an_effect_and_its_outcome_a_message() {
     assert_eq!(s.preview.keyframes.len(), 1);
     assert!(s.ui.message.as_ref().is_some_and(|m| m.text == "scene not saved: disk full"), "{:?}", s.ui.message);
 }
+
+/// A terminal source as the real one behaves with `--preview auto`: started once the first screen is
+/// drawn, it hands over the keys typed before and during the graphics probe, then the probe's answer.
+struct ProbingSource {
+    frames: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+    frames_at_start: Option<usize>,
+    typed: Vec<Msg>,
+}
+
+impl metamer::tui::event_loop::Events for ProbingSource {
+    fn start(&mut self, tx: &std::sync::mpsc::Sender<Msg>) -> std::io::Result<()> {
+        self.frames_at_start = Some(self.frames.load(std::sync::atomic::Ordering::SeqCst));
+        for m in self.typed.drain(..) {
+            tx.send(m).expect("the loop's channel");
+        }
+        let graphics = metamer::tui::graphics::Graphics::forced(metamer::tui::graphics::PreviewMode::Kitty, (8, 16));
+        tx.send(Msg::Graphics { graphics, warning: None }).expect("the loop's channel");
+        tx.send(Msg::End).expect("the loop's channel");
+        Ok(())
+    }
+}
+
+#[test]
+fn keys_typed_before_the_first_draw_and_during_the_probe_are_all_taken() {
+    use metamer::tui::event_loop::{self, Io};
+    let scene = metamer::render::scene::builtin_scene(16).expect("built-in scene");
+    let mut s = state(scene.palette.clone(), ColourMode::TrueColor);
+    s.set_preview_scene(scene);
+    s.preview.probing = true;
+    let before = s.ui.selection;
+    let frames = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let mut source = ProbingSource { frames: frames.clone(), frames_at_start: None, typed: keys("Down\nDown\nRight") };
+    let mut terminal = ratatui::Terminal::new(ratatui::backend::TestBackend::new(80, 24)).expect("terminal");
+    let mut taken = Vec::new();
+    let mut first_screen = None;
+    let mut on_frame = |b: &ratatui::buffer::Buffer| {
+        if frames.fetch_add(1, std::sync::atomic::Ordering::SeqCst) == 0 {
+            first_screen = Some(metamer::tui::ui::buffer_text(b));
+        }
+    };
+    let mut on_msg = |m: &Msg| taken.push(m.label());
+    let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
+    let mut saver = MemorySaver::default();
+    let io = Io {
+        events: &mut source,
+        saver: &mut saver,
+        on_frame: Some(&mut on_frame),
+        on_msg: Some(&mut on_msg),
+        worker,
+        tick: None,
+    };
+    event_loop::run_main_loop(&mut terminal, &mut s, io).expect("the loop runs");
+    // The first screen is drawn before the source starts (before the terminal is asked anything), and
+    // says the terminal is being asked.
+    assert_eq!(source.frames_at_start, Some(1));
+    let first = first_screen.expect("a first screen");
+    assert!(first.contains("asking the terminal for its graphics"), "{first}");
+    // Every key typed is taken, in order, and acts.
+    let inputs: Vec<&str> = taken.iter().map(String::as_str).filter(|l| l.starts_with("key")).collect();
+    assert_eq!(inputs, ["key Down", "key Down", "key Right"], "{taken:?}");
+    assert_eq!((s.ui.selection.row, s.ui.selection.col), (before.row + 2, before.col + 1));
+    // The probe's answer is taken; the raycast waited for it (at the kitty protocol's pixel size).
+    assert!(taken.iter().any(|l| l == "graphics kitty"), "{taken:?}");
+    assert!(!s.preview.probing && s.preview.graphics.name() == "kitty");
+    let before_probe = taken.iter().position(|l| l == "graphics kitty").expect("graphics");
+    assert!(!taken[..before_probe].iter().any(|l| l == "preview"), "no raycast before the answer: {taken:?}");
+}
