@@ -66,6 +66,11 @@ pub struct Args {
     /// switches between preview and spectra).
     #[arg(long, value_name = "SCENE.toml")]
     pub(crate) scene: Option<PathBuf>,
+    /// With --scene: the volume file to preview, instead of the scene's `volume` key (which is otherwise
+    /// looked for beside the scene file, then by file name in the folder named by METAMER_DATA or its
+    /// volumes/), as for `metamer render --volume`.
+    #[arg(long, value_name = "PATH", requires = "scene")]
+    pub(crate) volume: Option<PathBuf>,
     /// How the preview is drawn: `auto` (ask the terminal for kitty / sixel / iTerm2 graphics, else half
     /// blocks), `halfblocks`, `kitty`, `sixel` or `iterm2`. Replays draw half blocks unless told otherwise.
     #[arg(long, value_name = "MODE", default_value = "auto", value_parser = parse_preview)]
@@ -119,9 +124,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(scene) = &args.scene {
         // The scene and its volume are read here; the raycast runs off the UI thread at the panel's size.
         let scene = if scene.as_os_str() == "builtin" {
+            if args.volume.is_some() {
+                bail!("--volume needs a scene file (it replaces the scene's `volume`), not the built-in scene");
+            }
             builtin_scene(160)
         } else {
-            let (scene, read) = crate::fsio::record_reads(|| Scene::load(scene));
+            let (scene, read) = crate::fsio::record_reads(|| Scene::load_with_volume(scene, args.volume.as_deref()));
             scene_reads = read;
             scene
         };

@@ -159,14 +159,14 @@ pub(crate) const CONFLICT: &[Binding] = &[
 pub(crate) const HELP: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
-    bind(&[plain(K::Esc), ch('?')], A::Back, "close (other keys act on the main screen)"),
+    bind(&[plain(K::Esc), ch('?'), ch('q')], A::Back, "close (other keys act on the main screen)"),
 ];
 
 /// The diagnostics list.
 pub(crate) const DIAGNOSTICS: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
-    bind(&[plain(K::Esc), ch('!')], A::Back, "close (other keys act on the main screen)"),
+    bind(&[plain(K::Esc), ch('!'), ch('q')], A::Back, "close (other keys act on the main screen)"),
 ];
 
 /// Every table with its title, in the order the help shows them.

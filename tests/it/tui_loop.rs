@@ -406,3 +406,21 @@ fn keys_typed_before_the_first_draw_and_during_the_probe_are_all_taken() {
     let before_probe = taken.iter().position(|l| l == "graphics kitty").expect("graphics");
     assert!(!taken[..before_probe].iter().any(|l| l == "preview"), "no raycast before the answer: {taken:?}");
 }
+
+#[test]
+fn q_closes_the_help_and_the_diagnostics_and_quits_only_from_the_main_screen() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    update(&mut s, Msg::Start { width: 80, height: 24, trains_bases: false });
+    for open in ["?", "F1", "diagnostics"] {
+        match open {
+            // (The diagnostics open on `!` when the solver has some.)
+            "diagnostics" => s.ui.popup = Some(Popup::Diagnostics { scroll: 0 }),
+            key => drop(press(&mut s, key)),
+        }
+        assert!(matches!(s.ui.popup, Some(Popup::Help { .. } | Popup::Diagnostics { .. })), "{open}");
+        press(&mut s, "q");
+        assert!(s.ui.popup.is_none() && !s.ui.quit, "q after {open} closes the popup and nothing else");
+    }
+    press(&mut s, "q");
+    assert!(s.ui.quit, "q on the main screen quits (nothing unsaved): {:?}", s.ui.popup);
+}
