@@ -112,12 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let recovery = crate::tui::event_loop::recovery_path(&args.input);
     if recovery.is_file() {
-        state.say(format!(
-            "unsaved work from an interrupted session is in {}: open it with `metamer design {}` (delete it \
-             when done)",
-            recovery.display(),
-            recovery.display()
-        ));
+        state.ui.popup = Some(crate::tui::app::Popup::Recovery { path: recovery });
     }
     // Every file the scene reads (its palette, CSV sources, volume and the volume's data file) is an input.
     let mut scene_reads = Vec::new();

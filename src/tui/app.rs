@@ -191,6 +191,11 @@ pub enum Popup {
     },
     /// `q` with unsaved changes.
     ConfirmQuit,
+    /// A recovery copy of an interrupted session's unsaved work is beside the palette (on opening): restore
+    /// it here, or keep the file as it is.
+    Recovery {
+        path: std::path::PathBuf,
+    },
     /// Another program changed the palette file: overwrite it, reload it or save as another file. `text`
     /// says what happened (and where the designer's version was saved aside).
     Conflict {

@@ -77,6 +77,10 @@ pub trait Saver {
     fn recover(&mut self, _file: &PaletteFile, _palette: &Palette) -> Result<PathBuf, FileError> {
         Err(FileError::NoFile)
     }
+    /// Read the palette of the recovery copy at `path`.
+    fn restore(&mut self, _path: &Path) -> Result<Palette, FileError> {
+        Err(FileError::NoFile)
+    }
     /// Read `file` again.
     fn reload(&mut self, _file: &PaletteFile) -> Result<PaletteFile, FileError> {
         Err(FileError::NoFile)
@@ -166,6 +170,10 @@ impl Saver for FileSaver {
     fn reload(&mut self, file: &PaletteFile) -> Result<PaletteFile, FileError> {
         let path = file.path.clone().ok_or(FileError::NoFile)?;
         PaletteFile::load(&path).map_err(failed)
+    }
+
+    fn restore(&mut self, path: &Path) -> Result<Palette, FileError> {
+        PaletteFile::load(path).map(|f| f.palette).map_err(failed)
     }
 }
 
@@ -293,6 +301,10 @@ impl Runner<'_> {
             Effect::Reload { file } => {
                 let result = self.saver.reload(&file);
                 self.send(Msg::File(FileOutcome::Reloaded(result)));
+            }
+            Effect::Restore { path } => {
+                let result = self.saver.restore(&path);
+                self.send(Msg::File(FileOutcome::Restored { path, result }));
             }
             Effect::Recover { file, palette } => {
                 let result = self.saver.recover(&file, &palette);

@@ -48,6 +48,8 @@ pub enum FileOutcome {
     },
     /// `Effect::Reload`: the file read again.
     Reloaded(Result<PaletteFile, FileError>),
+    /// `Effect::Restore`: the recovery copy's palette (or why not), and where it is.
+    Restored { path: PathBuf, result: Result<Palette, FileError> },
     /// `Effect::Recover`: where the recovery copy went.
     Recovered(Result<PathBuf, FileError>),
 }
@@ -152,6 +154,8 @@ pub enum Effect {
     SaveAs { file: PaletteFile, palette: Palette, before: Palette, path: PathBuf, replace: bool },
     /// Read the palette file again.
     Reload { file: PaletteFile },
+    /// Read the recovery copy at `path`; the reply is a [`FileOutcome::Restored`].
+    Restore { path: PathBuf },
     /// Write a recovery copy of `palette` beside `file`.
     Recover { file: PaletteFile, palette: Palette },
     /// Append `keyframes` to the scene file at `path` and read the scene back; the reply is a

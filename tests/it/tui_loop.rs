@@ -269,6 +269,7 @@ fn kinds(effects: &[Effect]) -> Vec<&'static str> {
             Effect::Save { .. } => "save",
             Effect::SaveAs { .. } => "save as",
             Effect::Reload { .. } => "reload",
+            Effect::Restore { .. } => "restore",
             Effect::Recover { .. } => "recover",
             Effect::SaveKeyframes { .. } => "save keyframes",
         })

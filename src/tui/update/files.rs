@@ -92,6 +92,24 @@ pub(super) fn file(state: &mut State, outcome: FileOutcome) {
             state.say("reloaded from disk (z undoes the reload)");
         }
         FileOutcome::Reloaded(Err(e)) => state.complain(format!("not reloaded: {e}")),
+        FileOutcome::Restored { path, result } => {
+            let shown = crate::fsio::show(&path);
+            match result {
+                Ok(palette) => {
+                    // An edit like any other: unsaved until saved into the palette file, `z` undoes it.
+                    edit(state, EditKey::Other, |p, _| {
+                        *p = palette;
+                        Ok(())
+                    });
+                    state.say(format!(
+                        "restored the unsaved work from {shown}: Ctrl-s saves it into {}, z undoes it (delete \
+                         the copy when done)",
+                        crate::fsio::show(state.path())
+                    ));
+                }
+                Err(e) => state.complain(format!("not restored from {shown}: {e}")),
+            }
+        }
         FileOutcome::Recovered(result) => {
             state.ui.terminated = Some(result.ok());
             state.ui.quit = true;
