@@ -425,3 +425,33 @@ fn q_closes_the_help_and_the_diagnostics_and_quits_only_from_the_main_screen() {
     press(&mut s, "q");
     assert!(s.ui.quit, "q on the main screen quits (nothing unsaved): {:?}", s.ui.popup);
 }
+
+#[test]
+fn saving_keeps_the_result_the_user_saw_and_solves_nothing_again() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let effects = update(&mut s, Msg::Start { width: 80, height: 24, trains_bases: false });
+    let ticket = match effects.as_slice() {
+        [Effect::Solve { ticket, .. }] => *ticket,
+        _ => panic!("a solve at start"),
+    };
+    let reply = solved(ticket, s.solve.generation, &s);
+    update(&mut s, reply);
+    let seen = s.solve.current().map(|sol| sol.objective).expect("solved");
+    // Ctrl-s writes the solved spectra; the file comes back as written.
+    let effects = press(&mut s, "Ctrl-s");
+    let (palette, before) = match effects.as_slice() {
+        [Effect::Save { palette, before, .. }] => (palette.clone(), before.clone()),
+        _ => panic!("one save asked for, got {:?}", kinds(&effects)),
+    };
+    assert_ne!(palette, before, "the designed spectra are written as solved");
+    let mut file = s.doc.file.clone();
+    file.palette = palette;
+    let saved = metamer::tui::msg::Saved { text: "saved".into(), file };
+    let effects =
+        update(&mut s, Msg::File(FileOutcome::Saved { before, result: Ok(saved), quit_after: false, save_as: None }));
+    assert!(kinds(&effects).iter().all(|k| *k != "solve"), "saving solves nothing again: {:?}", kinds(&effects));
+    assert!(!s.is_dirty());
+    assert_eq!(s.solve.current().map(|sol| sol.objective), Some(seen), "the objective the user saw stays");
+    // The next edit solves again, as always.
+    assert!(kinds(&press(&mut s, "Down\nu")).contains(&"solve"));
+}

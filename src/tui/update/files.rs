@@ -49,12 +49,13 @@ pub(super) fn file(state: &mut State, outcome: FileOutcome) {
                 // replaced only when it is still the one the save started from.
                 let written = &state.doc.file.palette;
                 if state.doc.palette == before && *written != state.doc.palette {
+                    // The palette on screen becomes the one written, whose designed spectra are the
+                    // solution's: the solution the user saw is its solution, kept as it is (no new solve,
+                    // which could move a joint design from its new start): saving changes no result.
                     state.doc.palette = written.clone();
-                    // The palette now starts from its solution. A new generation, so the update step
-                    // solves it again and the title shows exactly what the saved file solves to (the same
-                    // optimum for designs with one side designed; a joint design may improve a little
-                    // from its new start); not when quitting. The last solution stays on screen meanwhile.
-                    changed(state);
+                    state.solve.carry_to_next_generation();
+                    state.clamp_selection();
+                    state.refresh();
                 }
                 if solved {
                     state.say(saved.text);
