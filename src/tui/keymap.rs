@@ -176,7 +176,7 @@ pub(crate) const DIAGNOSTICS: &[Binding] = &[
 ];
 
 /// Every table with its title, in the order the help shows them.
-pub(crate) const TABLES: &[(&str, &[Binding])] = &[
+pub const TABLES: &[(&str, &[Binding])] = &[
     ("main screen", MAIN),
     ("light dial (g)", DIAL),
     ("prompts", PROMPT),
@@ -268,7 +268,7 @@ pub(crate) fn key_label(key: &Key) -> String {
 }
 
 /// All keys of a binding, as the help shows them.
-pub(crate) fn keys_label(binding: &Binding) -> String {
+pub fn keys_label(binding: &Binding) -> String {
     if let Action::DialToggle(_) = binding.action {
         return "1…9".to_string();
     }

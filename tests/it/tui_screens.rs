@@ -338,3 +338,29 @@ fn at_80x24_a_refusal_in_a_prompt_wraps_and_is_read_whole() {
     }
     snap!("prompt_refusal_80x24", text.replace(&name, &format!("refusal{}", "X".repeat(name.len() - 7))));
 }
+
+/// The designer's keys as docs/formats/keys.md lists them: one table per mode, from the one keymap.
+fn keys_markdown() -> String {
+    let mut out = String::new();
+    for (title, table) in metamer::tui::keymap::TABLES {
+        out.push_str(&format!("\n### {title}\n\n| keys | what they do |\n|---|---|\n"));
+        for b in *table {
+            let keys = metamer::tui::keymap::keys_label(b).replace('|', "\\|");
+            out.push_str(&format!("| `{keys}` | {} |\n", b.help));
+        }
+    }
+    out
+}
+
+#[test]
+fn the_keys_page_lists_every_key_of_the_keymap() {
+    let page = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/formats/keys.md")).expect("page");
+    let begin = "<!-- keys: generated from src/tui/keymap.rs; the test the_keys_page_lists_every_key checks it -->";
+    let listed = page.split_once(begin).map(|(_, rest)| rest.split("<!-- /keys -->").next().unwrap_or_default());
+    assert_eq!(
+        listed.unwrap_or_default(),
+        keys_markdown(),
+        "docs/formats/keys.md is out of date; it should hold:\n{}",
+        keys_markdown()
+    );
+}
