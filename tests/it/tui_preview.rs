@@ -83,3 +83,17 @@ fn the_preview_says_when_it_shows_the_scene_s_palette_and_not_the_designed_one()
         insta::assert_snapshot!("preview_scene_palette_80x24", text);
     });
 }
+
+#[test]
+fn with_the_dial_keys_the_bottom_line_shows_the_dial_s_keys() {
+    let mut s = demo_with_preview();
+    let (text, _) = replay(&mut s, "g", 80, 24);
+    let bottom = text.lines().last().unwrap_or_default().to_string();
+    assert!(bottom.contains("Esc leave") && bottom.contains("slider/vertex"), "{bottom}");
+    assert!(!bottom.contains("d design"), "{bottom}");
+    insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_snapshot!("dial_keys_footer_80x24", text);
+    });
+    let (text, _) = replay(&mut s, "Esc", 80, 24);
+    assert!(text.lines().last().unwrap_or_default().contains("d design"), "{text}");
+}

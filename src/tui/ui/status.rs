@@ -130,6 +130,11 @@ const HINTS: &[&str] = &[
 ];
 const ALWAYS: &str = "^s save · ? help · q quit";
 
+/// The light dial's keys (after `g`), in the same way.
+const DIAL_HINTS: &[&str] =
+    &["←↑↓→ slider/vertex", "1…9 light on/off", "tab select", "+/- brighter/dimmer", "a keyframe", "^s save scene"];
+const DIAL_ALWAYS: &str = "Esc leave · ? help · q quit";
+
 /// A message's colour: red for errors, green otherwise.
 pub(crate) fn message_style(m: &crate::tui::app::Message) -> Style {
     if m.is_error { Style::new().fg(Color::LightRed) } else { Style::new().fg(Color::LightGreen) }
@@ -152,9 +157,11 @@ pub(crate) fn bottom_line(state: &State, width: u16) -> Line<'static> {
     if let Some(m) = state.ui.message.as_ref().filter(|m| m.text.chars().count() + 2 <= width) {
         return Line::from(Span::styled(format!(" {} ", m.text), message_style(m)));
     }
-    let room = width.saturating_sub(ALWAYS.chars().count() + 2);
+    // The keys in force: the light dial's after `g`, else the main screen's.
+    let (hints, always) = if state.preview.keys { (DIAL_HINTS, DIAL_ALWAYS) } else { (HINTS, ALWAYS) };
+    let room = width.saturating_sub(always.chars().count() + 2);
     let mut text = String::new();
-    for h in HINTS {
+    for h in hints {
         let add = h.chars().count() + 3;
         if text.chars().count() + add > room {
             break;
@@ -162,5 +169,5 @@ pub(crate) fn bottom_line(state: &State, width: u16) -> Line<'static> {
         text.push_str(h);
         text.push_str(" · ");
     }
-    Line::from(Span::styled(format!(" {text}{ALWAYS} "), Style::new().fg(Color::Gray)))
+    Line::from(Span::styled(format!(" {text}{always} "), Style::new().fg(Color::Gray)))
 }
