@@ -66,6 +66,11 @@ pub struct Args {
     /// switches between preview and spectra).
     #[arg(long, value_name = "SCENE.toml")]
     pub(crate) scene: Option<PathBuf>,
+    /// With --scene: the volume file to preview, instead of the scene's `volume` key (which is otherwise
+    /// looked for beside the scene file, then by file name in the folder named by METAMER_DATA or its
+    /// volumes/), as for `metamer render --volume`.
+    #[arg(long, value_name = "PATH", requires = "scene")]
+    pub(crate) volume: Option<PathBuf>,
     /// How the preview is drawn: `auto` (ask the terminal for kitty / sixel / iTerm2 graphics, else half
     /// blocks), `halfblocks`, `kitty`, `sixel` or `iterm2`. Replays draw half blocks unless told otherwise.
     #[arg(long, value_name = "MODE", default_value = "auto", value_parser = parse_preview)]
@@ -107,21 +112,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let recovery = crate::tui::event_loop::recovery_path(&args.input);
     if recovery.is_file() {
-        state.say(format!(
-            "unsaved work from an interrupted session is in {}: open it with `metamer design {}` (delete it \
-             when done)",
-            recovery.display(),
-            recovery.display()
-        ));
+        state.ui.popup = Some(crate::tui::app::Popup::Recovery { path: recovery });
     }
     // Every file the scene reads (its palette, CSV sources, volume and the volume's data file) is an input.
     let mut scene_reads = Vec::new();
     if let Some(scene) = &args.scene {
         // The scene and its volume are read here; the raycast runs off the UI thread at the panel's size.
         let scene = if scene.as_os_str() == "builtin" {
+            if args.volume.is_some() {
+                bail!("--volume needs a scene file (it replaces the scene's `volume`), not the built-in scene");
+            }
             builtin_scene(160)
         } else {
-            let (scene, read) = crate::fsio::record_reads(|| Scene::load(scene));
+            let (scene, read) = crate::fsio::record_reads(|| Scene::load_with_volume(scene, args.volume.as_deref()));
             scene_reads = read;
             scene
         };
@@ -171,14 +174,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => {
             let mut guard = TerminalGuard::enter()
                 .context("metamer design needs a terminal (use --replay KEYS.txt for headless runs)")?;
-            if state.preview.has_scene() {
-                let (graphics, warning) = Graphics::for_terminal(args.preview);
-                state.preview.graphics = graphics;
-                if let Some(w) = warning {
-                    state.complain(w);
-                }
-            }
-            let mut events = TerminalEvents::new().context("cannot listen for SIGTERM and SIGHUP")?;
+            // The terminal is asked for its graphics once the first screen is drawn, by the input thread.
+            let probe = (state.preview.has_scene() && args.preview != PreviewMode::Halfblocks).then_some(args.preview);
+            state.preview.probing = probe.is_some();
+            let mut events = TerminalEvents::new(probe).context("cannot listen for SIGTERM and SIGHUP")?;
             event_loop::run_main_loop(
                 &mut guard.terminal,
                 &mut state,

@@ -99,4 +99,6 @@ pub enum Action {
     Discard,
     /// Save, then quit.
     SaveAndQuit,
+    /// Take the recovery copy's palette as the one being edited.
+    Restore,
 }

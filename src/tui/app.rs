@@ -191,6 +191,11 @@ pub enum Popup {
     },
     /// `q` with unsaved changes.
     ConfirmQuit,
+    /// A recovery copy of an interrupted session's unsaved work is beside the palette (on opening): restore
+    /// it here, or keep the file as it is.
+    Recovery {
+        path: std::path::PathBuf,
+    },
     /// Another program changed the palette file: overwrite it, reload it or save as another file. `text`
     /// says what happened (and where the designer's version was saved aside).
     Conflict {
@@ -255,12 +260,13 @@ impl State {
     }
 
     /// True while something runs off the UI thread whose outcome will come back as a message: a solve, a
-    /// basis training, a raycast, a CSV import, a file operation.
+    /// basis training, a raycast, a CSV import, a file operation, the terminal's graphics probe.
     pub fn busy(&self) -> bool {
         self.solve.running.is_some()
             || self.solve.training
             || self.preview.pending.is_some()
             || self.preview.saving
+            || self.preview.probing
             || self.doc.import.is_some()
             || self.doc.file_busy
     }

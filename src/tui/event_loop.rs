@@ -77,6 +77,10 @@ pub trait Saver {
     fn recover(&mut self, _file: &PaletteFile, _palette: &Palette) -> Result<PathBuf, FileError> {
         Err(FileError::NoFile)
     }
+    /// Read the palette of the recovery copy at `path`.
+    fn restore(&mut self, _path: &Path) -> Result<Palette, FileError> {
+        Err(FileError::NoFile)
+    }
     /// Read `file` again.
     fn reload(&mut self, _file: &PaletteFile) -> Result<PaletteFile, FileError> {
         Err(FileError::NoFile)
@@ -166,6 +170,10 @@ impl Saver for FileSaver {
     fn reload(&mut self, file: &PaletteFile) -> Result<PaletteFile, FileError> {
         let path = file.path.clone().ok_or(FileError::NoFile)?;
         PaletteFile::load(&path).map_err(failed)
+    }
+
+    fn restore(&mut self, path: &Path) -> Result<Palette, FileError> {
+        PaletteFile::load(path).map(|f| f.palette).map_err(failed)
     }
 }
 
@@ -294,6 +302,10 @@ impl Runner<'_> {
                 let result = self.saver.reload(&file);
                 self.send(Msg::File(FileOutcome::Reloaded(result)));
             }
+            Effect::Restore { path } => {
+                let result = self.saver.restore(&path);
+                self.send(Msg::File(FileOutcome::Restored { path, result }));
+            }
             Effect::Recover { file, palette } => {
                 let result = self.saver.recover(&file, &palette);
                 self.send(Msg::File(FileOutcome::Recovered(result)));
@@ -325,8 +337,10 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
         Some(period) if !synchronous => Some(Ticker::start(tx.clone(), period)?),
         _ => None,
     };
-    events.start(&tx)?;
     let mut runner = Runner { tx, worker, loader: None, saver };
+    // The source starts once the first screen is drawn (a terminal is asked for its graphics then; keys
+    // typed before are read after, none lost).
+    let mut started = false;
     let size = terminal.size().map_err(backend_error)?;
     let mut next = Some(Msg::Start { width: size.width, height: size.height, trains_bases });
     loop {
@@ -344,6 +358,10 @@ pub fn run_main_loop<B: Backend>(terminal: &mut Terminal<B>, state: &mut State, 
                     if state.ui.quit {
                         return Ok(());
                     }
+                }
+                if !started {
+                    started = true;
+                    events.start(&runner.tx)?;
                 }
                 if let Some(t) = ticker.as_mut() {
                     t.set(state.busy());

@@ -8,6 +8,7 @@
 
 use ratatui::buffer::Buffer;
 use ratatui::layout::{Rect, Size};
+use ratatui_image::picker::cap_parser::{Parser, QueryStdioOptions, Response};
 use ratatui_image::picker::{Picker, ProtocolType};
 use ratatui_image::protocol::Protocol;
 use ratatui_image::protocol::iterm2::Iterm2;
@@ -48,6 +49,12 @@ impl PreviewMode {
     }
 }
 
+/// A question asked of the terminal, waiting for its answers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Probe {
+    pub(crate) mode: PreviewMode,
+}
+
 /// The kitty image id of the preview: every relit frame replaces the same image in the terminal.
 const KITTY_ID: u32 = 0x4d45_5441;
 
@@ -86,30 +93,72 @@ impl Graphics {
         }
     }
 
-    /// Choose for a real terminal (call after entering the alternate screen, before reading events):
-    /// `auto` queries it; a forced protocol still queries for the font size, assuming 10×20 when it
-    /// does not answer.
-    pub(crate) fn for_terminal(mode: PreviewMode) -> (Graphics, Option<String>) {
+    /// Write the probe's question to the terminal (once the first screen is drawn; the input thread
+    /// reads the answers, [`crate::tui::probe::ProbeReader`]). `None` for half blocks: nothing to ask.
+    pub(crate) fn ask_terminal(mode: PreviewMode) -> std::io::Result<Option<Probe>> {
+        use std::io::Write;
         if mode == PreviewMode::Halfblocks {
-            return (Graphics::halfblocks(), None);
+            return Ok(None);
         }
-        let queried = Picker::from_query_stdio();
-        match (mode, queried) {
-            (PreviewMode::Auto, Ok(picker)) if picker.protocol_type() != ProtocolType::Halfblocks => {
-                (Graphics { picker: Some(picker), encoded: None }, None)
+        // ratatui-image's detection of tmux (which also switches tmux's passthrough on) and its question.
+        let is_tmux = Picker::halfblocks().tmux_detected();
+        let mut options = QueryStdioOptions::default();
+        let env = |name: &str| std::env::var(name).is_ok_and(|s| !s.is_empty());
+        if env("WEZTERM_EXECUTABLE") || env("KONSOLE_VERSION") {
+            // As ratatui-image: their kitty and sixel support is not usable for this; iTerm2 is.
+            options.blacklist_protocols = vec![ProtocolType::Kitty, ProtocolType::Sixel];
+        }
+        let mut out = std::io::stdout().lock();
+        out.write_all(Parser::query(is_tmux, options).as_bytes())?;
+        out.flush()?;
+        Ok(Some(Probe { mode }))
+    }
+
+    /// The graphics for the terminal's answers to the probe (`answered`: the status answer came before the
+    /// deadline; `responses`: what it said). `auto` takes kitty, else sixel, else what the environment
+    /// says (iTerm2), else half blocks; a forced protocol takes the cell size, assuming 10×20 pixels
+    /// when the terminal reports none.
+    pub(crate) fn from_answers(probe: &Probe, responses: &[Response], answered: bool) -> (Graphics, Option<String>) {
+        let mut proto = None;
+        let mut font = None;
+        for r in responses {
+            match r {
+                Response::Kitty => proto = Some(ProtocolType::Kitty),
+                Response::Sixel if proto.is_none() => proto = Some(ProtocolType::Sixel),
+                Response::CellSize(Some((w, h))) => font = Some((*w, *h)),
+                _ => {}
             }
-            (PreviewMode::Auto, _) => (Graphics::halfblocks(), None),
-            (forced, Ok(mut picker)) => {
-                if let Some(p) = forced.protocol() {
-                    picker.set_protocol_type(p);
+        }
+        // No cell size answered: the window's size in pixels over its size in cells, when the terminal
+        // tells the kernel.
+        let font = font.or_else(|| {
+            let w = ratatui::crossterm::terminal::window_size().ok()?;
+            (w.width > 0 && w.height > 0 && w.columns > 0 && w.rows > 0)
+                .then(|| (w.width / w.columns, w.height / w.rows))
+        });
+        let Some(font) = font else {
+            return match probe.mode.protocol() {
+                None => (Graphics::halfblocks(), None),
+                Some(_) => {
+                    let why = if answered { "did not report its font size" } else { "did not answer in time" };
+                    (
+                        Graphics::forced(probe.mode, (10, 20)),
+                        Some(format!("the terminal {why}; assuming 10×20 pixels per cell")),
+                    )
                 }
-                (Graphics { picker: Some(picker), encoded: None }, None)
-            }
-            (forced, Err(e)) => (
-                Graphics::forced(forced, (10, 20)),
-                Some(format!("the terminal did not report its font size ({e}); assuming 10×20 pixels per cell")),
-            ),
-        }
+            };
+        };
+        #[allow(deprecated)] // the one constructor that takes a font size without querying
+        let mut picker = Picker::from_fontsize(ratatui_image::FontSize::new(font.0.max(1), font.1.max(1)));
+        let chosen = match probe.mode.protocol() {
+            Some(forced) => forced,
+            None => match proto.or(Some(picker.protocol_type()).filter(|p| *p != ProtocolType::Halfblocks)) {
+                Some(p) => p,
+                None => return (Graphics::halfblocks(), None),
+            },
+        };
+        picker.set_protocol_type(chosen);
+        (Graphics { picker: Some(picker), encoded: None }, None)
     }
 
     /// True for half blocks.
@@ -118,7 +167,7 @@ impl Graphics {
     }
 
     /// The protocol's name, for the panel title.
-    pub(crate) fn name(&self) -> &'static str {
+    pub fn name(&self) -> &'static str {
         match self.picker.as_ref().map(Picker::protocol_type) {
             None | Some(ProtocolType::Halfblocks) => "half blocks",
             Some(ProtocolType::Kitty) => "kitty",

@@ -147,6 +147,12 @@ pub(crate) const CONFIRM_QUIT: &[Binding] = &[
     bind(&[ch('n'), plain(K::Esc)], A::Back, "stay"),
 ];
 
+/// A recovery copy of unsaved work is beside the palette (on opening).
+pub(crate) const RECOVERY: &[Binding] = &[
+    bind(&[ch('r')], A::Restore, "restore it here (unsaved until Ctrl-s; z undoes it)"),
+    bind(&[plain(K::Esc), ch('q')], A::Back, "keep the file as it is (the copy stays)"),
+];
+
 /// The palette file changed on disk since it was opened or saved.
 pub(crate) const CONFLICT: &[Binding] = &[
     bind(&[ctrl('s'), ch('o')], A::Save, "overwrite the file with your version"),
@@ -156,21 +162,21 @@ pub(crate) const CONFLICT: &[Binding] = &[
 ];
 
 /// The help popup.
-pub(crate) const HELP: &[Binding] = &[
+pub const HELP: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
-    bind(&[plain(K::Esc), ch('?')], A::Back, "close (other keys act on the main screen)"),
+    bind(&[plain(K::Esc), ch('?'), ch('q')], A::Back, "close (other keys act on the main screen)"),
 ];
 
 /// The diagnostics list.
 pub(crate) const DIAGNOSTICS: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
-    bind(&[plain(K::Esc), ch('!')], A::Back, "close (other keys act on the main screen)"),
+    bind(&[plain(K::Esc), ch('!'), ch('q')], A::Back, "close (other keys act on the main screen)"),
 ];
 
 /// Every table with its title, in the order the help shows them.
-pub(crate) const TABLES: &[(&str, &[Binding])] = &[
+pub const TABLES: &[(&str, &[Binding])] = &[
     ("main screen", MAIN),
     ("light dial (g)", DIAL),
     ("prompts", PROMPT),
@@ -178,6 +184,7 @@ pub(crate) const TABLES: &[(&str, &[Binding])] = &[
     ("light or reflectance?", CHOOSE),
     ("quit with unsaved changes", CONFIRM_QUIT),
     ("file changed on disk", CONFLICT),
+    ("recovery copy found", RECOVERY),
     ("help", HELP),
     ("diagnostics", DIAGNOSTICS),
 ];
@@ -194,6 +201,7 @@ pub(crate) fn table_for(state: &State) -> &'static [Binding] {
         Some(Popup::Pick { .. }) => PICK,
         Some(Popup::ConfirmQuit) => CONFIRM_QUIT,
         Some(Popup::Conflict { .. }) => CONFLICT,
+        Some(Popup::Recovery { .. }) => RECOVERY,
     }
 }
 
@@ -260,7 +268,7 @@ pub(crate) fn key_label(key: &Key) -> String {
 }
 
 /// All keys of a binding, as the help shows them.
-pub(crate) fn keys_label(binding: &Binding) -> String {
+pub fn keys_label(binding: &Binding) -> String {
     if let Action::DialToggle(_) = binding.action {
         return "1…9".to_string();
     }

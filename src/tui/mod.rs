@@ -24,6 +24,7 @@ pub mod keymap;
 pub mod model;
 pub mod msg;
 pub mod preview;
+pub(crate) mod probe;
 pub mod replay;
 pub mod terminal;
 pub mod ui;

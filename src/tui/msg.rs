@@ -48,6 +48,8 @@ pub enum FileOutcome {
     },
     /// `Effect::Reload`: the file read again.
     Reloaded(Result<PaletteFile, FileError>),
+    /// `Effect::Restore`: the recovery copy's palette (or why not), and where it is.
+    Restored { path: PathBuf, result: Result<Palette, FileError> },
     /// `Effect::Recover`: where the recovery copy went.
     Recovered(Result<PathBuf, FileError>),
 }
@@ -73,6 +75,9 @@ pub enum Msg {
     Key(KeyEvent),
     /// A user action as such (tests; the keymap's output).
     Action(Action),
+    /// The terminal answered the graphics probe (or its deadline passed): how the preview is drawn, and a
+    /// warning when it had to guess.
+    Graphics { graphics: crate::tui::graphics::Graphics, warning: Option<String> },
     /// The terminal changed size.
     Resize { width: u16, height: u16 },
     /// The solve or basis worker finished something.
@@ -105,6 +110,7 @@ impl Msg {
             Msg::Key(k) => format!("key {:?}", k.code),
             Msg::Action(a) => format!("action {a:?}"),
             Msg::Resize { .. } => "resize".into(),
+            Msg::Graphics { graphics, .. } => format!("graphics {}", graphics.name()),
             Msg::Worker(Reply::Solved(s)) => format!("solved {}", s.generation),
             Msg::Worker(Reply::Trained(_)) => "trained".into(),
             Msg::Preview(_) => "preview".into(),
@@ -148,6 +154,8 @@ pub enum Effect {
     SaveAs { file: PaletteFile, palette: Palette, before: Palette, path: PathBuf, replace: bool },
     /// Read the palette file again.
     Reload { file: PaletteFile },
+    /// Read the recovery copy at `path`; the reply is a [`FileOutcome::Restored`].
+    Restore { path: PathBuf },
     /// Write a recovery copy of `palette` beside `file`.
     Recover { file: PaletteFile, palette: Palette },
     /// Append `keyframes` to the scene file at `path` and read the scene back; the reply is a

@@ -2,7 +2,9 @@
 //! return, error, and (through ratatui's panic hook) a panic.
 
 use crate::tui::event_loop::Events;
+use crate::tui::graphics::{Graphics, PreviewMode};
 use crate::tui::msg::Msg;
+use crate::tui::probe::ProbeReader;
 use ratatui::DefaultTerminal;
 use ratatui::crossterm::event::{self, Event};
 use std::io;
@@ -51,12 +53,14 @@ pub(crate) struct TerminalEvents {
     #[cfg(unix)]
     handle: Option<signal_hook::iterator::Handle>,
     stop: Arc<AtomicBool>,
+    /// Ask the terminal for its graphics first (`--preview` with a scene), once the first screen is drawn.
+    probe: Option<PreviewMode>,
 }
 
 impl TerminalEvents {
     /// Listen to SIGTERM and SIGHUP (whose default action would leave the terminal in raw mode on the
     /// alternate screen and lose unsaved work) from now on; the terminal once started.
-    pub fn new() -> io::Result<TerminalEvents> {
+    pub fn new(probe: Option<PreviewMode>) -> io::Result<TerminalEvents> {
         #[cfg(unix)]
         let signals = signal_hook::iterator::Signals::new([signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP])?;
         Ok(TerminalEvents {
@@ -65,6 +69,7 @@ impl TerminalEvents {
             #[cfg(unix)]
             signals: Some(signals),
             stop: Arc::new(AtomicBool::new(false)),
+            probe,
         })
     }
 }
@@ -85,8 +90,33 @@ impl Events for TerminalEvents {
                 }
             })?;
         }
+        // The question is written here, on the loop's thread between two draws; the answers are read by the
+        // input thread before anything else, so the keys typed meanwhile are its too.
+        let probe = match self.probe.take().map(Graphics::ask_terminal) {
+            None => None,
+            Some(Ok(Some(probe))) => Some(probe),
+            Some(asked) => {
+                let warning =
+                    asked.err().map(|e| format!("cannot ask the terminal for its graphics ({e}): half blocks"));
+                let _ = tx.send(Msg::Graphics { graphics: Graphics::halfblocks(), warning });
+                None
+            }
+        };
         let (tx, stop) = (tx.clone(), self.stop.clone());
         std::thread::Builder::new().name("metamer-input".into()).spawn(move || {
+            if let Some(probe) = probe {
+                let mut reader = ProbeReader::default();
+                read_answers(&mut reader);
+                let (graphics, warning) = Graphics::from_answers(&probe, &reader.responses, reader.done);
+                for key in reader.keys.drain(..) {
+                    if tx.send(Msg::Key(key)).is_err() {
+                        return;
+                    }
+                }
+                if tx.send(Msg::Graphics { graphics, warning }).is_err() {
+                    return;
+                }
+            }
             while !stop.load(Ordering::Relaxed) {
                 let msg = match event::poll(STOP_CHECK) {
                     Ok(false) => continue,
@@ -106,6 +136,48 @@ impl Events for TerminalEvents {
         })?;
         Ok(())
     }
+}
+
+/// How long the probe waits for the terminal's answers (over SSH: a round trip). Keys typed meanwhile
+/// are queued, not lost; without an answer the preview is drawn in half blocks.
+const PROBE_DEADLINE: Duration = Duration::from_millis(1000);
+
+/// Read standard input's raw bytes into `reader` until the terminal's status answer or the deadline (no
+/// read outlives it, so no later key goes astray).
+#[cfg(unix)]
+fn read_answers(reader: &mut ProbeReader) {
+    use std::os::fd::AsRawFd;
+    let fd = io::stdin().as_raw_fd();
+    let deadline = std::time::Instant::now() + PROBE_DEADLINE;
+    let mut buf = [0u8; 256];
+    while !reader.done {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        if left.is_zero() {
+            break;
+        }
+        let mut pfd = libc::pollfd { fd, events: libc::POLLIN, revents: 0 };
+        let ms = libc::c_int::try_from(left.as_millis().max(1)).unwrap_or(libc::c_int::MAX);
+        // SAFETY: one valid pollfd, for the duration of the call.
+        let ready = unsafe { libc::poll(&mut pfd, 1, ms) };
+        if ready < 0 && io::Error::last_os_error().kind() == io::ErrorKind::Interrupted {
+            continue;
+        }
+        if ready <= 0 || pfd.revents & libc::POLLIN == 0 {
+            break;
+        }
+        // SAFETY: reads at most buf.len() bytes into buf, which outlives the call.
+        let n = unsafe { libc::read(fd, buf.as_mut_ptr().cast(), buf.len()) };
+        match usize::try_from(n) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => reader.push(&buf[..n]),
+        }
+    }
+    reader.finish();
+}
+
+#[cfg(not(unix))]
+fn read_answers(reader: &mut ProbeReader) {
+    reader.finish();
 }
 
 impl Drop for TerminalEvents {

@@ -35,7 +35,7 @@ fn replay_writes_the_final_screen() {
     for name in ["daylight", "tungsten", "fluorescent", "white", "petal", "leaf", "sky"] {
         assert!(screen.contains(name), "{name} missing from\n{screen}");
     }
-    assert!(screen.contains("leaf × tungsten"), "{screen}");
+    assert!(screen.contains("tungsten × leaf"), "the cell named light first, as everywhere: {screen}");
     assert!(!dir.path().join("metamers.basis.json").exists(), "--no-basis trains nothing");
 }
 
@@ -87,4 +87,41 @@ fn bad_scripts_and_files_are_reported_with_their_names() {
     // it never entered), no escape sequence on stderr.
     assert!(output.stdout.is_empty(), "stdout: {:?}", String::from_utf8_lossy(&output.stdout));
     assert!(!output.stderr.contains(&0x1b), "stderr: {:?}", String::from_utf8_lossy(&output.stderr));
+}
+
+#[test]
+fn design_takes_volume_as_render_does_and_the_missing_volume_error_names_it() {
+    use crate::render_cli::{GOOD, write_scene, write_tiny_engine};
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let d = dir.path();
+    let palette = example(d);
+    let scene = write_scene(d, &GOOD.replace("generated:engine_like", "no_data_here/engine.nhdr"));
+    let keys = d.join("keys.txt");
+    std::fs::write(&keys, "Down\n").expect("write keys");
+    let design = |extra: &[&str]| {
+        let mut c = metamer();
+        c.args(["design", palette.to_str().unwrap_or_default(), "--no-basis", "--size", "80x24", "--scene"]);
+        c.arg(&scene).args(extra).arg("--replay").arg(&keys).env_remove("METAMER_DATA");
+        c.output().expect("metamer runs")
+    };
+    // The scene's volume is missing: the error names the option `design` has.
+    let o = design(&[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--volume PATH") && err.contains("no_data_here"), "{err}");
+    // --volume PATH replaces the scene's `volume`, as for `render`.
+    let tiny = write_tiny_engine(&d.join("elsewhere"));
+    let o = design(&["--volume", tiny.to_str().unwrap_or_default()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let screen = String::from_utf8_lossy(&o.stdout);
+    assert!(screen.contains("light dial"), "{screen}");
+    // Without a scene file it is refused, naming why.
+    let o = metamer()
+        .args(["design", palette.to_str().unwrap_or_default(), "--scene", "builtin", "--volume"])
+        .arg(&tiny)
+        .arg("--replay")
+        .arg(&keys)
+        .output()
+        .expect("metamer runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--volume needs a scene file"), "{err}");
 }

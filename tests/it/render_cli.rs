@@ -160,14 +160,14 @@ fn shards_of_a_sweep_concatenate_to_one_run_and_their_sheet_assembles_after() {
 }
 
 /// A scene over the generated volume with the repository's engine palette copied beside it.
-fn write_scene(dir: &Path, body: &str) -> PathBuf {
+pub(crate) fn write_scene(dir: &Path, body: &str) -> PathBuf {
     std::fs::copy(repo().join("volumes/engine_palette.toml"), dir.join("engine_palette.toml")).unwrap();
     let p = dir.join("scene.toml");
     std::fs::write(&p, body).unwrap();
     p
 }
 
-const GOOD: &str = r#"
+pub(crate) const GOOD: &str = r#"
 palette = "engine_palette.toml"
 volume = "generated:engine_like"
 [[materials]]
@@ -298,7 +298,7 @@ fn builtin_scene_matches_the_generated_engine_scene_file() {
 }
 
 /// A small detached NRRD `engine.nhdr` + `engine.raw` (8³ bytes) in `dir`.
-fn write_tiny_engine(dir: &Path) -> PathBuf {
+pub(crate) fn write_tiny_engine(dir: &Path) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let header = "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 8 8 8\nencoding: raw\ndata file: engine.raw\n";
     std::fs::write(dir.join("engine.nhdr"), header).unwrap();

@@ -269,6 +269,7 @@ fn kinds(effects: &[Effect]) -> Vec<&'static str> {
             Effect::Save { .. } => "save",
             Effect::SaveAs { .. } => "save as",
             Effect::Reload { .. } => "reload",
+            Effect::Restore { .. } => "restore",
             Effect::Recover { .. } => "recover",
             Effect::SaveKeyframes { .. } => "save keyframes",
         })
@@ -338,4 +339,119 @@ fn the_dial_s_scene_save_is_an_effect_and_its_outcome_a_message() {
     update(&mut s, Msg::SceneSaved(Err("disk full".into())));
     assert_eq!(s.preview.keyframes.len(), 1);
     assert!(s.ui.message.as_ref().is_some_and(|m| m.text == "scene not saved: disk full"), "{:?}", s.ui.message);
+}
+
+/// A terminal source as the real one behaves with `--preview auto`: started once the first screen is
+/// drawn, it hands over the keys typed before and during the graphics probe, then the probe's answer.
+struct ProbingSource {
+    frames: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+    frames_at_start: Option<usize>,
+    typed: Vec<Msg>,
+}
+
+impl metamer::tui::event_loop::Events for ProbingSource {
+    fn start(&mut self, tx: &std::sync::mpsc::Sender<Msg>) -> std::io::Result<()> {
+        self.frames_at_start = Some(self.frames.load(std::sync::atomic::Ordering::SeqCst));
+        for m in self.typed.drain(..) {
+            tx.send(m).expect("the loop's channel");
+        }
+        let graphics = metamer::tui::graphics::Graphics::forced(metamer::tui::graphics::PreviewMode::Kitty, (8, 16));
+        tx.send(Msg::Graphics { graphics, warning: None }).expect("the loop's channel");
+        tx.send(Msg::End).expect("the loop's channel");
+        Ok(())
+    }
+}
+
+#[test]
+fn keys_typed_before_the_first_draw_and_during_the_probe_are_all_taken() {
+    use metamer::tui::event_loop::{self, Io};
+    let scene = metamer::render::scene::builtin_scene(16).expect("built-in scene");
+    let mut s = state(scene.palette.clone(), ColourMode::TrueColor);
+    s.set_preview_scene(scene);
+    s.preview.probing = true;
+    let before = s.ui.selection;
+    let frames = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let mut source = ProbingSource { frames: frames.clone(), frames_at_start: None, typed: keys("Down\nDown\nRight") };
+    let mut terminal = ratatui::Terminal::new(ratatui::backend::TestBackend::new(80, 24)).expect("terminal");
+    let mut taken = Vec::new();
+    let mut first_screen = None;
+    let mut on_frame = |b: &ratatui::buffer::Buffer| {
+        if frames.fetch_add(1, std::sync::atomic::Ordering::SeqCst) == 0 {
+            first_screen = Some(metamer::tui::ui::buffer_text(b));
+        }
+    };
+    let mut on_msg = |m: &Msg| taken.push(m.label());
+    let worker = WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Off };
+    let mut saver = MemorySaver::default();
+    let io = Io {
+        events: &mut source,
+        saver: &mut saver,
+        on_frame: Some(&mut on_frame),
+        on_msg: Some(&mut on_msg),
+        worker,
+        tick: None,
+    };
+    event_loop::run_main_loop(&mut terminal, &mut s, io).expect("the loop runs");
+    // The first screen is drawn before the source starts (before the terminal is asked anything), and
+    // says the terminal is being asked.
+    assert_eq!(source.frames_at_start, Some(1));
+    let first = first_screen.expect("a first screen");
+    assert!(first.contains("asking the terminal for its graphics"), "{first}");
+    // Every key typed is taken, in order, and acts.
+    let inputs: Vec<&str> = taken.iter().map(String::as_str).filter(|l| l.starts_with("key")).collect();
+    assert_eq!(inputs, ["key Down", "key Down", "key Right"], "{taken:?}");
+    assert_eq!((s.ui.selection.row, s.ui.selection.col), (before.row + 2, before.col + 1));
+    // The probe's answer is taken; the raycast waited for it (at the kitty protocol's pixel size).
+    assert!(taken.iter().any(|l| l == "graphics kitty"), "{taken:?}");
+    assert!(!s.preview.probing && s.preview.graphics.name() == "kitty");
+    let before_probe = taken.iter().position(|l| l == "graphics kitty").expect("graphics");
+    assert!(!taken[..before_probe].iter().any(|l| l == "preview"), "no raycast before the answer: {taken:?}");
+}
+
+#[test]
+fn q_closes_the_help_and_the_diagnostics_and_quits_only_from_the_main_screen() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    update(&mut s, Msg::Start { width: 80, height: 24, trains_bases: false });
+    for open in ["?", "F1", "diagnostics"] {
+        match open {
+            // (The diagnostics open on `!` when the solver has some.)
+            "diagnostics" => s.ui.popup = Some(Popup::Diagnostics { scroll: 0 }),
+            key => drop(press(&mut s, key)),
+        }
+        assert!(matches!(s.ui.popup, Some(Popup::Help { .. } | Popup::Diagnostics { .. })), "{open}");
+        press(&mut s, "q");
+        assert!(s.ui.popup.is_none() && !s.ui.quit, "q after {open} closes the popup and nothing else");
+    }
+    press(&mut s, "q");
+    assert!(s.ui.quit, "q on the main screen quits (nothing unsaved): {:?}", s.ui.popup);
+}
+
+#[test]
+fn saving_keeps_the_result_the_user_saw_and_solves_nothing_again() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let effects = update(&mut s, Msg::Start { width: 80, height: 24, trains_bases: false });
+    let ticket = match effects.as_slice() {
+        [Effect::Solve { ticket, .. }] => *ticket,
+        _ => panic!("a solve at start"),
+    };
+    let reply = solved(ticket, s.solve.generation, &s);
+    update(&mut s, reply);
+    let seen = s.solve.current().map(|sol| sol.objective).expect("solved");
+    // Ctrl-s writes the solved spectra; the file comes back as written.
+    let effects = press(&mut s, "Ctrl-s");
+    let (palette, before) = match effects.as_slice() {
+        [Effect::Save { palette, before, .. }] => (palette.clone(), before.clone()),
+        _ => panic!("one save asked for, got {:?}", kinds(&effects)),
+    };
+    assert_ne!(palette, before, "the designed spectra are written as solved");
+    let mut file = s.doc.file.clone();
+    file.palette = palette;
+    let saved = metamer::tui::msg::Saved { text: "saved".into(), file };
+    let effects =
+        update(&mut s, Msg::File(FileOutcome::Saved { before, result: Ok(saved), quit_after: false, save_as: None }));
+    assert!(kinds(&effects).iter().all(|k| *k != "solve"), "saving solves nothing again: {:?}", kinds(&effects));
+    assert!(!s.is_dirty());
+    assert_eq!(s.solve.current().map(|sol| sol.objective), Some(seen), "the objective the user saw stays");
+    // The next edit solves again, as always.
+    assert!(kinds(&press(&mut s, "Down\nu")).contains(&"solve"));
 }

@@ -57,3 +57,43 @@ fn preview_screen_snapshot() {
         insta::assert_snapshot!("preview_100x30", text);
     });
 }
+
+#[test]
+fn the_preview_says_when_it_shows_the_scene_s_palette_and_not_the_designed_one() {
+    // The designed palette's own spectra light the preview: nothing to say.
+    let mut s = demo_with_preview();
+    let (text, _) = replay(&mut s, "", 80, 24);
+    assert!(!text.contains("the preview"), "{text}");
+    // A scene whose materials and lights none of the designed palette's names: said plainly, wrapped.
+    let scene = metamer::render::scene::builtin_scene(32).expect("built-in scene");
+    let mut other = demo_palette();
+    for (k, e) in other.lights.iter_mut().enumerate() {
+        e.name = format!("lamp{k}");
+    }
+    for (k, e) in other.reflectances.iter_mut().enumerate() {
+        e.name = format!("paint{k}");
+    }
+    let mut s = state(other, ColourMode::TrueColor);
+    s.set_preview(Preview::from_scene(&scene, &Colorimetry::default()));
+    let (text, _) = replay(&mut s, "", 80, 24);
+    let flat = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(flat.contains("the preview shows the scene's own spectra"), "{text}");
+    assert!(flat.contains("edits do not reach it"), "{text}");
+    insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_snapshot!("preview_scene_palette_80x24", text);
+    });
+}
+
+#[test]
+fn with_the_dial_keys_the_bottom_line_shows_the_dial_s_keys() {
+    let mut s = demo_with_preview();
+    let (text, _) = replay(&mut s, "g", 80, 24);
+    let bottom = text.lines().last().unwrap_or_default().to_string();
+    assert!(bottom.contains("Esc leave") && bottom.contains("slider/vertex"), "{bottom}");
+    assert!(!bottom.contains("d design"), "{bottom}");
+    insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_snapshot!("dial_keys_footer_80x24", text);
+    });
+    let (text, _) = replay(&mut s, "Esc", 80, 24);
+    assert!(text.lines().last().unwrap_or_default().contains("d design"), "{text}");
+}

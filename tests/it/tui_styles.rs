@@ -90,7 +90,7 @@ fn selection_brackets_follow_the_arrows() {
     assert_eq!(buf[(x + 4, y + 1)].symbol(), "]");
     assert_eq!(buf[(x - 1, y)].fg, Color::LightGreen);
     let text = buffer_text(&buf);
-    assert!(text.contains("block × tungsten"));
+    assert!(text.contains("tungsten × block"));
 }
 
 #[test]

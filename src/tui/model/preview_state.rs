@@ -70,6 +70,9 @@ pub struct PreviewState {
     pub frame: Vec<u8>,
     /// How the preview reaches the terminal: half blocks, or a graphics protocol at real pixels.
     pub graphics: Graphics,
+    /// The terminal is being asked for its graphics ([`crate::tui::msg::Msg::Graphics`] answers): the
+    /// first raycast waits for the panel's pixel size.
+    pub probing: bool,
 }
 
 impl PreviewState {
@@ -90,6 +93,9 @@ impl PreviewState {
 
     /// What the progress line says while a raycast runs.
     pub(crate) fn loading(&self) -> Option<String> {
+        if self.probing {
+            return Some("asking the terminal for its graphics…".to_string());
+        }
         self.pending.map(|(w, h)| format!("raycasting {w}×{h} pixels…"))
     }
 

@@ -130,6 +130,23 @@ impl SolveState {
         self.basis.as_ref().filter(|b| self.derived.basis_key.as_ref() == Some(&b.key))
     }
 
+    /// The palette changed into one the current solution already describes (its designed spectra replaced
+    /// by the solution's, on saving): a new generation whose solution, request and mismatch region are the
+    /// old one's, so nothing is solved again and nothing on screen changes.
+    pub(crate) fn carry_to_next_generation(&mut self) {
+        let old = self.generation;
+        self.generation += 1;
+        if let Some((g, _)) = self.solution.as_mut().filter(|(g, _)| *g == old) {
+            *g = self.generation;
+        }
+        if let Some((g, _)) = self.asked.as_mut().filter(|(g, _)| *g == old) {
+            *g = self.generation;
+        }
+        if let Some(v) = self.feasibility.as_mut().filter(|v| v.generation == old) {
+            v.generation = self.generation;
+        }
+    }
+
     /// True when the palette of the current generation, or the region of `feasibility`, was not asked for
     /// yet (turning the overlay off asks for nothing).
     pub(crate) fn wants_solve(&self, feasibility: Option<usize>) -> bool {

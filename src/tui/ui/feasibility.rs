@@ -6,7 +6,7 @@
 
 use crate::design::feasibility::{Panel, Placement};
 use crate::tui::app::State;
-use crate::tui::ui::{fit, put};
+use crate::tui::ui::{fit, put, wrap};
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style};
@@ -50,22 +50,22 @@ impl Widget for FeasibilityOverlay<'_> {
         let panel = match &view.result {
             Ok(p) => p,
             Err(e) => {
-                // The reason, wrapped over the overlay's lines.
-                let chars: Vec<char> = e.chars().collect();
-                for (i, line) in chars.chunks(width.max(1)).take(usize::from(inner.height)).enumerate() {
-                    put(buf, inner, 0, i as u16, &line.iter().collect::<String>(), dim);
+                // The reason, wrapped between words over the overlay's lines.
+                for (i, line) in wrap(e, width).iter().take(usize::from(inner.height)).enumerate() {
+                    put(buf, inner, 0, i as u16, line, dim);
                 }
                 return;
             }
         };
         let stale = view.generation != state.solve.generation;
-        let text_rows = 3u16;
+        // The summary wrapped between words under the canvas (as many rows as it needs).
+        let lines: Vec<String> = summary(panel, stale).iter().flat_map(|l| wrap(l, width)).collect();
+        let text_rows = (lines.len() as u16).min(inner.height);
         let canvas_area = Rect::new(inner.x, inner.y, inner.width, inner.height.saturating_sub(text_rows));
         draw_slice(panel, canvas_area, buf);
-        let lines = summary(panel, stale);
-        for (i, line) in lines.iter().enumerate() {
+        for (i, line) in lines.iter().take(usize::from(text_rows)).enumerate() {
             let y = inner.height.saturating_sub(text_rows) + i as u16;
-            put(buf, inner, 0, y, &fit(line, width), Style::new());
+            put(buf, inner, 0, y, line, Style::new());
         }
     }
 }

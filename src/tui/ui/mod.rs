@@ -100,6 +100,7 @@ impl Widget for &State {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let outer = Block::bordered().title_bottom(status::bottom_line(self, area.width.saturating_sub(4)));
         let inner = outer.inner(area);
+        let screen = inner;
         outer.render(area, buf);
         status::draw_title(self, area, buf);
         let a = areas(self, inner);
@@ -137,9 +138,26 @@ impl Widget for &State {
         if self.ui.show_feasibility {
             feasibility::FeasibilityOverlay(self).render(Block::bordered().inner(area), buf);
         }
+        message_area(self, screen, buf);
         if self.ui.popup.is_some() {
             popup::PopupView(self).render(area, buf);
         }
+    }
+}
+
+/// A message longer than the bottom line, wrapped between words over the bottom rows of `inner` (under a
+/// rule), so nothing of it is cut; the next key dismisses it as any message.
+fn message_area(state: &State, inner: Rect, buf: &mut Buffer) {
+    let rows = status::message_rows(state, inner.width.saturating_sub(2));
+    let Some(m) = state.ui.message.as_ref().filter(|_| !rows.is_empty()) else { return };
+    let height = (rows.len() as u16 + 1).min(inner.height);
+    let rect = Rect { y: inner.bottom() - height, height, ..inner };
+    ratatui::widgets::Clear.render(rect, buf);
+    let block = Block::new().borders(Borders::TOP).title(if m.is_error { " error " } else { " message " });
+    let text = block.inner(rect);
+    block.render(rect, buf);
+    for (y, line) in rows.iter().take(usize::from(text.height)).enumerate() {
+        put(buf, text, 1, y as u16, line, status::message_style(m));
     }
 }
 
@@ -206,6 +224,56 @@ pub(crate) fn fit(text: &str, width: usize) -> String {
         s.push('…');
         s
     }
+}
+
+/// `text` in lines of at most `width` characters, broken between words (a longer word is cut).
+pub(crate) fn wrap(text: &str, width: usize) -> Vec<String> {
+    let width = width.max(1);
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        let (have, add) = (line.chars().count(), word.chars().count());
+        if have > 0 && have + 1 + add > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+        while line.chars().count() > width {
+            let rest: String = line.chars().skip(width).collect();
+            lines.push(line.chars().take(width).collect());
+            line = rest;
+        }
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
+/// `path` in at most `width` characters: whole when it fits, else its leading folders dropped (`…/name`),
+/// else the file name cut in its middle, its extension kept (`fig6_en….toml`).
+pub(crate) fn abbreviate_path(path: &str, width: usize) -> String {
+    let count = |s: &str| s.chars().count();
+    if count(path) <= width {
+        return path.to_string();
+    }
+    let name = path.rsplit(['/', '\\']).next().unwrap_or(path);
+    let short = format!("…/{name}");
+    if count(&short) <= width && name != path {
+        return short;
+    }
+    if count(name) <= width {
+        return name.to_string();
+    }
+    // Keep the extension and as much of the start of the name as fits.
+    let ext = name.rfind('.').filter(|&i| i > 0).map_or("", |i| &name[i..]);
+    let keep = width.saturating_sub(count(ext) + 1);
+    if keep == 0 {
+        return fit(name, width);
+    }
+    format!("{}…{ext}", name.chars().take(keep).collect::<String>())
 }
 
 /// The screen as plain text, one line per row, trailing blanks trimmed (for `--screen`).

@@ -3,7 +3,7 @@
 
 use crate::tui::app::{Popup, State};
 use crate::tui::keymap::{self, TABLES};
-use crate::tui::ui::{fit, put};
+use crate::tui::ui::{fit, put, wrap};
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style};
@@ -30,60 +30,58 @@ fn frame(area: Rect, buf: &mut Buffer, title: &str) -> Rect {
     inner
 }
 
-/// `text` in lines of at most `width` characters, broken between words (a longer word is cut).
-fn wrap(text: &str, width: usize) -> Vec<String> {
-    let width = width.max(1);
-    let mut lines = Vec::new();
-    let mut line = String::new();
-    for word in text.split_whitespace() {
-        let (have, add) = (line.chars().count(), word.chars().count());
-        if have > 0 && have + 1 + add > width {
-            lines.push(std::mem::take(&mut line));
-        }
-        if !line.is_empty() {
-            line.push(' ');
-        }
-        line.push_str(word);
-        while line.chars().count() > width {
-            let rest: String = line.chars().skip(width).collect();
-            lines.push(line.chars().take(width).collect());
-            line = rest;
-        }
-    }
-    if !line.is_empty() {
-        lines.push(line);
-    }
-    lines
-}
-
 /// One row of the help.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum HelpRow {
     Heading(&'static str),
-    /// Up to two (keys, what they do) pairs side by side.
-    Keys(Vec<(String, &'static str)>),
-    /// A popup's keys on one line.
-    Popup(&'static str, String),
+    /// Up to two (keys, what they do) pairs side by side (keys empty: the line goes on).
+    Keys(Vec<(String, String)>),
+    /// A popup's keys (title on the first line only; the keys wrapped between words).
+    Popup(Option<&'static str>, String),
 }
 
-/// The help's rows for a popup `width` wide: every binding of the main screen (two columns when wide),
-/// then each popup's keys on one line (`TABLES[0]` is the main screen's).
+/// Columns the keys take in the help (the description starts after them).
+const KEYS_COLS: u16 = 12;
+
+/// The help's rows for a popup `width` wide (inside its border): every binding of the main screen and
+/// the light dial (two columns when every description fits in half the width), then each popup's keys,
+/// every description wrapped between words so that no line is cut.
 pub(crate) fn help_rows(width: u16) -> Vec<HelpRow> {
-    let columns = if width >= 90 { 2 } else { 1 };
+    let longest = TABLES.iter().take(2).flat_map(|(_, t)| t.iter()).map(|b| b.help.chars().count()).max().unwrap_or(0);
+    let two = width >= 90 && usize::from(width / 2) >= usize::from(KEYS_COLS) + 1 + longest;
+    let columns = if two { 2 } else { 1 };
+    let room = usize::from((width / columns).saturating_sub(KEYS_COLS + 1)).max(8);
     let mut rows = Vec::new();
     // The main screen's and the light dial's keys in columns; `TABLES[0..2]` are these two.
     for (title, table) in [("main screen", keymap::MAIN), ("light dial (g; Esc leaves)", keymap::DIAL)] {
-        let keys: Vec<(String, &'static str)> = table.iter().map(|b| (keymap::keys_label(b), b.help)).collect();
-        let per_column = keys.len().div_ceil(columns);
+        // One (keys, line) per row of a column: a description longer than its room goes on below.
+        let mut lines: Vec<(String, String)> = Vec::new();
+        for b in table {
+            for (k, line) in wrap(b.help, room).into_iter().enumerate() {
+                lines.push((if k == 0 { keymap::keys_label(b) } else { String::new() }, line));
+            }
+        }
+        let per_column = lines.len().div_ceil(usize::from(columns));
         rows.push(HelpRow::Heading(title));
         for r in 0..per_column {
-            rows.push(HelpRow::Keys((0..columns).filter_map(|c| keys.get(c * per_column + r).cloned()).collect()));
+            rows.push(HelpRow::Keys(
+                (0..usize::from(columns)).filter_map(|c| lines.get(c * per_column + r).cloned()).collect(),
+            ));
         }
     }
     rows.push(HelpRow::Heading("popups and prompts"));
     for (title, table) in TABLES.iter().skip(2) {
         let keys: Vec<String> = table.iter().map(|b| format!("{} {}", keymap::keys_label(b), b.help)).collect();
-        rows.push(HelpRow::Popup(title, keys.join(" · ")));
+        let text = format!("{title}: {}", keys.join(" · "));
+        for (k, line) in wrap(&text, usize::from(width.saturating_sub(4)).max(8)).into_iter().enumerate() {
+            match k {
+                0 => {
+                    let rest = line.strip_prefix(&format!("{title}:")).unwrap_or(&line).trim_start().to_string();
+                    rows.push(HelpRow::Popup(Some(title), rest));
+                }
+                _ => rows.push(HelpRow::Popup(None, line)),
+            }
+        }
     }
     rows
 }
@@ -111,13 +109,16 @@ impl Widget for PopupView<'_> {
                         HelpRow::Keys(pairs) => {
                             for (c, (keys, help)) in pairs.iter().enumerate() {
                                 let x = 1 + c as u16 * col_width;
-                                put(buf, inner, x, y, &fit(keys, 11), bold);
-                                put(buf, inner, x + 12, y, help, Style::new());
+                                put(buf, inner, x, y, &fit(keys, usize::from(KEYS_COLS - 1)), bold);
+                                put(buf, inner, x + KEYS_COLS, y, help, Style::new());
                             }
                         }
-                        HelpRow::Popup(title, keys) => {
+                        HelpRow::Popup(Some(title), keys) => {
                             let x = put(buf, inner, 1, y, &format!("{title}: "), bold);
                             put(buf, inner, x, y, keys, Style::new());
+                        }
+                        HelpRow::Popup(None, keys) => {
+                            put(buf, inner, 3, y, keys, Style::new());
                         }
                     }
                 }
@@ -145,26 +146,31 @@ impl Widget for PopupView<'_> {
                 }
             }
             Popup::Prompt(p) => {
-                let r = centred(area, 64, 6);
+                // The hint and the refusal wrapped, the popup as tall as they need: nothing cut.
+                let width = 64u16.min(area.width);
+                let text_width = usize::from(width.saturating_sub(4));
+                let hint = wrap(&p.hint, text_width);
+                let (below, below_style) = match &p.error {
+                    Some(e) => {
+                        (wrap(&crate::fsio::escape(&e.0.to_string()), text_width), Style::new().fg(Color::LightRed))
+                    }
+                    None => (vec!["Enter accepts".to_string()], grey),
+                };
+                let r = centred(area, width, (hint.len() + below.len()) as u16 + 3);
                 let inner = frame(r, buf, &p.title);
-                put(buf, inner, 1, 0, &p.hint, grey);
+                for (y, line) in hint.iter().enumerate() {
+                    put(buf, inner, 1, y as u16, line, grey);
+                }
+                let row = hint.len() as u16;
                 let w = usize::from(inner.width.saturating_sub(4));
                 let chars: Vec<char> = p.input.chars().collect();
                 let shown: String = chars[chars.len().saturating_sub(w)..].iter().collect();
-                let x = put(buf, inner, 1, 1, "› ", bold);
-                let x = put(buf, inner, x, 1, &shown, Style::new().fg(Color::White));
-                put(buf, inner, x, 1, "▏", Style::new().fg(Color::LightGreen));
-                match &p.error {
-                    Some(e) => put(
-                        buf,
-                        inner,
-                        1,
-                        2,
-                        &fit(&crate::fsio::escape(&e.0.to_string()), usize::from(inner.width.saturating_sub(2))),
-                        Style::new().fg(Color::LightRed),
-                    ),
-                    None => put(buf, inner, 1, 2, "Enter accepts", grey),
-                };
+                let x = put(buf, inner, 1, row, "› ", bold);
+                let x = put(buf, inner, x, row, &shown, Style::new().fg(Color::White));
+                put(buf, inner, x, row, "▏", Style::new().fg(Color::LightGreen));
+                for (y, line) in below.iter().enumerate() {
+                    put(buf, inner, 1, row + 1 + y as u16, line, below_style);
+                }
             }
             Popup::ChooseSpectrum { op, light, reflectance } => {
                 let r = centred(area, 60, 5);
@@ -187,13 +193,46 @@ impl Widget for PopupView<'_> {
                 }
             }
             Popup::ConfirmQuit => {
-                let r = centred(area, 56, 6);
-                let inner = frame(r, buf, "unsaved changes");
+                let width = 56u16.min(area.width);
                 let name = state.path().display().to_string();
-                put(buf, inner, 1, 0, &fit(&format!("{name} has unsaved changes."), 52), bold);
-                put(buf, inner, 1, 1, "s  save, then quit", Style::new());
-                put(buf, inner, 1, 2, "y  quit without saving", Style::new());
-                put(buf, inner, 1, 3, "n  stay", Style::new());
+                let lines = wrap(&format!("{name} has unsaved changes."), usize::from(width.saturating_sub(4)));
+                let r = centred(area, width, lines.len() as u16 + 5);
+                let inner = frame(r, buf, "unsaved changes");
+                for (y, line) in lines.iter().enumerate() {
+                    put(buf, inner, 1, y as u16, line, bold);
+                }
+                let y = lines.len() as u16;
+                put(buf, inner, 1, y, "s  save, then quit", Style::new());
+                put(buf, inner, 1, y + 1, "y  quit without saving", Style::new());
+                put(buf, inner, 1, y + 2, "n  stay", Style::new());
+            }
+            Popup::Recovery { path } => {
+                let width = 70u16.min(area.width.saturating_sub(2)).max(20);
+                let text = format!(
+                    "unsaved work from an interrupted session is in {}, beside the palette file.",
+                    crate::fsio::show(path)
+                );
+                let lines = wrap(&text, usize::from(width.saturating_sub(4)));
+                // Each key with its description, wrapped beside it.
+                let keys: Vec<String> = keymap::RECOVERY
+                    .iter()
+                    .flat_map(|b| {
+                        let label = keymap::keys_label(b);
+                        wrap(b.help, usize::from(width.saturating_sub(13)))
+                            .into_iter()
+                            .enumerate()
+                            .map(move |(k, l)| format!("{:<8} {l}", if k == 0 { label.as_str() } else { "" }))
+                            .collect::<Vec<_>>()
+                    })
+                    .collect();
+                let r = centred(area, width, (lines.len() + keys.len()) as u16 + 3);
+                let inner = frame(r, buf, "recovery copy found");
+                for (y, line) in lines.iter().enumerate() {
+                    put(buf, inner, 1, y as u16, line, bold);
+                }
+                for (k, line) in keys.iter().enumerate() {
+                    put(buf, inner, 1, (lines.len() + 1 + k) as u16, line, Style::new());
+                }
             }
             Popup::Conflict { text } => {
                 let width = 70u16.min(area.width.saturating_sub(2)).max(20);

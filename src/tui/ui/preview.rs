@@ -36,6 +36,41 @@ pub(crate) fn title(state: &State) -> String {
     format!(" light dial: {caption} · {keys} · {} ", state.preview.graphics.name())
 }
 
+/// Which palette the preview shows: the scene's materials and dial lights take the designed spectra of
+/// the same name, the others keep the scene palette's. `None` when all come from the designed palette.
+pub(crate) fn palette_note(state: &State) -> Option<String> {
+    let preview = state.preview.ready.as_ref()?;
+    let p = &state.doc.palette;
+    let materials = &preview.materials;
+    let named = |list: &[crate::palette::SpectrumEntry], n: &str| list.iter().any(|e| e.name == n);
+    let mat_in = materials.iter().filter(|(n, _)| named(&p.reflectances, n)).count();
+    let lights: Vec<&str> =
+        state.preview.dial_state().map(|d| d.lights.iter().map(|l| l.name.as_str()).collect()).unwrap_or_default();
+    let light_in = lights.iter().filter(|n| named(&p.lights, n)).count();
+    if mat_in == materials.len() && light_in == lights.len() {
+        return None;
+    }
+    let scene_palette = preview
+        .scene
+        .palette_path
+        .as_deref()
+        .map_or("its built-in palette".to_string(), |path| format!("its palette {}", crate::fsio::show(path)));
+    Some(if mat_in == 0 && light_in == 0 {
+        format!(
+            "the preview shows the scene's own spectra ({scene_palette}): no material or light of it is named \
+             as in {}, so edits do not reach it",
+            crate::fsio::show(state.path())
+        )
+    } else {
+        format!(
+            "the preview takes {mat_in} of {} materials and {light_in} of {} lights from this palette (by name); \
+             the others are the scene's ({scene_palette})",
+            materials.len(),
+            lights.len()
+        )
+    })
+}
+
 /// The preview image of a state (a progress line while it is raycast).
 pub(crate) struct PreviewPanel<'a>(pub &'a State);
 
@@ -56,7 +91,14 @@ impl Widget for PreviewPanel<'_> {
         if pw == 0 || ph == 0 || pixels.len() != pw * ph * 3 {
             return;
         }
-        let first = if loading.is_some() { 1 } else { 0 };
+        let mut first = if loading.is_some() { 1 } else { 0 };
+        // Which palette the image shows, when not (all) the designed one: wrapped above the image.
+        if let Some(note) = palette_note(state) {
+            for line in crate::tui::ui::wrap(&note, usize::from(area.width)).iter().take(usize::from(area.height / 2)) {
+                buf.set_stringn(area.x, area.y + first, line, usize::from(area.width), Style::new().fg(Color::Yellow));
+                first += 1;
+            }
+        }
         let area = Rect { y: area.y + first, height: area.height - first, ..area };
         if !state.preview.graphics.is_halfblocks()
             && let Some(cells) = state.preview.graphics.encoded_cells()

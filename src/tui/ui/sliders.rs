@@ -56,7 +56,7 @@ impl Widget for Sliders<'_> {
             Target::Cell { light, reflectance } => {
                 let (lname, rname) = (&p.lights[light].name, &p.reflectances[reflectance].name);
                 let cell = p.cell(light, reflectance);
-                let title = format!("{rname} × {lname}");
+                let title = crate::design::cell_name(lname, rname);
                 put(buf, area, x0, 0, &fit(&title, w.saturating_sub(10)), Style::new().add_modifier(Modifier::BOLD));
                 if let Some(g) = cell.and_then(|c| c.free).and_then(|g| p.free.get(g)) {
                     let free = format!("free {}", g.name);
@@ -207,8 +207,10 @@ impl Widget for CompactSliders<'_> {
         let hex = view.and_then(|c| c.desired).map_or("—".to_string(), |d| linear_to_hex(&d));
         let de = view.and_then(|c| c.delta_e_full).map_or("–".to_string(), |d| format!("{d:.1}"));
         x = put(buf, area, x, 0, &format!("{hex}  ΔE {de}  "), Style::new());
-        let name =
-            format!("{} × {}", state.doc.palette.reflectances[reflectance].name, state.doc.palette.lights[light].name);
+        let name = crate::design::cell_name(
+            &state.doc.palette.lights[light].name,
+            &state.doc.palette.reflectances[reflectance].name,
+        );
         let room = usize::from(area.width.saturating_sub(x));
         put(buf, area, x, 0, &fit(&name, room), Style::new().fg(Color::Gray));
     }

@@ -9,8 +9,9 @@ use ratatui::text::{Line, Span};
 
 const SPINNER: [&str; 8] = ["⠋", "⠙", "⠹", "⠸", "⠼", "⠴", "⠦", "⠧"];
 
-/// `metamer ─ palettes/x.toml ●` (and `256 colours` without truecolor); `compact` drops the program name.
-pub(crate) fn title_left(state: &State, compact: bool) -> Line<'static> {
+/// `metamer ─ palettes/x.toml ●` (and `256 colours` without truecolor); `compact` drops the program name,
+/// `path_room` abbreviates the path to that many characters.
+pub(crate) fn title_left(state: &State, compact: bool, path_room: Option<usize>) -> Line<'static> {
     let mut spans = Vec::new();
     if !compact {
         spans.push(Span::styled(" metamer ", Style::new().add_modifier(Modifier::BOLD)));
@@ -18,7 +19,12 @@ pub(crate) fn title_left(state: &State, compact: bool) -> Line<'static> {
     } else {
         spans.push(Span::raw(" "));
     }
-    spans.push(Span::raw(format!("{} ", state.path().display())));
+    let path = state.path().display().to_string();
+    let path = match path_room {
+        Some(room) => crate::tui::ui::abbreviate_path(&path, room),
+        None => path,
+    };
+    spans.push(Span::raw(format!("{path} ")));
     if state.is_dirty() {
         spans.push(Span::styled("● ", Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD)));
     }
@@ -82,19 +88,26 @@ pub(crate) fn title_right(state: &State, compact: bool) -> Line<'static> {
     Line::from(spans)
 }
 
-/// Draw the title row (over the top border of `area`): left and right parts, abbreviated to fit.
+/// Draw the title row (over the top border of `area`): left and right parts, abbreviated to fit. The
+/// path is abbreviated before anything else is cut, so the unsaved marker `●` always shows.
 pub(crate) fn draw_title(state: &State, area: ratatui::layout::Rect, buf: &mut ratatui::buffer::Buffer) {
     let room = usize::from(area.width.saturating_sub(4));
     let fits = |l: &Line, r: &Line| l.width() + r.width() < room;
-    let mut choice = (title_left(state, true), title_right(state, true));
-    for (lc, rc) in [(false, false), (false, true)] {
-        let (l, r) = (title_left(state, lc), title_right(state, rc));
+    let mut choice = None;
+    for (lc, rc) in [(false, false), (false, true), (true, true)] {
+        let (l, r) = (title_left(state, lc, None), title_right(state, rc));
         if fits(&l, &r) {
-            choice = (l, r);
+            choice = Some((l, r));
             break;
         }
     }
-    let (left, right) = choice;
+    let (left, right) = choice.unwrap_or_else(|| {
+        let right = title_right(state, true);
+        let path = state.path().display().to_string().chars().count();
+        let others = title_left(state, true, None).width().saturating_sub(path);
+        let path_room = room.saturating_sub(right.width() + others + 1).max(6);
+        (title_left(state, true, Some(path_room)), right)
+    });
     let right_width = right.width().min(room) as u16;
     let right_x = area.x + area.width.saturating_sub(2 + right_width);
     buf.set_line(right_x, area.y, &right, right_width);
@@ -117,16 +130,38 @@ const HINTS: &[&str] = &[
 ];
 const ALWAYS: &str = "^s save · ? help · q quit";
 
-/// A message when there is one, else the key hints that fit in `width`.
+/// The light dial's keys (after `g`), in the same way.
+const DIAL_HINTS: &[&str] =
+    &["←↑↓→ slider/vertex", "1…9 light on/off", "tab select", "+/- brighter/dimmer", "a keyframe", "^s save scene"];
+const DIAL_ALWAYS: &str = "Esc leave · ? help · q quit";
+
+/// A message's colour: red for errors, green otherwise.
+pub(crate) fn message_style(m: &crate::tui::app::Message) -> Style {
+    if m.is_error { Style::new().fg(Color::LightRed) } else { Style::new().fg(Color::LightGreen) }
+}
+
+/// The rows a message longer than the bottom line takes above it (the message area), wrapped between
+/// words; none when it fits on the bottom line.
+pub(crate) fn message_rows(state: &State, width: u16) -> Vec<String> {
+    let width = usize::from(width);
+    match &state.ui.message {
+        Some(m) if m.text.chars().count() + 2 > width => crate::tui::ui::wrap(&m.text, width),
+        _ => Vec::new(),
+    }
+}
+
+/// A message when it fits on the line (a longer one is in the message area above), else the key hints
+/// that fit in `width`.
 pub(crate) fn bottom_line(state: &State, width: u16) -> Line<'static> {
     let width = usize::from(width);
-    if let Some(m) = &state.ui.message {
-        let style = if m.is_error { Style::new().fg(Color::LightRed) } else { Style::new().fg(Color::LightGreen) };
-        return Line::from(Span::styled(format!(" {} ", fit(&m.text, width.saturating_sub(2))), style));
+    if let Some(m) = state.ui.message.as_ref().filter(|m| m.text.chars().count() + 2 <= width) {
+        return Line::from(Span::styled(format!(" {} ", m.text), message_style(m)));
     }
-    let room = width.saturating_sub(ALWAYS.chars().count() + 2);
+    // The keys in force: the light dial's after `g`, else the main screen's.
+    let (hints, always) = if state.preview.keys { (DIAL_HINTS, DIAL_ALWAYS) } else { (HINTS, ALWAYS) };
+    let room = width.saturating_sub(always.chars().count() + 2);
     let mut text = String::new();
-    for h in HINTS {
+    for h in hints {
         let add = h.chars().count() + 3;
         if text.chars().count() + add > room {
             break;
@@ -134,5 +169,5 @@ pub(crate) fn bottom_line(state: &State, width: u16) -> Line<'static> {
         text.push_str(h);
         text.push_str(" · ");
     }
-    Line::from(Span::styled(format!(" {text}{ALWAYS} "), Style::new().fg(Color::Gray)))
+    Line::from(Span::styled(format!(" {text}{always} "), Style::new().fg(Color::Gray)))
 }

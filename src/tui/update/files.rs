@@ -49,12 +49,13 @@ pub(super) fn file(state: &mut State, outcome: FileOutcome) {
                 // replaced only when it is still the one the save started from.
                 let written = &state.doc.file.palette;
                 if state.doc.palette == before && *written != state.doc.palette {
+                    // The palette on screen becomes the one written, whose designed spectra are the
+                    // solution's: the solution the user saw is its solution, kept as it is (no new solve,
+                    // which could move a joint design from its new start): saving changes no result.
                     state.doc.palette = written.clone();
-                    // The palette now starts from its solution. A new generation, so the update step
-                    // solves it again and the title shows exactly what the saved file solves to (the same
-                    // optimum for designs with one side designed; a joint design may improve a little
-                    // from its new start); not when quitting. The last solution stays on screen meanwhile.
-                    changed(state);
+                    state.solve.carry_to_next_generation();
+                    state.clamp_selection();
+                    state.refresh();
                 }
                 if solved {
                     state.say(saved.text);
@@ -92,6 +93,24 @@ pub(super) fn file(state: &mut State, outcome: FileOutcome) {
             state.say("reloaded from disk (z undoes the reload)");
         }
         FileOutcome::Reloaded(Err(e)) => state.complain(format!("not reloaded: {e}")),
+        FileOutcome::Restored { path, result } => {
+            let shown = crate::fsio::show(&path);
+            match result {
+                Ok(palette) => {
+                    // An edit like any other: unsaved until saved into the palette file, `z` undoes it.
+                    edit(state, EditKey::Other, |p, _| {
+                        *p = palette;
+                        Ok(())
+                    });
+                    state.say(format!(
+                        "restored the unsaved work from {shown}: Ctrl-s saves it into {}, z undoes it (delete \
+                         the copy when done)",
+                        crate::fsio::show(state.path())
+                    ));
+                }
+                Err(e) => state.complain(format!("not restored from {shown}: {e}")),
+            }
+        }
         FileOutcome::Recovered(result) => {
             state.ui.terminated = Some(result.ok());
             state.ui.quit = true;

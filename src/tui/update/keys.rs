@@ -80,7 +80,8 @@ pub(super) fn update_main(state: &mut State, action: Action) -> Vec<Effect> {
         | Action::ChooseLight
         | Action::ChooseReflectance
         | Action::Discard
-        | Action::SaveAndQuit => {}
+        | Action::SaveAndQuit
+        | Action::Restore => {}
     }
     Vec::new()
 }

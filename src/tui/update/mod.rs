@@ -46,6 +46,16 @@ pub fn update(state: &mut State, msg: Msg) -> Vec<Effect> {
             state.ui.screen = (width, height);
             Vec::new()
         }
+        Msg::Graphics { graphics, warning } => {
+            state.preview.graphics = graphics;
+            state.preview.probing = false;
+            if let Some(w) = warning {
+                state.complain(w);
+            }
+            // The frame encoded for the new protocol (the raycast follows at the panel's new pixel size).
+            state.relight();
+            Vec::new()
+        }
         Msg::Key(key) => {
             // Each key is looked up in the keymap in force after the one before it acted.
             let mut effects = Vec::new();
@@ -153,7 +163,8 @@ fn want_solve(state: &mut State, effects: &mut Vec<Effect>) {
 /// Keep the scene preview at its panel's pixel size: ask for a raycast when the scene is new or the panel
 /// changed size.
 pub(super) fn want_preview(state: &mut State, effects: &mut Vec<Effect>) {
-    if !state.preview.has_scene() {
+    // While the terminal is asked for its graphics, the panel's pixel size is not known yet.
+    if !state.preview.has_scene() || state.preview.probing {
         return;
     }
     let (width, height) = state.ui.screen;

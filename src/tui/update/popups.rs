@@ -37,6 +37,7 @@ pub(super) fn update_popup(state: &mut State, popup: Popup, action: Action) -> P
         }
         Popup::ConfirmQuit => Done(on_confirm_quit(state, action)),
         Popup::Conflict { text } => on_conflict(state, action, text),
+        Popup::Recovery { path } => Done(on_recovery(state, action, path)),
     }
 }
 
@@ -118,6 +119,21 @@ fn on_conflict(state: &mut State, action: Action, text: String) -> PopupOutcome 
         _ => state.ui.popup = Some(Popup::Conflict { text }),
     }
     Done(Vec::new())
+}
+
+/// A recovery copy found on opening: restore it (read by the loop), or keep the file as it is.
+fn on_recovery(state: &mut State, action: Action, path: std::path::PathBuf) -> Vec<Effect> {
+    match action {
+        Action::Restore => {
+            state.doc.file_busy = true;
+            return vec![Effect::Restore { path }];
+        }
+        Action::Back => {
+            state.say(format!("the recovery copy stays in {} (delete it when done)", crate::fsio::show(&path)))
+        }
+        _ => state.ui.popup = Some(Popup::Recovery { path }),
+    }
+    Vec::new()
 }
 
 fn pick(state: &mut State, kind: Kind, item: Option<PickItem>) {

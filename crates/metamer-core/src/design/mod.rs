@@ -18,6 +18,12 @@
 //! `‖x − P(x − ∇f(x))‖∞` divided by `1 + ‖∇f(0)‖∞` (linear blocks) or `1 + f(x)` (bilinear blocks).
 
 pub mod feasibility;
+
+/// A cell's name, in the one order used everywhere (designer, diagnostics, reports): the light first,
+/// then the reflectance it lights — `daylight × petal`.
+pub fn cell_name(light: &str, reflectance: &str) -> String {
+    format!("{light} × {reflectance}")
+}
 pub mod joint;
 pub mod layout;
 pub mod lbfgsb;

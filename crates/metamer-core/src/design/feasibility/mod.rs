@@ -119,10 +119,9 @@ pub enum FeasibilityError {
 /// "light × reflectance" of a cell, escaped.
 pub fn cell_label(palette: &Palette, cell: usize) -> String {
     match palette.colours.get(cell) {
-        Some(c) => format!(
-            "{} × {}",
-            crate::fsio::escape(&palette.lights[c.light].name),
-            crate::fsio::escape(&palette.reflectances[c.reflectance].name)
+        Some(c) => super::cell_name(
+            &crate::fsio::escape(&palette.lights[c.light].name),
+            &crate::fsio::escape(&palette.reflectances[c.reflectance].name),
         ),
         None => format!("colours[{cell}]"),
     }
