@@ -16,6 +16,7 @@ mod cli_solve;
 mod colour_reference;
 mod design_cases;
 mod design_oracle;
+mod dial_design;
 mod dial_figures;
 mod dial_scene;
 mod doc_claims;

@@ -116,7 +116,8 @@ pub fn mix_label(p: &Palette, spec: &MixSpec, mix: &Mix) -> String {
     }
 }
 
-/// A readable name of a path's route: `path(hide → glow)` or `dial path([0, 1] → [1, 0], off glow)`.
+/// A readable name of a path's route: `path(hide → glow)` (lights mixed pairwise) or `dial path(hide →
+/// [0.5, 0.2] → glow, off purple)` (points at a vertex named by their light).
 pub fn route_label(p: &Palette, route: &Route) -> String {
     match route {
         Route::Lights(order) => {
@@ -124,7 +125,13 @@ pub fn route_label(p: &Palette, route: &Route) -> String {
             format!("path({})", names.join(" → "))
         }
         Route::Dial { through, off } => {
-            let pts: Vec<String> = through.iter().map(|q| format!("[{}, {}]", num(q[0]), num(q[1]))).collect();
+            // A point at a light's vertex is named by the light.
+            let vertices = dial_lights(&p.lights);
+            let name = |q: &[f64; 2]| vertices.iter().find(|l| l.position == *q).map(|l| l.name.clone());
+            let pts: Vec<String> = through
+                .iter()
+                .map(|q| name(q).unwrap_or_else(|| format!("[{}, {}]", num(q[0]), num(q[1]))))
+                .collect();
             format!("dial path({}{})", pts.join(" → "), off_label(p, off))
         }
     }
