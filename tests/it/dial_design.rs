@@ -448,3 +448,65 @@ fn the_shipped_example_palette_reads_and_solves_every_criterion() {
     let unmet: Vec<&str> = sol.diagnostics.iter().filter(|d| d.is_unmet()).map(|d| d.message.as_str()).collect();
     assert!(unmet.is_empty(), "the example's criteria are all met: {unmet:#?}");
 }
+
+fn example_path() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("palettes/dial_mixtures.toml")
+}
+
+#[test]
+fn solve_shows_mixture_cells_and_paths_in_the_table_and_the_report() {
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let report = dir.path().join("report.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .args(["solve", "--no-subspace"])
+        .arg(example_path())
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .expect("metamer runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
+    // Rows like the cells': the mixture's name in the light column, then target, full colour, ΔE00.
+    let row = text.lines().find(|l| l.starts_with("mix(daylight 0.5, lamp 0.5) petal")).expect("the mix row");
+    assert!(row.contains("#c25541"), "{row}");
+    assert!(text.lines().any(|l| l.starts_with("dial(0.45, 0.6) petal")), "{text}");
+    let path = text.lines().find(|l| l.starts_with("path leaf along dial path(daylight → reveal, off lamp)")).expect("path");
+    assert!(path.contains("over 129 positions (9 design samples"), "{path}");
+    assert!(text.contains("2 mixtures (0 with remarks), 1 paths (0 with remarks)"), "{text}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
+    let mixtures = json["mixtures"].as_array().expect("mixtures");
+    assert_eq!(mixtures.len(), 2);
+    assert_eq!(mixtures[0]["name"], "petal × mix(daylight 0.5, lamp 0.5)");
+    assert_eq!(mixtures[0]["mix"]["lamp"], 0.5);
+    assert_eq!(mixtures[1]["dial"], serde_json::json!([0.45, 0.6]));
+    for m in mixtures {
+        assert!(m["delta_e_full"].as_f64().expect("ΔE00") < 1.0, "{m}");
+        assert_eq!(m["rgb_full"].as_array().map(Vec::len), Some(3));
+    }
+    let paths = json["paths"].as_array().expect("paths");
+    assert_eq!(paths[0]["checked"], 129);
+    assert_eq!(paths[0]["met"], true);
+    assert!(paths[0]["worst_delta_e"].as_f64().expect("worst") <= 1.0);
+}
+
+#[test]
+fn the_designer_refuses_palettes_with_dial_criteria_with_a_clear_message() {
+    use metamer::tui::event_loop::{FileSaver, Saver};
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .args(["design", "--no-basis"])
+        .arg(example_path())
+        .output()
+        .expect("metamer runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("dial_mixtures.toml") && err.contains("2 [[mixtures]] and 1 [[paths]]"), "{err}");
+    assert!(err.contains("metamer solve"), "{err}");
+    // A reload that finds the tables added on disk is refused the same way (the open palette stays).
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let file = dir.path().join("p.toml");
+    std::fs::write(&file, LIGHTS).expect("write");
+    let opened = PaletteFile::load(&file).expect("plain palette");
+    std::fs::write(&file, format!("{LIGHTS}{MIXTURES}")).expect("write");
+    let e = FileSaver.reload(&opened).err().expect("the reload is refused");
+    assert!(e.to_string().contains("3 [[mixtures]]"), "{e}");
+}

@@ -358,6 +358,15 @@ impl Palette {
         Ok(())
     }
 
+    /// The criteria along the light dial the palette has, as words (`2 [[mixtures]] and 1 [[paths]]`), or
+    /// `None` when it has none.
+    pub fn dial_criteria(&self) -> Option<String> {
+        let part = |n: usize, what: &str| (n > 0).then(|| format!("{n} [[{what}]]"));
+        let parts: Vec<String> =
+            [part(self.mixtures.len(), "mixtures"), part(self.paths.len(), "paths")].into_iter().flatten().collect();
+        (!parts.is_empty()).then(|| parts.join(" and "))
+    }
+
     /// The entries of one side.
     pub fn entries(&self, kind: Kind) -> &[SpectrumEntry] {
         match kind {
