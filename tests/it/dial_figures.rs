@@ -21,9 +21,9 @@ use std::path::Path;
 const SIZE: usize = 160;
 
 /// Per keyframe, each material's colour (linear RGB on the palette's scale) and its pixel count.
-struct Stages {
-    colours: Vec<BTreeMap<String, Vector3<f64>>>,
-    pixels: BTreeMap<String, usize>,
+pub(crate) struct Stages {
+    pub(crate) colours: Vec<BTreeMap<String, Vector3<f64>>>,
+    pub(crate) pixels: BTreeMap<String, usize>,
     colorimetry: Colorimetry,
 }
 
@@ -50,10 +50,16 @@ fn render_stages(scene_file: &str, volume_file: &str, default_mode: Mode, shadin
     }
     scene.dial.timing = Timing::PerKeyframe;
     let frames = scene.dial.keyframe_count();
+    Some(measure_frames(&scene, frames, mode(default_mode), scene_file))
+}
+
+/// Render `frames` frames of `scene`'s sweep in `colour_mode` at [`SIZE`]² and measure each material's
+/// colour in every frame (see the module docs).
+pub(crate) fn measure_frames(scene: &Scene, frames: usize, colour_mode: Mode, scene_file: &str) -> Stages {
     let col = Colorimetry::default();
-    let model = colour_model(&scene, mode(default_mode), &col).expect("factor model");
+    let model = colour_model(scene, colour_mode, &col).expect("factor model");
     let classes: Vec<_> = scene.materials.iter().map(|m| m.class.clone()).collect();
-    let opts = raycast_options(&scene, SIZE, SIZE, Acceleration::default());
+    let opts = raycast_options(scene, SIZE, SIZE, Acceleration::default());
     let (weights, _) = raycast(&scene.volume, &classes, None, &scene.camera, &opts);
     let vectors: Vec<Vec<f32>> = scene.materials.iter().map(|m| model.material_vector(&m.spectrum)).collect();
     let image = weights.project(&vectors);
@@ -131,14 +137,14 @@ fn render_stages(scene_file: &str, volume_file: &str, default_mode: Mode, shadin
     for (i, c) in colours.iter().enumerate() {
         eprintln!("{scene_file}: stage {i}: {c:?}");
     }
-    Some(Stages { colours, pixels, colorimetry: col })
+    Stages { colours, pixels, colorimetry: col }
 }
 
 impl Stages {
-    fn colour(&self, stage: usize, material: &str) -> Vector3<f64> {
+    pub(crate) fn colour(&self, stage: usize, material: &str) -> Vector3<f64> {
         self.colours[stage][material]
     }
-    fn lab(&self, c: &Vector3<f64>) -> [f64; 3] {
+    pub(crate) fn lab(&self, c: &Vector3<f64>) -> [f64; 3] {
         let white = self.colorimetry.rgb_to_xyz(&Vector3::new(1.0, 1.0, 1.0));
         xyz_to_lab(&self.colorimetry.rgb_to_xyz(c), &white)
     }

@@ -17,7 +17,7 @@ mod colour_reference;
 mod design_cases;
 mod design_oracle;
 mod dial_design;
-mod dial_figures;
+pub(crate) mod dial_figures;
 mod dial_scene;
 mod doc_claims;
 mod feasibility;
