@@ -9,9 +9,9 @@ use crate::basis::store::{self, palette_uses_basis};
 use crate::colorimetry::{Colorimetry, linear_to_hex};
 use crate::design::report::Fixed;
 use crate::design::{self, Criterion, Solution, SolveOptions};
+use crate::palette::file::PaletteFile;
 use crate::palette::mixing;
 use crate::palette::{MixSpec, Palette, SpectrumEntry};
-use crate::palette::file::PaletteFile;
 use anyhow::Context;
 use nalgebra::Vector3;
 use std::fmt::Write as _;
@@ -390,9 +390,8 @@ fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -
     let extra = |n: usize, what: &str, remarks: usize| {
         if n == 0 { String::new() } else { format!(", {n} {what} ({remarks} with remarks)") }
     };
-    let with_remarks = |f: fn(&Criterion) -> bool| {
-        s.diagnostics.iter().filter(|d| d.criterion.as_ref().is_some_and(f)).count()
-    };
+    let with_remarks =
+        |f: fn(&Criterion) -> bool| s.diagnostics.iter().filter(|d| d.criterion.as_ref().is_some_and(f)).count();
     let others = extra(s.mixtures.len(), "mixtures", with_remarks(|c| matches!(c, Criterion::Mixture(_))))
         + &extra(s.paths.len(), "paths", with_remarks(|c| matches!(c, Criterion::Path(_))));
     super::out::write(|w| {

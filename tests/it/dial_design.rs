@@ -268,7 +268,9 @@ fn bilinear_mixture_rows_have_the_right_value_and_gradient_and_the_joint_solve_l
     let c = col();
     let text = format!(
         "{}\n{}",
-        LIGHTS.replace("illuminant = \"A\"", "illuminant = \"A\"\ndesign = true").replace("smoothness = 0.001", "smoothness = 0.0"),
+        LIGHTS
+            .replace("illuminant = \"A\"", "illuminant = \"A\"\ndesign = true")
+            .replace("smoothness = 0.001", "smoothness = 0.0"),
         r##"
 [[mixtures]]
 reflectance = "leaf"
@@ -320,9 +322,7 @@ target = [0.35, 0.1, 0.05]
 fn path_palette(samples: usize) -> Palette {
     // Unbounded reflectances: the colour equations alone decide what is reachable.
     let lights = LIGHTS.replace("reflectance_bounds = [0.0, 1.0]", "");
-    parse(&format!(
-        "{lights}{}",
-        format!(
+    let criteria = format!(
         r##"
 [[colours]]
 light = "cool"
@@ -337,10 +337,8 @@ target = "#b84a50"
 samples = {samples}
 tolerance = 1.0
 "##
-        )
-    ))
-    .unwrap()
-    .palette
+    );
+    parse(&format!("{lights}{criteria}")).unwrap().palette
 }
 
 #[test]
@@ -412,7 +410,11 @@ fn bad_mixtures_and_paths_are_refused_with_file_key_and_reason() {
     expect_error(&m("dial = [0.2, 0.2]\noff = [\"day\", \"warm\", \"cool\"]"), "mixtures[0].off", "every light off");
     expect_error(&m("dial = [0.2]"), "mixtures[0].dial", "expected 2 numbers");
     expect_error(&m("dial = [1e9, 0.0]"), "mixtures[0].dial", "outside the dial");
-    expect_error("[[mixtures]]\nreflectance = \"stem\"\ndial = [0.0, 0.0]\ntarget = \"#808080\"\n", "mixtures[0].reflectance", "unknown reflectance");
+    expect_error(
+        "[[mixtures]]\nreflectance = \"stem\"\ndial = [0.0, 0.0]\ntarget = \"#808080\"\n",
+        "mixtures[0].reflectance",
+        "unknown reflectance",
+    );
     expect_error(&m("dial = [0.2, 0.2]\nfree = \"nope\""), "mixtures[0].free", "unknown free group");
     // A dial position needs lights placed on the dial.
     let unplaced = format!(
@@ -470,7 +472,8 @@ fn solve_shows_mixture_cells_and_paths_in_the_table_and_the_report() {
     let row = text.lines().find(|l| l.starts_with("mix(daylight 0.5, lamp 0.5) petal")).expect("the mix row");
     assert!(row.contains("#c25541"), "{row}");
     assert!(text.lines().any(|l| l.starts_with("dial(0.45, 0.6) petal")), "{text}");
-    let path = text.lines().find(|l| l.starts_with("path leaf along dial path(daylight → reveal, off lamp)")).expect("path");
+    let path =
+        text.lines().find(|l| l.starts_with("path leaf along dial path(daylight → reveal, off lamp)")).expect("path");
     assert!(path.contains("over 129 positions (9 design samples"), "{path}");
     assert!(text.contains("2 mixtures (0 with remarks), 1 paths (0 with remarks)"), "{text}");
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
@@ -507,7 +510,7 @@ fn the_designer_refuses_palettes_with_dial_criteria_with_a_clear_message() {
     std::fs::write(&file, LIGHTS).expect("write");
     let opened = PaletteFile::load(&file).expect("plain palette");
     std::fs::write(&file, format!("{LIGHTS}{MIXTURES}")).expect("write");
-    let e = FileSaver.reload(&opened).err().expect("the reload is refused");
+    let Err(e) = FileSaver.reload(&opened) else { panic!("the reload is refused") };
     assert!(e.to_string().contains("3 [[mixtures]]"), "{e}");
 }
 

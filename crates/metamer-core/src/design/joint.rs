@@ -96,7 +96,7 @@ impl NonlinearProblem<'_> {
                 for &(i, w) in &t.lights {
                     if let Some(off) = self.layout.offset(Unit::Light(i)) {
                         let ge = ge.get_or_insert_with(|| d.operator(form, s).tr_mul(&r) * (2.0 * scale));
-                        g.rows_mut(off, 31).add_assign(&(&*ge * w));
+                        g.rows_mut(off, 31).add_assign(&(*ge * w));
                     }
                 }
                 if form != Form::Error

@@ -8,10 +8,10 @@
 use super::lsq;
 use super::system::{Design, Form, LinearSystem, Origin, Values};
 use super::{CellResult, CellStatus, Criterion, Diagnostic, DiagnosticKind, PathResult};
-use crate::palette::mixing::{self, check_positions, light_of, mix_at, route_dial};
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
 use crate::colorimetry::Q31;
+use crate::palette::mixing::{self, check_positions, light_of, mix_at, route_dial};
 use crate::palette::{Bounds, Palette};
 use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
@@ -290,8 +290,12 @@ pub(crate) fn diagnostics(
 ) -> Vec<Diagnostic> {
     let p = design.palette;
     let mut out = Vec::new();
-    let say =
-        |cell: Option<usize>, kind: DiagnosticKind, message: String| Diagnostic { cell, criterion: None, kind, message };
+    let say = |cell: Option<usize>, kind: DiagnosticKind, message: String| Diagnostic {
+        cell,
+        criterion: None,
+        kind,
+        message,
+    };
     // Designed spectra without any colour criterion.
     let mut light_used = vec![false; p.lights.len()];
     let mut refl_used = vec![false; p.reflectances.len()];
@@ -511,6 +515,9 @@ pub(crate) fn mixture_results(
         .collect()
 }
 
+/// (worst ΔE00, its t, its slider point, the colour there, the worst over the design samples alone).
+type PathWorst = (f64, f64, [f64; 2], Vector3<f64>, f64);
+
 /// The worst ΔE00 of `colour(e, s)` from `target` over a path's check positions: (worst, its t, its slider
 /// point, the colour there, the worst over the design samples alone).
 fn path_worst(
@@ -520,7 +527,7 @@ fn path_worst(
     target: &Vector3<f64>,
     colour: impl Fn(&Spectrum, &Spectrum) -> Vector3<f64>,
     colorimetry: &Colorimetry,
-) -> Option<(f64, f64, [f64; 2], Vector3<f64>, f64)> {
+) -> Option<PathWorst> {
     let q = &palette.paths[k];
     let dial = route_dial(&palette.lights, &q.route).ok()?;
     let s = &v.reflectances[q.reflectance];
@@ -555,8 +562,13 @@ pub(crate) fn path_results(
             let q = &palette.paths[k];
             let target = q.free.map(|g| v.free[g]).unwrap_or(q.target);
             let full = |e: &Spectrum, s: &Spectrum| colorimetry.rgb(e, s);
-            let (worst, t, point, rgb, at_samples) = path_worst(palette, k, v, &target, full, colorimetry)
-                .unwrap_or((f64::MAX, 0.0, [0.0; 2], Vector3::zeros(), f64::MAX));
+            let (worst, t, point, rgb, at_samples) = path_worst(palette, k, v, &target, full, colorimetry).unwrap_or((
+                f64::MAX,
+                0.0,
+                [0.0; 2],
+                Vector3::zeros(),
+                f64::MAX,
+            ));
             let status = match (q.is_active(), worst > q.tolerance) {
                 (false, _) => CellStatus::NotUsed,
                 (true, false) => CellStatus::Met,

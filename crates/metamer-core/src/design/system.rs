@@ -473,7 +473,7 @@ impl<'a> Design<'a> {
                         let op = self.operator(form, s) * scale;
                         for &(off, w) in &unknown {
                             let mut block = a.view_mut((row, off), (3, SAMPLES));
-                            block += &op * w;
+                            block += op * w;
                         }
                     }
                     if t.lights.len() == unknown.len() { Vector3::zeros() } else { self.apply(form, &fixed, s) * scale }

@@ -128,10 +128,8 @@ pub fn route_label(p: &Palette, route: &Route) -> String {
             // A point at a light's vertex is named by the light.
             let vertices = dial_lights(&p.lights);
             let name = |q: &[f64; 2]| vertices.iter().find(|l| l.position == *q).map(|l| l.name.clone());
-            let pts: Vec<String> = through
-                .iter()
-                .map(|q| name(q).unwrap_or_else(|| format!("[{}, {}]", num(q[0]), num(q[1]))))
-                .collect();
+            let pts: Vec<String> =
+                through.iter().map(|q| name(q).unwrap_or_else(|| format!("[{}, {}]", num(q[0]), num(q[1])))).collect();
             format!("dial path({}{})", pts.join(" → "), off_label(p, off))
         }
     }

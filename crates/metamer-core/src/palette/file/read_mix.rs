@@ -29,11 +29,14 @@ impl Reader<'_> {
 
     fn reflectance_of(&self, t: &Table, at: &str, reflectances: &[SpectrumEntry], what: &str) -> Res<usize> {
         let key = format!("{at}.reflectance");
-        let v = t.value("reflectance").ok_or_else(|| self.invalid(&key, format!("missing: {what} names its reflectance")))?;
+        let v = t
+            .value("reflectance")
+            .ok_or_else(|| self.invalid(&key, format!("missing: {what} names its reflectance")))?;
         let name = self.string(v, &key)?;
-        reflectances.iter().position(|r| r.name == name).ok_or_else(|| {
-            self.invalid(&key, format!("unknown reflectance `{name}` (known: {})", names(reflectances)))
-        })
+        reflectances
+            .iter()
+            .position(|r| r.name == name)
+            .ok_or_else(|| self.invalid(&key, format!("unknown reflectance `{name}` (known: {})", names(reflectances))))
     }
 
     /// A dial point `[x, y]`, finite and within the dial.
@@ -69,7 +72,10 @@ impl Reader<'_> {
             {
                 return Err(self.invalid(
                     format!("lights[{i}].dial"),
-                    format!("[{:e}, {:e}] is outside the dial (coordinates within ±{MAX_DIAL_COORDINATE:e})", p[0], p[1]),
+                    format!(
+                        "[{:e}, {:e}] is outside the dial (coordinates within ±{MAX_DIAL_COORDINATE:e})",
+                        p[0], p[1]
+                    ),
                 ));
             }
         }
@@ -110,7 +116,9 @@ impl Reader<'_> {
             w[i] = x;
         }
         if w.iter().sum::<f64>() <= 0.0 {
-            return Err(self.invalid(key, "the weights sum to 0 (the mixture would be black): give a light a weight > 0"));
+            return Err(
+                self.invalid(key, "the weights sum to 0 (the mixture would be black): give a light a weight > 0")
+            );
         }
         Ok(mix_of(&w))
     }
@@ -140,7 +148,9 @@ impl Reader<'_> {
             let reflectance = self.reflectance_of(t, &at, reflectances, "a mixture")?;
             let (mix, spec) = match (t.value("dial"), t.value("mix")) {
                 (Some(_), Some(_)) => {
-                    return Err(self.invalid(&at, "give either `dial = [x, y]` or `mix = { light = weight, … }`, not both"));
+                    return Err(
+                        self.invalid(&at, "give either `dial = [x, y]` or `mix = { light = weight, … }`, not both")
+                    );
                 }
                 (None, None) => {
                     return Err(self.invalid(
