@@ -8,9 +8,10 @@ use crate::basis::basis_for_palette;
 use crate::basis::store::{self, palette_uses_basis};
 use crate::colorimetry::{Colorimetry, linear_to_hex};
 use crate::design::report::Fixed;
-use crate::design::{self, Solution, SolveOptions};
-use crate::palette::SpectrumEntry;
+use crate::design::{self, Criterion, Solution, SolveOptions};
 use crate::palette::file::PaletteFile;
+use crate::palette::mixing;
+use crate::palette::{MixSpec, Palette, SpectrumEntry};
 use anyhow::Context;
 use nalgebra::Vector3;
 use std::fmt::Write as _;
@@ -292,6 +293,8 @@ fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet
             }
             w.push('\n');
         }
+        mixture_rows(&mut w, s, &light_bad, &refl_bad);
+        path_lines(&mut w, s);
     }
     unphysical_lines(&mut w, palette);
     for d in &s.diagnostics {
@@ -307,15 +310,96 @@ fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet
     w
 }
 
+/// One row per mixture cell, as the cells' rows: the mixture's name in the light column.
+fn mixture_rows(w: &mut String, s: &Solution, light_bad: &[bool], refl_bad: &[bool]) {
+    let p = &s.palette;
+    for r in &s.mixtures {
+        let m = &p.mixtures[r.cell];
+        let at = w.len();
+        w.push_str(&mixing::mix_label(p, &m.spec, &m.mix));
+        pad(w, at, 14);
+        w.push(' ');
+        let at = w.len();
+        w.push_str(&p.reflectances[m.reflectance].name);
+        pad(w, at, 14);
+        w.push(' ');
+        let at = w.len();
+        w.push_str(&linear_to_hex(&r.target));
+        pad(w, at, 8);
+        w.push(' ');
+        for v in [&r.target, &r.rgb_full] {
+            let at = w.len();
+            write_rgb(w, v);
+            pad(w, at, 22);
+            w.push(' ');
+        }
+        let _ = write!(w, "{:>7} ", Fixed(r.delta_e_full, 2));
+        match (r.rgb_subspace, r.delta_e_subspace) {
+            (Some(c), Some(d)) => {
+                let at = w.len();
+                write_rgb(w, &c);
+                pad(w, at, 22);
+                let _ = write!(w, " {:>7}", Fixed(d, 2));
+            }
+            _ => {
+                w.push('-');
+                w.extend(std::iter::repeat_n(' ', 21));
+                w.push_str("       -");
+            }
+        }
+        if !m.is_active() {
+            w.push_str("  (not used)");
+        }
+        if m.mix.iter().any(|&(i, _)| light_bad[i]) || refl_bad[m.reflectance] {
+            w.push_str("  unphysical");
+        }
+        w.push('\n');
+    }
+}
+
+/// One line per constancy path: the worst ΔE00 found by the dense check after the solve.
+fn path_lines(w: &mut String, s: &Solution) {
+    let p = &s.palette;
+    for r in &s.paths {
+        let q = &p.paths[r.path];
+        let _ = write!(
+            w,
+            "path {}: target {} — worst ΔE00 {} over {} positions ({} design samples, {} at them; tolerance {}) at t = {}",
+            mixing::path_label(p, q),
+            linear_to_hex(&r.target),
+            Fixed(r.worst_delta_e, 2),
+            r.checked,
+            r.samples,
+            Fixed(r.worst_at_samples, 2),
+            r.tolerance,
+            Fixed(r.worst_t, 3),
+        );
+        if let Some(d) = r.worst_delta_e_subspace {
+            let _ = write!(w, "; factor model worst {}", Fixed(d, 2));
+        }
+        if !q.is_active() {
+            w.push_str("  (not used)");
+        }
+        w.push('\n');
+    }
+}
+
 /// Print the table and the summary line.
 fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -> anyhow::Result<()> {
     let unmet = s.diagnostics.iter().filter(|d| d.cell.is_some()).count();
+    let extra = |n: usize, what: &str, remarks: usize| {
+        if n == 0 { String::new() } else { format!(", {n} {what} ({remarks} with remarks)") }
+    };
+    let with_remarks =
+        |f: fn(&Criterion) -> bool| s.diagnostics.iter().filter(|d| d.criterion.as_ref().is_some_and(f)).count();
+    let others = extra(s.mixtures.len(), "mixtures", with_remarks(|c| matches!(c, Criterion::Mixture(_))))
+        + &extra(s.paths.len(), "paths", with_remarks(|c| matches!(c, Criterion::Path(_))));
     super::out::write(|w| {
         // Names in the table are the user's: control characters are shown escaped.
         w.write_all(crate::fsio::escape_lines(table).as_bytes())?;
         writeln!(
             w,
-            "objective {:.6e}, KKT residual {:.1e}, {} cells ({} with remarks), read and solved in {:.3} s{}",
+            "objective {:.6e}, KKT residual {:.1e}, {} cells ({} with remarks){others}, read and solved in {:.3} s{}",
             s.objective,
             s.kkt_residual,
             s.cells.len(),
@@ -391,6 +475,51 @@ struct CellJson<'a> {
     unphysical: bool,
 }
 
+/// A mixture cell in the report: its name, its weights and how they were given, then the cell's colours.
+#[derive(serde::Serialize)]
+struct MixtureJson<'a> {
+    /// A readable name: `REFLECTANCE × dial(x, y)` or `REFLECTANCE × mix(…)`.
+    name: String,
+    reflectance: &'a str,
+    /// The weight of every light with a weight > 0.
+    mix: std::collections::BTreeMap<&'a str, f64>,
+    /// The dial position, when the mixture was given as one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dial: Option<[f64; 2]>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    off: Vec<&'a str>,
+    target: [f64; 3],
+    rgb_full: [f64; 3],
+    rgb_subspace: Option<[f64; 3]>,
+    delta_e_full: f64,
+    delta_e_subspace: Option<f64>,
+    free: Option<&'a str>,
+    weight: f64,
+    enabled: bool,
+    unphysical: bool,
+}
+
+/// A constancy path in the report: the dense check after the solve.
+#[derive(serde::Serialize)]
+struct PathJson<'a> {
+    name: String,
+    reflectance: &'a str,
+    target: [f64; 3],
+    free: Option<&'a str>,
+    samples: usize,
+    checked: usize,
+    tolerance: f64,
+    worst_delta_e: f64,
+    worst_at_samples: f64,
+    worst_t: f64,
+    worst_point: [f64; 2],
+    worst_rgb: [f64; 3],
+    worst_delta_e_subspace: Option<f64>,
+    met: bool,
+    weight: f64,
+    enabled: bool,
+}
+
 #[derive(serde::Serialize)]
 struct CellName<'a> {
     light: &'a str,
@@ -400,6 +529,11 @@ struct CellName<'a> {
 #[derive(serde::Serialize)]
 struct DiagnosticJson<'a> {
     cell: Option<CellName<'a>>,
+    /// The mixture (`mixtures[i].name`) or path (`paths[i].name`) it is about.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mixture: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    path: Option<String>,
     /// [`crate::design::DiagnosticKind::name`].
     kind: &'static str,
     /// Why a joint block stopped early (`stopped_early` only): "time limit", "cancelled", …
@@ -409,13 +543,24 @@ struct DiagnosticJson<'a> {
 }
 
 impl<'a> DiagnosticJson<'a> {
-    fn new(d: &'a crate::design::Diagnostic, cell: Option<CellName<'a>>) -> Self {
+    fn new(d: &'a crate::design::Diagnostic, cell: Option<CellName<'a>>, p: &Palette) -> Self {
         let stopped = match d.kind {
             crate::design::DiagnosticKind::StoppedEarly(why) => Some(why.as_str()),
             _ => None,
         };
-        DiagnosticJson { cell, kind: d.kind.name(), stopped, message: &d.message }
+        let (mixture, path) = match d.criterion {
+            Some(Criterion::Mixture(k)) => (Some(mixture_name(p, k)), None),
+            Some(Criterion::Path(k)) => (None, Some(mixing::path_label(p, &p.paths[k]))),
+            None => (None, None),
+        };
+        DiagnosticJson { cell, mixture, path, kind: d.kind.name(), stopped, message: &d.message }
     }
+}
+
+/// `REFLECTANCE × MIXTURE`.
+fn mixture_name(p: &Palette, k: usize) -> String {
+    let m = &p.mixtures[k];
+    format!("{} × {}", p.reflectances[m.reflectance].name, mixing::mix_label(p, &m.spec, &m.mix))
 }
 
 /// The JSON report (DESIGN_SPEC §5) plus `kkt_residual`, `diagnostics`, per-cell `weight`/`enabled` and
@@ -432,6 +577,12 @@ pub(crate) struct Report<'a> {
     spectra: Vec<SpectrumJson<'a>>,
     free: Vec<FreeJson<'a>>,
     cells: Vec<CellJson<'a>>,
+    /// Criteria under mixtures of lights (`[[mixtures]]`), absent when there are none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    mixtures: Vec<MixtureJson<'a>>,
+    /// Constancy paths (`[[paths]]`), absent when there are none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    paths: Vec<PathJson<'a>>,
     diagnostics: Vec<DiagnosticJson<'a>>,
     /// Set when the factor model behind `rgb_subspace` is poor on the solved spectra's own pairs
     /// ([`crate::basis::Report::poor_model`]).
@@ -569,7 +720,62 @@ impl<'a> Report<'a> {
                     }
                 })
                 .collect(),
-            diagnostics: s.diagnostics.iter().map(|d| DiagnosticJson::new(d, d.cell.map(names))).collect(),
+            mixtures: s
+                .mixtures
+                .iter()
+                .map(|r| {
+                    let m = &p.mixtures[r.cell];
+                    let (dial, off) = match &m.spec {
+                        MixSpec::Dial { at, off } => {
+                            (Some(*at), off.iter().map(|&i| p.lights[i].name.as_str()).collect())
+                        }
+                        MixSpec::Weights => (None, Vec::new()),
+                    };
+                    MixtureJson {
+                        name: mixture_name(p, r.cell),
+                        reflectance: &p.reflectances[m.reflectance].name,
+                        mix: m.mix.iter().map(|&(i, w)| (p.lights[i].name.as_str(), w)).collect(),
+                        dial,
+                        off,
+                        target: arr(&r.target),
+                        rgb_full: arr(&r.rgb_full),
+                        rgb_subspace: r.rgb_subspace.as_ref().map(arr),
+                        delta_e_full: r.delta_e_full,
+                        delta_e_subspace: r.delta_e_subspace,
+                        free: m.free.map(|g| p.free[g].name.as_str()),
+                        weight: m.weight,
+                        enabled: m.enabled,
+                        unphysical: m.mix.iter().any(|&(i, _)| unphysical_range(&p.lights[i]).is_some())
+                            || unphysical_range(&p.reflectances[m.reflectance]).is_some(),
+                    }
+                })
+                .collect(),
+            paths: s
+                .paths
+                .iter()
+                .map(|r| {
+                    let q = &p.paths[r.path];
+                    PathJson {
+                        name: mixing::path_label(p, q),
+                        reflectance: &p.reflectances[q.reflectance].name,
+                        target: arr(&r.target),
+                        free: q.free.map(|g| p.free[g].name.as_str()),
+                        samples: r.samples,
+                        checked: r.checked,
+                        tolerance: r.tolerance,
+                        worst_delta_e: r.worst_delta_e,
+                        worst_at_samples: r.worst_at_samples,
+                        worst_t: r.worst_t,
+                        worst_point: r.worst_point,
+                        worst_rgb: arr(&r.worst_rgb),
+                        worst_delta_e_subspace: r.worst_delta_e_subspace,
+                        met: !r.is_unmet(),
+                        weight: q.weight,
+                        enabled: q.enabled,
+                    }
+                })
+                .collect(),
+            diagnostics: s.diagnostics.iter().map(|d| DiagnosticJson::new(d, d.cell.map(names), p)).collect(),
             basis_warning: None,
             feasibility: None,
         }

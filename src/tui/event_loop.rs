@@ -169,7 +169,11 @@ impl Saver for FileSaver {
 
     fn reload(&mut self, file: &PaletteFile) -> Result<PaletteFile, FileError> {
         let path = file.path.clone().ok_or(FileError::NoFile)?;
-        PaletteFile::load(&path).map_err(failed)
+        let loaded = PaletteFile::load(&path).map_err(failed)?;
+        match crate::tui::edits::designer_refusal(&loaded.palette, &path) {
+            Some(why) => Err(FileError::Failed(why)),
+            None => Ok(loaded),
+        }
     }
 
     fn restore(&mut self, path: &Path) -> Result<Palette, FileError> {

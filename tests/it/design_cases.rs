@@ -34,6 +34,8 @@ fn single(lights: Vec<metamer::palette::SpectrumEntry>, targets: &[Vector3<f64>]
         reflectances: vec![random::entry("S", Kind::Reflectance, Spectrum::flat(0.5), true)],
         colours,
         free: vec![],
+        mixtures: Vec::new(),
+        paths: Vec::new(),
     }
 }
 

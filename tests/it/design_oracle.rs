@@ -99,6 +99,8 @@ fn free_group_metamer_matches_the_oracle() {
             lower: nalgebra::Vector3::from_element(0.2),
             upper: nalgebra::Vector3::from_element(0.4),
         }],
+        mixtures: Vec::new(),
+        paths: Vec::new(),
     };
     check_palette(&p, 0);
 }

@@ -24,7 +24,7 @@ const SIZE: usize = 160;
 
 /// Per keyframe, each material's colour (linear RGB on the palette's scale) and its pixel count; per
 /// material (by reflectance name) its composited weight in every pixel; the frames as 8-bit sRGB.
-struct Stages {
+pub(crate) struct Stages {
     colours: Vec<BTreeMap<String, Vector3<f64>>>,
     weights: BTreeMap<String, Vec<f64>>,
     frames: Vec<Vec<u8>>,
@@ -68,17 +68,27 @@ fn render_stages(scene_file: &str, volume_file: &str, default_mode: Mode, varian
     }
     scene.dial.timing = Timing::PerKeyframe;
     let frames = scene.dial.keyframe_count();
+    Some(measure(&scene, frames, mode(default_mode), scene_file, variant.exposure))
+}
+
+/// Render `frames` frames of `scene`'s sweep in `colour_mode` at [`SIZE`]² and measure each material's
+/// colour in every frame (see the module docs); the scene's own sweep exposure.
+pub(crate) fn measure_frames(scene: &Scene, frames: usize, colour_mode: Mode, scene_file: &str) -> Stages {
+    measure(scene, frames, colour_mode, scene_file, None)
+}
+
+/// [`measure_frames`] at the sweep exposure `exposure` when given (so frames compare pixel by pixel).
+fn measure(scene: &Scene, frames: usize, colour_mode: Mode, scene_file: &str, exposure: Option<f64>) -> Stages {
     let col = Colorimetry::default();
-    let model = colour_model(&scene, mode(default_mode), &col).expect("factor model");
+    let model = colour_model(scene, colour_mode, &col).expect("factor model");
     let classes: Vec<_> = scene.materials.iter().map(|m| m.class.clone()).collect();
-    let opts = raycast_options(&scene, SIZE, SIZE, Acceleration::default());
+    let opts = raycast_options(scene, SIZE, SIZE, Acceleration::default());
     let (weights, _) = raycast(&scene.volume, &classes, None, &scene.camera, &opts);
     let vectors: Vec<Vec<f32>> = scene.materials.iter().map(|m| model.material_vector(&m.spectrum)).collect();
     let image = weights.project(&vectors);
     let reflectances: Vec<_> = scene.materials.iter().map(|m| m.spectrum).collect();
-    let exposure = variant
-        .exposure
-        .unwrap_or_else(|| sweep_exposure(&col, &reflectances, &scene.dial, frames, scene.settings.exposure));
+    let exposure =
+        exposure.unwrap_or_else(|| sweep_exposure(&col, &reflectances, &scene.dial, frames, scene.settings.exposure));
     // Pixel → (material name, composited weight) for pixels owned by one material.
     let k = weights.materials;
     let mut pixels = BTreeMap::new();
@@ -154,14 +164,14 @@ fn render_stages(scene_file: &str, volume_file: &str, default_mode: Mode, varian
     for (i, c) in colours.iter().enumerate() {
         eprintln!("{scene_file}: stage {i}: {c:?}");
     }
-    Some(Stages { colours, weights: by_name, frames: rendered, exposure, colorimetry: col })
+    Stages { colours, weights: by_name, frames: rendered, exposure, colorimetry: col }
 }
 
 impl Stages {
-    fn colour(&self, stage: usize, material: &str) -> Vector3<f64> {
+    pub(crate) fn colour(&self, stage: usize, material: &str) -> Vector3<f64> {
         self.colours[stage][material]
     }
-    fn lab(&self, c: &Vector3<f64>) -> [f64; 3] {
+    pub(crate) fn lab(&self, c: &Vector3<f64>) -> [f64; 3] {
         let white = self.colorimetry.rgb_to_xyz(&Vector3::new(1.0, 1.0, 1.0));
         xyz_to_lab(&self.colorimetry.rgb_to_xyz(c), &white)
     }

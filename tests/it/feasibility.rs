@@ -44,6 +44,8 @@ fn design_palette(rng: &mut Rng, n: usize, col: &Colorimetry) -> Palette {
         reflectances: vec![random::entry("r", Kind::Reflectance, Spectrum::flat(0.5), true)],
         colours,
         free: Vec::new(),
+        mixtures: Vec::new(),
+        paths: Vec::new(),
     }
 }
 

@@ -184,6 +184,8 @@ fn reflectance_palette(
         reflectances: (0..n).map(|r| designed_reflectance(&format!("R{r}"))).collect(),
         colours,
         free: vec![],
+        mixtures: Vec::new(),
+        paths: Vec::new(),
     }
 }
 
@@ -388,6 +390,8 @@ fn thousands_of_cells() {
         reflectances,
         colours,
         free: vec![],
+        mixtures: Vec::new(),
+        paths: Vec::new(),
     };
     check_convex("one designed light under 2000 fixed reflectances", &q);
 }

@@ -178,6 +178,8 @@ pub fn capacity_palette_with(n: usize, seed: u64, colorimetry: &Colorimetry, opt
         reflectances,
         colours,
         free: Vec::new(),
+        mixtures: Vec::new(),
+        paths: Vec::new(),
     }
 }
 
@@ -221,6 +223,8 @@ fn batch_palette_with(count: usize, seed: u64, colorimetry: &Colorimetry, pertur
         reflectances,
         colours,
         free: Vec::new(),
+        mixtures: Vec::new(),
+        paths: Vec::new(),
     }
 }
 
@@ -299,5 +303,7 @@ pub fn convex_palette(seed: u64, colorimetry: &Colorimetry) -> Palette {
         reflectances,
         colours,
         free,
+        mixtures: Vec::new(),
+        paths: Vec::new(),
     }
 }

@@ -76,6 +76,8 @@ pub fn demo_palette() -> Palette {
             off,
         ],
         free: vec![FreeGroup { name: "A".into(), lower: Vector3::repeat(0.02), upper: Vector3::repeat(0.8) }],
+        mixtures: Vec::new(),
+        paths: Vec::new(),
     }
 }
 

@@ -79,7 +79,7 @@ impl NonlinearProblem<'_> {
         for &ti in self.terms {
             let t = &d.terms[ti];
             let (rc, re) = d.term_residuals(t, &v);
-            let e = &v.lights[t.light];
+            let e = &d.term_light(t, &v);
             let s = &v.reflectances[t.reflectance];
             let mut rows = vec![(t.form, t.scale, rc)];
             if t.error_scale > 0.0 {
@@ -91,9 +91,13 @@ impl NonlinearProblem<'_> {
                     let gs = d.operator(form, e).tr_mul(&r) * (2.0 * scale);
                     g.rows_mut(off, 31).add_assign(&gs);
                 }
-                if let Some(off) = self.layout.offset(Unit::Light(t.light)) {
-                    let ge = d.operator(form, s).tr_mul(&r) * (2.0 * scale);
-                    g.rows_mut(off, 31).add_assign(&ge);
+                // A mixture's light Σ wᵢ Eᵢ: ∂/∂Eᵢ = wᵢ ∂/∂E.
+                let mut ge = None;
+                for &(i, w) in &t.lights {
+                    if let Some(off) = self.layout.offset(Unit::Light(i)) {
+                        let ge = ge.get_or_insert_with(|| d.operator(form, s).tr_mul(&r) * (2.0 * scale));
+                        g.rows_mut(off, 31).add_assign(&(*ge * w));
+                    }
                 }
                 if form != Form::Error
                     && let Some(gi) = t.free

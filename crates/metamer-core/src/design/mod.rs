@@ -119,11 +119,22 @@ impl DiagnosticKind {
     }
 }
 
+/// A criterion that is not an ordinary light × reflectance cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Criterion {
+    /// `palette.mixtures[k]`.
+    Mixture(usize),
+    /// `palette.paths[k]`.
+    Path(usize),
+}
+
 /// Something the user should know about a design: a cell that cannot be met and why, a degenerate input…
 #[derive(Clone, Debug, PartialEq)]
 pub struct Diagnostic {
     /// Index into `palette.colours` when it is about one cell.
     pub cell: Option<usize>,
+    /// The mixture or path it is about (then `cell` is `None`).
+    pub criterion: Option<Criterion>,
     pub kind: DiagnosticKind,
     /// The sentence shown to the user (the table's remark, the report's `message`).
     pub message: String,
@@ -149,7 +160,44 @@ pub struct Solution {
     pub kkt_residual: f64,
     pub seconds: f64,
     pub cells: Vec<CellResult>,
+    /// One per `palette.mixtures` entry (`CellResult::cell` indexes `palette.mixtures`).
+    pub mixtures: Vec<CellResult>,
+    /// One per `palette.paths` entry: the colour checked densely along the path.
+    pub paths: Vec<PathResult>,
     pub diagnostics: Vec<Diagnostic>,
+}
+
+/// The colour of a path's reflectance checked densely along the path after the solve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathResult {
+    /// Index into `palette.paths`.
+    pub path: usize,
+    /// The target (a free path's is its group's colour), linear sRGB.
+    pub target: Vector3<f64>,
+    /// The positions the design used (both ends included).
+    pub samples: usize,
+    /// The positions checked after the solve (evenly along the path, the samples among them).
+    pub checked: usize,
+    /// The largest ΔE00 of the full colour from the target over the checked positions.
+    pub worst_delta_e: f64,
+    /// The largest over the design samples alone.
+    pub worst_at_samples: f64,
+    /// Where the worst is: `t` in [0, 1] along the path, and the slider's point there.
+    pub worst_t: f64,
+    pub worst_point: [f64; 2],
+    /// The full colour at the worst position.
+    pub worst_rgb: Vector3<f64>,
+    /// The largest ΔE00 of the factor-model colour over the checked positions, when a basis was given.
+    pub worst_delta_e_subspace: Option<f64>,
+    pub tolerance: f64,
+    pub(crate) status: CellStatus,
+}
+
+impl PathResult {
+    /// True when the path is used and its worst ΔE00 is above its tolerance.
+    pub fn is_unmet(&self) -> bool {
+        self.status == CellStatus::Unmet
+    }
 }
 
 impl Solution {
@@ -229,6 +277,7 @@ pub fn solve_with(
     } else {
         diagnostics.push(Diagnostic {
             cell: None,
+            criterion: None,
             kind: DiagnosticKind::NonFinite,
             message: "the solve produced non-finite values; the starting spectra are returned unchanged".into(),
         });
@@ -238,6 +287,7 @@ pub fn solve_with(
         if let Some(why) = b.stopped {
             diagnostics.push(Diagnostic {
                 cell: None,
+                criterion: None,
                 kind: DiagnosticKind::StoppedEarly(why),
                 message: format!(
                     "joint design of {} unknown spectra stopped early ({why}); objective {:.6e} is the best found",
@@ -256,7 +306,11 @@ pub fn solve_with(
     }
     let kkt_residual = blocks.iter().map(|b| b.kkt).fold(0.0, f64::max);
     let cells = report::cell_results(palette, basis, colorimetry, &values);
+    let mixtures = report::mixture_results(palette, basis, colorimetry, &values);
+    let paths = report::path_results(palette, basis, colorimetry, &values);
     diagnostics.extend(report::diagnostics(&design, colorimetry, &values, &cells));
+    diagnostics.extend(report::mixture_diagnostics(&design, colorimetry, &values, &mixtures));
+    diagnostics.extend(report::path_diagnostics(palette, &paths));
     let mut solved = palette.clone();
     for (entries, spectra) in [(&mut solved.lights, &values.lights), (&mut solved.reflectances, &values.reflectances)] {
         for (e, s) in entries.iter_mut().zip(spectra) {
@@ -276,6 +330,8 @@ pub fn solve_with(
         kkt_residual,
         seconds: started.elapsed().as_secs_f64(),
         cells,
+        mixtures,
+        paths,
         diagnostics,
     })
 }
@@ -303,6 +359,16 @@ impl Solution {
                 &p.reflectances[c.reflectance].spectrum,
                 colorimetry,
             );
+        }
+        let lights: Vec<_> = p.lights.iter().map(|e| e.spectrum).collect();
+        for r in &mut self.mixtures {
+            let m = &p.mixtures[r.cell];
+            let e = crate::palette::mixing::light_of(&m.mix, &lights);
+            r.set_subspace(Some(basis), &e, &p.reflectances[m.reflectance].spectrum, colorimetry);
+        }
+        let values = self.values();
+        for r in &mut self.paths {
+            r.worst_delta_e_subspace = report::path_worst_subspace(p, basis, colorimetry, &values, r);
         }
     }
 

@@ -6,11 +6,12 @@
 //! `fit_in_subspace`, which is what the design minimises but not what is displayed.
 
 use super::lsq;
-use super::system::{Design, Form, LinearSystem, Values};
-use super::{CellResult, CellStatus, Diagnostic, DiagnosticKind};
+use super::system::{Design, Form, LinearSystem, Origin, Values};
+use super::{CellResult, CellStatus, Criterion, Diagnostic, DiagnosticKind, PathResult};
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
 use crate::colorimetry::Q31;
+use crate::palette::mixing::{self, check_positions, light_of, mix_at, route_dial};
 use crate::palette::{Bounds, Palette};
 use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
@@ -289,12 +290,19 @@ pub(crate) fn diagnostics(
 ) -> Vec<Diagnostic> {
     let p = design.palette;
     let mut out = Vec::new();
-    let say = |cell: Option<usize>, kind: DiagnosticKind, message: String| Diagnostic { cell, kind, message };
+    let say = |cell: Option<usize>, kind: DiagnosticKind, message: String| Diagnostic {
+        cell,
+        criterion: None,
+        kind,
+        message,
+    };
     // Designed spectra without any colour criterion.
     let mut light_used = vec![false; p.lights.len()];
     let mut refl_used = vec![false; p.reflectances.len()];
     for t in &design.terms {
-        light_used[t.light] = true;
+        for &(i, _) in &t.lights {
+            light_used[i] = true;
+        }
         refl_used[t.reflectance] = true;
     }
     for (kind, entries, used) in [("light", &p.lights, &light_used), ("reflectance", &p.reflectances, &refl_used)] {
@@ -361,7 +369,9 @@ pub(crate) fn diagnostics(
     // The form of each cell's colour rows, and the reachability data of each fixed partner, built once.
     let mut form_of = vec![Form::Full; p.colours.len()];
     for t in &design.terms {
-        form_of[t.cell] = t.form;
+        if let Origin::Cell(k) = t.origin {
+            form_of[k] = t.form;
+        }
     }
     let mut keys: HashMap<ReachKey, usize> = HashMap::new();
     let mut wanted: Vec<ReachKey> = Vec::new();
@@ -406,7 +416,12 @@ fn unmet_reason(
     by_reflectance: &[Vec<usize>],
 ) -> Diagnostic {
     let p = design.palette;
-    let say = |cell: Option<usize>, message: String| Diagnostic { cell, kind: DiagnosticKind::Unmet, message };
+    let say = |cell: Option<usize>, message: String| Diagnostic {
+        cell,
+        criterion: None,
+        kind: DiagnosticKind::Unmet,
+        message,
+    };
     {
         let c = &p.colours[r.cell];
         let light = &p.lights[c.light];
@@ -478,6 +493,225 @@ fn unmet_reason(
         };
         say(Some(r.cell), format!("{head}: {why}"))
     }
+}
+
+/// Colours and errors of every mixture cell at `v` (`CellResult::cell` indexes `palette.mixtures`); ΔE00
+/// with the mixed light on a flat white as the reference white.
+pub(crate) fn mixture_results(
+    palette: &Palette,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    v: &Values,
+) -> Vec<CellResult> {
+    palette
+        .mixtures
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let target = m.free.map(|g| v.free[g]).unwrap_or(m.target);
+            let e = light_of(&m.mix, &v.lights);
+            CellResult::new(k, target, (&e, &v.reflectances[m.reflectance]), m.is_active(), basis, colorimetry)
+        })
+        .collect()
+}
+
+/// (worst ΔE00, its t, its slider point, the colour there, the worst over the design samples alone).
+type PathWorst = (f64, f64, [f64; 2], Vector3<f64>, f64);
+
+/// The worst ΔE00 of `colour(e, s)` from `target` over a path's check positions: (worst, its t, its slider
+/// point, the colour there, the worst over the design samples alone).
+fn path_worst(
+    palette: &Palette,
+    k: usize,
+    v: &Values,
+    target: &Vector3<f64>,
+    colour: impl Fn(&Spectrum, &Spectrum) -> Vector3<f64>,
+    colorimetry: &Colorimetry,
+) -> Option<PathWorst> {
+    let q = &palette.paths[k];
+    let dial = route_dial(&palette.lights, &q.route).ok()?;
+    let s = &v.reflectances[q.reflectance];
+    let positions = check_positions(q.samples);
+    let every = mixing::CHECK_PER_INTERVAL;
+    let mut worst = (f64::NEG_INFINITY, 0.0, [0.0; 2], Vector3::zeros(), f64::NEG_INFINITY);
+    for (j, &t) in positions.iter().enumerate() {
+        let state = dial.state_at(t);
+        let e = light_of(&mix_at(&dial, t), &v.lights);
+        let rgb = colour(&e, s);
+        let de = finite_or(colorimetry.delta_e00_under(target, &rgb, &e), f64::MAX);
+        if de > worst.0 {
+            worst = (de, t, state.slider, rgb, worst.4);
+        }
+        if j % every == 0 {
+            worst.4 = worst.4.max(de);
+        }
+    }
+    Some(worst)
+}
+
+/// Every path's colour checked densely after the solve ([`check_positions`]: the design samples and
+/// [`mixing::CHECK_PER_INTERVAL`] − 1 positions between each two).
+pub(crate) fn path_results(
+    palette: &Palette,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    v: &Values,
+) -> Vec<PathResult> {
+    (0..palette.paths.len())
+        .map(|k| {
+            let q = &palette.paths[k];
+            let target = q.free.map(|g| v.free[g]).unwrap_or(q.target);
+            let full = |e: &Spectrum, s: &Spectrum| colorimetry.rgb(e, s);
+            let (worst, t, point, rgb, at_samples) = path_worst(palette, k, v, &target, full, colorimetry).unwrap_or((
+                f64::MAX,
+                0.0,
+                [0.0; 2],
+                Vector3::zeros(),
+                f64::MAX,
+            ));
+            let status = match (q.is_active(), worst > q.tolerance) {
+                (false, _) => CellStatus::NotUsed,
+                (true, false) => CellStatus::Met,
+                (true, true) => CellStatus::Unmet,
+            };
+            let mut r = PathResult {
+                path: k,
+                target,
+                samples: q.samples,
+                checked: check_positions(q.samples).len(),
+                worst_delta_e: worst,
+                worst_at_samples: at_samples,
+                worst_t: t,
+                worst_point: point,
+                worst_rgb: rgb,
+                worst_delta_e_subspace: None,
+                tolerance: q.tolerance,
+                status,
+            };
+            r.worst_delta_e_subspace = basis.and_then(|b| path_worst_subspace(palette, b, colorimetry, v, &r));
+            r
+        })
+        .collect()
+}
+
+/// The worst ΔE00 of a path's factor-model colour (what the renderer's factor model shows).
+pub(crate) fn path_worst_subspace(
+    palette: &Palette,
+    basis: &Basis,
+    colorimetry: &Colorimetry,
+    v: &Values,
+    r: &PathResult,
+) -> Option<f64> {
+    let colour = |e: &Spectrum, s: &Spectrum| basis.rgb_factor(e, s);
+    path_worst(palette, r.path, v, &r.target, colour, colorimetry).map(|w| w.0)
+}
+
+/// A path whose colour strays beyond its tolerance somewhere: where, and whether the samples are too few.
+pub(crate) fn path_diagnostics(palette: &Palette, paths: &[PathResult]) -> Vec<Diagnostic> {
+    paths
+        .iter()
+        .filter(|r| r.is_unmet())
+        .map(|r| {
+            let q = &palette.paths[r.path];
+            let label = mixing::path_label(palette, q);
+            let head = format!(
+                "path {label} not kept: the worst ΔE00 over {} positions is {} (tolerance {}) at t = {} (dial [{}, {}]), \
+                 colour {} against the target {}",
+                r.checked,
+                Fixed(r.worst_delta_e, 2),
+                q.tolerance,
+                Fixed(r.worst_t, 3),
+                Fixed(r.worst_point[0], 3),
+                Fixed(r.worst_point[1], 3),
+                fmt_rgb(&r.worst_rgb),
+                fmt_rgb(&r.target)
+            );
+            let why = if r.worst_at_samples <= q.tolerance {
+                format!(
+                    "the {} design samples are within it ({}), the colour between them is not: raise `samples`",
+                    r.samples,
+                    Fixed(r.worst_at_samples, 2)
+                )
+            } else {
+                format!(
+                    "already {} at the design samples: the spectra cannot keep this colour along the path together with the other criteria",
+                    Fixed(r.worst_at_samples, 2)
+                )
+            };
+            Diagnostic {
+                cell: None,
+                criterion: Some(Criterion::Path(r.path)),
+                kind: DiagnosticKind::Unmet,
+                message: format!("{head}: {why}"),
+            }
+        })
+        .collect()
+}
+
+/// Why mixture cells are not met: the same reasons as for ordinary cells, with the mixed light as the
+/// light (a colour under a fixed mixture is that of one light, `Σ wᵢ Eᵢ`).
+pub(crate) fn mixture_diagnostics(
+    design: &Design,
+    colorimetry: &Colorimetry,
+    v: &Values,
+    results: &[CellResult],
+) -> Vec<Diagnostic> {
+    let p = design.palette;
+    let form = if p.settings.fit_in_subspace { Form::Subspace } else { Form::Full };
+    results
+        .iter()
+        .filter(|r| r.status == CellStatus::Unmet)
+        .map(|r| {
+            let m = &p.mixtures[r.cell];
+            let refl = &p.reflectances[m.reflectance];
+            let label = format!("{} × {}", refl.name, mixing::mix_label(p, &m.spec, &m.mix));
+            let e = light_of(&m.mix, &v.lights);
+            let s = &v.reflectances[m.reflectance];
+            let light_designed = m.mix.iter().any(|&(i, _)| p.lights[i].design);
+            let head = format!(
+                "mixture {label} not met (ΔE00 {}: target {}, achieved {})",
+                Fixed(r.delta_e_full, 2),
+                fmt_rgb(&r.target),
+                fmt_rgb(&r.rgb_full)
+            );
+            let why = if is_zero(&e) {
+                "the mixed light is zero, so every reflectance is black under it".to_string()
+            } else if !light_designed && !refl.design {
+                if m.free.is_some() {
+                    "neither its lights nor its reflectance is designed, so its colour is fixed and pulls its free group's colour".to_string()
+                } else {
+                    "neither its lights nor its reflectance is designed, so nothing can change this colour".to_string()
+                }
+            } else if refl.design && !light_designed {
+                let bounds = p.bounds_of(refl);
+                let best = Reach::new(design, form, &e).closest(s, bounds, &r.target);
+                let de = colorimetry.delta_e00_under(&r.target, &best, &e);
+                let (best, de) = if r.delta_e_full < de { (r.rgb_full, r.delta_e_full) } else { (best, de) };
+                if de > MET_DELTA_E {
+                    format!(
+                        "the target is outside what a reflectance within [{}, {}] can reach under this mixture: the closest reachable colour is {} (ΔE00 {})",
+                        bounds.lower,
+                        bounds.upper,
+                        fmt_rgb(&best),
+                        Fixed(de, 2)
+                    )
+                } else {
+                    format!(
+                        "a reflectance alone could reach it (ΔE00 {}), so it conflicts with the other criteria on this reflectance (other cells, mixtures, paths, smoothness, free colours)",
+                        Fixed(de, 2)
+                    )
+                }
+            } else {
+                "it conflicts with the other criteria on the designed spectra it shares (cells, mixtures, paths, smoothness)".to_string()
+            };
+            Diagnostic {
+                cell: None,
+                criterion: Some(Criterion::Mixture(r.cell)),
+                kind: DiagnosticKind::Unmet,
+                message: format!("{head}: {why}"),
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -20,7 +20,8 @@
 
 use crate::basis::Basis;
 use crate::colorimetry::{Colorimetry, Q31};
-use crate::palette::{Bounds, Kind, Palette};
+use crate::palette::mixing::{light_of, mix_at, route_dial, sample_positions};
+use crate::palette::{Bounds, Kind, Mix, Palette};
 use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Vector3};
 use std::collections::HashMap;
@@ -62,12 +63,25 @@ pub(crate) enum Form {
     Error,
 }
 
-/// The rows one active cell contributes.
+/// Which criterion of the palette a term comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Origin {
+    /// `palette.colours[k]`.
+    Cell(usize),
+    /// `palette.mixtures[k]`.
+    Mixture(usize),
+    /// Design sample `sample` of `palette.paths[path]`.
+    Path { path: usize, sample: usize },
+}
+
+/// The rows one active cell contributes. Its light is a fixed mixture `Σ wᵢ Eᵢ` of the palette's lights
+/// (an ordinary cell's is its one light with weight 1): every form is linear in the light, so
+/// `form(Σ wᵢ Eᵢ, S) = Σ wᵢ form(Eᵢ, S)`.
 #[derive(Clone, Debug)]
 pub struct CellTerm {
-    /// Index into `palette.colours`.
-    pub cell: usize,
-    pub(crate) light: usize,
+    pub origin: Origin,
+    /// The light as `(light index, weight)` pairs.
+    pub(crate) lights: Mix,
     pub(crate) reflectance: usize,
     pub(crate) free: Option<usize>,
     /// Linear-RGB target (unused for a free cell).
@@ -134,27 +148,38 @@ impl<'a> Design<'a> {
         }
         let form = if s.fit_in_subspace { Form::Subspace } else { Form::Full };
         let mut terms = Vec::new();
-        for (k, c) in palette.colours.iter().enumerate() {
-            if !c.is_active() {
-                continue;
+        let mut push = |origin: Origin, lights: Mix, reflectance: usize, free: Option<usize>, target, weight: f64| {
+            let ld = lights.iter().any(|&(i, _)| palette.lights[i].design);
+            let rd = palette.reflectances[reflectance].design;
+            if !(ld || rd || free.is_some()) {
+                return;
             }
-            let ld = palette.lights[c.light].design;
-            let rd = palette.reflectances[c.reflectance].design;
-            if !(ld || rd || c.free.is_some()) {
-                continue;
-            }
-            let scale = c.weight / 3f64.sqrt();
+            let scale = weight / 3f64.sqrt();
             let error_scale = if ld || rd { s.subspace_error * scale } else { 0.0 };
-            terms.push(CellTerm {
-                cell: k,
-                light: c.light,
-                reflectance: c.reflectance,
-                free: c.free,
-                target: c.target,
-                scale,
-                form,
-                error_scale,
-            });
+            terms.push(CellTerm { origin, lights, reflectance, free, target, scale, form, error_scale });
+        };
+        for (k, c) in palette.colours.iter().enumerate() {
+            if c.is_active() {
+                push(Origin::Cell(k), vec![(c.light, 1.0)], c.reflectance, c.free, c.target, c.weight);
+            }
+        }
+        for (k, m) in palette.mixtures.iter().enumerate() {
+            if m.is_active() {
+                push(Origin::Mixture(k), m.mix.clone(), m.reflectance, m.free, m.target, m.weight);
+            }
+        }
+        for (k, q) in palette.paths.iter().enumerate() {
+            if !q.is_active() {
+                continue;
+            }
+            let dial = route_dial(&palette.lights, &q.route)
+                .map_err(|e| DesignError::Invalid(format!("palette \"{}\": paths[{k}]: {e}", palette.name)))?;
+            let positions = sample_positions(q.samples);
+            // The path counts like one cell whose error is the root mean square over its samples.
+            let weight = q.weight / (positions.len() as f64).sqrt();
+            for (j, &t) in positions.iter().enumerate() {
+                push(Origin::Path { path: k, sample: j }, mix_at(&dial, t), q.reflectance, q.free, q.target, weight);
+            }
         }
         Ok(Design { palette, basis, q_rgb: colorimetry.q_rgb, terms, smoothness: s.smoothness })
     }
@@ -175,9 +200,9 @@ impl<'a> Design<'a> {
         let reflectances: Vec<Spectrum> = p.reflectances.iter().map(|e| e.spectrum).collect();
         let mut free = vec![Vector3::zeros(); p.free.len()];
         let mut count = vec![0usize; p.free.len()];
-        for c in &p.colours {
-            if let Some(g) = c.free {
-                free[g] += self.q_rgb * lights[c.light].0.component_mul(&reflectances[c.reflectance].0);
+        for t in &self.terms {
+            if let Some(g) = t.free {
+                free[g] += self.q_rgb * light_of(&t.lights, &lights).0.component_mul(&reflectances[t.reflectance].0);
                 count[g] += 1;
             }
         }
@@ -232,9 +257,17 @@ impl<'a> Design<'a> {
         }
     }
 
+    /// The light of a term at `v`: `Σ wᵢ Eᵢ`.
+    pub(crate) fn term_light(&self, t: &CellTerm, v: &Values) -> Spectrum {
+        match t.lights.as_slice() {
+            [(i, w)] if *w == 1.0 => v.lights[*i],
+            mix => light_of(mix, &v.lights),
+        }
+    }
+
     /// The colour residual `ω/√3 (T(E,S) − c)` and the error residual of one term.
     pub(crate) fn term_residuals(&self, t: &CellTerm, v: &Values) -> (Vector3<f64>, Vector3<f64>) {
-        let e = &v.lights[t.light];
+        let e = &self.term_light(t, v);
         let s = &v.reflectances[t.reflectance];
         let c = t.free.map(|g| v.free[g]).unwrap_or(t.target);
         let colour = (self.apply(t.form, e, s) - c) * t.scale;
@@ -264,8 +297,10 @@ impl<'a> Design<'a> {
     /// The units each term touches (designed spectra and its free group).
     pub(crate) fn term_units(&self, t: &CellTerm) -> Vec<Unit> {
         let mut u = Vec::with_capacity(3);
-        if self.palette.lights[t.light].design {
-            u.push(Unit::Light(t.light));
+        for &(i, _) in &t.lights {
+            if self.palette.lights[i].design {
+                u.push(Unit::Light(i));
+            }
         }
         if self.palette.reflectances[t.reflectance].design {
             u.push(Unit::Reflectance(t.reflectance));
@@ -278,7 +313,7 @@ impl<'a> Design<'a> {
 
     /// Is the term bilinear (light and reflectance both designed)?
     pub(crate) fn is_bilinear(&self, t: &CellTerm) -> bool {
-        self.palette.lights[t.light].design && self.palette.reflectances[t.reflectance].design
+        t.lights.iter().any(|&(i, _)| self.palette.lights[i].design) && self.palette.reflectances[t.reflectance].design
     }
 
     /// Split the unknowns into independent blocks: units connected through a shared term.
@@ -328,8 +363,8 @@ impl<'a> Design<'a> {
             if let Some(&first) = us.first() {
                 let k = by_root[&find(&mut parent, first)];
                 blocks[k].terms.push(ti);
-                let both =
-                    index.contains_key(&Unit::Light(t.light)) && index.contains_key(&Unit::Reflectance(t.reflectance));
+                let both = t.lights.iter().any(|&(i, _)| index.contains_key(&Unit::Light(i)))
+                    && index.contains_key(&Unit::Reflectance(t.reflectance));
                 blocks[k].bilinear |= both;
             }
         }
@@ -368,12 +403,17 @@ impl<'a> Design<'a> {
         key.extend(layout.units.iter().map(|(u, _)| matches!(u, Unit::Free(_)) as u64));
         for &ti in terms {
             let t = &self.terms[ti];
-            let lo = layout.offset(Unit::Light(t.light));
             let ro = layout.offset(Unit::Reflectance(t.reflectance));
-            // The spectrum held fixed multiplies the unknowns: the reflectance when the light is unknown.
+            // The spectra held fixed multiply the unknowns: the reflectance when a light is unknown, the
+            // lights (with their weights) when the reflectance is.
+            key.push(t.lights.len() as u64);
+            for &(i, w) in &t.lights {
+                key.extend([opt(layout.offset(Unit::Light(i))), i as u64, w.to_bits()]);
+            }
+            let lo = t.lights.iter().find_map(|&(i, _)| layout.offset(Unit::Light(i)));
             let partner = match (lo, ro) {
                 (Some(_), None) => t.reflectance as u64,
-                (None, Some(_)) => t.light as u64,
+                (None, Some(_)) => NONE - 1,
                 _ => NONE,
             };
             let form = match t.form {
@@ -409,26 +449,34 @@ impl<'a> Design<'a> {
         let mut r0 = 0;
         for &ti in terms {
             let t = &self.terms[ti];
-            let e = &v.lights[t.light];
             let s = &v.reflectances[t.reflectance];
-            let lo = layout.offset(Unit::Light(t.light));
             let ro = layout.offset(Unit::Reflectance(t.reflectance));
-            debug_assert!(!(lo.is_some() && ro.is_some()));
+            // The lights of the mixture that are unknowns here, and the fixed rest.
+            let mut unknown: Vec<(usize, f64)> = Vec::new();
+            let mut fixed = Spectrum::flat(0.0);
+            for &(i, w) in &t.lights {
+                match layout.offset(Unit::Light(i)) {
+                    Some(off) => unknown.push((off, w)),
+                    None => fixed.0 += v.lights[i].0 * w,
+                }
+            }
+            debug_assert!(unknown.is_empty() || ro.is_none());
             let parts = [(t.form, t.scale, r0), (Form::Error, t.error_scale, r0 + 3)];
             let count = if t.error_scale > 0.0 { 2 } else { 1 };
             for &(form, scale, row) in &parts[..count] {
-                let constant = match (lo, ro) {
-                    (Some(off), None) => {
+                let constant = if let Some(off) = ro {
+                    let op = self.operator(form, &fixed) * scale;
+                    a.view_mut((row, off), (3, SAMPLES)).copy_from(&op);
+                    Vector3::zeros()
+                } else {
+                    if !unknown.is_empty() {
                         let op = self.operator(form, s) * scale;
-                        a.view_mut((row, off), (3, SAMPLES)).copy_from(&op);
-                        Vector3::zeros()
+                        for &(off, w) in &unknown {
+                            let mut block = a.view_mut((row, off), (3, SAMPLES));
+                            block += op * w;
+                        }
                     }
-                    (None, Some(off)) => {
-                        let op = self.operator(form, e) * scale;
-                        a.view_mut((row, off), (3, SAMPLES)).copy_from(&op);
-                        Vector3::zeros()
-                    }
-                    _ => self.apply(form, e, s) * scale,
+                    if t.lights.len() == unknown.len() { Vector3::zeros() } else { self.apply(form, &fixed, s) * scale }
                 };
                 let mut rhs = -constant;
                 if form != Form::Error {
@@ -550,6 +598,29 @@ fn validate(p: &Palette) -> Result<(), DesignError> {
             if g.lower[ch].is_nan() || g.upper[ch].is_nan() || g.lower[ch] > g.upper[ch] {
                 return bad(format!("free group \"{}\": lower/upper cross in channel {ch}", g.name));
             }
+        }
+    }
+    for (k, m) in p.mixtures.iter().enumerate() {
+        if m.reflectance >= p.reflectances.len() || m.mix.iter().any(|&(i, _)| i >= p.lights.len()) {
+            return bad(format!("mixtures[{k}] refers to a light or reflectance that does not exist"));
+        }
+        if m.free.is_some_and(|g| g >= p.free.len()) || !(m.weight.is_finite() && m.weight >= 0.0) {
+            return bad(format!("mixtures[{k}]: a dangling free group or a weight that is not a finite number ≥ 0"));
+        }
+        if m.mix.iter().any(|&(_, w)| !(w.is_finite() && w >= 0.0)) || m.mix.iter().all(|&(_, w)| w == 0.0) {
+            return bad(format!("mixtures[{k}].mix: weights must be finite, ≥ 0 and not all 0"));
+        }
+    }
+    for (k, q) in p.paths.iter().enumerate() {
+        let lights_ok = match &q.route {
+            crate::palette::Route::Lights(o) => o.iter().all(|&i| i < p.lights.len()),
+            crate::palette::Route::Dial { off, .. } => off.iter().all(|&i| i < p.lights.len()),
+        };
+        if q.reflectance >= p.reflectances.len() || !lights_ok || q.free.is_some_and(|g| g >= p.free.len()) {
+            return bad(format!("paths[{k}] refers to a light, reflectance or free group that does not exist"));
+        }
+        if !(q.weight.is_finite() && q.weight >= 0.0) || q.samples < 2 {
+            return bad(format!("paths[{k}]: the weight must be a finite number ≥ 0 and samples at least 2"));
         }
     }
     for (k, c) in p.colours.iter().enumerate() {

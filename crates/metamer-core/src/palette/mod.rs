@@ -7,6 +7,7 @@
 
 pub mod edit;
 pub mod file;
+pub mod mixing;
 pub mod source;
 
 use crate::spectrum::{Normalize, Spectrum};
@@ -139,6 +140,77 @@ pub struct FreeGroup {
     pub upper: Vector3<f64>,
 }
 
+/// A fixed mixture of the palette's lights: `Σ wᵢ Eᵢ` over `(light index, wᵢ)` pairs, every `wᵢ > 0`.
+pub type Mix = Vec<(usize, f64)>;
+
+/// How a mixture was written, so it can be named and checked.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MixSpec {
+    /// `dial = [x, y]` (and `off = [...]`): the light dial's Shepard weights at that point
+    /// ([`crate::render::dial`], the renderer's own code), the lights listed in `off` switched off.
+    Dial { at: [f64; 2], off: Vec<usize> },
+    /// `mix = { light = w, … }`: explicit weights, used as given.
+    Weights,
+}
+
+/// A colour criterion under a mixture of lights (`[[mixtures]]`): reflectance `reflectance` under the
+/// light `Σ wᵢ Eᵢ` should give `target` (or its free group's colour).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MixtureCell {
+    /// Index into [`Palette::reflectances`].
+    pub reflectance: usize,
+    /// The weights, resolved when the file was read.
+    pub mix: Mix,
+    pub spec: MixSpec,
+    pub target: Vector3<f64>,
+    pub notation: TargetNotation,
+    pub weight: f64,
+    pub free: Option<usize>,
+    pub enabled: bool,
+}
+
+impl MixtureCell {
+    /// True when this cell contributes rows to the objective.
+    pub fn is_active(&self) -> bool {
+        self.enabled && self.weight > 0.0
+    }
+}
+
+/// The way a constancy path moves over the dial.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Route {
+    /// `through = [...]`: the dial's slider along the polyline through these points at constant speed,
+    /// Shepard weights at every position, the lights in `off` switched off (a scene's keyframes).
+    Dial { through: Vec<[f64; 2]>, off: Vec<usize> },
+    /// `lights = [...]`: from light to light, mixing the two neighbours linearly (a scene's `path`).
+    Lights(Vec<usize>),
+}
+
+/// A constancy along a dial path (`[[paths]]`): reflectance `reflectance` keeps one colour (a target, or
+/// a free group's colour) at every position of `route`. The design samples `samples` positions; the
+/// solve then checks the colour densely between them against `tolerance` (ΔE00).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathConstancy {
+    pub reflectance: usize,
+    pub route: Route,
+    pub target: Vector3<f64>,
+    pub notation: TargetNotation,
+    pub weight: f64,
+    pub free: Option<usize>,
+    pub enabled: bool,
+    /// Positions the design uses, evenly along the path (both ends included), ≥ 2.
+    pub samples: usize,
+    /// The largest ΔE00 from the target allowed anywhere along the path.
+    pub tolerance: f64,
+}
+
+impl PathConstancy {
+    /// True when this path contributes rows to the objective.
+    pub fn is_active(&self) -> bool {
+        self.enabled && self.weight > 0.0
+    }
+}
+
 /// The design settings (DESIGN_SPEC §3 `[settings]`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
@@ -183,6 +255,10 @@ pub struct Palette {
     pub reflectances: Vec<SpectrumEntry>,
     pub colours: Vec<ColourCell>,
     pub free: Vec<FreeGroup>,
+    /// Colour criteria under mixtures of lights (`[[mixtures]]`).
+    pub mixtures: Vec<MixtureCell>,
+    /// Constancy along dial paths (`[[paths]]`).
+    pub paths: Vec<PathConstancy>,
 }
 
 /// The largest magnitude of any number the design uses (samples, targets, weights, finite bounds, settings).
@@ -259,12 +335,36 @@ impl Palette {
             }
             check_value(|| format!("colours[{k}].weight"), "weight", c.weight)?;
         }
+        for (k, m) in self.mixtures.iter().enumerate() {
+            for v in m.target.iter() {
+                check_value(|| format!("mixtures[{k}].target"), "target value", *v)?;
+            }
+            check_value(|| format!("mixtures[{k}].weight"), "weight", m.weight)?;
+            for (_, w) in &m.mix {
+                check_value(|| format!("mixtures[{k}].mix"), "mixture weight", *w)?;
+            }
+        }
+        for (k, q) in self.paths.iter().enumerate() {
+            for v in q.target.iter() {
+                check_value(|| format!("paths[{k}].target"), "target value", *v)?;
+            }
+            check_value(|| format!("paths[{k}].weight"), "weight", q.weight)?;
+        }
         for (g, f) in self.free.iter().enumerate() {
             for c in 0..3 {
                 check_bounds(|| format!("free[{g}]"), f.lower[c], f.upper[c])?;
             }
         }
         Ok(())
+    }
+
+    /// The criteria along the light dial the palette has, as words (`2 [[mixtures]] and 1 [[paths]]`), or
+    /// `None` when it has none.
+    pub fn dial_criteria(&self) -> Option<String> {
+        let part = |n: usize, what: &str| (n > 0).then(|| format!("{n} [[{what}]]"));
+        let parts: Vec<String> =
+            [part(self.mixtures.len(), "mixtures"), part(self.paths.len(), "paths")].into_iter().flatten().collect();
+        (!parts.is_empty()).then(|| parts.join(" and "))
     }
 
     /// The entries of one side.

@@ -34,6 +34,12 @@ use crate::spectrum::Spectrum;
 /// The exponent of the Shepard inverse-distance weights: `u_i = 1/d_i^SHEPARD_EXPONENT`.
 pub(crate) const SHEPARD_EXPONENT: f64 = 2.0;
 
+/// The largest dial coordinate accepted (either axis, for vertices, moves, keyframe points and a palette's
+/// mixture positions): the Shepard weights divide by squared distances, which overflow to infinity from
+/// about 1e154 (and every weight is then 0: black frames). Dials are drawn around the unit circle; ±1e6
+/// leaves room.
+pub(crate) const MAX_DIAL_COORDINATE: f64 = 1e6;
+
 /// Distances below this (in dial units) count as "at the vertex".
 const AT_VERTEX: f64 = 1e-9;
 

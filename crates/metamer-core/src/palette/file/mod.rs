@@ -14,6 +14,7 @@
 mod budget;
 mod pieces;
 mod read;
+mod read_mix;
 mod tables;
 mod write;
 

@@ -14,10 +14,11 @@ use std::path::{Path, PathBuf};
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
-type Table<'i> = DeTable<'i>;
-type Value<'i> = DeValue<'i>;
+pub(super) type Table<'i> = DeTable<'i>;
+pub(super) type Value<'i> = DeValue<'i>;
 
-const TOP_KEYS: &[&str] = &["name", "wavelengths", "settings", "lights", "reflectances", "colours", "free"];
+const TOP_KEYS: &[&str] =
+    &["name", "wavelengths", "settings", "lights", "reflectances", "colours", "free", "mixtures", "paths"];
 const SETTINGS_KEYS: &[&str] =
     &["basis_dimension", "smoothness", "subspace_error", "fit_in_subspace", "reflectance_bounds", "light_bounds"];
 const SPECTRUM_KEYS: &[&str] = &[
@@ -53,12 +54,12 @@ type ReadSpectrum = (SpectrumEntry, Option<(String, Spectrum)>);
 type ReadCell = (Vec<String>, Res<(usize, usize)>, Res<CellRest>);
 
 /// A colour cell's keys besides its light and reflectance.
-struct CellRest {
-    free: Option<usize>,
-    target: Vector3<f64>,
-    notation: TargetNotation,
-    weight: f64,
-    enabled: bool,
+pub(super) struct CellRest {
+    pub(super) free: Option<usize>,
+    pub(super) target: Vector3<f64>,
+    pub(super) notation: TargetNotation,
+    pub(super) weight: f64,
+    pub(super) enabled: bool,
 }
 
 /// Walks a parsed table, collecting warnings and naming keys in errors.
@@ -66,14 +67,14 @@ pub(super) struct Reader<'a> {
     path: &'a Path,
     base_dir: Option<PathBuf>,
     luminance: Samples,
-    warnings: Vec<String>,
+    pub(super) warnings: Vec<String>,
     csv_raw: HashMap<String, Spectrum>,
 }
 
-type Res<T> = Result<T, PaletteError>;
+pub(super) type Res<T> = Result<T, PaletteError>;
 
 /// Lookups by key in a parsed table.
-trait TableExt<'i> {
+pub(super) trait TableExt<'i> {
     fn value(&self, key: &str) -> Option<&Value<'i>>;
 }
 
@@ -133,11 +134,11 @@ impl<'a> Reader<'a> {
         Reader { path, base_dir, luminance, warnings: Vec::new(), csv_raw: HashMap::new() }
     }
 
-    fn invalid(&self, key: impl Into<String>, reason: impl Into<String>) -> PaletteError {
+    pub(super) fn invalid(&self, key: impl Into<String>, reason: impl Into<String>) -> PaletteError {
         PaletteError::Invalid { path: self.path.to_path_buf(), key: key.into(), reason: reason.into(), line: None }
     }
 
-    fn wrong_type(&self, key: &str, expected: &str, v: &Value) -> PaletteError {
+    pub(super) fn wrong_type(&self, key: &str, expected: &str, v: &Value) -> PaletteError {
         self.invalid(key, format!("expected {expected}, found {}", type_name(v)))
     }
 
@@ -147,7 +148,7 @@ impl<'a> Reader<'a> {
     }
 
     /// The warnings about the keys of `table` not in `known`.
-    fn unknown_keys(&self, table: &Table, known: &[&str], prefix: &str) -> Vec<String> {
+    pub(super) fn unknown_keys(&self, table: &Table, known: &[&str], prefix: &str) -> Vec<String> {
         let mut out = Vec::new();
         for k in table.keys() {
             let k: &str = k.get_ref();
@@ -159,7 +160,7 @@ impl<'a> Reader<'a> {
         out
     }
 
-    fn string<'v>(&self, v: &'v Value, key: &str) -> Res<&'v str> {
+    pub(super) fn string<'v>(&self, v: &'v Value, key: &str) -> Res<&'v str> {
         v.as_str().ok_or_else(|| self.wrong_type(key, "a string", v))
     }
 
@@ -168,7 +169,7 @@ impl<'a> Reader<'a> {
     }
 
     /// A number (integer or float), never NaN; infinities only when `allow_inf`.
-    fn number(&self, v: &Value, key: &str, allow_inf: bool) -> Res<f64> {
+    pub(super) fn number(&self, v: &Value, key: &str, allow_inf: bool) -> Res<f64> {
         let x = match number_of(v) {
             Some(x) => x,
             None => return Err(self.wrong_type(key, "a number", v)),
@@ -182,7 +183,7 @@ impl<'a> Reader<'a> {
         }
     }
 
-    fn numbers(&self, v: &Value, key: &str, len: Option<usize>, allow_inf: bool) -> Res<Vec<f64>> {
+    pub(super) fn numbers(&self, v: &Value, key: &str, len: Option<usize>, allow_inf: bool) -> Res<Vec<f64>> {
         let arr = v.as_array().ok_or_else(|| self.wrong_type(key, "an array of numbers", v))?;
         if let Some(n) = len
             && arr.len() != n
@@ -207,11 +208,11 @@ impl<'a> Reader<'a> {
         Ok(Bounds::new(b[0], b[1]))
     }
 
-    fn sub_table<'v, 'i>(&self, v: &'v Value<'i>, key: &str) -> Res<&'v Table<'i>> {
+    pub(super) fn sub_table<'v, 'i>(&self, v: &'v Value<'i>, key: &str) -> Res<&'v Table<'i>> {
         v.as_table().ok_or_else(|| self.wrong_type(key, "a table", v))
     }
 
-    fn array_of_tables<'v, 'i>(&self, root: &'v Table<'i>, key: &str) -> Res<Vec<&'v Table<'i>>> {
+    pub(super) fn array_of_tables<'v, 'i>(&self, root: &'v Table<'i>, key: &str) -> Res<Vec<&'v Table<'i>>> {
         match root.value(key) {
             None => Ok(Vec::new()),
             Some(Value::Array(items)) => items
@@ -244,7 +245,9 @@ impl<'a> Reader<'a> {
         let reflectances = self.spectra(root, "reflectances", Kind::Reflectance)?;
         let free = self.free_groups(root)?;
         let colours = self.colours(root, &lights, &reflectances, &free)?;
-        let palette = Palette { name, settings, lights, reflectances, colours, free };
+        let mixtures = self.mixtures(root, &lights, &reflectances, &free)?;
+        let paths = self.paths(root, &lights, &reflectances, &free)?;
+        let palette = Palette { name, settings, lights, reflectances, colours, free, mixtures, paths };
         palette.check_scale().map_err(|e| self.invalid(e.key, e.reason))?;
         Ok(ReadOutcome { palette, warnings: self.warnings, csv_raw: self.csv_raw })
     }
@@ -514,7 +517,7 @@ impl<'a> Reader<'a> {
     }
 
     /// A cell's keys besides its light and reflectance.
-    fn cell_rest(&self, t: &Table, at: &str, free: &[FreeGroup]) -> Res<CellRest> {
+    pub(super) fn cell_rest(&self, t: &Table, at: &str, free: &[FreeGroup]) -> Res<CellRest> {
         let free_group = match t.value("free") {
             Some(v) => {
                 let key = format!("{at}.free");
@@ -575,7 +578,7 @@ impl<'a> Reader<'a> {
     }
 }
 
-fn names(entries: &[SpectrumEntry]) -> String {
+pub(super) fn names(entries: &[SpectrumEntry]) -> String {
     if entries.is_empty() {
         return "none".to_string();
     }

@@ -131,6 +131,8 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
     let same_shape = old.name == new.name
         && old.settings == new.settings
         && old.colours == new.colours
+        && old.mixtures == new.mixtures
+        && old.paths == new.paths
         && old.free == new.free
         && old.lights.len() == new.lights.len()
         && old.reflectances.len() == new.reflectances.len()

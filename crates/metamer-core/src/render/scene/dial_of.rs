@@ -5,21 +5,12 @@ use super::*;
 use crate::fsio::escape;
 
 /// The dial's lights: every palette light, at its `dial = [x, y]` vertex (lights without one on a regular
-/// polygon of the unit circle), all on with intensity 1.
+/// polygon of the unit circle), all on with intensity 1 — the same lights a palette's mixtures use.
 fn dial_lights(palette: &Palette) -> Vec<DialLight> {
-    let n = palette.lights.len();
-    palette
-        .lights
-        .iter()
-        .enumerate()
-        .map(|(i, l)| DialLight::new(l.name.clone(), l.spectrum, l.dial.unwrap_or_else(|| default_position(i, n))))
-        .collect()
+    crate::palette::mixing::dial_lights(&palette.lights)
 }
 
-/// The largest dial coordinate accepted (either axis, for vertices, moves and keyframe points): the light
-/// dial's Shepard weights divide by squared distances, which overflow to infinity from about 1e154 (and
-/// every weight is then 0: black frames). Dials are drawn around the unit circle; ±1e6 leaves room.
-pub(crate) const MAX_DIAL_COORDINATE: f64 = 1e6;
+pub(crate) use crate::render::dial::MAX_DIAL_COORDINATE;
 
 /// `p` when both coordinates are finite and within ±[`MAX_DIAL_COORDINATE`], else an error naming `key`.
 fn check_point(path: &Path, key: String, p: [f64; 2]) -> Result<[f64; 2], RenderError> {

@@ -39,7 +39,7 @@
 //! ```
 
 use super::RenderError;
-use super::dial::{Dial, DialLight, DialState, default_position};
+use super::dial::{Dial, DialLight, DialState};
 use super::raycast::{Camera, Gradient, Interpolation, MAX_MATERIALS, MaterialClass, Shading};
 use crate::palette::{Kind, Palette, SpectrumEntry};
 use crate::spectrum::{Normalize, Spectrum};
