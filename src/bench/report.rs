@@ -139,7 +139,7 @@ pub struct BenchReport {
 }
 
 fn write(path: &Path, text: &str) -> Result<(), ReportError> {
-    crate::fsio::write_atomic(path, text.as_bytes()).map_err(ReportError::File)
+    crate::bench::write_own(path, text.as_bytes()).map_err(ReportError::File)
 }
 
 fn image(md: &mut String, files: &mut Vec<PathBuf>, dir: &Path, name: &str, alt: &str) {

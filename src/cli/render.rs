@@ -126,6 +126,16 @@ pub struct Args {
     /// Turn off empty-space skipping (for benchmarking).
     #[arg(long)]
     pub(crate) no_empty_space_skipping: bool,
+    /// Replace what the writer otherwise refuses: a frame in -o DIR that is a symbolic link (the renderer
+    /// chose that name, so a link there is not followed unasked), a read-only frame or contact sheet.
+    #[arg(long)]
+    pub(crate) force: bool,
+}
+
+impl Args {
+    fn replace(&self) -> crate::fsio::Replace {
+        if self.force { crate::fsio::Replace::Force } else { crate::fsio::Replace::Writable }
+    }
 }
 
 const MIB: f64 = 1024.0 * 1024.0;
@@ -244,7 +254,10 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     }
     files.inputs_read(&read);
     for k in range.clone() {
-        files.check("frame", &args.output.join(crate::render::sweep::frame_name(k)))?;
+        let frame = args.output.join(crate::render::sweep::frame_name(k));
+        files.check("frame", &frame)?;
+        // Before anything is rendered: a frame that is a link the renderer did not make is refused.
+        crate::fsio::check_chosen(&frame, args.replace())?;
     }
     if let Some(sheet) = &args.contact_sheet {
         files.output("contact sheet", sheet)?;
@@ -322,6 +335,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
             o
         }),
         title: args.title.clone(),
+        replace: args.replace(),
         ..SweepOptions::new(args.frames, exposure, args.output.clone())
     };
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
@@ -397,6 +411,7 @@ fn assemble_sheet(
         &scene.dial,
         args.title.as_deref(),
         sheet,
+        args.replace(),
     )?;
     println!(
         "contact sheet {} of {n} frames {}..{} of {} from {}",

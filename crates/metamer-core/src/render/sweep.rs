@@ -215,6 +215,9 @@ pub struct SweepOptions {
     pub title: Option<String>,
     /// Draw the light dial into every frame before it is written, and so into its tile (None: `--no-dial`).
     pub overlay: Option<super::overlay::DialOverlay>,
+    /// What the writes may replace ([`crate::fsio::Replace`]): a frame, whose name the renderer chose, that
+    /// is a symbolic link is written through only with `Force` (`render --force`).
+    pub replace: crate::fsio::Replace,
 }
 
 impl SweepOptions {
@@ -229,6 +232,7 @@ impl SweepOptions {
             contact_sheet: None,
             title: None,
             overlay: None,
+            replace: crate::fsio::Replace::Writable,
         }
     }
 }
@@ -285,7 +289,7 @@ pub fn write_sweep(
                 o.draw_frame(&mut rgb, image.width, image.height, dial, k, options.frames);
             }
             let png = encode_png(&rgb, image.width, image.height).map_err(bad)?;
-            write_file(&path, &png)?;
+            write_file(&path, &png, crate::fsio::Name::Chosen, options.replace)?;
             drop(rgb);
             progress();
             Ok((path, thumb))
@@ -301,7 +305,7 @@ pub fn write_sweep(
     if let (Some(sheet), Some(layout)) = (&options.contact_sheet, &layout) {
         let labels: Vec<String> = range.clone().map(|k| frame_label(dial, k, options.frames)).collect();
         let img = layout.assemble(&thumbs, &labels, options.title.as_deref());
-        write_contact_sheet_image(sheet, &img)?;
+        write_contact_sheet_image(sheet, &img, options.replace)?;
     }
     Ok(SweepReport { written, seconds: start.elapsed().as_secs_f64() })
 }
@@ -319,6 +323,7 @@ pub fn contact_sheet_from_frames(
     dial: &Dial,
     title: Option<&str>,
     sheet: &Path,
+    replace: crate::fsio::Replace,
 ) -> Result<usize, RenderError> {
     let bad = |path: &Path, reason: String| RenderError::Invalid(format!("{}: {reason}", crate::fsio::show(path)));
     let mut size = None;
@@ -352,14 +357,21 @@ pub fn contact_sheet_from_frames(
     }
     let layout = layout.ok_or_else(|| RenderError::Invalid("the frame range is empty".into()))?;
     let labels: Vec<String> = range.clone().map(|k| frame_label(dial, k, frames)).collect();
-    write_contact_sheet_image(sheet, &layout.assemble(&tiles, &labels, title))?;
+    write_contact_sheet_image(sheet, &layout.assemble(&tiles, &labels, title), replace)?;
     Ok(tiles.len())
 }
 
-/// Every frame and the contact sheet go through the one atomic writer ([`crate::fsio::write_atomic`]):
-/// a FIFO or device in the output folder is refused, an interrupted sweep leaves whole frames only.
-fn write_file(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
-    crate::fsio::write_atomic(path, bytes)
+/// Every frame and the contact sheet go through the one atomic writer ([`crate::fsio::stage_as`]):
+/// a FIFO or device in the output folder is refused, an interrupted sweep leaves whole frames only, a
+/// frame (a name the renderer chose) that is a symbolic link is not written through.
+fn write_file(
+    path: &Path,
+    bytes: &[u8],
+    name: crate::fsio::Name,
+    replace: crate::fsio::Replace,
+) -> Result<(), RenderError> {
+    crate::fsio::stage_as(path, bytes, name, replace)
+        .and_then(crate::fsio::Staged::commit)
         .map_err(|e| RenderError::Output { path: path.to_path_buf(), reason: e.to_string() })
 }
 
@@ -379,14 +391,19 @@ pub(crate) fn frame_label(dial: &Dial, k: usize, frames: usize) -> String {
 }
 
 /// Write a finished contact sheet as PNG (creating its folder).
-pub(crate) fn write_contact_sheet_image(path: &Path, sheet: &RgbImage) -> Result<(), RenderError> {
+pub(crate) fn write_contact_sheet_image(
+    path: &Path,
+    sheet: &RgbImage,
+    replace: crate::fsio::Replace,
+) -> Result<(), RenderError> {
     let png = encode_png(sheet.as_raw(), sheet.width() as usize, sheet.height() as usize)
         .map_err(|reason| RenderError::Output { path: path.to_path_buf(), reason })?;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| RenderError::Output { path: dir.to_path_buf(), reason: e.to_string() })?;
     }
-    write_file(path, &png)
+    // The user named the sheet (`--contact-sheet PATH`): a link there is followed and kept.
+    write_file(path, &png, crate::fsio::Name::User, replace)
 }
 
 /// Geometry of a contact sheet: columns, tile size, label band, gaps.
