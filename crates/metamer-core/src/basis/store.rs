@@ -598,7 +598,7 @@ mod tests {
         assert!(for_palette_with(&palette(), 3, Some(&path), &quick()).unwrap().1.from_cache);
         // An unwritable location is a note, not an error.
         let (_, r) = for_palette_with(&palette(), 3, Some(&dir.path().join("missing/dir/x.json")), &quick()).unwrap();
-        assert!(r.notes.iter().any(|n| n.contains("could not store")), "{:?}", r.notes);
+        assert!(r.notes.iter().any(|n| n.contains("did not store the basis in")), "{:?}", r.notes);
     }
 
     #[test]
