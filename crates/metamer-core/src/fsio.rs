@@ -381,11 +381,11 @@ fn changed_since_read(target: &Path) -> bool {
 fn note_written(target: &Path, bytes_crc: Option<u32>) {
     let Ok(canonical) = std::fs::canonicalize(target) else { return };
     let mut log = seen_log();
-    if let Some(seen) = log.get_mut(&canonical) {
-        if let Ok(meta) = std::fs::metadata(&canonical) {
-            seen.stamp = Stamp::of(&meta);
-            seen.crc = bytes_crc;
-        }
+    if let Some(seen) = log.get_mut(&canonical)
+        && let Ok(meta) = std::fs::metadata(&canonical)
+    {
+        seen.stamp = Stamp::of(&meta);
+        seen.crc = bytes_crc;
     }
 }
 
