@@ -261,7 +261,7 @@ pub(crate) fn run_and_write(options: &BenchOptions, dir: &Path) -> Result<String
     let results = run(options)?;
     let md = markdown(&results);
     let path = dir.join("basis.md");
-    crate::fsio::write_atomic(&path, md.as_bytes()).map_err(BenchError::File)?;
+    crate::bench::write_own(&path, md.as_bytes()).map_err(BenchError::File)?;
     plots(&results, dir)?;
     Ok(md)
 }

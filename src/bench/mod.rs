@@ -11,7 +11,107 @@ pub mod report;
 pub mod solve;
 pub mod summary;
 
+use std::path::Path;
 use std::time::Instant;
+
+/// The line every Markdown file of the benchmark ends with, so a later run knows the file is its own.
+pub const MD_MARK: &str = "<!-- written by `metamer bench`: the next run replaces this file -->";
+/// The text chunk every PNG plot of the benchmark carries (`Software` = `metamer bench`), for the same.
+const PNG_KEY: &str = "Software";
+const PNG_VALUE: &str = "metamer bench";
+
+/// `bench --force`: write through what the writer otherwise refuses (see [`write_own`]).
+static FORCE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Set by `bench --force` before the suites run.
+pub(crate) fn set_force(force: bool) {
+    FORCE.store(force, std::sync::atomic::Ordering::Relaxed);
+}
+
+fn replace() -> crate::fsio::Replace {
+    if FORCE.load(std::sync::atomic::Ordering::Relaxed) {
+        crate::fsio::Replace::Force
+    } else {
+        crate::fsio::Replace::Writable
+    }
+}
+
+/// Write one of the benchmark's own files into the output folder: a name the benchmark chose, so a
+/// symbolic link there is refused without `--force` ([`crate::fsio::write_chosen`]), and marked as the
+/// benchmark's ([`MD_MARK`], a PNG text chunk) so the next run may replace it ([`is_own`]).
+pub(crate) fn write_own(path: &Path, bytes: &[u8]) -> Result<(), crate::fsio::FsError> {
+    let marked: Vec<u8>;
+    let bytes = if path.extension().is_some_and(|e| e == "png") {
+        marked = mark_png(bytes);
+        &marked
+    } else if path.extension().is_some_and(|e| e == "md") && !contains(bytes, MD_MARK.as_bytes()) {
+        let mut text = bytes.to_vec();
+        if !text.ends_with(b"\n") {
+            text.push(b'\n');
+        }
+        text.extend_from_slice(format!("\n{MD_MARK}\n").as_bytes());
+        marked = text;
+        &marked
+    } else {
+        bytes
+    };
+    crate::fsio::write_chosen(path, bytes, replace())
+}
+
+/// Did the benchmark write the file at `path` (its Markdown mark or its PNG text chunk)? A file that cannot
+/// be read is not its own.
+pub(crate) fn is_own(path: &Path) -> bool {
+    let Ok(bytes) = crate::fsio::read(path, crate::fsio::Kind::Text) else { return false };
+    if bytes.starts_with(PNG_SIGNATURE) {
+        return png_text_chunk(&bytes).is_some_and(|(k, v)| k == PNG_KEY.as_bytes() && v == PNG_VALUE.as_bytes());
+    }
+    contains(&bytes, MD_MARK.as_bytes())
+}
+
+fn contains(hay: &[u8], needle: &[u8]) -> bool {
+    hay.windows(needle.len()).any(|w| w == needle)
+}
+
+const PNG_SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
+
+/// `png` with a `tEXt` chunk `Software` = `metamer bench` right after its header chunk (IHDR, which the
+/// format requires first). Bytes that are not a PNG are returned as they are.
+fn mark_png(png: &[u8]) -> Vec<u8> {
+    // Signature (8), then IHDR: length (4), type (4), 13 bytes, CRC (4).
+    const AFTER_IHDR: usize = 8 + 4 + 4 + 13 + 4;
+    if !png.starts_with(PNG_SIGNATURE) || png.len() < AFTER_IHDR || &png[12..16] != b"IHDR" {
+        return png.to_vec();
+    }
+    let mut body = b"tEXt".to_vec();
+    body.extend_from_slice(PNG_KEY.as_bytes());
+    body.push(0);
+    body.extend_from_slice(PNG_VALUE.as_bytes());
+    let mut out = Vec::with_capacity(png.len() + body.len() + 8);
+    out.extend_from_slice(&png[..AFTER_IHDR]);
+    out.extend_from_slice(&((body.len() - 4) as u32).to_be_bytes());
+    out.extend_from_slice(&body);
+    out.extend_from_slice(&crc32fast::hash(&body).to_be_bytes());
+    out.extend_from_slice(&png[AFTER_IHDR..]);
+    out
+}
+
+/// The first `tEXt` chunk of a PNG after its header, as (keyword, text), when its CRC is right.
+fn png_text_chunk(png: &[u8]) -> Option<(&[u8], &[u8])> {
+    let mut at = PNG_SIGNATURE.len();
+    // Look at the first few chunks only (the mark sits right after IHDR).
+    for _ in 0..4 {
+        let len = u32::from_be_bytes(png.get(at..at + 4)?.try_into().ok()?) as usize;
+        let body = png.get(at + 4..at + 8 + len)?;
+        let crc = u32::from_be_bytes(png.get(at + 8 + len..at + 12 + len)?.try_into().ok()?);
+        if &body[..4] == b"tEXt" && crc32fast::hash(body) == crc {
+            let data = &body[4..];
+            let nul = data.iter().position(|&b| b == 0)?;
+            return Some((&data[..nul], &data[nul + 1..]));
+        }
+        at += 12 + len;
+    }
+    None
+}
 
 /// Every file a suite may write into the output folder (`README.md` is the whole report's), so a run
 /// can check before it writes anything that none of them is an input.

@@ -449,7 +449,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
     };
     report.markdown = markdown(&report, options);
     let md = options.out_dir.join("render.md");
-    crate::fsio::write_atomic(&md, report.markdown.as_bytes())
+    crate::bench::write_own(&md, report.markdown.as_bytes())
         .map_err(|e| RenderError::Output { path: md.clone(), reason: e.to_string() })?;
     plots(&report, &options.out_dir)?;
     Ok(report)

@@ -139,7 +139,7 @@ pub struct BenchReport {
 }
 
 fn write(path: &Path, text: &str) -> Result<(), ReportError> {
-    crate::fsio::write_atomic(path, text.as_bytes()).map_err(ReportError::File)
+    crate::bench::write_own(path, text.as_bytes()).map_err(ReportError::File)
 }
 
 fn image(md: &mut String, files: &mut Vec<PathBuf>, dir: &Path, name: &str, alt: &str) {
@@ -189,6 +189,8 @@ pub fn run(suites: &[Suite], options: &ReportOptions) -> Result<BenchReport, Rep
         md.push('\n');
     }
     md.push_str(&sections);
+    // The mark that lets the next run replace this file (`crate::bench::is_own`).
+    md.push_str(&format!("\n{}\n", crate::bench::MD_MARK));
     let path = dir.join("README.md");
     write(&path, &md)?;
     report.files.insert(0, path);

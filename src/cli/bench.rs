@@ -39,6 +39,10 @@ pub struct Args {
     /// Renderer benchmark: volume to use instead of engine.nhdr from METAMER_DATA or ../shared/volumes.
     #[arg(long)]
     pub(crate) volume: Option<PathBuf>,
+    /// Replace files in -o DIR that the benchmark did not write (a file of one of its names without its
+    /// mark, e.g. a project's own README.md in `-o .`) and write through symbolic links there.
+    #[arg(long)]
+    pub(crate) force: bool,
 }
 
 /// The most timed repetitions `--runs` asks for (a huge count would run for ever).
@@ -57,6 +61,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::All => Suite::ALL.to_vec(),
     };
     check_outputs(&args, &suites)?;
+    crate::bench::set_force(args.force);
     let options =
         ReportOptions { out_dir: args.output.clone(), quick: args.quick, runs: args.runs, volume: args.volume };
     let report = report::run(&suites, &options)
@@ -98,14 +103,28 @@ fn check_outputs(args: &Args, suites: &[Suite]) -> anyhow::Result<()> {
             files.inputs_read(&read);
         }
     }
-    files.output("benchmark report", &args.output.join(crate::bench::REPORT_FILE))?;
-    for suite in suites {
-        for name in crate::bench::output_files(*suite) {
-            files.output("benchmark report", &args.output.join(name))?;
-        }
+    let own = std::iter::once(crate::bench::REPORT_FILE)
+        .chain(suites.iter().flat_map(|s| crate::bench::output_files(*s).iter().copied()));
+    let own: Vec<PathBuf> = own.map(|name| args.output.join(name)).collect();
+    for path in &own {
+        files.output("benchmark report", path)?;
     }
     if let Some(readme) = &args.readme {
         files.output("README to update", readme)?;
+    }
+    for path in &own {
+        if !args.force {
+            // The benchmark chose these names: a link there, or a file it did not write (`-o .` in a
+            // project: its README.md), is not replaced unasked.
+            crate::fsio::check_chosen(path, crate::fsio::Replace::Writable)?;
+            if path.exists() && !crate::bench::is_own(path) {
+                anyhow::bail!(
+                    "{}: refusing to replace a file `metamer bench` did not write (it has no mark of the \
+                     benchmark's): choose another -o folder, or ask for it explicitly (--force)",
+                    crate::fsio::show(path)
+                );
+            }
+        }
     }
     Ok(())
 }

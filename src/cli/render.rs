@@ -131,6 +131,16 @@ pub struct Args {
     /// smallest files, slowest). The pixels are the same.
     #[arg(long, value_enum, default_value_t = CompressionArg::Fast)]
     pub(crate) png_compression: CompressionArg,
+    /// Replace what the writer otherwise refuses: a frame in -o DIR that is a symbolic link (the renderer
+    /// chose that name, so a link there is not followed unasked), a read-only frame or contact sheet.
+    #[arg(long)]
+    pub(crate) force: bool,
+}
+
+impl Args {
+    fn replace(&self) -> crate::fsio::Replace {
+        if self.force { crate::fsio::Replace::Force } else { crate::fsio::Replace::Writable }
+    }
 }
 
 const MIB: f64 = 1024.0 * 1024.0;
@@ -267,7 +277,10 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     }
     files.inputs_read(&read);
     for k in range.clone() {
-        files.check("frame", &args.output.join(crate::render::sweep::frame_name(k)))?;
+        let frame = args.output.join(crate::render::sweep::frame_name(k));
+        files.check("frame", &frame)?;
+        // Before anything is rendered: a frame that is a link the renderer did not make is refused.
+        crate::fsio::check_chosen(&frame, args.replace())?;
     }
     if let Some(sheet) = &args.contact_sheet {
         files.output("contact sheet", sheet)?;
@@ -346,6 +359,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         }),
         title: args.title.clone(),
         compression: args.png_compression.into(),
+        replace: args.replace(),
         ..SweepOptions::new(args.frames, exposure, args.output.clone())
     };
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
@@ -424,7 +438,7 @@ fn assemble_sheet(
         &scene.dial,
         args.title.as_deref(),
         sheet,
-        args.png_compression.into(),
+        (args.png_compression.into(), args.replace()),
     )?;
     println!(
         "contact sheet {} of {n} frames {}..{} of {} from {}",

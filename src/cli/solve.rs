@@ -63,7 +63,8 @@ pub struct Args {
     /// closest reachable colour.
     #[arg(long)]
     pub(crate) feasibility: bool,
-    /// Replace OUT and the report even when they are read-only files (their mode is kept).
+    /// Replace OUT and the report even when they are read-only files (their mode is kept) or when OUT is
+    /// the palette and another program changed it while the solve ran.
     #[arg(long)]
     pub(crate) force: bool,
     /// How far (ΔE) the other cells may move for --feasibility.

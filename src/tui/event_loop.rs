@@ -121,7 +121,14 @@ impl Saver for FileSaver {
             return Err(FileError::Conflict { path, aside });
         }
         let mut file = file.clone();
-        file.save(palette).map_err(failed)?;
+        if overwrite {
+            // The user saw the outside change and chose to overwrite it: the one writer is told so (it
+            // refuses a file changed since it was read otherwise); a read-only file is still refused.
+            let staged = file.stage_save_as(palette, &path, crate::fsio::Replace::Changed).map_err(failed)?;
+            file.commit(staged).map_err(failed)?;
+        } else {
+            file.save(palette).map_err(failed)?;
+        }
         Ok(Saved { text: format!("saved {}", path.display()), file })
     }
 
@@ -138,6 +145,10 @@ impl Saver for FileSaver {
         // Never onto what the palette reads (its CSV spectra); onto the palette file itself it is a save.
         let mut files = crate::fsio::Outputs::new();
         file.record_inputs("palette", &mut files);
+        // Nor onto any other file the designer read: its `--scene` file and the scene's volume, the running
+        // key script, a CSV imported, a basis sidecar (other palettes it read are not inputs of this one).
+        let others = |k: crate::fsio::Kind| !matches!(k, crate::fsio::Kind::Palette | crate::fsio::Kind::Text);
+        files.inputs_read(&crate::fsio::read_by_this_process(others));
         if let Some(own) = &file.path {
             // Its basis sidecar is the tool's cache, read on the next open: not a place for a palette.
             files.input("basis sidecar", &crate::basis::store::sidecar_path(own));

@@ -572,4 +572,5 @@ fn the_next_open_offers_the_recovery_copy() {
 }
 
 mod inputs;
+mod outputs;
 mod sizes;

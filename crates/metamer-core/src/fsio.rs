@@ -14,6 +14,21 @@
 //! the umask (the temporary file is created `0666 & !umask`); an in-place save keeps the old file's mode and,
 //! where permitted, its owner and group.
 //!
+//! **Changed since read**: every read records what it read (device, inode, size, modification and change
+//! times, and a CRC-32 of the content for files of at most 16 MiB). A write over a file this process read
+//! is refused ([`FsError::Changed`]) when the file on disk is no longer what was read (another program
+//! wrote it meanwhile: `solve p.toml -o p.toml` while an editor saved `p.toml`), unless the caller passes
+//! [`Replace::Changed`] or [`Replace::Force`]; the check is made when the output is staged and again just
+//! before the rename. A file whose times changed but whose content is what was read (`touch`) is not a
+//! change. After a write, what was written is what counts as read.
+//!
+//! **Links**: a path the user named (`-o FILE`, the palette the designer opened: [`Name::User`]) is
+//! followed when it is a symbolic link, and the link kept. A file whose name the command chose inside a
+//! folder the user named (frames and their contact sheet in `render -o DIR`, basis sidecars, the
+//! benchmark's files in `bench -o DIR`: [`Name::Chosen`]) that is found to be a symbolic link is refused
+//! ([`FsError::ChosenLink`]) unless the caller passes [`Replace::Force`] (the commands' `--force`): the
+//! command did not make that link, and following it would write wherever it points.
+//!
 //! **Same file** ([`Outputs`]): an output must not be any input nor another output. Files are compared by
 //! identity (device and inode when they exist, the canonical folder plus name when they do not), so
 //! `p.toml`, `./p.toml` and a link to it are one file. [`record_reads`] lists every file a piece of work
@@ -103,18 +118,47 @@ pub enum FsError {
         show(path)
     )]
     ReadOnly { path: PathBuf },
+    #[error(
+        "{}: refusing to replace it: it changed on disk since this command read it (another program wrote it \
+         meanwhile); nothing was written: run again on the new file, or ask for it explicitly (--force)",
+        show(path)
+    )]
+    Changed { path: PathBuf },
+    #[error(
+        "{}: refusing to write through a symbolic link this command did not make (it points to {}): remove \
+         the link, or ask for it explicitly (--force)",
+        show(path),
+        show(target)
+    )]
+    ChosenLink { path: PathBuf, target: PathBuf },
 }
 
-/// Whether the one writer may replace a file whose mode gives no write permission (a palette the user
-/// made read-only, `chmod a-w`). The mode is what counts, not whether this process could write it (root
-/// can write any file, and is refused all the same).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// What the one writer may replace besides an ordinary writable file: a file whose mode gives no write
+/// permission (a palette the user made read-only, `chmod a-w`; the mode is what counts, not whether this
+/// process could write it: root is refused all the same), a file changed since it was read, a symbolic
+/// link at a name the command chose. The variants are ordered: each allows what the one before does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Replace {
-    /// Refuse ([`FsError::ReadOnly`]).
+    /// Refuse all three ([`FsError::ReadOnly`], [`FsError::Changed`], [`FsError::ChosenLink`]).
     #[default]
     Writable,
-    /// Replace it (the command was given an explicit flag); the new file keeps the read-only mode.
+    /// Replace a file changed since it was read (the user was shown the outside change and chose to
+    /// overwrite it); still refuse a read-only file and a link at a chosen name.
+    Changed,
+    /// Replace any of them (the command was given an explicit flag, `--force`); a read-only file keeps its
+    /// mode, a link at a chosen name is followed.
     Force,
+}
+
+/// Who chose the name of an output (see the module docs, **Links**).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Name {
+    /// The user named the file (`-o FILE`): a symbolic link there is followed and kept.
+    #[default]
+    User,
+    /// The command chose the name (a frame in the output folder, a sidecar): a symbolic link there is
+    /// refused unless [`Replace::Force`].
+    Chosen,
 }
 
 impl FsError {
@@ -134,7 +178,9 @@ impl FsError {
             | FsError::NotRegularOutput { path, .. }
             | FsError::SameFile { path, .. }
             | FsError::Write { path, .. }
-            | FsError::ReadOnly { path } => path,
+            | FsError::ReadOnly { path }
+            | FsError::Changed { path }
+            | FsError::ChosenLink { path, .. } => path,
         }
     }
 }
@@ -244,6 +290,113 @@ fn note_read(path: &Path, kind: Kind) {
     }
 }
 
+/// What a read saw of a file: enough to tell, later, whether another program changed it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Seen {
+    /// Every kind the file was read as (a CSV source named `p.basis.json` is read as a sidecar too).
+    kinds: Vec<Kind>,
+    stamp: Stamp,
+    /// CRC-32 of the content (files of at most [`CHECKSUM_CAP`] bytes read whole).
+    crc: Option<u32>,
+}
+
+/// Device, inode, size and the modification and change times (nanoseconds) of a file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Stamp {
+    dev: u64,
+    ino: u64,
+    len: u64,
+    mtime: (i64, i64),
+    ctime: (i64, i64),
+}
+
+impl Stamp {
+    fn of(meta: &Metadata) -> Stamp {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            Stamp {
+                dev: meta.dev(),
+                ino: meta.ino(),
+                len: meta.len(),
+                mtime: (meta.mtime(), meta.mtime_nsec()),
+                ctime: (meta.ctime(), meta.ctime_nsec()),
+            }
+        }
+        #[cfg(not(unix))]
+        {
+            let nanos = |t: std::io::Result<std::time::SystemTime>| {
+                t.ok()
+                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                    .map_or((0, 0), |d| (d.as_secs() as i64, i64::from(d.subsec_nanos())))
+            };
+            Stamp { dev: 0, ino: 0, len: meta.len(), mtime: nanos(meta.modified()), ctime: nanos(meta.created()) }
+        }
+    }
+}
+
+/// Files up to this size are checksummed when read (a palette, a CSV, a scene, a sidecar); larger ones
+/// (volumes) are compared by their [`Stamp`] alone.
+const CHECKSUM_CAP: u64 = 16 * MIB;
+
+/// Every file this process read, by canonical path: what it saw ([`Seen`]).
+static SEEN: std::sync::Mutex<std::collections::BTreeMap<PathBuf, Seen>> =
+    std::sync::Mutex::new(std::collections::BTreeMap::new());
+
+fn seen_log() -> std::sync::MutexGuard<'static, std::collections::BTreeMap<PathBuf, Seen>> {
+    SEEN.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+fn note_seen(path: &Path, kind: Kind, meta: &Metadata, bytes: Option<&[u8]>) {
+    let Ok(canonical) = std::fs::canonicalize(path) else { return };
+    let crc = bytes.filter(|b| b.len() as u64 <= CHECKSUM_CAP).map(crc32fast::hash);
+    let mut log = seen_log();
+    let seen = log.entry(canonical).or_insert_with(|| Seen { kinds: Vec::new(), stamp: Stamp::of(meta), crc });
+    if !seen.kinds.contains(&kind) {
+        seen.kinds.push(kind);
+    }
+    seen.stamp = Stamp::of(meta);
+    seen.crc = crc;
+}
+
+/// Is the file at `target` (a resolved write target) one this process read and no longer what it read?
+fn changed_since_read(target: &Path) -> bool {
+    let Ok(canonical) = std::fs::canonicalize(target) else { return false };
+    let Some(seen) = seen_log().get(&canonical).cloned() else { return false };
+    // A file that is gone is not a change (writing puts it back).
+    let Ok(now) = std::fs::metadata(&canonical) else { return false };
+    if Stamp::of(&now) == seen.stamp {
+        return false;
+    }
+    // The times moved: the same content is still no change (`touch`, an editor saving what it read).
+    match seen.crc {
+        Some(crc) if now.len() == seen.stamp.len && now.len() <= CHECKSUM_CAP => {
+            std::fs::read(&canonical).map_or(true, |bytes| crc32fast::hash(&bytes) != crc)
+        }
+        _ => true,
+    }
+}
+
+/// After this process wrote `target`: if it was a file read, what was written is now what was read.
+fn note_written(target: &Path, bytes_crc: Option<u32>) {
+    let Ok(canonical) = std::fs::canonicalize(target) else { return };
+    let mut log = seen_log();
+    if let Some(seen) = log.get_mut(&canonical)
+        && let Ok(meta) = std::fs::metadata(&canonical)
+    {
+        seen.stamp = Stamp::of(&meta);
+        seen.crc = bytes_crc;
+    }
+}
+
+/// Every file this process has read whose kind passes `keep`, with its kind, for an [`Outputs`] check by a
+/// writer that does not know all its command's inputs (the basis sidecar's, the designer's save-as, which
+/// must not land on the `--scene` file or the running key script).
+pub fn read_by_this_process(keep: impl Fn(Kind) -> bool) -> Vec<(PathBuf, Kind)> {
+    let log = seen_log();
+    log.iter().flat_map(|(p, s)| s.kinds.iter().filter(|k| keep(**k)).map(|k| (p.clone(), *k))).collect()
+}
+
 /// Ends a recording, also when the work panics.
 struct Recording {
     start: usize,
@@ -303,6 +456,7 @@ pub fn read_capped(path: &Path, kind: Kind, cap: u64) -> Result<Vec<u8>, FsError
     if bytes.len() as u64 > cap {
         return Err(FsError::TooLarge { path: path.to_path_buf(), kind, size: bytes.len() as u64, cap });
     }
+    note_seen(path, kind, &meta, Some(&bytes));
     Ok(bytes)
 }
 
@@ -317,6 +471,7 @@ pub(crate) fn open_capped(path: &Path, kind: Kind, cap: u64) -> Result<(File, u6
     let file = open_nonblocking(path).map_err(io)?;
     let meta = file.metadata().map_err(io)?;
     check_input(path, kind, cap, &meta)?;
+    note_seen(path, kind, &meta, None);
     Ok((file, meta.len()))
 }
 
@@ -521,13 +676,20 @@ pub struct Staged {
     path: PathBuf,
     target: PathBuf,
     dir: PathBuf,
+    replace: Replace,
+    crc: Option<u32>,
 }
 
 impl Staged {
-    /// Put the staged content in place (a rename over the target), then sync the folder.
+    /// Put the staged content in place (a rename over the target), then sync the folder. A target
+    /// changed since it was read is refused here too (it may have changed while the output was staged).
     pub fn commit(self) -> Result<(), FsError> {
-        let Staged { tmp, path, target, dir } = self;
+        let Staged { tmp, path, target, dir, replace, crc } = self;
+        if replace < Replace::Changed && changed_since_read(&target) {
+            return Err(FsError::Changed { path });
+        }
         tmp.persist(&target).map_err(|e| FsError::Write { path: path.clone(), source: e.error })?;
+        note_written(&target, crc);
         #[cfg(unix)]
         if let Ok(d) = File::open(&dir) {
             // Best effort: some file systems refuse to sync a directory.
@@ -545,16 +707,44 @@ pub fn stage(path: &Path, bytes: &[u8]) -> Result<Staged, FsError> {
     stage_with(path, bytes, Replace::Writable)
 }
 
-/// [`stage`], replacing a read-only target only with [`Replace::Force`].
+/// [`stage`] of a file the user named, replacing what [`Replace`] allows.
 pub fn stage_with(path: &Path, bytes: &[u8], replace: Replace) -> Result<Staged, FsError> {
+    stage_as(path, bytes, Name::User, replace)
+}
+
+/// [`write_atomic`] of a file whose name the command chose ([`Name::Chosen`]: a symbolic link there is
+/// refused unless [`Replace::Force`]).
+pub fn write_chosen(path: &Path, bytes: &[u8], replace: Replace) -> Result<(), FsError> {
+    stage_as(path, bytes, Name::Chosen, replace)?.commit()
+}
+
+/// The check [`stage_as`] makes of a name the command chose ([`Name::Chosen`]), for a command that checks
+/// its outputs before it starts: a symbolic link there is refused unless [`Replace::Force`].
+pub fn check_chosen(path: &Path, replace: Replace) -> Result<(), FsError> {
+    if replace < Replace::Force && std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        let target = std::fs::read_link(path).unwrap_or_default();
+        return Err(FsError::ChosenLink { path: path.to_path_buf(), target });
+    }
+    Ok(())
+}
+
+/// [`stage`] with who chose the name and what may be replaced: the one place the rules of the module
+/// docs are applied.
+pub fn stage_as(path: &Path, bytes: &[u8], name: Name, replace: Replace) -> Result<Staged, FsError> {
     let err = |source| FsError::Write { path: path.to_path_buf(), source };
+    if name == Name::Chosen {
+        check_chosen(path, replace)?;
+    }
     let target = resolve_target(path).map_err(err)?;
     let existing = match std::fs::metadata(&target) {
         Ok(m) if !m.is_file() => {
             return Err(FsError::NotRegularOutput { path: path.to_path_buf(), found: describe(&m) });
         }
-        Ok(m) if m.permissions().readonly() && replace != Replace::Force => {
+        Ok(m) if m.permissions().readonly() && replace < Replace::Force => {
             return Err(FsError::ReadOnly { path: path.to_path_buf() });
+        }
+        Ok(_) if replace < Replace::Changed && changed_since_read(&target) => {
+            return Err(FsError::Changed { path: path.to_path_buf() });
         }
         Ok(m) => Some(m),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
@@ -590,7 +780,8 @@ pub fn stage_with(path: &Path, bytes: &[u8], replace: Replace) -> Result<Staged,
         }
     }
     tmp.as_file().sync_all().map_err(err)?;
-    Ok(Staged { tmp, path: path.to_path_buf(), target, dir })
+    let crc = (bytes.len() as u64 <= CHECKSUM_CAP).then(|| crc32fast::hash(bytes));
+    Ok(Staged { tmp, path: path.to_path_buf(), target, dir, replace, crc })
 }
 
 /// The folder a file lives in: its parent, or `.` for a bare file name (relative paths in a file, its

@@ -528,7 +528,7 @@ pub(crate) fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Resul
     }
     let png = crate::render::sweep::encode_png(&rgb, width as usize, height as usize, Default::default())
         .map_err(|e| err(&e))?;
-    crate::fsio::write_atomic(path, &png).map_err(|e| err(&e))
+    crate::bench::write_own(path, &png).map_err(|e| err(&e))
 }
 
 #[cfg(test)]

@@ -282,9 +282,9 @@ pub fn for_set(
     let key = cache_key(set, m);
     let mut notes = Vec::new();
     let mut stored = false;
-    let (mut sidecar, replaceable) = match cache {
+    let mut sidecar = match cache {
         Some(path) => read_sidecar(path, &mut notes),
-        None => (Sidecar { format: FORMAT.into(), entries: Vec::new() }, true),
+        None => Sidecar { format: FORMAT.into(), entries: Vec::new() },
     };
     let hit = sidecar.entries.iter().find(|e| e.key == key).and_then(|e| entry_basis(e, m, &colorimetry));
     let verified = hit.and_then(|(basis, entry)| match verify(entry, &basis, set, &colorimetry) {
@@ -324,15 +324,7 @@ pub fn for_set(
     let pca = Basis::from_matrix(trained.pca.clone(), &colorimetry)?;
     let pca_span = Basis::from_matrix(trained.transform_only.clone(), &colorimetry).ok();
     let accuracy = AccuracyReport::measure(set, &trained.basis, pca_span.as_ref(), &pca, &colorimetry);
-    if let Some(path) = cache.filter(|p| {
-        replaceable || {
-            notes.push(format!(
-                "did not store the basis: {} is a symbolic link to a file that is not a basis sidecar (left as it is)",
-                crate::fsio::show(p)
-            ));
-            false
-        }
-    }) {
+    if let Some(path) = cache {
         sidecar.entries.retain(|e| e.key != key);
         sidecar.entries.push(Entry {
             key: key.clone(),
@@ -358,7 +350,7 @@ pub fn for_set(
         sidecar.entries.drain(..excess);
         match write_sidecar(path, &sidecar) {
             Ok(()) => stored = true,
-            Err(e) => notes.push(format!("could not store the basis in {}: {e}", path.display())),
+            Err(e) => notes.push(format!("did not store the basis in {}: {}", crate::fsio::show(path), e.reason())),
         }
     }
     let report = Report {
@@ -401,42 +393,46 @@ fn entry_basis<'a>(entry: &'a Entry, m: usize, colorimetry: &Colorimetry) -> Opt
     columns_basis(&entry.basis, m, colorimetry).map(|b| (b, entry))
 }
 
-/// The sidecar at `path` and whether storing may replace what is there: a corrupt sidecar file is
-/// replaced, but a symbolic link whose target is not a sidecar (`p.basis.json -> p.toml`) is never written
-/// through, since the write would land on that other file.
-fn read_sidecar(path: &Path, notes: &mut Vec<String>) -> (Sidecar, bool) {
+/// The sidecar at `path` (empty when there is none or it cannot be used, with a note). Whether it may be
+/// replaced is the writer's question ([`write_sidecar`]).
+fn read_sidecar(path: &Path, notes: &mut Vec<String>) -> Sidecar {
     let empty = Sidecar { format: FORMAT.into(), entries: Vec::new() };
-    let replaceable = || !std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
     // Through the one bounded reader: a FIFO or a device as the sidecar is ignored, never waited on.
     let text = match crate::fsio::read_to_string(path, crate::fsio::Kind::Sidecar) {
         Ok(t) => t,
         Err(crate::fsio::FsError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
-            return (empty, true);
+            return empty;
         }
         Err(e) => {
             notes.push(format!("ignored the basis cache: {e}"));
-            return (empty, replaceable());
+            return empty;
         }
     };
     match serde_json::from_str::<Sidecar>(&text) {
-        Ok(s) if s.format == FORMAT => (s, true),
+        Ok(s) if s.format == FORMAT => s,
         Ok(s) => {
             notes.push(format!("ignored the basis cache {}: unknown format {:?}", crate::fsio::show(path), s.format));
-            (empty, replaceable())
+            empty
         }
         Err(e) => {
             notes.push(format!("ignored the basis cache {}: {e}", crate::fsio::show(path)));
-            (empty, replaceable())
+            empty
         }
     }
 }
 
-/// Write the sidecar through the one atomic writer ([`crate::fsio::write_atomic`]).
+/// Write the sidecar through the one atomic writer as a file whose name the tool chose
+/// ([`crate::fsio::write_chosen`]: a symbolic link there, `p.basis.json -> p.toml`, is never written
+/// through), and never over a file this process read as anything but a sidecar (the palette, a CSV source
+/// named `p.basis.json`, a hard link to one of them: [`crate::fsio::Outputs`]).
 fn write_sidecar(path: &Path, sidecar: &Sidecar) -> Result<(), crate::fsio::FsError> {
+    let mut files = crate::fsio::Outputs::new();
+    files.inputs_read(&crate::fsio::read_by_this_process(|k| k != crate::fsio::Kind::Sidecar));
+    files.output("basis sidecar", path)?;
     let mut text = serde_json::to_vec_pretty(sidecar)
         .map_err(|e| crate::fsio::FsError::Write { path: path.to_path_buf(), source: std::io::Error::other(e) })?;
     text.push(b'\n');
-    crate::fsio::write_atomic(path, &text)
+    crate::fsio::write_chosen(path, &text, crate::fsio::Replace::Writable)
 }
 
 #[cfg(test)]
@@ -602,7 +598,7 @@ mod tests {
         assert!(for_palette_with(&palette(), 3, Some(&path), &quick()).unwrap().1.from_cache);
         // An unwritable location is a note, not an error.
         let (_, r) = for_palette_with(&palette(), 3, Some(&dir.path().join("missing/dir/x.json")), &quick()).unwrap();
-        assert!(r.notes.iter().any(|n| n.contains("could not store")), "{:?}", r.notes);
+        assert!(r.notes.iter().any(|n| n.contains("did not store the basis in")), "{:?}", r.notes);
     }
 
     #[test]

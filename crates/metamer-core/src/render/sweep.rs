@@ -235,6 +235,9 @@ pub struct SweepOptions {
     pub overlay: Option<super::overlay::DialOverlay>,
     /// PNG compression of the frames and the contact sheet.
     pub compression: PngCompression,
+    /// What the writes may replace ([`crate::fsio::Replace`]): a frame, whose name the renderer chose, that
+    /// is a symbolic link is written through only with `Force` (`render --force`).
+    pub replace: crate::fsio::Replace,
 }
 
 impl SweepOptions {
@@ -250,6 +253,7 @@ impl SweepOptions {
             title: None,
             overlay: None,
             compression: PngCompression::Fast,
+            replace: crate::fsio::Replace::Writable,
         }
     }
 }
@@ -306,7 +310,7 @@ pub fn write_sweep(
                 o.draw_frame(&mut rgb, image.width, image.height, dial, k, options.frames);
             }
             let png = encode_png(&rgb, image.width, image.height, options.compression).map_err(bad)?;
-            write_file(&path, &png)?;
+            write_file(&path, &png, crate::fsio::Name::Chosen, options.replace)?;
             drop(rgb);
             progress();
             Ok((path, thumb))
@@ -322,7 +326,7 @@ pub fn write_sweep(
     if let (Some(sheet), Some(layout)) = (&options.contact_sheet, &layout) {
         let labels: Vec<String> = range.clone().map(|k| frame_label(dial, k, options.frames)).collect();
         let img = layout.assemble(&thumbs, &labels, options.title.as_deref());
-        write_contact_sheet_image(sheet, &img, options.compression)?;
+        write_contact_sheet_image(sheet, &img, options.compression, options.replace)?;
     }
     Ok(SweepReport { written, seconds: start.elapsed().as_secs_f64() })
 }
@@ -332,7 +336,8 @@ pub fn write_sweep(
 /// and labelled as [`write_sweep`] does; returns how many frames it holds. A tile shrinks its frame as it
 /// was written, so with the dial drawn into the frames the tiles show it shrunk (a one-run sheet draws it
 /// anew at the tile's size); frames written without the dial give a sheet byte-identical to a one-run
-/// sheet's. Every frame must be there and of one size.
+/// sheet's. Every frame must be there and of one size. The sheet is written with the PNG compression and
+/// the replace rule given last.
 pub fn contact_sheet_from_frames(
     dir: &Path,
     range: Range<usize>,
@@ -340,7 +345,7 @@ pub fn contact_sheet_from_frames(
     dial: &Dial,
     title: Option<&str>,
     sheet: &Path,
-    compression: PngCompression,
+    (compression, replace): (PngCompression, crate::fsio::Replace),
 ) -> Result<usize, RenderError> {
     let bad = |path: &Path, reason: String| RenderError::Invalid(format!("{}: {reason}", crate::fsio::show(path)));
     let mut size = None;
@@ -374,14 +379,21 @@ pub fn contact_sheet_from_frames(
     }
     let layout = layout.ok_or_else(|| RenderError::Invalid("the frame range is empty".into()))?;
     let labels: Vec<String> = range.clone().map(|k| frame_label(dial, k, frames)).collect();
-    write_contact_sheet_image(sheet, &layout.assemble(&tiles, &labels, title), compression)?;
+    write_contact_sheet_image(sheet, &layout.assemble(&tiles, &labels, title), compression, replace)?;
     Ok(tiles.len())
 }
 
-/// Every frame and the contact sheet go through the one atomic writer ([`crate::fsio::write_atomic`]):
-/// a FIFO or device in the output folder is refused, an interrupted sweep leaves whole frames only.
-fn write_file(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
-    crate::fsio::write_atomic(path, bytes)
+/// Every frame and the contact sheet go through the one atomic writer ([`crate::fsio::stage_as`]):
+/// a FIFO or device in the output folder is refused, an interrupted sweep leaves whole frames only, a
+/// frame (a name the renderer chose) that is a symbolic link is not written through.
+fn write_file(
+    path: &Path,
+    bytes: &[u8],
+    name: crate::fsio::Name,
+    replace: crate::fsio::Replace,
+) -> Result<(), RenderError> {
+    crate::fsio::stage_as(path, bytes, name, replace)
+        .and_then(crate::fsio::Staged::commit)
         .map_err(|e| RenderError::Output { path: path.to_path_buf(), reason: e.to_string() })
 }
 
@@ -419,6 +431,7 @@ pub(crate) fn write_contact_sheet_image(
     path: &Path,
     sheet: &RgbImage,
     compression: PngCompression,
+    replace: crate::fsio::Replace,
 ) -> Result<(), RenderError> {
     let png = encode_png(sheet.as_raw(), sheet.width() as usize, sheet.height() as usize, compression)
         .map_err(|reason| RenderError::Output { path: path.to_path_buf(), reason })?;
@@ -426,7 +439,8 @@ pub(crate) fn write_contact_sheet_image(
         std::fs::create_dir_all(dir)
             .map_err(|e| RenderError::Output { path: dir.to_path_buf(), reason: e.to_string() })?;
     }
-    write_file(path, &png)
+    // The user named the sheet (`--contact-sheet PATH`): a link there is followed and kept.
+    write_file(path, &png, crate::fsio::Name::User, replace)
 }
 
 /// Geometry of a contact sheet: columns, tile size, label band, gaps.
