@@ -464,16 +464,35 @@ struct FreeJson<'a> {
 struct CellJson<'a> {
     light: &'a str,
     reflectance: &'a str,
-    target: [f64; 3],
-    rgb_full: [f64; 3],
-    rgb_subspace: Option<[f64; 3]>,
-    delta_e_full: f64,
-    delta_e_subspace: Option<f64>,
+    #[serde(flatten)]
+    colours: ColoursJson,
     free: Option<&'a str>,
     weight: f64,
     enabled: bool,
     /// The cell's light or reflectance is an unphysical design.
     unphysical: bool,
+}
+
+/// A cell's or a mixture's target, colours and errors in the report (flattened into its row).
+#[derive(serde::Serialize)]
+struct ColoursJson {
+    target: [f64; 3],
+    rgb_full: [f64; 3],
+    rgb_subspace: Option<[f64; 3]>,
+    delta_e_full: f64,
+    delta_e_subspace: Option<f64>,
+}
+
+impl ColoursJson {
+    fn new(r: &design::CellResult) -> ColoursJson {
+        ColoursJson {
+            target: arr(&r.target),
+            rgb_full: arr(&r.rgb_full),
+            rgb_subspace: r.rgb_subspace.as_ref().map(arr),
+            delta_e_full: r.delta_e_full,
+            delta_e_subspace: r.delta_e_subspace,
+        }
+    }
 }
 
 /// A mixture cell in the report: its name, its weights and how they were given, then the cell's colours.
@@ -489,11 +508,8 @@ struct MixtureJson<'a> {
     dial: Option<[f64; 2]>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     off: Vec<&'a str>,
-    target: [f64; 3],
-    rgb_full: [f64; 3],
-    rgb_subspace: Option<[f64; 3]>,
-    delta_e_full: f64,
-    delta_e_subspace: Option<f64>,
+    #[serde(flatten)]
+    colours: ColoursJson,
     free: Option<&'a str>,
     weight: f64,
     enabled: bool,
@@ -708,11 +724,7 @@ impl<'a> Report<'a> {
                     CellJson {
                         light,
                         reflectance,
-                        target: arr(&c.target),
-                        rgb_full: arr(&c.rgb_full),
-                        rgb_subspace: c.rgb_subspace.as_ref().map(arr),
-                        delta_e_full: c.delta_e_full,
-                        delta_e_subspace: c.delta_e_subspace,
+                        colours: ColoursJson::new(c),
                         free: cell.free.map(|g| p.free[g].name.as_str()),
                         weight: cell.weight,
                         enabled: cell.enabled,
@@ -738,11 +750,7 @@ impl<'a> Report<'a> {
                         mix: m.mix.iter().map(|&(i, w)| (p.lights[i].name.as_str(), w)).collect(),
                         dial,
                         off,
-                        target: arr(&r.target),
-                        rgb_full: arr(&r.rgb_full),
-                        rgb_subspace: r.rgb_subspace.as_ref().map(arr),
-                        delta_e_full: r.delta_e_full,
-                        delta_e_subspace: r.delta_e_subspace,
+                        colours: ColoursJson::new(r),
                         free: m.free.map(|g| p.free[g].name.as_str()),
                         weight: m.weight,
                         enabled: m.enabled,
