@@ -26,8 +26,9 @@ use super::classify::Classifier;
 use super::labels;
 use crate::volume::Volume;
 use std::collections::VecDeque;
+use std::ops::Deref;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 /// log2 of the brick edge.
 pub(super) const SHIFT: u32 = 3;
@@ -87,9 +88,39 @@ struct Slot {
 /// A ray's hold on the block it is in: rays stay in a brick for several samples, so the cache is asked
 /// once per brick a ray enters, and the block stays alive for the ray even when the cache evicts it.
 #[derive(Default)]
-pub(super) struct Cursor {
+pub(super) struct Cursor<'a> {
     brick: usize,
-    block: Option<Arc<Block>>,
+    block: Option<BlockRef<'a>>,
+}
+
+/// A block as a ray holds it: borrowed from a [`Fields`] that never evicts (no reference count to
+/// touch, so threads sharing a block share no written cache line), or counted while evictions may
+/// drop it from the cache.
+#[derive(Clone)]
+pub(super) enum BlockRef<'a> {
+    Pinned(&'a Block),
+    Held(Arc<Block>),
+}
+
+impl Deref for BlockRef<'_> {
+    type Target = Block;
+    #[inline(always)]
+    fn deref(&self) -> &Block {
+        match self {
+            BlockRef::Pinned(b) => b,
+            BlockRef::Held(b) => b,
+        }
+    }
+}
+
+/// Where the blocks live.
+enum Store {
+    /// Every block the raycast can build fits within the cap: each built once (under its cell's
+    /// once-lock: a thread wanting the same brick waits for it), never evicted, read without a lock.
+    Pinned(Vec<OnceLock<Block>>),
+    /// Capped with least-recently-used eviction: per brick a slot; the resident bricks in the order
+    /// they were built (the clock's circle).
+    Capped { slots: Vec<Slot>, clock: Mutex<VecDeque<u32>> },
 }
 
 /// Counters of a [`Fields`] after a raycast.
@@ -117,9 +148,7 @@ pub(super) struct Fields<'a> {
     kind: Kind,
     gradients: bool,
     counts: [usize; 3],
-    slots: Vec<Slot>,
-    /// Resident bricks in the order they were built (the clock's circle).
-    clock: Mutex<VecDeque<u32>>,
+    store: Store,
     cap: u64,
     resident: AtomicU64,
     peak: AtomicU64,
@@ -131,8 +160,17 @@ pub(super) struct Fields<'a> {
 }
 
 impl<'a> Fields<'a> {
-    /// `cap`: the most bytes of blocks kept resident.
-    pub fn new(volume: &'a Volume, classifier: &'a Classifier, kind: Kind, gradients: bool, cap: u64) -> Fields<'a> {
+    /// `cap`: the most bytes of blocks kept resident; `reachable`: how many bricks can have their block
+    /// built (None: any). When the largest block times `reachable` fits the cap, blocks are never
+    /// evicted and are read without locks or reference counts.
+    pub fn new(
+        volume: &'a Volume,
+        classifier: &'a Classifier,
+        kind: Kind,
+        gradients: bool,
+        cap: u64,
+        reachable: Option<usize>,
+    ) -> Fields<'a> {
         let d = volume.dims;
         let counts = [0, 1, 2].map(|a| d[a].div_ceil(BRICK).max(1));
         let n = counts[0] * counts[1] * counts[2];
@@ -147,16 +185,28 @@ impl<'a> Fields<'a> {
             _ if bound > 0.0 && bound.is_finite() => bound / f32::from(i16::MAX),
             _ => 1.0,
         };
-        let slots: Vec<Slot> = (0..n).map(|_| Slot { block: Mutex::new(None), used: AtomicBool::new(false) }).collect();
-        let slot_bytes = (n * std::mem::size_of::<Slot>()) as u64;
+        // The largest block: per material present (all of them in label mode) its distances and
+        // gradients, or one gradient grid.
+        let per_entry = match kind {
+            Kind::Labels => classifier.absorbs.len() * (2 + if gradients { 6 } else { 0 }),
+            Kind::Values | Kind::Opacity => 6,
+        };
+        let largest = (S3 * per_entry + classifier.absorbs.len() + std::mem::size_of::<Block>()) as u64;
+        let pinned_bytes = (n * std::mem::size_of::<OnceLock<Block>>()) as u64;
+        let reach = reachable.unwrap_or(n).min(n) as u64;
+        let (store, slot_bytes) = if largest.saturating_mul(reach).saturating_add(pinned_bytes) <= cap {
+            (Store::Pinned((0..n).map(|_| OnceLock::new()).collect()), pinned_bytes)
+        } else {
+            let slots = (0..n).map(|_| Slot { block: Mutex::new(None), used: AtomicBool::new(false) }).collect();
+            (Store::Capped { slots, clock: Mutex::new(VecDeque::new()) }, (n * std::mem::size_of::<Slot>()) as u64)
+        };
         Fields {
             volume,
             classifier,
             kind,
             gradients,
             counts,
-            slots,
-            clock: Mutex::new(VecDeque::new()),
+            store,
             cap,
             resident: AtomicU64::new(slot_bytes),
             peak: AtomicU64::new(slot_bytes),
@@ -187,7 +237,7 @@ impl<'a> Fields<'a> {
     /// The block of the brick holding cell start `i` (held by the ray's `cursor`), and the local index of
     /// `i` in it.
     #[inline(always)]
-    pub(crate) fn block<'c>(&self, i: [usize; 3], cursor: &'c mut Cursor) -> (&'c Arc<Block>, usize) {
+    pub(crate) fn block<'c>(&'a self, i: [usize; 3], cursor: &'c mut Cursor<'a>) -> (&'c BlockRef<'a>, usize) {
         let b = self.brick_of(i);
         let l = [0, 1, 2].map(|a| i[a] - (b[a] << SHIFT));
         let bi = b[0] + self.counts[0] * (b[1] + self.counts[1] * b[2]);
@@ -203,9 +253,30 @@ impl<'a> Fields<'a> {
     }
 
     /// The resident block of brick `bi` (at `b`), built when it is not.
+    #[inline]
+    fn fetch(&'a self, bi: usize, b: [usize; 3]) -> BlockRef<'a> {
+        match &self.store {
+            Store::Pinned(cells) => BlockRef::Pinned(cells[bi].get_or_init(|| self.build_counted(b))),
+            Store::Capped { slots, clock } => BlockRef::Held(self.fetch_capped(slots, clock, bi, b)),
+        }
+    }
+
+    /// A new block of brick `b`, counted as built and resident.
     #[cold]
-    fn fetch(&self, bi: usize, b: [usize; 3]) -> Arc<Block> {
-        let slot = &self.slots[bi];
+    fn build_counted(&self, b: [usize; 3]) -> Block {
+        let block = self.build(b);
+        let bytes = block.bytes();
+        self.built_bytes.fetch_add(bytes, Ordering::Relaxed);
+        self.built.fetch_add(1, Ordering::Relaxed);
+        let resident = self.resident.fetch_add(bytes, Ordering::Relaxed) + bytes;
+        self.peak.fetch_max(resident, Ordering::Relaxed);
+        block
+    }
+
+    /// [`Self::fetch`] from the capped store.
+    #[cold]
+    fn fetch_capped(&self, slots: &[Slot], clock: &Mutex<VecDeque<u32>>, bi: usize, b: [usize; 3]) -> Arc<Block> {
+        let slot = &slots[bi];
         // A panic while a slot was locked (building its block) leaves it empty or whole: either is valid.
         let mut held = slot.block.lock().unwrap_or_else(PoisonError::into_inner);
         if let Some(block) = &*held {
@@ -222,13 +293,13 @@ impl<'a> Fields<'a> {
         let bytes = block.bytes();
         self.built_bytes.fetch_add(bytes, Ordering::Relaxed);
         self.built.fetch_add(1, Ordering::Relaxed);
-        self.admit(bi, bytes);
+        self.admit(slots, clock, bi, bytes);
         block
     }
 
     /// Count a newly built block of brick `bi` as resident, evicting others while the cap is exceeded.
-    fn admit(&self, bi: usize, bytes: u64) {
-        let mut clock = self.clock.lock().unwrap_or_else(PoisonError::into_inner);
+    fn admit(&self, slots: &[Slot], clock: &Mutex<VecDeque<u32>>, bi: usize, bytes: u64) {
+        let mut clock = clock.lock().unwrap_or_else(PoisonError::into_inner);
         clock.push_back(bi as u32);
         let mut resident = self.resident.fetch_add(bytes, Ordering::Relaxed) + bytes;
         // Every block is passed at most twice (the second time its mark is cleared), so this ends.
@@ -236,7 +307,7 @@ impl<'a> Fields<'a> {
         while resident > self.cap && turns > 0 && clock.len() > 1 {
             turns -= 1;
             let Some(j) = clock.pop_front() else { break };
-            let slot = &self.slots[j as usize];
+            let slot = &slots[j as usize];
             if j as usize == bi || slot.used.swap(false, Ordering::Relaxed) {
                 clock.push_back(j);
                 continue;

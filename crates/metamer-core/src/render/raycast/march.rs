@@ -1,14 +1,13 @@
 //! Marching one ray: sample reconstruction, classification, shading and front-to-back compositing.
 
 use super::classify::{BrickMap, Classifier, EMPTY, MIXED};
-use super::fields::{Block, CORNERS, Cursor, FIELD_BRICK, Fields, S3, corner_weights};
+use super::fields::{BlockRef, CORNERS, Cursor, FIELD_BRICK, Fields, S3, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 use super::view::View;
 use super::{
     Gradient, Interpolation, MAX_MATERIALS, RaycastOptions, RaycastStats, Shading, interleaved_gradient_noise,
 };
 use crate::volume::Volume;
-use std::sync::Arc;
 
 /// The eight voxels around a sample and the sample's fractional position among them
 /// (`v[x + 2y + 4z]`).
@@ -100,9 +99,9 @@ struct ValueSample {
 }
 
 /// A label sample before compositing.
-struct LabelSample {
+struct LabelSample<'a> {
     /// Held here: the substeps before this sample's composite may move the ray's cursor.
-    block: Option<Arc<Block>>,
+    block: Option<BlockRef<'a>>,
     base: usize,
     f: [f32; 3],
     /// Occupancy per material of the block (normalised to sum at most 1).
@@ -153,7 +152,7 @@ trait Sampler<'a> {
         p: [f64; 3],
         at: Located,
         uniform: u8,
-        cursor: &mut Cursor,
+        cursor: &mut Cursor<'a>,
     ) -> Result<Self::Sample, [usize; 3]>;
     fn edge(s: &Self::Sample) -> Edge;
     /// Whether the step between samples with these edges is refined.
@@ -168,7 +167,7 @@ trait Sampler<'a> {
         sub: bool,
         transmittance: f32,
         out: &mut [f32],
-        cursor: &mut Cursor,
+        cursor: &mut Cursor<'a>,
     ) -> f32;
 }
 
@@ -185,7 +184,7 @@ impl<'a> Sampler<'a> for Values {
         p: [f64; 3],
         at: Located,
         uniform: u8,
-        _: &mut Cursor,
+        _: &mut Cursor<'a>,
     ) -> Result<ValueSample, [usize; 3]> {
         Ok(if uniform == MIXED { ctx.value_sample(p, at) } else { ctx.uniform_sample(at, uniform) })
     }
@@ -208,7 +207,7 @@ impl<'a> Sampler<'a> for Values {
         sub: bool,
         transmittance: f32,
         out: &mut [f32],
-        cursor: &mut Cursor,
+        cursor: &mut Cursor<'a>,
     ) -> f32 {
         let c = ctx.classifier;
         ctx.composite_values(s, if sub { &c.alpha_sub } else { &c.alpha }, transmittance, out, cursor)
@@ -216,19 +215,19 @@ impl<'a> Sampler<'a> for Values {
 }
 
 impl<'a> Sampler<'a> for Labels {
-    type Sample = LabelSample;
+    type Sample = LabelSample<'a>;
     #[inline(always)]
     fn sample(
         ctx: &RayContext<'a>,
         _: [f64; 3],
         at: Located,
         _: u8,
-        cursor: &mut Cursor,
-    ) -> Result<LabelSample, [usize; 3]> {
+        cursor: &mut Cursor<'a>,
+    ) -> Result<LabelSample<'a>, [usize; 3]> {
         ctx.label_sample(at, cursor)
     }
     #[inline(always)]
-    fn edge(s: &LabelSample) -> Edge {
+    fn edge(s: &LabelSample<'a>) -> Edge {
         Edge { near: s.near, material: 0, level: s.total }
     }
     #[inline(always)]
@@ -243,11 +242,11 @@ impl<'a> Sampler<'a> for Labels {
     #[inline(always)]
     fn composite(
         ctx: &RayContext<'a>,
-        s: &LabelSample,
+        s: &LabelSample<'a>,
         sub: bool,
         transmittance: f32,
         out: &mut [f32],
-        _: &mut Cursor,
+        _: &mut Cursor<'a>,
     ) -> f32 {
         let c = ctx.classifier;
         ctx.composite_labels(s, if sub { &c.material_alpha_sub } else { &c.material_alpha }, transmittance, out)
@@ -353,7 +352,7 @@ impl<'a> RayContext<'a> {
 
     /// The smooth gradient at a located sample (cell start `i`, fractions `f`).
     #[inline(always)]
-    fn smooth_gradient(&self, i: [usize; 3], f: [f32; 3], cursor: &mut Cursor) -> [f32; 3] {
+    fn smooth_gradient(&self, i: [usize; 3], f: [f32; 3], cursor: &mut Cursor<'a>) -> [f32; 3] {
         let Some(fields) = self.fields else { return [0.0; 3] };
         let (block, base) = fields.block(i, cursor);
         fields.gradient(block, base, f)
@@ -406,7 +405,7 @@ impl<'a> RayContext<'a> {
         alpha: &[f32],
         transmittance: f32,
         out: &mut [f32],
-        cursor: &mut Cursor,
+        cursor: &mut Cursor<'a>,
     ) -> f32 {
         let m = usize::from(s.material);
         if m == 0 {
@@ -435,7 +434,7 @@ impl<'a> RayContext<'a> {
     /// Label sample: every nearby material's signed distance, interpolated trilinearly and turned into
     /// an occupancy ([`labels::ramp`]). `Err` names the field brick when no material reaches it.
     #[inline(always)]
-    fn label_sample(&self, at: Located, cursor: &mut Cursor) -> Result<LabelSample, [usize; 3]> {
+    fn label_sample(&self, at: Located, cursor: &mut Cursor<'a>) -> Result<LabelSample<'a>, [usize; 3]> {
         let Some(fields) = self.fields else {
             return Ok(LabelSample {
                 block: None,
@@ -479,14 +478,14 @@ impl<'a> RayContext<'a> {
             occ[..n].iter_mut().for_each(|o| *o /= sum);
             sum = 1.0;
         }
-        Ok(LabelSample { block: Some(Arc::clone(block)), base, f, occ, total: sum, near })
+        Ok(LabelSample { block: Some(block.clone()), base, f, occ, total: sum, near })
     }
 
     /// Composite a label sample with per-material opacities `alpha` (for the step it stands for): each
     /// material's occupancy times its opacity, shaded by its own distance gradient. Adds their weights,
     /// returns the opacity absorbed.
     #[inline(always)]
-    fn composite_labels(&self, s: &LabelSample, alpha: &[f32], transmittance: f32, out: &mut [f32]) -> f32 {
+    fn composite_labels(&self, s: &LabelSample<'a>, alpha: &[f32], transmittance: f32, out: &mut [f32]) -> f32 {
         let (Some(block), Some(fields)) = (s.block.as_deref(), self.fields) else { return 0.0 };
         if s.total <= 0.0 {
             return 0.0;

@@ -340,7 +340,13 @@ pub fn raycast(
         Interpolation::Labels => Kind::Labels,
     };
     let cap = options.field_cache.unwrap_or_else(|| default_field_cache(volume.voxels.bytes() as u64));
-    let fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients, cap));
+    // Value modes fetch a gradient block only for a sample of a material, which an empty brick never
+    // holds: with the skipping bricks the size of the field bricks, only the others can need a block.
+    let reachable = bricks
+        .zip(table.as_ref())
+        .filter(|(b, _)| !labels && b.size == fields::FIELD_BRICK)
+        .map(|(_, t)| t.class.len() - t.empty);
+    let fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients, cap, reachable));
     let ctx = RayContext {
         volume,
         classifier: &classifier,
