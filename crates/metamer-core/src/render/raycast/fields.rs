@@ -7,7 +7,9 @@
 //! ([`default_field_cache`]: half the voxels' bytes, at least 64 MiB; `RaycastOptions::field_cache`) and
 //! the least recently used are evicted (a clock with a second chance); a block needed again is rebuilt,
 //! identical, so frames are byte-identical whatever the cap (`tests.rs` checks it with a cap that
-//! evicts almost everything).
+//! evicts almost everything). When the largest block times the bricks a raycast can reach fits the cap,
+//! nothing can be evicted: each block is then built once into a per-brick `OnceLock` and rays read it
+//! without a lock or a reference count (the pinned store; `tests.rs` compares it with the capped one).
 //!
 //! A block covers the `BRICK + 1` voxels per axis of one 8³ brick plus the one-voxel seam to its
 //! upper neighbours, so every trilinear cell that starts in the brick finds its eight corners in it.
@@ -265,12 +267,18 @@ impl<'a> Fields<'a> {
     #[cold]
     fn build_counted(&self, b: [usize; 3]) -> Block {
         let block = self.build(b);
-        let bytes = block.bytes();
-        self.built_bytes.fetch_add(bytes, Ordering::Relaxed);
-        self.built.fetch_add(1, Ordering::Relaxed);
+        let bytes = self.count_built(&block);
         let resident = self.resident.fetch_add(bytes, Ordering::Relaxed) + bytes;
         self.peak.fetch_max(resident, Ordering::Relaxed);
         block
+    }
+
+    /// Count `block` as built (both stores); its bytes.
+    fn count_built(&self, block: &Block) -> u64 {
+        let bytes = block.bytes();
+        self.built_bytes.fetch_add(bytes, Ordering::Relaxed);
+        self.built.fetch_add(1, Ordering::Relaxed);
+        bytes
     }
 
     /// [`Self::fetch`] from the capped store.
@@ -290,9 +298,7 @@ impl<'a> Fields<'a> {
         let block = Arc::new(self.build(b));
         *held = Some(Arc::clone(&block));
         drop(held);
-        let bytes = block.bytes();
-        self.built_bytes.fetch_add(bytes, Ordering::Relaxed);
-        self.built.fetch_add(1, Ordering::Relaxed);
+        let bytes = self.count_built(&block);
         self.admit(slots, clock, bi, bytes);
         block
     }
