@@ -1,6 +1,7 @@
 //! What the docs claim about the repository, checked: every repository path README.md and docs/ name exists,
 //! every `DESIGN_SPEC §N` citation in code and docs names a section of docs/DESIGN_SPEC.md, and every key the
-//! scene reader accepts is documented in docs/formats/scene.md (dial keyframe keys in dial.md).
+//! scene reader accepts is documented in docs/formats/scene.md (dial keyframe keys in dial.md), `metamer --help`
+//! names every docs/formats page, and the test build resolves every shared crate as the release build does.
 
 use metamer_core::render::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -196,4 +197,69 @@ fn every_scene_key_the_reader_accepts_is_documented() {
         "scene keys the reader accepts but the format pages do not list:\n{}",
         undocumented.join("\n")
     );
+}
+
+/// Every package `cargo tree` resolves for the workspace along `edges`, with its features:
+/// `name vX.Y.Z` → `a,b,c`.
+fn resolved_features(edges: &str) -> std::collections::BTreeMap<String, String> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args(["tree", "--offline", "--workspace", "--prefix", "none", "--format", "{p}|{f}", "--edges", edges])
+        .current_dir(root())
+        .output()
+        .expect("run cargo tree");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "cargo tree --edges {edges} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    let mut map = std::collections::BTreeMap::new();
+    for line in text.lines() {
+        // Package lines only (feature nodes read `name feature "f"`); a path package's line ends with its folder.
+        let Some((package, features)) = line.split_once('|') else { continue };
+        let package = package.split(" (").next().unwrap_or(package).trim().to_string();
+        let features = features.trim_end_matches(" (*)").trim().to_string();
+        if let Some(old) = map.insert(package.clone(), features.clone()) {
+            assert_eq!(old, features, "{package} is resolved twice with different features along {edges}");
+        }
+    }
+    assert!(map.len() > 50, "cargo tree --edges {edges} listed only {} packages:\n{text}", map.len());
+    map
+}
+
+/// The README's and Cargo.toml's claim: `cargo test --release` after `cargo build --release` compiles no
+/// shared crate again, because every shared dependency is resolved with the same features in both builds
+/// (Cargo.toml's [dependencies] name the features the dev-dependencies switch on).
+#[test]
+fn the_test_build_reuses_the_release_build() {
+    let release = resolved_features("normal,build,features");
+    let test = resolved_features("normal,build,dev,features");
+    let differ: Vec<String> = release
+        .iter()
+        .filter_map(|(package, features)| {
+            let with_dev = test.get(package)?;
+            (with_dev != features).then(|| format!("{package}: release [{features}], test [{with_dev}]"))
+        })
+        .collect();
+    assert!(
+        differ.is_empty(),
+        "shared crates the test build resolves with other features than `cargo build --release` (so compiles \
+         again); name the missing features in Cargo.toml's [dependencies]:\n{}",
+        differ.join("\n")
+    );
+}
+
+/// `metamer --help` names every page of docs/formats/.
+#[test]
+fn the_top_level_help_names_every_format_page() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_metamer")).arg("--help").output().expect("metamer runs");
+    assert!(out.status.success());
+    let help = String::from_utf8_lossy(&out.stdout);
+    let mut pages = Vec::new();
+    markdown(&root().join("docs/formats"), &mut pages);
+    assert!(pages.len() >= 5, "docs/formats/ holds only {pages:?}");
+    let missing: Vec<String> = pages
+        .iter()
+        .filter_map(|p| p.strip_prefix(root()).ok())
+        .map(|p| p.to_string_lossy().into_owned())
+        .filter(|rel| !help.contains(rel.as_str()))
+        .collect();
+    assert!(missing.is_empty(), "`metamer --help` does not name {missing:?}:\n{help}");
 }

@@ -326,7 +326,15 @@ fn scene_volume_from_the_command_line_or_the_data_folder_and_a_missing_one_says_
     let o = render(&[], None);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
-    for needle in ["scene.toml", "volume", "no_data_here/engine.nhdr", "--volume", "METAMER_DATA", "volvis.org"] {
+    for needle in [
+        "scene.toml",
+        "volume",
+        "no_data_here/engine.nhdr",
+        "--volume",
+        "METAMER_DATA",
+        "volvis.org",
+        "http://klacansky.com/open-scivis-datasets/engine/",
+    ] {
         assert!(err.contains(needle), "missing volume error does not name `{needle}`: {err}");
     }
     assert!(!err.contains("os error"), "{err}");

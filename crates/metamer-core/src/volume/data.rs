@@ -29,7 +29,10 @@ pub fn dataset_origin(name: &str) -> Option<&'static str> {
     Some(match name {
         "engine.nhdr" | "engine.raw.gz" | "engine.raw" => {
             "the engine CT (256×256×128, 8-bit, by General Electric) of the volvis.org collection of public \
-             volume datasets, as NRRD engine.nhdr + engine.raw.gz (no licence stated; not part of the repository)"
+             volume datasets, as NRRD engine.nhdr + engine.raw.gz (no licence stated; not part of the repository). \
+             Get it from the Open SciVis Datasets collection: \
+             http://klacansky.com/open-scivis-datasets/engine/engine_256x256x128_uint8.raw (raw bytes, x fastest; \
+             README.md's data table gives the NRRD header and the checksum)"
         }
         "frog_tissues.vti" => {
             "the Whole Frog Project tissue labels (500×470×136, labels 0–29, Lawrence Berkeley Laboratory) as \
