@@ -19,6 +19,10 @@ pub enum Action {
     BigStep {
         up: bool,
     },
+    /// A list: jump to its first (`last: false`) or last entry.
+    ListEnd {
+        last: bool,
+    },
     FocusNext,
     FocusPrev,
     /// Matrix: edit the cell's sliders; settings: toggle or edit the field.

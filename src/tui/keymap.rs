@@ -129,6 +129,8 @@ pub(crate) const PICK: &[Binding] = &[
     bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "next"),
     bind(&[plain(K::PageUp)], A::BigStep { up: true }, "page up"),
     bind(&[plain(K::PageDown)], A::BigStep { up: false }, "page down"),
+    bind(&[plain(K::Home)], A::ListEnd { last: false }, "first"),
+    bind(&[plain(K::End)], A::ListEnd { last: true }, "last"),
     bind(&[plain(K::Enter)], A::Submit, "add"),
     bind(&[plain(K::Esc)], A::Back, "cancel"),
 ];

@@ -43,13 +43,14 @@ fn add_and_remove_spectra() {
     replay(&mut s, "L\nDown *6\nEnter", 100, 30);
     assert_eq!(s.doc.palette.lights.len(), 4);
     assert_eq!(s.doc.palette.lights[3].source, Source::Illuminant("F11".into()));
-    // Import a reflectance from CSV (the last entry of the reflectance list).
-    let (text, _) = replay(&mut s, "R\nEnd\nDown *30\nEnter\n\"measured.csv\"\nEnter", 100, 30);
+    // Import a reflectance from CSV (the last entry of the reflectance list: End jumps to it).
+    let (text, _) = replay(&mut s, "R\nEnd\nEnter\n\"measured.csv\"\nEnter", 100, 30);
     let added = s.doc.palette.reflectances.last().expect("added");
     assert_eq!(added.name, "measured", "{text}");
     assert!((added.spectrum.0[15] - 0.4).abs() < 1e-12, "550 nm resampled");
     // A missing file is refused with the reason.
-    let (text, _) = replay(&mut s, "R\nDown *30\nEnter\n\"nope.csv\"\nEnter", 100, 30);
+    // Home goes back to the first entry, End again to the last.
+    let (text, _) = replay(&mut s, "R\nEnd\nHome\nUp\nEnd\nEnter\n\"nope.csv\"\nEnter", 100, 30);
     assert!(text.contains("nope.csv"), "{text}");
     replay(&mut s, "Esc", 100, 30);
     // Remove the selected reflectance (its swatch is selected after adding it) with its cells.
@@ -64,6 +65,21 @@ fn add_and_remove_spectra() {
         replay(&mut s, "z", 100, 30);
     }
     assert_eq!(s.doc.palette, original);
+}
+
+#[test]
+fn home_and_end_jump_to_the_ends_of_an_add_list() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let n = s.doc.palette.lights.len();
+    // The light list starts at D65; End then Home comes back to it.
+    replay(&mut s, "L\nDown *3\nEnd\nHome\nEnter", 100, 30);
+    assert_eq!(s.doc.palette.lights.len(), n + 1);
+    assert_eq!(s.doc.palette.lights[n].source, Source::Illuminant("D65".into()));
+    // End reaches the last entry (import a CSV file…), which asks for a path.
+    let (text, _) = replay(&mut s, "L\nEnd\nEnter", 100, 30);
+    assert!(text.contains("path"), "{text}");
+    replay(&mut s, "Esc", 100, 30);
+    assert_eq!(s.doc.palette.lights.len(), n + 1);
 }
 
 #[test]

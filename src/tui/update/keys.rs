@@ -73,6 +73,7 @@ pub(super) fn update_main(state: &mut State, action: Action) -> Vec<Effect> {
         | Action::DialKeyframe
         | Action::DialSaveScene
         | Action::DialLeave
+        | Action::ListEnd { .. }
         | Action::Input(_)
         | Action::Backspace
         | Action::ClearInput

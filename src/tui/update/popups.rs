@@ -94,6 +94,8 @@ fn on_pick(state: &mut State, action: Action, kind: Kind, items: Vec<PickItem>, 
         Action::Move(Direction::Down) => (selected + 1).min(last),
         Action::BigStep { up: true } => selected.saturating_sub(10),
         Action::BigStep { up: false } => (selected + 10).min(last),
+        Action::ListEnd { last: false } => 0,
+        Action::ListEnd { last: true } => last,
         _ => selected,
     };
     state.ui.popup = Some(Popup::Pick { kind, items, selected });
