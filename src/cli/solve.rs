@@ -158,9 +158,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             )
         },
         || match &args.report {
-            Some(path) => report_text(&solution, seconds, basis_warning.as_deref(), feasibility.as_deref())
-                .and_then(|text| crate::fsio::stage_with(path, &text, replace).context("cannot write the report"))
-                .map(Some),
+            Some(path) => {
+                let mut report = Report::new(&solution, seconds);
+                report.basis_warning = basis_warning.as_deref();
+                report.feasibility = feasibility.as_deref();
+                // Serialised straight into the staged file (no copy of the whole text in memory).
+                crate::fsio::stage_writing(path, crate::fsio::Name::User, replace, |w| write_report(w, &report))
+                    .context("cannot write the report")
+                    .map(Some)
+            }
             None => Ok(None),
         },
     );
@@ -415,20 +421,10 @@ fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -
     Ok(())
 }
 
-/// The JSON report, pretty-printed.
-fn report_text(
-    s: &Solution,
-    seconds: f64,
-    basis_warning: Option<&str>,
-    feasibility: Option<&[FeasibilityJson]>,
-) -> anyhow::Result<Vec<u8>> {
-    let mut text = Vec::with_capacity(256 * (s.cells.len() + s.palette.lights.len() + s.palette.reflectances.len()));
-    let mut report = Report::new(s, seconds);
-    report.basis_warning = basis_warning;
-    report.feasibility = feasibility;
-    serde_json::to_writer_pretty(&mut text, &report)?;
-    text.push(b'\n');
-    Ok(text)
+/// The JSON report, pretty-printed, and a final newline.
+fn write_report(w: &mut impl std::io::Write, report: &Report) -> std::io::Result<()> {
+    serde_json::to_writer_pretty(&mut *w, report)?;
+    w.write_all(b"\n")
 }
 
 /// One spectrum of the report.

@@ -728,9 +728,21 @@ pub fn check_chosen(path: &Path, replace: Replace) -> Result<(), FsError> {
     Ok(())
 }
 
-/// [`stage`] with who chose the name and what may be replaced: the one place the rules of the module
-/// docs are applied.
+/// [`stage`] with who chose the name and what may be replaced.
 pub fn stage_as(path: &Path, bytes: &[u8], name: Name, replace: Replace) -> Result<Staged, FsError> {
+    stage_writing(path, name, replace, |w| w.write_all(bytes))
+}
+
+/// The staged file's content as it is produced: `write` writes it into a [`StagedWriter`] (buffered, its
+/// checksum computed as written), so a large output (a solve's report) is never held whole in memory.
+/// An error from `write` removes the temporary file and leaves the target as it was. The one place the
+/// rules of the module docs are applied.
+pub fn stage_writing(
+    path: &Path,
+    name: Name,
+    replace: Replace,
+    write: impl FnOnce(&mut StagedWriter<'_>) -> std::io::Result<()>,
+) -> Result<Staged, FsError> {
     let err = |source| FsError::Write { path: path.to_path_buf(), source };
     if name == Name::Chosen {
         check_chosen(path, replace)?;
@@ -762,8 +774,16 @@ pub fn stage_as(path: &Path, bytes: &[u8], name: Name, replace: Replace) -> Resu
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
     let mut tmp = builder.tempfile_in(&dir).map_err(err)?;
-    tmp.write_all(bytes).map_err(err)?;
-    tmp.flush().map_err(err)?;
+    let (len, crc) = {
+        let mut w = StagedWriter {
+            out: std::io::BufWriter::with_capacity(STAGED_BUFFER, tmp.as_file_mut()),
+            crc: crc32fast::Hasher::new(),
+            len: 0,
+        };
+        write(&mut w).map_err(err)?;
+        w.out.flush().map_err(err)?;
+        (w.len, w.crc.finalize())
+    };
     if let Some(meta) = &existing {
         tmp.as_file().set_permissions(meta.permissions()).map_err(err)?;
         #[cfg(unix)]
@@ -780,8 +800,33 @@ pub fn stage_as(path: &Path, bytes: &[u8], name: Name, replace: Replace) -> Resu
         }
     }
     tmp.as_file().sync_all().map_err(err)?;
-    let crc = (bytes.len() as u64 <= CHECKSUM_CAP).then(|| crc32fast::hash(bytes));
+    let crc = (len <= CHECKSUM_CAP).then_some(crc);
     Ok(Staged { tmp, path: path.to_path_buf(), target, dir, replace, crc })
+}
+
+/// The write buffer of a [`StagedWriter`].
+const STAGED_BUFFER: usize = 64 * 1024;
+
+/// The content of a staged file as it is written ([`stage_writing`]): buffered, and checksummed on the way
+/// (the checksum a later changed-since-read check compares with).
+pub struct StagedWriter<'a> {
+    out: std::io::BufWriter<&'a mut File>,
+    crc: crc32fast::Hasher,
+    len: u64,
+}
+
+impl Write for StagedWriter<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.out.write(buf)?;
+        let written = buf.get(..n).unwrap_or(buf);
+        self.crc.update(written);
+        self.len += n as u64;
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
 }
 
 /// The folder a file lives in: its parent, or `.` for a bare file name (relative paths in a file, its
@@ -826,6 +871,37 @@ mod tests {
         std::fs::write(&other, "old").unwrap();
         write_atomic(&other, b"new").unwrap();
         assert_eq!(std::fs::read(&other).unwrap(), b"new");
+    }
+
+    #[test]
+    fn a_streamed_output_is_written_whole_and_checksummed_as_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.json");
+        std::fs::write(&path, "old").unwrap();
+        // Pieces of odd sizes, more than the buffer in all, so some writes fill it and some bypass it.
+        let pieces: Vec<Vec<u8>> =
+            (0..400u32).map(|i| (0..(i * 37 % 1500)).map(|j| (i * 7 + j) as u8).collect()).collect();
+        let whole: Vec<u8> = pieces.concat();
+        assert!(whole.len() > 2 * STAGED_BUFFER);
+        let staged = stage_writing(&path, Name::User, Replace::Writable, |w| {
+            for p in &pieces {
+                w.write_all(p)?;
+            }
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(staged.crc, Some(crc32fast::hash(&whole)), "the checksum is the written content's");
+        assert_eq!(std::fs::read(&path).unwrap(), b"old", "nothing is in place before the commit");
+        staged.commit().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), whole);
+        // A writer that fails leaves the target as it was and no temporary file.
+        let failed = stage_writing(&path, Name::User, Replace::Writable, |w| {
+            w.write_all(b"partial")?;
+            Err(std::io::Error::other("the producer failed"))
+        });
+        assert!(matches!(failed, Err(FsError::Write { .. })), "{failed:?}");
+        assert_eq!(std::fs::read(&path).unwrap(), whole);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file is left");
     }
 
     #[test]
