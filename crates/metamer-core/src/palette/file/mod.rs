@@ -12,6 +12,7 @@
 //! file ([`tables`]); it is the same writer, applied to less text.
 
 mod budget;
+mod numbers;
 mod pieces;
 mod read;
 mod read_mix;
@@ -159,6 +160,12 @@ impl PaletteFile {
     /// Parse the text of a palette file; `path` names the file in messages and its folder resolves
     /// `csv = "..."` sources.
     pub fn parse(text: &str, path: &Path) -> Result<PaletteFile, PaletteError> {
+        PaletteFile::parse_with(text, path, Some(numbers::MIN_ARRAYS)).map(|(file, _)| file)
+    }
+
+    /// [`PaletteFile::parse`], trying the hand-read sample arrays first when there are at least `fast` of
+    /// them (and saying whether the palette came from that path).
+    fn parse_with(text: &str, path: &Path, fast: Option<usize>) -> Result<(PaletteFile, bool), PaletteError> {
         if text.trim().is_empty() {
             return Err(PaletteError::Empty { path: path.to_path_buf() });
         }
@@ -175,27 +182,47 @@ impl PaletteFile {
                 limit_mb: budget::budget(text.len()) >> 20,
             });
         }
+        // The sample arrays read by hand first ([`numbers`]), the text as it is when that path does not apply.
+        if let Some(min_arrays) = fast
+            && let Some((blanked, read)) = numbers::blank_samples(text, min_arrays)
+            && let Ok((outcome, tables)) = PaletteFile::read_tree(&blanked, &scan.headers, path, Some(&read))
+            && read.all_taken()
+        {
+            return Ok((PaletteFile::from_outcome(text, path, outcome, tables), true));
+        }
+        let (outcome, tables) = PaletteFile::read_tree(text, &scan.headers, path, None)?;
+        Ok((PaletteFile::from_outcome(text, path, outcome, tables), false))
+    }
+
+    /// Parse `text` (cut at some of its `headers` when long) and read the tree into the model, with the
+    /// sample arrays already read (`numbers`) taken at their spans.
+    fn read_tree(
+        text: &str,
+        headers: &[usize],
+        path: &Path,
+        numbers: Option<&numbers::Read>,
+    ) -> Result<(read::ReadOutcome, Option<tables::Tables>), PaletteError> {
         let syntax = |message: &str, span: Option<std::ops::Range<usize>>| {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
             PaletteError::Syntax { path: path.to_path_buf(), line, column, message: message.trim().replace('\n', " ") }
         };
         // The parser keeps numbers as text; one TOML cannot represent is a syntax error, as in `toml_edit`.
-        let spanned = pieces::parse(text, &scan.headers).map_err(|e| match e {
+        let spanned = pieces::parse(text, headers).map_err(|e| match e {
             pieces::Failure::Syntax(e) => syntax(e.message(), e.span()),
             pieces::Failure::Number(span, message) => syntax(message, Some(span)),
         })?;
         let root = spanned.get_ref();
         let colorimetry = Colorimetry::default();
-        let outcome = read::Reader::new(path, colorimetry.luminance()).read(root).map_err(|e| match e {
+        let outcome = read::Reader::new(path, colorimetry.luminance(), numbers).read(root).map_err(|e| match e {
             PaletteError::Invalid { path, key, reason, line: None } => {
                 let line = span_of_key(root, &key).map(|s| line_column(text, s.start).0);
                 PaletteError::Invalid { path, key, reason, line }
             }
             other => other,
-        })?;
-        let file = PaletteFile::from_outcome(text, path, outcome, tables::Tables::of(root, text));
+        });
+        let tables = outcome.is_ok().then(|| tables::Tables::of(root, text)).flatten();
         pieces::drop_tree(spanned);
-        Ok(file)
+        Ok((outcome?, tables))
     }
 
     fn from_outcome(text: &str, path: &Path, outcome: read::ReadOutcome, tables: Option<tables::Tables>) -> Self {

@@ -69,6 +69,8 @@ pub(super) struct Reader<'a> {
     luminance: Samples,
     pub(super) warnings: Vec<String>,
     csv_raw: HashMap<String, Spectrum>,
+    /// The `samples` arrays read before the parse ([`super::numbers`]), when the text was blanked there.
+    hand_read: Option<&'a super::numbers::Read>,
 }
 
 pub(super) type Res<T> = Result<T, PaletteError>;
@@ -129,9 +131,19 @@ fn type_name(v: &Value) -> &'static str {
 }
 
 impl<'a> Reader<'a> {
-    pub(super) fn new(path: &'a Path, luminance: Samples) -> Reader<'a> {
+    pub(super) fn new(path: &'a Path, luminance: Samples, hand_read: Option<&'a super::numbers::Read>) -> Reader<'a> {
         let base_dir = Some(crate::fsio::folder_of(path));
-        Reader { path, base_dir, luminance, warnings: Vec::new(), csv_raw: HashMap::new() }
+        Reader { path, base_dir, luminance, warnings: Vec::new(), csv_raw: HashMap::new(), hand_read }
+    }
+
+    /// The numbers of `t`'s `samples` array when they were read before the parse (the parser then saw an
+    /// empty array at its span).
+    fn read_samples(&self, t: &Table) -> Option<Vec<f64>> {
+        let v = t.get("samples")?;
+        match v.get_ref() {
+            Value::Array(items) if items.is_empty() => self.hand_read?.take(&v.span()),
+            _ => None,
+        }
     }
 
     pub(super) fn invalid(&self, key: impl Into<String>, reason: impl Into<String>) -> PaletteError {
@@ -370,7 +382,10 @@ impl<'a> Reader<'a> {
             "colorchecker" => Source::ColorChecker(self.string(v, &key)?.to_string()),
             "planck" => Source::Planck(self.number(v, &key, false)?),
             "flat" => Source::Flat(self.number(v, &key, false)?),
-            "samples" => Source::Samples(self.numbers(v, &key, None, false)?),
+            "samples" => Source::Samples(match self.read_samples(t) {
+                Some(x) => x,
+                None => self.numbers(v, &key, None, false)?,
+            }),
             _ => Source::Csv(self.string(v, &key)?.to_string()),
         };
         let normalize = match (t.value("normalize"), kind) {

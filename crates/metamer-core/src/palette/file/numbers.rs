@@ -1,0 +1,359 @@
+//! The numeric `samples = [ ... ]` arrays of a palette, read by hand before the TOML parse.
+//!
+//! Why this exists: measured on a palette of 1200 designed reflectances (`metamer solve`, whole process),
+//! `toml`'s generic parse of the spectra's sample arrays was the largest single cost: every sample becomes a
+//! spanned value holding its text, is moved when the parse runs in pieces, checked and parsed again by the
+//! reader. A sample array is a run of numbers; this reads it directly into `f64`s.
+//!
+//! How it stays exact: only an array this module fully understands is read (a line `samples = [`, then
+//! decimal integers and floats as TOML spells them, with no underscores, no `inf`/`nan`, separated by commas
+//! and blanks or line feeds, an optional trailing comma, no comment); anything else is left in the text for
+//! the parser. A read array's text is replaced by blanks of the same length (line feeds kept), so the
+//! parser sees an empty array at the same span and every other span and line is unchanged. The reader takes
+//! the numbers of an empty `samples` array at exactly a read array's span ([`Read::take`]); the palette is
+//! accepted from this path only when the parse and the read succeed and every read array was taken (so none
+//! was, say, inside a multi-line string). Otherwise the original text is parsed as before, so errors and
+//! results are those of the parser alone. Tests compare both paths (a property test and every shipped
+//! palette).
+
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Files with fewer read arrays than this are parsed as they are (nothing to gain).
+pub(super) const MIN_ARRAYS: usize = 8;
+
+/// The arrays read from a text, by span (in text order), and which of them the reader took.
+pub(super) struct Read {
+    arrays: Vec<(Range<usize>, Vec<f64>)>,
+    taken: Vec<AtomicBool>,
+}
+
+impl Read {
+    /// The numbers of the array read at exactly `span`, marked as taken (`None` when none was read there).
+    pub(super) fn take(&self, span: &Range<usize>) -> Option<Vec<f64>> {
+        let i = self.arrays.binary_search_by_key(&span.start, |(r, _)| r.start).ok()?;
+        let (range, values) = &self.arrays[i];
+        if range != span {
+            return None;
+        }
+        self.taken[i].store(true, Ordering::Relaxed);
+        Some(values.clone())
+    }
+
+    /// Every read array was taken by the reader.
+    pub(super) fn all_taken(&self) -> bool {
+        self.taken.iter().all(|t| t.load(Ordering::Relaxed))
+    }
+}
+
+/// The text with every `samples` array this module reads blanked, and the arrays read; `None` when there
+/// are fewer than `min_arrays`.
+pub(super) fn blank_samples(text: &str, min_arrays: usize) -> Option<(String, Read)> {
+    let b = text.as_bytes();
+    let mut arrays = Vec::new();
+    let mut at = 0;
+    while let Some(found) = text.get(at..).and_then(|t| t.find("samples")) {
+        let key = at + found;
+        at = key + "samples".len();
+        let line_start = b[..key].iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
+        if !b[line_start..key].iter().all(|&c| c == b' ' || c == b'\t') {
+            continue;
+        }
+        let mut i = skip_blanks(b, at);
+        if b.get(i) != Some(&b'=') {
+            continue;
+        }
+        i = skip_blanks(b, i + 1);
+        if let Some((end, values)) = array(b, i) {
+            arrays.push((i..end, values));
+            at = end;
+        }
+    }
+    if arrays.is_empty() || arrays.len() < min_arrays {
+        return None;
+    }
+    let mut blanked = b.to_vec();
+    for (range, _) in &arrays {
+        for c in &mut blanked[range.start + 1..range.end - 1] {
+            if *c != b'\n' && *c != b'\r' {
+                *c = b' ';
+            }
+        }
+    }
+    // Only ASCII bytes of the arrays were replaced by spaces: the text is still UTF-8.
+    let blanked = String::from_utf8(blanked).ok()?;
+    let taken = arrays.iter().map(|_| AtomicBool::new(false)).collect();
+    Some((blanked, Read { arrays, taken }))
+}
+
+fn skip_blanks(b: &[u8], mut i: usize) -> usize {
+    while matches!(b.get(i), Some(b' ' | b'\t')) {
+        i += 1;
+    }
+    i
+}
+
+/// Blanks, line feeds and CRLFs inside an array.
+fn skip_array_space(b: &[u8], mut i: usize) -> usize {
+    loop {
+        match b.get(i) {
+            Some(b' ' | b'\t' | b'\n') => i += 1,
+            Some(b'\r') if b.get(i + 1) == Some(&b'\n') => i += 2,
+            _ => return i,
+        }
+    }
+}
+
+/// A non-empty array of numbers starting at `b[i] == '['`: the index past its `]` and its values.
+fn array(b: &[u8], i: usize) -> Option<(usize, Vec<f64>)> {
+    if b.get(i) != Some(&b'[') {
+        return None;
+    }
+    let mut values = Vec::with_capacity(crate::spectrum::SAMPLES);
+    let mut i = skip_array_space(b, i + 1);
+    loop {
+        if b.get(i) == Some(&b']') && !values.is_empty() {
+            return Some((i + 1, values));
+        }
+        let (end, x) = number(b, i)?;
+        values.push(x);
+        i = skip_array_space(b, end);
+        match b.get(i)? {
+            b',' => i = skip_array_space(b, i + 1),
+            b']' => return Some((i + 1, values)),
+            _ => return None,
+        }
+    }
+}
+
+/// A finite decimal number as TOML writes it, without underscores: `[+-]` then `0` or a digit run not
+/// starting with 0, then an optional `.digits` and an optional exponent `[eE][+-]digits`. An integer is
+/// read as the parser's reader reads it (as `i64`, then converted); `None` for anything else.
+fn number(b: &[u8], start: usize) -> Option<(usize, f64)> {
+    let digits = |mut i: usize| {
+        let from = i;
+        while b.get(i).is_some_and(u8::is_ascii_digit) {
+            i += 1;
+        }
+        (i > from).then_some(i)
+    };
+    let mut i = start;
+    if matches!(b.get(i), Some(b'+' | b'-')) {
+        i += 1;
+    }
+    let int_start = i;
+    i = digits(i)?;
+    if b[int_start] == b'0' && i - int_start > 1 {
+        return None;
+    }
+    let mut float = false;
+    if b.get(i) == Some(&b'.') {
+        i = digits(i + 1)?;
+        float = true;
+    }
+    if matches!(b.get(i), Some(b'e' | b'E')) {
+        i += 1;
+        if matches!(b.get(i), Some(b'+' | b'-')) {
+            i += 1;
+        }
+        i = digits(i)?;
+        float = true;
+    }
+    // The number must end here (`1.5x`, `1_0` and `0x1` are the parser's).
+    if b.get(i).is_some_and(|c| !matches!(c, b' ' | b'\t' | b'\n' | b'\r' | b',' | b']')) {
+        return None;
+    }
+    let s = std::str::from_utf8(&b[start..i]).ok()?;
+    let x = if float { s.parse::<f64>().ok()? } else { s.parse::<i64>().ok()? as f64 };
+    x.is_finite().then_some((i, x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn one(s: &str) -> Option<Vec<f64>> {
+        array(s.as_bytes(), 0).filter(|(end, _)| *end == s.len()).map(|(_, v)| v)
+    }
+
+    #[test]
+    fn arrays_it_reads_and_arrays_it_leaves_to_the_parser() {
+        assert_eq!(
+            one("[1, 2.5, -3e2, +0.25E-1, 0, -0.0, 1e05,]"),
+            Some(vec![1.0, 2.5, -300.0, 0.025, 0.0, -0.0, 1e5])
+        );
+        assert_eq!(one("[\r\n  0.5,\r\n\t0.75\r\n]"), Some(vec![0.5, 0.75]));
+        for left in [
+            "[]",
+            "[ ]",
+            "[1 2]",
+            "[1,,2]",
+            "[01]",
+            "[00.5]",
+            "[1.]",
+            "[.5]",
+            "[1e]",
+            "[1_0]",
+            "[0x10]",
+            "[inf]",
+            "[nan]",
+            "[1e999]",
+            "[9223372036854775808]",
+            "[1, # c\n 2]",
+            "[\"a\"]",
+            "[1\r2]",
+            "[1.5x]",
+            "[[1]]",
+            "[1, 2",
+        ] {
+            assert_eq!(one(left), None, "{left}");
+        }
+    }
+
+    #[test]
+    fn blanked_text_keeps_every_span_and_line() {
+        let arr = "[\n  0.1, 0.2,\n  0.3,\n]";
+        let mut text = String::from("name = \"x\"\nnote = \"samples = [1, 2]\"\n");
+        for i in 0..MIN_ARRAYS {
+            text += &format!("[[reflectances]]\nname = \"r{i}\"\n  samples = {arr}\n# samples = [5, 6]\n");
+        }
+        let (blanked, read) = blank_samples(&text, MIN_ARRAYS).unwrap();
+        assert_eq!(blanked.len(), text.len());
+        assert_eq!(blanked.matches('\n').count(), text.matches('\n').count());
+        assert_eq!(read.arrays.len(), MIN_ARRAYS, "only the keys at a line's start");
+        for (range, values) in &read.arrays {
+            assert_eq!(&text[range.clone()], arr);
+            assert_eq!(blanked[range.clone()].replace(['\n', ' '], ""), "[]");
+            assert_eq!(values, &[0.1, 0.2, 0.3]);
+        }
+        assert!(!read.all_taken());
+        assert!(read.take(&(read.arrays[0].0.start..read.arrays[0].0.end - 1)).is_none(), "only the exact span");
+    }
+
+    /// What a parse gives, comparably: the file's model, warnings and table layout, or the error message.
+    fn outcome(r: Result<(super::super::PaletteFile, bool), super::super::PaletteError>) -> (String, bool) {
+        match r {
+            Ok((f, fast)) => {
+                (format!("{:?}\n{:?}\n{:?}\n{:?}", f.palette, f.warnings, f.tables, f.csv_raw.len()), fast)
+            }
+            Err(e) => (format!("error: {e}"), false),
+        }
+    }
+
+    /// Both paths on `text`: the same outcome; whether the hand-read path gave it.
+    fn both(text: &str, path: &std::path::Path) -> (String, bool) {
+        let (slow, _) = outcome(super::super::PaletteFile::parse_with(text, path, None));
+        let (fast, used) = outcome(super::super::PaletteFile::parse_with(text, path, Some(1)));
+        assert_eq!(fast, slow, "the hand-read sample arrays change what {} reads as", path.display());
+        (slow, used)
+    }
+
+    #[test]
+    fn every_shipped_palette_reads_the_same_both_ways() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let mut files: Vec<std::path::PathBuf> = ["palettes", "volumes"]
+            .iter()
+            .flat_map(|d| std::fs::read_dir(root.join(d)).unwrap().map(|e| e.unwrap().path()))
+            .filter(|p| {
+                p.extension().is_some_and(|e| e == "toml") && p.to_string_lossy().contains("palette")
+                    || p.parent().is_some_and(|d| d.ends_with("palettes"))
+            })
+            .collect();
+        files.sort();
+        assert!(files.len() >= 5, "{files:?}");
+        for path in files {
+            let text = std::fs::read_to_string(&path).unwrap();
+            let (read, _) = both(&text, &path);
+            assert!(!read.starts_with("error"), "{}: {read}", path.display());
+            // The same palette with every spectrum given as samples, as a solve writes them.
+            let mut p = super::super::PaletteFile::parse(&text, &path).unwrap().palette;
+            for e in p.lights.iter_mut().chain(p.reflectances.iter_mut()) {
+                e.source = crate::palette::Source::Samples(e.spectrum.as_slice().to_vec());
+            }
+            let sampled = super::super::PaletteFile::from_palette(&p).text();
+            let (read, used) = both(&sampled, &path);
+            assert!(!read.starts_with("error"), "{}: {read}", path.display());
+            assert!(used, "{}: the sample arrays as written are read by hand", path.display());
+        }
+    }
+
+    mod prop {
+        use super::*;
+        use proptest::prelude::*;
+
+        /// A number as a solve writes it, or as a person might: always read by hand.
+        fn plain_token() -> impl Strategy<Value = String> {
+            let x = prop_oneof![0.0..1.0f64, -2.0..2.0f64, Just(0.0), Just(-0.0)];
+            prop_oneof![
+                4 => x.clone().prop_map(|x| format!("{x}")),
+                2 => x.prop_map(|x| format!("{x:e}")),
+                1 => (-3i64..3).prop_map(|i| i.to_string()),
+            ]
+        }
+
+        /// A number as the file might spell it: the common forms, and forms only the parser takes (or
+        /// refuses).
+        fn token() -> impl Strategy<Value = String> {
+            let x = prop_oneof![-2.0..2.0f64, proptest::num::f64::NORMAL, Just(0.0), Just(-0.0)];
+            prop_oneof![
+                4 => x.clone().prop_map(|x| format!("{x}")),
+                2 => x.clone().prop_map(|x| format!("{x:e}")),
+                1 => x.prop_map(|x| format!("+{x:E}")),
+                1 => any::<i64>().prop_map(|i| i.to_string()),
+                1 => proptest::sample::select(vec![
+                    "01.5", "1_000.5", "1_0", "inf", "-inf", "nan", "1e999", "0x1F", ".5", "1.", "\"a\"", "true",
+                    "1e05", "0e0", "-0", "9223372036854775808", "1.5 # c\n", "[1]",
+                ])
+                .prop_map(str::to_string),
+            ]
+        }
+
+        /// An array of `SAMPLES` numbers (or a few more or fewer); only plain numbers when `plain`.
+        fn array(plain: bool) -> impl Strategy<Value = String> {
+            let sep = proptest::sample::select(vec![", ", ",", ",\n    ", " ,\t", ",\r\n  ", ",\n\n"]);
+            let len = prop_oneof![3 => Just(crate::spectrum::SAMPLES), 1 => 29..=32usize];
+            let tok = if plain { plain_token().boxed() } else { token().boxed() };
+            let items = len.prop_flat_map(move |n| proptest::collection::vec((tok.clone(), sep.clone()), n));
+            (items, any::<bool>(), any::<bool>()).prop_map(|(items, trailing, newline)| {
+                let mut t = String::from(if newline { "[\n    " } else { "[" });
+                for (i, (tok, sep)) in items.iter().enumerate() {
+                    t += tok;
+                    if i + 1 < items.len() || trailing {
+                        t += sep;
+                    }
+                }
+                t += if newline { "\n]" } else { "]" };
+                t
+            })
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(200))]
+            #[test]
+            fn hand_read_sample_arrays_read_as_the_parser_reads_them(
+                arrays in proptest::collection::vec(
+                    any::<bool>().prop_flat_map(|plain| (array(plain), Just(plain), any::<bool>())),
+                    1..4,
+                ),
+                note in any::<bool>(),
+            ) {
+                let mut text = String::from("name = \"p\"\n");
+                if note {
+                    text += "note = \"\"\"\nsamples = [1, 2, 3]\n\"\"\"\n";
+                }
+                text += "[[lights]]\nname = \"L\"\nilluminant = \"D65\"\n";
+                for (i, (a, _, design)) in arrays.iter().enumerate() {
+                    text += &format!("[[reflectances]]\nname = \"r{i}\"\n  samples = {a}\ndesign = {design}\n");
+                }
+                text += "[[colours]]\nlight = \"L\"\nreflectance = \"r0\"\ntarget = \"#808080\"\n";
+                let (read, used) = both(&text, std::path::Path::new("p.toml"));
+                if note {
+                    // The array inside the string is read, blanked and never taken: the text as it is.
+                    prop_assert!(!used, "{read}");
+                } else if arrays.iter().all(|(_, plain, _)| *plain) && !read.starts_with("error") {
+                    prop_assert!(used, "{read}");
+                }
+            }
+        }
+    }
+}
