@@ -90,10 +90,8 @@ pub enum Action {
     DialLeave,
     Quit,
     // Inside popups.
-    /// Type a character into the prompt.
-    Input(char),
-    Backspace,
-    ClearInput,
+    /// Edit the prompt's line: type a character, move the cursor, delete (the line editing is tui-input's).
+    Edit(tui_input::InputRequest),
     /// Accept the prompt or the highlighted list entry.
     Submit,
     /// Choose the light / the reflectance of the selected cell.

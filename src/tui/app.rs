@@ -137,10 +137,55 @@ pub(crate) enum PromptPurpose {
 pub struct Prompt {
     pub title: String,
     pub(crate) hint: String,
-    pub(crate) input: String,
+    pub(crate) input: PromptText,
     pub(crate) purpose: PromptPurpose,
     /// Why the last answer was refused (rendered by the view).
     pub error: Option<crate::tui::edits::Refusal>,
+}
+
+/// A prompt's line and its cursor. The editing (cursor moves by grapheme, word deletes, display width) is
+/// `tui_input::Input`'s; this wrapper caps the length and compares by text and cursor.
+#[derive(Clone, Debug, Default)]
+pub struct PromptText(tui_input::Input);
+
+impl PromptText {
+    /// The longest line a prompt takes, in characters (a path or a list of 31 numbers fits).
+    pub(crate) const MAX_CHARS: usize = 400;
+
+    /// A line with the cursor at its end.
+    pub(crate) fn new(text: String) -> Self {
+        PromptText(tui_input::Input::new(text))
+    }
+
+    pub fn as_str(&self) -> &str {
+        self.0.value()
+    }
+
+    /// The cursor's position in display columns from the start of the line.
+    pub(crate) fn cursor_column(&self) -> usize {
+        self.0.visual_cursor()
+    }
+
+    /// The first display column shown in a field `width` columns wide, so that the cursor is in view.
+    pub(crate) fn scroll(&self, width: usize) -> usize {
+        self.0.visual_scroll(width)
+    }
+
+    /// Carries out one edit; true if the text changed. Typing past [`Self::MAX_CHARS`] is refused.
+    pub(crate) fn edit(&mut self, request: tui_input::InputRequest) -> bool {
+        if matches!(request, tui_input::InputRequest::InsertChar(_))
+            && self.0.value().chars().count() >= Self::MAX_CHARS
+        {
+            return false;
+        }
+        self.0.handle(request).is_some_and(|changed| changed.value)
+    }
+}
+
+impl PartialEq for PromptText {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.value() == other.0.value() && self.0.cursor() == other.0.cursor()
+    }
 }
 
 /// One entry of an "add" list.

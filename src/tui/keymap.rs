@@ -38,6 +38,7 @@ const fn bind(keys: &'static [Key], action: Action, help: &'static str) -> Bindi
 
 use Action as A;
 use KeyCode as K;
+use tui_input::InputRequest as R;
 
 /// The main screen.
 pub const MAIN: &[Binding] = &[
@@ -119,8 +120,14 @@ pub const DIAL: &[Binding] = &[
 pub(crate) const PROMPT: &[Binding] = &[
     bind(&[plain(K::Enter)], A::Submit, "accept"),
     bind(&[plain(K::Esc)], A::Back, "cancel"),
-    bind(&[plain(K::Backspace)], A::Backspace, "delete"),
-    bind(&[ctrl('u')], A::ClearInput, "clear"),
+    bind(&[plain(K::Backspace)], A::Edit(R::DeletePrevChar), "delete back"),
+    bind(&[plain(K::Delete)], A::Edit(R::DeleteNextChar), "delete forward"),
+    bind(&[plain(K::Left)], A::Edit(R::GoToPrevChar), "left"),
+    bind(&[plain(K::Right)], A::Edit(R::GoToNextChar), "right"),
+    bind(&[plain(K::Home), ctrl('a')], A::Edit(R::GoToStart), "start of line"),
+    bind(&[plain(K::End), ctrl('e')], A::Edit(R::GoToEnd), "end of line"),
+    bind(&[ctrl('w')], A::Edit(R::DeletePrevWord), "delete word"),
+    bind(&[ctrl('u')], A::Edit(R::DeleteLine), "clear"),
 ];
 
 /// A list to pick from.
@@ -231,7 +238,9 @@ pub(crate) fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
         });
     }
     match (&state.ui.popup, key.code) {
-        (Some(Popup::Prompt(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => Some(Action::Input(c)),
+        (Some(Popup::Prompt(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => {
+            Some(Action::Edit(tui_input::InputRequest::InsertChar(c)))
+        }
         // Help and diagnostics only read: any other key closes them and acts on the main screen.
         (Some(Popup::Help { .. } | Popup::Diagnostics { .. }), _) => {
             MAIN.iter().find(|b| b.keys.contains(&key)).map(|b| b.action)

@@ -83,6 +83,22 @@ fn home_and_end_jump_to_the_ends_of_an_add_list() {
 }
 
 #[test]
+fn the_prompt_edits_at_its_cursor() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    replay(&mut s, "u", 100, 30);
+    // "25", back one, "." → "2.5"; then Home, Del, "7" and End, Backspace, "9" → "7.9".
+    let (text, _) = replay(&mut s, "w\nCtrl-u\n\"25\"\nLeft\n\".\"", 100, 30);
+    assert!(text.contains("› 2.5"), "{text}");
+    replay(&mut s, "Enter", 100, 30);
+    assert_eq!(s.doc.palette.cell(0, 0).expect("cell").weight, 2.5);
+    replay(&mut s, "w\nHome\nDel\n\"7\"\nEnd\nBackspace\n\"9\"\nEnter", 100, 30);
+    assert_eq!(s.doc.palette.cell(0, 0).expect("cell").weight, 7.9);
+    // Ctrl-w deletes the word before the cursor, Right past the end stays at the end.
+    replay(&mut s, "w\nCtrl-w\n\"3\"\nRight\nRight\n\"1\"\nEnter", 100, 30);
+    assert_eq!(s.doc.palette.cell(0, 0).expect("cell").weight, 31.0);
+}
+
+#[test]
 fn cell_edits_use_free_groups_and_settings() {
     let mut s = state(demo_palette(), ColourMode::TrueColor);
     // skin × daylight has no criterion: u creates one from its colour now.

@@ -163,11 +163,42 @@ impl Widget for PopupView<'_> {
                 }
                 let row = hint.len() as u16;
                 let w = usize::from(inner.width.saturating_sub(4));
-                let chars: Vec<char> = p.input.chars().collect();
-                let shown: String = chars[chars.len().saturating_sub(w)..].iter().collect();
+                // The line scrolls so that the cursor stays in view; the character under it is highlighted, and
+                // a cursor past the end is a bar.
+                let scroll = p.input.scroll(w);
+                let cursor = p.input.cursor_column();
+                let (mut before, mut under, mut after) = (String::new(), None, String::new());
+                let mut column = 0;
+                for c in p.input.as_str().chars() {
+                    let cw = unicode_width::UnicodeWidthChar::width(c).unwrap_or(0);
+                    if column >= scroll && column + cw <= scroll + w {
+                        match column.cmp(&cursor) {
+                            std::cmp::Ordering::Less => before.push(c),
+                            std::cmp::Ordering::Equal if under.is_none() => under = Some(c),
+                            _ => after.push(c),
+                        }
+                    }
+                    column += cw;
+                }
+                let text = Style::new().fg(Color::White);
                 let x = put(buf, inner, 1, row, "› ", bold);
-                let x = put(buf, inner, x, row, &shown, Style::new().fg(Color::White));
-                put(buf, inner, x, row, "▏", Style::new().fg(Color::LightGreen));
+                let x = put(buf, inner, x, row, &before, text);
+                match under {
+                    Some(c) => {
+                        let x = put(
+                            buf,
+                            inner,
+                            x,
+                            row,
+                            &c.to_string(),
+                            Style::new().fg(Color::Black).bg(Color::LightGreen),
+                        );
+                        put(buf, inner, x, row, &after, text);
+                    }
+                    None => {
+                        put(buf, inner, x, row, "▏", Style::new().fg(Color::LightGreen));
+                    }
+                }
                 for (y, line) in below.iter().enumerate() {
                     put(buf, inner, 1, row + 1 + y as u16, line, below_style);
                 }

@@ -5,7 +5,9 @@
 use crate::colorimetry::Colorimetry;
 use crate::palette::{Kind, Palette, Source};
 use crate::spectrum::Normalize;
-use crate::tui::app::{EditKey, Import, Popup, Prompt, PromptPurpose, Selection, SpectrumOp, State, Target};
+use crate::tui::app::{
+    EditKey, Import, Popup, Prompt, PromptPurpose, PromptText, Selection, SpectrumOp, State, Target,
+};
 use crate::tui::edits::{self, EditError, EditResult};
 use crate::tui::msg::Effect;
 use nalgebra::Vector3;
@@ -59,8 +61,13 @@ pub(super) fn with_cell(state: &mut State, f: impl FnOnce(&mut State, usize, usi
 
 /// Open a one-line prompt.
 pub(super) fn open_prompt(state: &mut State, title: &str, hint: &str, input: String, purpose: PromptPurpose) {
-    state.ui.popup =
-        Some(Popup::Prompt(Prompt { title: title.to_string(), hint: hint.to_string(), input, purpose, error: None }));
+    state.ui.popup = Some(Popup::Prompt(Prompt {
+        title: title.to_string(),
+        hint: hint.to_string(),
+        input: PromptText::new(input),
+        purpose,
+        error: None,
+    }));
 }
 
 /// A number as prompts prefill it (shortest round-trip form).
@@ -73,7 +80,7 @@ pub(super) fn save_as_prompt(input: String, error: Option<EditError>) -> Prompt 
     Prompt {
         title: "save as".into(),
         hint: "a path, relative to the folder the designer started in".into(),
-        input,
+        input: PromptText::new(input),
         purpose: PromptPurpose::SaveAs,
         error: error.map(Into::into),
     }

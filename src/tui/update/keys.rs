@@ -74,9 +74,7 @@ pub(super) fn update_main(state: &mut State, action: Action) -> Vec<Effect> {
         | Action::DialSaveScene
         | Action::DialLeave
         | Action::ListEnd { .. }
-        | Action::Input(_)
-        | Action::Backspace
-        | Action::ClearInput
+        | Action::Edit(_)
         | Action::Submit
         | Action::ChooseLight
         | Action::ChooseReflectance

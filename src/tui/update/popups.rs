@@ -57,17 +57,11 @@ fn on_prompt(state: &mut State, mut prompt: Prompt, action: Action) -> Vec<Effec
     match action {
         Action::Back => return Vec::new(),
         Action::Submit => return submit_prompt(state, prompt),
-        Action::Input(c) => {
-            if prompt.input.chars().count() < 400 {
-                prompt.input.push(c);
+        Action::Edit(request) => {
+            if prompt.input.edit(request) {
+                prompt.error = None;
             }
-            prompt.error = None;
         }
-        Action::Backspace => {
-            prompt.input.pop();
-            prompt.error = None;
-        }
-        Action::ClearInput => prompt.input.clear(),
         _ => {}
     }
     state.ui.popup = Some(Popup::Prompt(prompt));

@@ -20,7 +20,7 @@ fn parse_number(text: &str) -> Result<f64, EditError> {
 /// Carry out a submitted prompt; a refused answer keeps the prompt open with the reason.
 pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Vec<Effect> {
     let result: Result<Vec<Effect>, EditError> = (|| {
-        let input = prompt.input.trim().to_string();
+        let input = prompt.input.as_str().trim().to_string();
         Ok(match prompt.purpose.clone() {
             PromptPurpose::Hex { light, reflectance } => {
                 let hex = if input.starts_with('#') { input.clone() } else { format!("#{input}") };
