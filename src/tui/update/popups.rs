@@ -57,11 +57,8 @@ fn on_prompt(state: &mut State, mut prompt: Prompt, action: Action) -> Vec<Effec
     match action {
         Action::Back => return Vec::new(),
         Action::Submit => return submit_prompt(state, prompt),
-        Action::Edit(request) => {
-            if prompt.input.edit(request) {
-                prompt.error = None;
-            }
-        }
+        // An edit that changes the text clears the last refusal; a cursor move keeps it.
+        Action::Edit(request) if prompt.input.edit(request) => prompt.error = None,
         _ => {}
     }
     state.ui.popup = Some(Popup::Prompt(prompt));
