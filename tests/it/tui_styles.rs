@@ -81,6 +81,30 @@ fn the_256_colour_mode_uses_the_nearest_palette_entry() {
     assert_eq!(buf[(x, y)].fg, Color::Indexed(nearest_xterm256([0x6a, 0x7b, 0x5c])));
 }
 
+/// Issue 30, defect 11: without `COLORTERM` two targets a viewer tells apart (a brick red and a mauve) got the
+/// same entry (131) by sRGB distance; nearest in CIELAB their swatches differ.
+#[test]
+fn the_256_colour_mode_keeps_distinct_targets_apart() {
+    use metamer::colorimetry::hex_to_linear;
+    let mut p = demo_palette();
+    let (brick, mauve) = ("#b45c3d", "#a05571");
+    for (c, hex) in p.colours.iter_mut().filter(|c| c.free.is_none()).take(2).zip([brick, mauve]) {
+        c.target = hex_to_linear(hex).expect("a hex colour");
+    }
+    let cells: Vec<(usize, usize)> =
+        p.colours.iter().filter(|c| c.free.is_none()).take(2).map(|c| (c.light, c.reflectance)).collect();
+    let mut s = state(p, ColourMode::Indexed256);
+    let (_, buf) = replay(&mut s, "", 100, 30);
+    let fg = |(j, i): (usize, usize)| {
+        let (x, y) = cell_origin(&s, &buf, j, i);
+        buf[(x, y)].fg
+    };
+    let (a, b) = (fg(cells[0]), fg(cells[1]));
+    assert_eq!(a, Color::Indexed(nearest_xterm256([0xb4, 0x5c, 0x3d])));
+    assert_eq!(b, Color::Indexed(nearest_xterm256([0xa0, 0x55, 0x71])));
+    assert_ne!(a, b, "two distinct targets share one terminal colour");
+}
+
 #[test]
 fn selection_brackets_follow_the_arrows() {
     let mut s = state(demo_palette(), ColourMode::TrueColor);

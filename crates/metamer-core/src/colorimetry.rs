@@ -155,6 +155,14 @@ pub fn xyz_to_lab(xyz: &Vector3<f64>, white: &Vector3<f64>) -> [f64; 3] {
     [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
 }
 
+/// CIELAB (D65 white) of a display sRGB 8-bit triple (the `palette` crate's conversion).
+pub fn srgb8_to_lab(rgb: [u8; 3]) -> [f64; 3] {
+    use palette::IntoColor;
+    let srgb = palette::Srgb::new(rgb[0], rgb[1], rgb[2]).into_format::<f64>();
+    let lab: palette::Lab<palette::white_point::D65, f64> = srgb.into_color();
+    [lab.l, lab.a, lab.b]
+}
+
 /// CIEDE2000 colour difference between two CIELAB colours (implemented by the `palette` crate).
 pub fn delta_e00(a: [f64; 3], b: [f64; 3]) -> f64 {
     let la: palette::Lab<palette::white_point::D65, f64> = palette::Lab::new(a[0], a[1], a[2]);
