@@ -138,3 +138,39 @@ fn subspace_halves_show_the_trained_basis_colour() {
     assert!(text.contains("V7 ΔE"), "{text}");
     assert!(!text.contains("V7 n/a"), "{text}");
 }
+
+/// The spectra pane names its curves in its header, each name in its curve's colour, and draws no legend
+/// box over the plot (issue 30, defect 8: the box hid a tungsten light's peak), at both sizes.
+#[test]
+fn the_spectra_pane_names_its_curves_in_the_header_in_their_colours() {
+    for (w, h) in [(100u16, 30u16), (80, 24)] {
+        let p = demo_palette();
+        let mut s = state(p.clone(), ColourMode::TrueColor);
+        let (_, buf) = replay(&mut s, "", w, h);
+        let row_text = |y: u16| (0..w).map(|x| buf[(x, y)].symbol().to_string()).collect::<String>();
+        let y = (0..h).find(|&y| row_text(y).contains(" spectra ─ ")).expect("the spectra header");
+        // The text drawn in each colour on the header row. (Below it, `└` is the axes' corner; a legend box would
+        // bring the other three.)
+        let in_colour = |colour: Color| {
+            (0..w).filter(|&x| buf[(x, y)].fg == colour).map(|x| buf[(x, y)].symbol().to_string()).collect::<String>()
+        };
+        let light = in_colour(Color::Yellow);
+        let refl = in_colour(Color::Cyan);
+        assert!(
+            p.lights.iter().any(|l| light.trim() == format!("{} (light)", l.name)),
+            "{light:?} in {:?}",
+            row_text(y)
+        );
+        assert!(
+            p.reflectances.iter().any(|r| refl.trim() == format!("{} (reflectance{})", r.name, if r.design { ", designed" } else { "" })),
+            "{refl:?} in {:?}",
+            row_text(y)
+        );
+        for y in y + 1..h - 1 {
+            for x in 1..w - 1 {
+                let c = buf[(x, y)].symbol();
+                assert!(!"┌┐┘".contains(c), "a box corner {c:?} at ({x}, {y}) under the spectra header");
+            }
+        }
+    }
+}

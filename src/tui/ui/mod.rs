@@ -128,7 +128,7 @@ impl Widget for &State {
                     }
                 }
                 None => {
-                    let block = Block::new().borders(Borders::TOP).title(" spectra ");
+                    let block = Block::new().borders(Borders::TOP).title(spectra::title(self, a.spectra.width));
                     let inner = block.inner(a.spectra);
                     block.render(a.spectra, buf);
                     spectra::SpectraPlot(self).render(inner, buf);

@@ -7,8 +7,56 @@ use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Style};
 use ratatui::symbols::Marker;
-use ratatui::text::Span;
-use ratatui::widgets::{Axis, Chart, Dataset, GraphType, LegendPosition, Widget};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Axis, Chart, Dataset, GraphType, Widget};
+
+/// The colour of the light's curve and of its name in the pane's header.
+const LIGHT_COLOUR: Color = Color::Yellow;
+/// The colour of the reflectance's curve and of its name in the pane's header.
+const REFLECTANCE_COLOUR: Color = Color::Cyan;
+
+/// The spectra pane's header, `width` columns at most: " spectra ─ " and then the names of the curves
+/// drawn, each in its curve's colour, with what it is ("light", "reflectance, designed"). The names
+/// stand here rather than in a legend box inside the plot, which hid the curves it named in a small
+/// pane (issue 30, defect 8). When the whole does not fit, the kinds go first, then the names are cut
+/// (each keeps a share of the room), so both colours stay visible.
+pub(crate) fn title(state: &State, width: u16) -> Line<'static> {
+    let d = &state.solve.derived;
+    let p = &state.doc.palette;
+    let (light, reflectance) = state.plotted();
+    let mut names: Vec<(String, &str, Color)> = Vec::new();
+    if let Some(e) = light.filter(|&l| d.light_spectra.get(l).is_some()).and_then(|l| p.lights.get(l)) {
+        names.push((e.name.clone(), if e.design { "light, designed" } else { "light" }, LIGHT_COLOUR));
+    }
+    if let Some(e) = reflectance.filter(|&r| d.reflectance_spectra.get(r).is_some()).and_then(|r| p.reflectances.get(r))
+    {
+        names.push((
+            e.name.clone(),
+            if e.design { "reflectance, designed" } else { "reflectance" },
+            REFLECTANCE_COLOUR,
+        ));
+    }
+    const HEAD: &str = " spectra ";
+    const SEP: &str = "─ ";
+    let room = usize::from(width).saturating_sub(HEAD.chars().count() + 1);
+    let with_kind: Vec<String> = names.iter().map(|(n, k, _)| format!("{n} ({k}) ")).collect();
+    let bare: Vec<String> = names.iter().map(|(n, _, _)| format!("{n} ")).collect();
+    let total = |v: &[String]| v.iter().map(|t| SEP.chars().count() + t.chars().count()).sum::<usize>();
+    let texts = if total(&with_kind) <= room {
+        with_kind
+    } else if total(&bare) <= room {
+        bare
+    } else {
+        let share = (room / names.len().max(1)).saturating_sub(SEP.chars().count() + 1);
+        names.iter().map(|(n, _, _)| format!("{} ", super::fit(n, share.max(1)))).collect()
+    };
+    let mut spans = vec![Span::raw(HEAD)];
+    for (text, (_, _, colour)) in texts.into_iter().zip(&names) {
+        spans.push(Span::raw(SEP));
+        spans.push(Span::styled(text, Style::new().fg(*colour)));
+    }
+    Line::from(spans)
+}
 
 /// The spectrum plot of a state.
 pub(crate) struct SpectraPlot<'a>(pub &'a State);
@@ -24,28 +72,23 @@ impl Widget for SpectraPlot<'_> {
         let (light, reflectance) = state.plotted();
         let light_points = light.and_then(|l| d.light_spectra.get(l)).map(points);
         let refl_points = reflectance.and_then(|r| d.reflectance_spectra.get(r)).map(points);
-        let label =
-            |name: &str, kind: &str, design: bool| format!("{name} ({kind}{})", if design { ", designed" } else { "" });
         let mut datasets = Vec::new();
-        if let (Some(l), Some(data)) = (light, light_points.as_deref()) {
-            let e = &state.doc.palette.lights[l];
+        // The curves' names are in the pane's header ([`title`]), not in a legend box over the plot.
+        if let Some(data) = light_points.as_deref() {
             datasets.push(
                 Dataset::default()
-                    .name(label(&e.name, "light", e.design))
                     .marker(Marker::Braille)
                     .graph_type(GraphType::Line)
-                    .style(Style::new().fg(Color::Yellow))
+                    .style(Style::new().fg(LIGHT_COLOUR))
                     .data(data),
             );
         }
-        if let (Some(r), Some(data)) = (reflectance, refl_points.as_deref()) {
-            let e = &state.doc.palette.reflectances[r];
+        if let Some(data) = refl_points.as_deref() {
             datasets.push(
                 Dataset::default()
-                    .name(label(&e.name, "reflectance", e.design))
                     .marker(Marker::Braille)
                     .graph_type(GraphType::Line)
-                    .style(Style::new().fg(Color::Cyan))
+                    .style(Style::new().fg(REFLECTANCE_COLOUR))
                     .data(data),
             );
         }
@@ -61,14 +104,6 @@ impl Widget for SpectraPlot<'_> {
             .bounds([lo, hi])
             .style(Style::new().fg(Color::Gray))
             .labels([num(lo), num(hi)].map(Span::raw));
-        Chart::new(datasets)
-            .x_axis(x_axis)
-            .y_axis(y_axis)
-            .legend_position(Some(LegendPosition::TopRight))
-            .hidden_legend_constraints((
-                ratatui::layout::Constraint::Percentage(60),
-                ratatui::layout::Constraint::Percentage(100),
-            ))
-            .render(area, buf);
+        Chart::new(datasets).x_axis(x_axis).y_axis(y_axis).legend_position(None).render(area, buf);
     }
 }
