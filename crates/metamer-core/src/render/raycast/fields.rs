@@ -7,7 +7,8 @@
 //! ([`default_field_cache`]: half the voxels' bytes, at least 64 MiB; `RaycastOptions::field_cache`) and
 //! the least recently used are evicted (a clock with a second chance); a block needed again is rebuilt,
 //! identical, so frames are byte-identical whatever the cap (`tests.rs` checks it with a cap that
-//! evicts almost everything). When the largest block times the bricks a raycast can reach fits the cap,
+//! evicts almost everything). While blocks may be evicted the raycast traces its rows of tiles one after
+//! another, so an evicted block is one the rays have passed (`super::band_rows`). When the largest block times the bricks a raycast can reach fits the cap,
 //! nothing can be evicted: each block is then built once into a per-brick `OnceLock` and rays read it
 //! without a lock or a reference count (the pinned store; `tests.rs` compares it with the capped one).
 //!
@@ -50,6 +51,16 @@ pub const MIN_FIELD_CACHE: u64 = 64 * crate::memory::MIB;
 /// derived-field share of [`crate::memory::render_estimate`]), at least [`MIN_FIELD_CACHE`].
 pub fn default_field_cache(voxel_bytes: u64) -> u64 {
     (voxel_bytes / 2).max(MIN_FIELD_CACHE)
+}
+
+/// Field bricks per axis of `volume`.
+fn brick_counts(volume: &Volume) -> [usize; 3] {
+    volume.dims.map(|n| n.div_ceil(BRICK).max(1))
+}
+
+/// Field bricks of `volume`.
+pub(super) fn brick_count(volume: &Volume) -> usize {
+    brick_counts(volume).iter().product()
 }
 
 /// What a [`Fields`] holds.
@@ -156,6 +167,8 @@ pub(super) struct Fields<'a> {
     peak: AtomicU64,
     /// Field units per stored gradient unit.
     pub(crate) scale: f32,
+    /// The capped store's room in blocks of the largest size (None: pinned, nothing is evicted).
+    room: Option<u64>,
     built_bytes: AtomicU64,
     built: AtomicU64,
     evicted: AtomicU64,
@@ -173,9 +186,8 @@ impl<'a> Fields<'a> {
         cap: u64,
         reachable: Option<usize>,
     ) -> Fields<'a> {
-        let d = volume.dims;
-        let counts = [0, 1, 2].map(|a| d[a].div_ceil(BRICK).max(1));
-        let n = counts[0] * counts[1] * counts[2];
+        let counts = brick_counts(volume);
+        let n = brick_count(volume);
         let (h, span) = match kind {
             Kind::Values => (1.0f32, (volume.value_range[1] - volume.value_range[0]).abs()),
             Kind::Opacity | Kind::Labels => (2.0, 1.0),
@@ -196,11 +208,16 @@ impl<'a> Fields<'a> {
         let largest = (S3 * per_entry + classifier.absorbs.len() + std::mem::size_of::<Block>()) as u64;
         let pinned_bytes = (n * std::mem::size_of::<OnceLock<Block>>()) as u64;
         let reach = reachable.unwrap_or(n).min(n) as u64;
-        let (store, slot_bytes) = if largest.saturating_mul(reach).saturating_add(pinned_bytes) <= cap {
-            (Store::Pinned((0..n).map(|_| OnceLock::new()).collect()), pinned_bytes)
+        let (store, slot_bytes, room) = if largest.saturating_mul(reach).saturating_add(pinned_bytes) <= cap {
+            (Store::Pinned((0..n).map(|_| OnceLock::new()).collect()), pinned_bytes, None)
         } else {
             let slots = (0..n).map(|_| Slot { block: Mutex::new(None), used: AtomicBool::new(false) }).collect();
-            (Store::Capped { slots, clock: Mutex::new(VecDeque::new()) }, (n * std::mem::size_of::<Slot>()) as u64)
+            let slot_bytes = (n * std::mem::size_of::<Slot>()) as u64;
+            (
+                Store::Capped { slots, clock: Mutex::new(VecDeque::new()) },
+                slot_bytes,
+                Some(cap.saturating_sub(slot_bytes) / largest),
+            )
         };
         Fields {
             volume,
@@ -213,10 +230,17 @@ impl<'a> Fields<'a> {
             resident: AtomicU64::new(slot_bytes),
             peak: AtomicU64::new(slot_bytes),
             scale,
+            room,
             built_bytes: AtomicU64::new(0),
             built: AtomicU64::new(0),
             evicted: AtomicU64::new(0),
         }
+    }
+
+    /// How many blocks the cap holds when blocks may be evicted (None: every block the raycast can build
+    /// fits, none is evicted). The raycast orders its rays by it ([`super::band_rows`]).
+    pub(super) fn room(&self) -> Option<u64> {
+        self.room
     }
 
     /// What the cache did.
