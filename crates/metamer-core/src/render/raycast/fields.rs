@@ -403,7 +403,9 @@ impl<'a> Fields<'a> {
         let den = 2.0 * h as f32;
         let inv = 1.0 / self.scale;
         let max = f32::from(i16::MAX);
-        let q = |c: f32| round_half_away((c * inv).clamp(-max, max)) as i16;
+        // One quantised central difference from the field `hi` and `lo`, h voxels after and before (both
+        // paths below use it).
+        let diff = |hi: f32, lo: f32| round_half_away(((hi - lo) / den * inv).clamp(-max, max)) as i16;
         let o = b.map(|v| v << SHIFT);
         // The field over the block grown by h each side (coordinates clamped into the grid), read once:
         // entry j along an axis is voxel clamp(o − h + j).
@@ -411,7 +413,11 @@ impl<'a> Fields<'a> {
         let coord = |a: usize, j: usize| (o[a] + j).saturating_sub(h).min(d[a] - 1);
         // A block whose grown extent lies inside the grid on an axis needs no clamping on it.
         let inside = [0, 1, 2].map(|a| o[a] >= h && o[a] + BRICK + h < d[a]);
-        let xs: Vec<usize> = (0..n).map(|x| coord(0, x)).collect();
+        // At most S + 4 entries (h ≤ 2): on the stack.
+        let mut xs = [0usize; S + 4];
+        for (x, c) in xs[..n].iter_mut().enumerate() {
+            *c = coord(0, x);
+        }
         let conv = |v: T| {
             let v = v.to_f32();
             if opacity { self.classifier.alpha_of(v) } else { v }
@@ -427,7 +433,7 @@ impl<'a> Fields<'a> {
                         *f = conv(v);
                     }
                 } else {
-                    for (f, &x) in dst.iter_mut().zip(&xs) {
+                    for (f, &x) in dst.iter_mut().zip(&xs[..n]) {
                         *f = conv(data[row + x]);
                     }
                 }
@@ -449,7 +455,7 @@ impl<'a> Fields<'a> {
                     let zp = &field[base + h + h * n * n..][..S];
                     let out = &mut grad[S * (ly + S * lz)..][..S];
                     for lx in 0..S {
-                        out[lx] = [q((xp[lx] - xm[lx]) / den), q((yp[lx] - ym[lx]) / den), q((zp[lx] - zm[lx]) / den)];
+                        out[lx] = [diff(xp[lx], xm[lx]), diff(yp[lx], ym[lx]), diff(zp[lx], zm[lx])];
                     }
                 }
             }
@@ -467,9 +473,9 @@ impl<'a> Fields<'a> {
                     let x = (o[0] + lx).min(d[0] - 1);
                     let (x0, x1) = (x.saturating_sub(h), (x + h).min(d[0] - 1));
                     grad[lx + S * (ly + S * lz)] = [
-                        q((at([x1, y, z]) - at([x0, y, z])) / den),
-                        q((at([x, y1, z]) - at([x, y0, z])) / den),
-                        q((at([x, y, z1]) - at([x, y, z0])) / den),
+                        diff(at([x1, y, z]), at([x0, y, z])),
+                        diff(at([x, y1, z]), at([x, y0, z])),
+                        diff(at([x, y, z1]), at([x, y, z0])),
                     ];
                 }
             }
