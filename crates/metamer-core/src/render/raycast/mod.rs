@@ -243,6 +243,30 @@ impl MaterialWeights {
     }
 }
 
+/// Where a raycast kept its derived-field blocks (smooth gradients, label distances).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FieldStore {
+    /// No derived field was needed (unshaded, or cell gradients in a value mode).
+    #[default]
+    None,
+    /// Every block the raycast can build fits the cap: each built once, never evicted, read without a
+    /// lock.
+    Pinned,
+    /// Capped with least-recently-used eviction; the rows of tiles traced one after another, `rows`
+    /// pixel rows each, so an evicted block is one the rays have passed.
+    Capped { rows: usize },
+}
+
+impl std::fmt::Display for FieldStore {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FieldStore::None => write!(f, "no store"),
+            FieldStore::Pinned => write!(f, "pinned store"),
+            FieldStore::Capped { rows } => write!(f, "capped store, tile rows of {rows} px traced in turn"),
+        }
+    }
+}
+
 /// Counters of one raycast.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RaycastStats {
@@ -269,6 +293,8 @@ pub struct RaycastStats {
     pub field_evicted: u64,
     pub field_cap: u64,
     pub field_peak: u64,
+    /// Which store held the blocks.
+    pub field_store: FieldStore,
 }
 
 impl RaycastStats {
@@ -419,6 +445,7 @@ pub fn raycast(
         let u = f.usage();
         (stats.field_blocks, stats.field_bytes, stats.field_evicted, stats.field_cap, stats.field_peak) =
             (u.built, u.built_bytes, u.evicted, u.cap, u.peak);
+        stats.field_store = if room.is_some() { FieldStore::Capped { rows } } else { FieldStore::Pinned };
     }
     if let Some(t) = &table {
         (stats.bricks, stats.empty_bricks, stats.uniform_bricks) =

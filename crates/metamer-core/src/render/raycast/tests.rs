@@ -374,6 +374,12 @@ fn a_capped_field_cache_traced_in_bands_builds_each_block_about_once() {
     assert!(img.data == whole.data, "the cap changed the image");
     assert!(s.field_evicted > s_whole.field_blocks / 4, "the cap evicts: {s:?}");
     assert!(s.field_blocks <= s_whole.field_blocks + s_whole.field_blocks / 100, "{s:?} vs {s_whole:?}");
+    // The stats name the store: pinned when everything fits, capped (rows traced in turn) otherwise, none
+    // when no field is needed.
+    assert_eq!(s_whole.field_store, FieldStore::Pinned);
+    assert!(matches!(s.field_store, FieldStore::Capped { rows } if (1..=16).contains(&rows)), "{s:?}");
+    let (_, s_flat) = raycast(&engine, &thin, None, &cam, &RaycastOptions { shading: Shading::Unshaded, ..base });
+    assert_eq!((s_flat.field_store, s_flat.field_blocks), (FieldStore::None, 0));
 }
 
 /// A horizontal plate `slices` slices thick through the middle of an `n × n × nz` grid (slices `dz`
