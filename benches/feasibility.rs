@@ -4,8 +4,7 @@
 //! target (one QP and one feasibility LP), one outer support LP and one a*–b* slice.
 //! Run: `cargo bench --bench feasibility`.
 
-#[path = "../tests/it/common/random.rs"]
-mod random;
+use metamer::palette::random;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use metamer::colorimetry::Colorimetry;

@@ -3,8 +3,7 @@
 //! palettes (TOG 2009 Fig. 3 protocol). Errors for the same cases: `metamer::bench::solve::run`.
 //! Run: `cargo bench --bench solve`. The scipy BVLS baseline: `benches/scipy_bvls.py`.
 
-#[path = "../tests/it/common/random.rs"]
-mod random;
+use metamer::palette::random;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use metamer::colorimetry::Colorimetry;

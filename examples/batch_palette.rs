@@ -4,8 +4,7 @@
 //! every target reachable) or `... capacity N OUT.toml [SEED]` (the n×n joint protocol).
 
 use metamer::colorimetry::Colorimetry;
-#[path = "../tests/it/common/random.rs"]
-mod random;
+use metamer::palette::random;
 
 use metamer::palette::file::PaletteFile;
 use std::path::Path;

@@ -10,9 +10,8 @@
 
 use metamer::bench::solve::capacity_errors;
 use metamer::colorimetry::Colorimetry;
-#[path = "../tests/it/common/random.rs"]
-mod random;
 use metamer::design::{self, SolveOptions};
+use metamer::palette::random;
 use random::{CapacityLightScale, CapacityOptions, CapacityStart};
 use std::time::{Duration, Instant};
 

@@ -3,9 +3,6 @@
 
 pub mod basis;
 pub mod plot;
-/// Seeded random palettes, shared with the tests (tests/it/common/random.rs).
-#[path = "../../tests/it/common/random.rs"]
-pub mod random;
 pub mod render;
 pub mod report;
 pub mod solve;

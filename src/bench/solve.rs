@@ -12,10 +12,10 @@
 
 use super::plot::{self, Scale, Series, XyPlot};
 use super::{Timing, fixed, format_seconds, markdown_table, time_runs};
-use crate::bench::random;
 use crate::colorimetry::{Colorimetry, xyz_to_lab};
 use crate::design::{self, Solution, SolveOptions};
 use crate::palette::{Bounds, Palette};
+use metamer_core::palette::random;
 use std::path::Path;
 use std::time::Duration;
 

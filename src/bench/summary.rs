@@ -10,11 +10,11 @@
 use super::plot::{self, PlotError, Scale, Series, XyPlot};
 use super::render::RenderBenchReport;
 use super::{basis, format_seconds, markdown_table, pareto_front, solve};
-use crate::bench::random;
 use crate::colorimetry::Colorimetry;
 use crate::design::system::{Design, Layout};
 use crate::palette::{Bounds, Palette};
 use crate::render::relight::Mode;
+use metamer_core::palette::random;
 use std::path::Path;
 
 /// The workload of a solver row: its case (the same case, e.g. "20 designs", is the same work for every

@@ -280,7 +280,7 @@ fn linear_assembly_matches_the_objective() {
     assert!(sol.cells.iter().all(|c| c.rgb_subspace.is_some() && c.delta_e_subspace.is_some()));
 }
 
-/// The test palettes themselves (tests/it/common/random.rs).
+/// The test palettes themselves (`palette::random`).
 #[test]
 fn capacity_variants_share_targets_and_differ_in_starts() {
     let col = metamer::colorimetry::Colorimetry::default();

@@ -335,31 +335,3 @@ fn raw_reader_checks_size() {
     let e = message(raw::read(&p, [5, 4, 2], ScalarType::I16, Endian::Big, [1.0; 3]).unwrap_err());
     assert!(e.contains("v.raw") && e.contains("need"), "{e}");
 }
-
-#[test]
-fn shared_volumes_read() {
-    let Some(dir) = crate::common::data::volumes_or_skip("volume_readers::shared_volumes_read") else {
-        return;
-    };
-    for (name, dims) in [
-        ("engine.nhdr", [256, 256, 128]),
-        ("lobster.nhdr", [301, 324, 56]),
-        ("fuel.nhdr", [64, 64, 64]),
-        ("bonsai.nhdr", [256, 256, 256]),
-    ] {
-        let vol = Volume::open(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(vol.dims, dims, "{name}");
-        assert!(vol.value_range[0] >= 0.0 && vol.value_range[1] <= 255.0 && vol.value_range[1] > 100.0, "{name}");
-    }
-    let frog = Volume::open(&dir.join("frog_tissues.vti")).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(frog.dims, [500, 470, 136]);
-    assert_eq!(frog.spacing, [1.0, 1.0, 1.5]);
-    assert_eq!(frog.value_range, [0.0, 29.0]);
-    // Labels are whole numbers, and many of the 30 tissues occur.
-    let mut seen = [false; 30];
-    for v in frog.voxels.to_f32_vec() {
-        assert_eq!(v.fract(), 0.0);
-        seen[v as usize] = true;
-    }
-    assert!(seen.iter().filter(|s| **s).count() >= 20);
-}

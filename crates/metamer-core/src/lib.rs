@@ -6,10 +6,6 @@
 //! application crate at the repository root, and this crate's dependencies (no ratatui, crossterm,
 //! clap, indicatif or plotters) make any import back up a build error. See docs/ARCHITECTURE.md.
 
-// The test helpers shared with tests/it (`design::random`, included under cfg(test)) name this crate
-// `metamer_core`, as every other user of it does.
-extern crate self as metamer_core;
-
 pub mod basis;
 pub mod colorimetry;
 pub mod design;

@@ -2,8 +2,7 @@
 //! (DESIGN_SPEC §2, full colour rows, free groups, smoothness) as one stacked `‖A x − b‖²` with box bounds,
 //! the clarabel QP oracle on it, and first-order (KKT) checks computed from that assembly alone.
 
-pub mod data;
-pub mod random;
+pub use metamer::palette::random;
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT};

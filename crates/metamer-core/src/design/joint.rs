@@ -491,7 +491,7 @@ fn finish(design: &Design, block: &Block, v: &mut Values, limits: &JointLimits, 
 mod tests {
     use super::*;
     use crate::colorimetry::Colorimetry;
-    use crate::design::random;
+    use crate::palette::random;
     use std::time::Duration;
 
     fn limits(starts: usize) -> JointLimits {

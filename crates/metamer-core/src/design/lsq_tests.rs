@@ -117,7 +117,7 @@ fn rank_deficient_gives_minimum_norm() {
 fn batch_systems(count: usize, seed: u64) -> Vec<LinearSystem> {
     use crate::design::system::{Design, Layout};
     let col = crate::colorimetry::Colorimetry::default();
-    let p = crate::design::random::batch_palette(count, seed, &col);
+    let p = crate::palette::random::batch_palette(count, seed, &col);
     let design = Design::new(&p, None, &col).expect("the batch palette is valid");
     let v = design.start_values();
     design.blocks().iter().map(|b| design.linear_system(&Layout::new(&b.units), &b.terms, &v)).collect()

@@ -28,10 +28,6 @@ pub mod joint;
 pub mod layout;
 pub mod lbfgsb;
 pub mod lsq;
-/// Seeded random palettes (a test helper: tests/it/common/random.rs).
-#[cfg(test)]
-#[path = "../../../../tests/it/common/random.rs"]
-pub(crate) mod random;
 pub mod report;
 pub mod solve;
 pub mod system;

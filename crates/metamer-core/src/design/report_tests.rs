@@ -12,7 +12,7 @@ fn lcg(seed: &mut u64) -> f64 {
 #[test]
 fn closest_reachable_colours() {
     let col = Colorimetry::default();
-    let palette = crate::design::random::batch_palette(1, 3, &col);
+    let palette = crate::palette::random::batch_palette(1, 3, &col);
     let design = Design::new(&palette, None, &col).unwrap();
     let bounds = Bounds::new(0.0, 1.0);
     let mut seed = 5u64;

@@ -8,6 +8,8 @@
 pub mod edit;
 pub mod file;
 pub mod mixing;
+/// Seeded generated palettes: the workloads of `metamer bench`, the benchmarks, the examples and the tests.
+pub mod random;
 pub mod source;
 
 use crate::spectrum::{Normalize, Spectrum};

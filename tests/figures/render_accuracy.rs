@@ -11,7 +11,7 @@ use metamer::volume::Volume;
 fn check(scene: &Scene, size: usize, frames: usize, what: &str) {
     let col = Colorimetry::default();
     let r = compare_models(scene, &col, size, frames).expect("render");
-    println!(
+    note!(
         "{what}: {} frames, {} px, m = {}: factor ΔE00 mean {:.3} p95 {:.3} max {:.3} (unquantised mean {:.4}) | rgb ΔE00 mean {:.3} p95 {:.3} max {:.3}",
         r.frames,
         r.pixels,
@@ -28,18 +28,12 @@ fn check(scene: &Scene, size: usize, frames: usize, what: &str) {
     assert!(r.factor.mean <= 1.5, "{what}: factor model mean ΔE00 {:.3} exceeds 1.5", r.factor.mean);
 }
 
-#[test]
-fn factor_model_tracks_full_spectra_on_the_generated_engine() {
+pub(crate) fn factor_model_tracks_full_spectra_on_the_generated_engine() {
     check(&generated_check_scene(96), 96, 9, "generated engine");
 }
 
-#[test]
-fn factor_model_tracks_full_spectra_on_the_shared_engine() {
-    let Some(dir) =
-        crate::common::data::volumes_or_skip("render_accuracy::factor_model_tracks_full_spectra_on_the_shared_engine")
-    else {
-        return;
-    };
+pub(crate) fn factor_model_tracks_full_spectra_on_the_shared_engine() {
+    let dir = crate::data::volumes();
     let vol = Volume::open(&dir.join("engine.nhdr")).expect("engine.nhdr reads");
     check(&engine_check_scene(vol), 128, 9, "shared engine");
 }
@@ -59,9 +53,11 @@ fn skips_against_reference(scene: &Scene, size: usize, what: &str) {
     for t in [0.01, 0.005, 0.002] {
         let v = view(Acceleration { termination_transmittance: t, ..Acceleration::default() });
         let e = compare_views(scene, &col, &reference, &v, 9);
-        println!(
+        note!(
             "{what}: termination at transmittance {t}: {} samples, ΔE00 p99 {:.3} max {:.3}",
-            v.stats.samples, e.p99, e.max
+            v.stats.samples,
+            e.p99,
+            e.max
         );
     }
     let both = view(Acceleration::default());
@@ -70,7 +66,7 @@ fn skips_against_reference(scene: &Scene, size: usize, what: &str) {
     assert!(s.samples < reference.stats.samples, "{what}: {s:?} vs {:?}", reference.stats);
     let (e_skip, e_both) =
         (compare_views(scene, &col, &reference, &skipping, 9), compare_views(scene, &col, &reference, &both, 9));
-    println!(
+    note!(
         "{what}: default termination {}: samples {} → {} ({} in single-material bricks, {} steps skipped, {} rays stopped); ΔE00 skipping only: \
          mean {:.4} p99 {:.3} max {:.3}; with early termination: mean {:.4} p99 {:.3} max {:.3} over {} px",
         Acceleration::default().termination_transmittance,
@@ -93,18 +89,12 @@ fn skips_against_reference(scene: &Scene, size: usize, what: &str) {
     assert!(e_both.p99 < 0.5, "{what}: early termination p99 ΔE00 {:.3} ≥ 0.5", e_both.p99);
 }
 
-#[test]
-fn skips_stay_within_half_a_delta_e_at_p99_on_the_generated_engine() {
+pub(crate) fn skips_stay_within_half_a_delta_e_at_p99_on_the_generated_engine() {
     skips_against_reference(&generated_check_scene(96), 128, "generated engine");
 }
 
-#[test]
-fn skips_stay_within_half_a_delta_e_at_p99_on_the_shared_engine() {
-    let Some(dir) = crate::common::data::volumes_or_skip(
-        "render_accuracy::skips_stay_within_half_a_delta_e_at_p99_on_the_shared_engine",
-    ) else {
-        return;
-    };
+pub(crate) fn skips_stay_within_half_a_delta_e_at_p99_on_the_shared_engine() {
+    let dir = crate::data::volumes();
     let vol = Volume::open(&dir.join("engine.nhdr")).expect("engine.nhdr reads");
     skips_against_reference(&engine_check_scene(vol), 192, "shared engine");
 }

@@ -8,19 +8,14 @@
 //! * [`convex_palette`]: random mixes of designed lights or reflectances (never both in one cell), free
 //!   groups, weights across decades and bounds, for checking optimality against an independent solver.
 //!
-//! A test helper, not part of the library: `tests/it` has it as `common::random`; the domain's unit tests,
-//! the benchmarks in `benches/` and `metamer bench` (`src/bench`) include this file with `#[path]`. Its
-//! paths name the domain crate as `metamer_core`, which resolves in all of them.
-#![allow(dead_code)]
-
-use metamer_core::colorimetry::Colorimetry;
-use metamer_core::palette::{
-    Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation,
-};
-use metamer_core::spectrum::{Normalize, SAMPLES, Spectrum};
+//! Generated workloads, as `volume::generate` generates volumes: `metamer bench`, the benchmarks in
+//! `benches/`, the examples (`batch_palette`, `capacity`) and the tests all draw their palettes from here.
+use crate::colorimetry::Colorimetry;
+use crate::palette::{Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation};
+use crate::spectrum::{Normalize, SAMPLES, Spectrum};
 use nalgebra::Vector3;
 
-pub use metamer_core::optimize::Rng;
+pub use crate::optimize::Rng;
 
 /// A smooth random spectrum in [0, 1]: a constant plus three Gaussian bumps, clipped.
 pub fn smooth_spectrum(rng: &mut Rng) -> Spectrum {
