@@ -391,7 +391,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     summary.push_str(&format!(
         "skipped: {} steps over {} empty-brick crossings ({} of {} bricks empty for this transfer function); {} samples in \
          {} single-material bricks taken without reconstruction; {} rays stopped at transmittance < {}; derived fields {} \
-         blocks built, {:.1} MiB, at most {:.1} MiB resident of a {:.0} MiB cap ({} evicted)\n",
+         blocks built, {:.1} MiB, at most {:.1} MiB resident of a {:.0} MiB cap ({} evicted), {}\n",
         st.skipped,
         st.skipped_bricks,
         st.empty_bricks,
@@ -405,6 +405,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         st.field_peak as f64 / MIB,
         st.field_cap as f64 / MIB,
         st.field_evicted,
+        st.field_store,
     ));
     if let Some(sheet) = &args.contact_sheet {
         summary.push_str(&format!("contact sheet {}\n", crate::fsio::show(sheet)));

@@ -24,14 +24,44 @@ pub(super) struct Classifier {
     run_start: Vec<u16>,
     /// Per material: one of its bins (every bin of a material has the same opacities).
     pub(super) material_bin: Vec<u16>,
-    /// Per material: whether it attenuates the ray.
-    pub(super) absorbs: Vec<bool>,
+    /// Materials of the transfer function.
+    pub(super) materials: usize,
+    /// Per material code (index + 1, as [`Self::material`] holds it): what compositing reads of a
+    /// material at every sample, in one table a `u8` indexes without a bounds check.
+    pub(super) per_code: [PerMaterial; 256],
     /// Per material: its step-corrected opacity (0 when it never shows).
     pub(super) material_alpha: Vec<f32>,
     /// Per material: its opacity corrected for a substep.
     pub(super) material_alpha_sub: Vec<f32>,
-    /// Per material: 1 / its `max_gradient` (0: the opacity does not depend on the gradient).
-    pub(super) inv_max_gradient: Vec<f32>,
+}
+
+/// What compositing reads of one material per sample.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct PerMaterial {
+    /// Whether it attenuates the ray.
+    pub(super) absorbs: bool,
+    /// 1 / its `max_gradient` (0: the opacity does not depend on the gradient).
+    pub(super) inv_max_gradient: f32,
+}
+
+impl PerMaterial {
+    /// The share of the material's step opacity kept at gradient `g` (value units per voxel index):
+    /// `max(0, 1 − |g| / max_gradient)`, 1 for a material without `max_gradient`. Scaling the
+    /// step-corrected opacity instead of the per-voxel one differs by under 1 % for opacities ≤ 0.1.
+    #[inline(always)]
+    pub(super) fn gradient_share(&self, g: [f32; 3]) -> f32 {
+        let inv = self.inv_max_gradient;
+        if inv == 0.0 {
+            return 1.0;
+        }
+        (1.0 - (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt() * inv).max(0.0)
+    }
+
+    /// Whether the material's opacity depends on the gradient.
+    #[inline(always)]
+    pub(super) fn gradient_dependent(&self) -> bool {
+        self.inv_max_gradient != 0.0
+    }
 }
 
 /// Opacity `a` per voxel step corrected for a step of `step` voxels: `1 − (1 − a)^step`.
@@ -78,11 +108,15 @@ impl Classifier {
                 material_bin[usize::from(material[b]) - 1] = b as u16;
             }
         }
-        let absorbs = materials.iter().map(|m| m.absorbs).collect();
+        let mut per_code = [PerMaterial::default(); 256];
+        for (code, m) in per_code[1..].iter_mut().zip(materials) {
+            *code = PerMaterial {
+                absorbs: m.absorbs,
+                inv_max_gradient: m.max_gradient.map_or(0.0, |g| 1.0 / g.max(f32::EPSILON)),
+            };
+        }
         let material_alpha = materials.iter().map(|m| corrected(m.opacity, step)).collect();
         let material_alpha_sub = materials.iter().map(|m| corrected(m.opacity, sub)).collect();
-        let inv_max_gradient =
-            materials.iter().map(|m| m.max_gradient.map_or(0.0, |g| 1.0 / g.max(f32::EPSILON))).collect();
         Classifier {
             lo,
             inv_bin: 1.0 / bin_width,
@@ -92,29 +126,11 @@ impl Classifier {
             occupied_prefix,
             run_start,
             material_bin,
-            absorbs,
+            materials: materials.len(),
+            per_code,
             material_alpha,
             material_alpha_sub,
-            inv_max_gradient,
         }
-    }
-
-    /// The share of a material's step opacity kept at gradient `g` (value units per voxel index):
-    /// `max(0, 1 − |g| / max_gradient)`, 1 for a material without `max_gradient`. Scaling the
-    /// step-corrected opacity instead of the per-voxel one differs by under 1 % for opacities ≤ 0.1.
-    #[inline(always)]
-    pub(super) fn gradient_share(&self, m: usize, g: [f32; 3]) -> f32 {
-        let inv = self.inv_max_gradient[m];
-        if inv == 0.0 {
-            return 1.0;
-        }
-        (1.0 - (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt() * inv).max(0.0)
-    }
-
-    /// Whether material `m`'s opacity depends on the gradient.
-    #[inline(always)]
-    pub(super) fn gradient_dependent(&self, m: usize) -> bool {
-        self.inv_max_gradient[m] != 0.0
     }
 
     /// Step-corrected opacity of a value (0 outside every material).

@@ -7,7 +7,8 @@
 //! ([`default_field_cache`]: half the voxels' bytes, at least 64 MiB; `RaycastOptions::field_cache`) and
 //! the least recently used are evicted (a clock with a second chance); a block needed again is rebuilt,
 //! identical, so frames are byte-identical whatever the cap (`tests.rs` checks it with a cap that
-//! evicts almost everything). When the largest block times the bricks a raycast can reach fits the cap,
+//! evicts almost everything). While blocks may be evicted the raycast traces its rows of tiles one after
+//! another, so an evicted block is one the rays have passed (`super::band_rows`). When the largest block times the bricks a raycast can reach fits the cap,
 //! nothing can be evicted: each block is then built once into a per-brick `OnceLock` and rays read it
 //! without a lock or a reference count (the pinned store; `tests.rs` compares it with the capped one).
 //!
@@ -50,6 +51,16 @@ pub const MIN_FIELD_CACHE: u64 = 64 * crate::memory::MIB;
 /// derived-field share of [`crate::memory::render_estimate`]), at least [`MIN_FIELD_CACHE`].
 pub fn default_field_cache(voxel_bytes: u64) -> u64 {
     (voxel_bytes / 2).max(MIN_FIELD_CACHE)
+}
+
+/// Field bricks per axis of `volume`.
+fn brick_counts(volume: &Volume) -> [usize; 3] {
+    volume.dims.map(|n| n.div_ceil(BRICK).max(1))
+}
+
+/// Field bricks of `volume`.
+pub(super) fn brick_count(volume: &Volume) -> usize {
+    brick_counts(volume).iter().product()
 }
 
 /// What a [`Fields`] holds.
@@ -156,6 +167,8 @@ pub(super) struct Fields<'a> {
     peak: AtomicU64,
     /// Field units per stored gradient unit.
     pub(crate) scale: f32,
+    /// The capped store's room in blocks of the largest size (None: pinned, nothing is evicted).
+    room: Option<u64>,
     built_bytes: AtomicU64,
     built: AtomicU64,
     evicted: AtomicU64,
@@ -173,9 +186,8 @@ impl<'a> Fields<'a> {
         cap: u64,
         reachable: Option<usize>,
     ) -> Fields<'a> {
-        let d = volume.dims;
-        let counts = [0, 1, 2].map(|a| d[a].div_ceil(BRICK).max(1));
-        let n = counts[0] * counts[1] * counts[2];
+        let counts = brick_counts(volume);
+        let n = brick_count(volume);
         let (h, span) = match kind {
             Kind::Values => (1.0f32, (volume.value_range[1] - volume.value_range[0]).abs()),
             Kind::Opacity | Kind::Labels => (2.0, 1.0),
@@ -190,17 +202,22 @@ impl<'a> Fields<'a> {
         // The largest block: per material present (all of them in label mode) its distances and
         // gradients, or one gradient grid.
         let per_entry = match kind {
-            Kind::Labels => classifier.absorbs.len() * (2 + if gradients { 6 } else { 0 }),
+            Kind::Labels => classifier.materials * (2 + if gradients { 6 } else { 0 }),
             Kind::Values | Kind::Opacity => 6,
         };
-        let largest = (S3 * per_entry + classifier.absorbs.len() + std::mem::size_of::<Block>()) as u64;
+        let largest = (S3 * per_entry + classifier.materials + std::mem::size_of::<Block>()) as u64;
         let pinned_bytes = (n * std::mem::size_of::<OnceLock<Block>>()) as u64;
         let reach = reachable.unwrap_or(n).min(n) as u64;
-        let (store, slot_bytes) = if largest.saturating_mul(reach).saturating_add(pinned_bytes) <= cap {
-            (Store::Pinned((0..n).map(|_| OnceLock::new()).collect()), pinned_bytes)
+        let (store, slot_bytes, room) = if largest.saturating_mul(reach).saturating_add(pinned_bytes) <= cap {
+            (Store::Pinned((0..n).map(|_| OnceLock::new()).collect()), pinned_bytes, None)
         } else {
             let slots = (0..n).map(|_| Slot { block: Mutex::new(None), used: AtomicBool::new(false) }).collect();
-            (Store::Capped { slots, clock: Mutex::new(VecDeque::new()) }, (n * std::mem::size_of::<Slot>()) as u64)
+            let slot_bytes = (n * std::mem::size_of::<Slot>()) as u64;
+            (
+                Store::Capped { slots, clock: Mutex::new(VecDeque::new()) },
+                slot_bytes,
+                Some(cap.saturating_sub(slot_bytes) / largest),
+            )
         };
         Fields {
             volume,
@@ -213,10 +230,17 @@ impl<'a> Fields<'a> {
             resident: AtomicU64::new(slot_bytes),
             peak: AtomicU64::new(slot_bytes),
             scale,
+            room,
             built_bytes: AtomicU64::new(0),
             built: AtomicU64::new(0),
             evicted: AtomicU64::new(0),
         }
+    }
+
+    /// How many blocks the cap holds when blocks may be evicted (None: every block the raycast can build
+    /// fits, none is evicted). The raycast orders its rays by it ([`super::band_rows`]).
+    pub(super) fn room(&self) -> Option<u64> {
+        self.room
     }
 
     /// What the cache did.
@@ -341,23 +365,11 @@ impl<'a> Fields<'a> {
     /// (field units per voxel).
     #[inline(always)]
     pub(crate) fn gradient(&self, block: &Block, base: usize, f: [f32; 3]) -> [f32; 3] {
-        if block.grad.is_empty() {
-            return [0.0; 3];
-        }
-        let g = &block.grad;
-        let corners = [
-            base,
-            base + 1,
-            base + S,
-            base + S + 1,
-            base + S * S,
-            base + S * S + 1,
-            base + S * S + S,
-            base + S * S + S + 1,
-        ];
+        // The cell's corners in one slice: one bounds check (none for an empty block's) instead of eight.
+        let Some(g) = block.grad.get(base..base + CELL) else { return [0.0; 3] };
         let w = corner_weights(f);
         let mut out = [0f32; 3];
-        for (c, wc) in corners.iter().zip(w) {
+        for (c, wc) in CORNERS.iter().zip(w) {
             let v = g[*c];
             out[0] += wc * f32::from(v[0]);
             out[1] += wc * f32::from(v[1]);
@@ -379,7 +391,9 @@ impl<'a> Fields<'a> {
         let den = 2.0 * h as f32;
         let inv = 1.0 / self.scale;
         let max = f32::from(i16::MAX);
-        let q = |c: f32| round_half_away((c * inv).clamp(-max, max)) as i16;
+        // One quantised central difference from the field `hi` and `lo`, h voxels after and before (both
+        // paths below use it).
+        let diff = |hi: f32, lo: f32| round_half_away(((hi - lo) / den * inv).clamp(-max, max)) as i16;
         let o = b.map(|v| v << SHIFT);
         // The field over the block grown by h each side (coordinates clamped into the grid), read once:
         // entry j along an axis is voxel clamp(o − h + j).
@@ -387,7 +401,11 @@ impl<'a> Fields<'a> {
         let coord = |a: usize, j: usize| (o[a] + j).saturating_sub(h).min(d[a] - 1);
         // A block whose grown extent lies inside the grid on an axis needs no clamping on it.
         let inside = [0, 1, 2].map(|a| o[a] >= h && o[a] + BRICK + h < d[a]);
-        let xs: Vec<usize> = (0..n).map(|x| coord(0, x)).collect();
+        // At most S + 4 entries (h ≤ 2): on the stack.
+        let mut xs = [0usize; S + 4];
+        for (x, c) in xs[..n].iter_mut().enumerate() {
+            *c = coord(0, x);
+        }
         let conv = |v: T| {
             let v = v.to_f32();
             if opacity { self.classifier.alpha_of(v) } else { v }
@@ -403,7 +421,7 @@ impl<'a> Fields<'a> {
                         *f = conv(v);
                     }
                 } else {
-                    for (f, &x) in dst.iter_mut().zip(&xs) {
+                    for (f, &x) in dst.iter_mut().zip(&xs[..n]) {
                         *f = conv(data[row + x]);
                     }
                 }
@@ -425,7 +443,7 @@ impl<'a> Fields<'a> {
                     let zp = &field[base + h + h * n * n..][..S];
                     let out = &mut grad[S * (ly + S * lz)..][..S];
                     for lx in 0..S {
-                        out[lx] = [q((xp[lx] - xm[lx]) / den), q((yp[lx] - ym[lx]) / den), q((zp[lx] - zm[lx]) / den)];
+                        out[lx] = [diff(xp[lx], xm[lx]), diff(yp[lx], ym[lx]), diff(zp[lx], zm[lx])];
                     }
                 }
             }
@@ -443,9 +461,9 @@ impl<'a> Fields<'a> {
                     let x = (o[0] + lx).min(d[0] - 1);
                     let (x0, x1) = (x.saturating_sub(h), (x + h).min(d[0] - 1));
                     grad[lx + S * (ly + S * lz)] = [
-                        q((at([x1, y, z]) - at([x0, y, z])) / den),
-                        q((at([x, y1, z]) - at([x, y0, z])) / den),
-                        q((at([x, y, z1]) - at([x, y, z0])) / den),
+                        diff(at([x1, y, z]), at([x0, y, z])),
+                        diff(at([x, y1, z]), at([x, y0, z])),
+                        diff(at([x, y, z1]), at([x, y, z0])),
                     ];
                 }
             }
@@ -481,6 +499,8 @@ pub(super) fn corner_weights(f: [f32; 3]) -> [f32; 8] {
 
 /// Local offsets of the eight corners of a block cell (`x + 2y + 4z`).
 pub(super) const CORNERS: [usize; 8] = [0, 1, S, S + 1, S * S, S * S + 1, S * S + S, S * S + S + 1];
+/// Entries from a block cell's first corner to its last, inclusive.
+pub(super) const CELL: usize = S * S + S + 2;
 
 #[cfg(test)]
 mod tests {

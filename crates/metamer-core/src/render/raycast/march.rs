@@ -1,7 +1,7 @@
 //! Marching one ray: sample reconstruction, classification, shading and front-to-back compositing.
 
 use super::classify::{BrickMap, Classifier, EMPTY, MIXED};
-use super::fields::{BlockRef, CORNERS, Cursor, FIELD_BRICK, Fields, S3, corner_weights};
+use super::fields::{BlockRef, CELL, CORNERS, Cursor, FIELD_BRICK, Fields, S3, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 use super::view::View;
 use super::{
@@ -407,15 +407,19 @@ impl<'a> RayContext<'a> {
         out: &mut [f32],
         cursor: &mut Cursor<'a>,
     ) -> f32 {
-        let m = usize::from(s.material);
-        if m == 0 {
+        if s.material == 0 {
             return 0.0;
         }
+        let mat = self.classifier.per_code[usize::from(s.material)];
+        let cell_gradient = || s.cell.as_ref().map_or_else(|| self.cell_at(s.at).gradient(), Cell::gradient);
         let mut alpha = alpha[s.bin];
-        if self.classifier.gradient_dependent(m - 1) {
-            // A transfer function over value and gradient (`max_gradient`): the trilinear gradient.
-            let g = s.cell.as_ref().map_or_else(|| self.cell_at(s.at).gradient(), Cell::gradient);
-            alpha *= self.classifier.gradient_share(m - 1, g);
+        // The trilinear gradient, taken once per sample for the opacity and the shading alike.
+        let mut cell_g = None;
+        if mat.gradient_dependent() {
+            // A transfer function over value and gradient (`max_gradient`).
+            let g = cell_gradient();
+            cell_g = Some(g);
+            alpha *= mat.gradient_share(g);
             if alpha <= 0.0 {
                 return 0.0;
             }
@@ -423,12 +427,10 @@ impl<'a> RayContext<'a> {
         let shade = match (self.options.shading, self.options.gradient) {
             (Shading::Unshaded, _) => 1.0,
             (_, Gradient::Smooth) => self.shade(self.smooth_gradient(s.at.i, s.at.f, cursor)),
-            (_, Gradient::Cell) => {
-                self.shade(s.cell.as_ref().map_or_else(|| self.cell_at(s.at).gradient(), Cell::gradient))
-            }
+            (_, Gradient::Cell) => self.shade(cell_g.unwrap_or_else(cell_gradient)),
         };
-        out[m - 1] += transmittance * alpha * shade;
-        if self.classifier.absorbs[m - 1] { alpha } else { 0.0 }
+        out[usize::from(s.material) - 1] += transmittance * alpha * shade;
+        if mat.absorbs { alpha } else { 0.0 }
     }
 
     /// Label sample: every nearby material's signed distance, interpolated trilinearly and turned into
@@ -456,7 +458,7 @@ impl<'a> RayContext<'a> {
         let mut sum = 0.0;
         let mut near = false;
         for (j, o) in occ[..n].iter_mut().enumerate() {
-            let q = &block.sdf[j * S3 + base..];
+            let q = &block.sdf[j * S3 + base..][..CELL];
             let mut v = 0.0;
             let (mut lo, mut hi) = (u16::MAX, 0u16);
             for (c, wc) in CORNERS.iter().zip(w) {
@@ -507,7 +509,7 @@ impl<'a> RayContext<'a> {
                 }
             };
             out[m] += transmittance * wgt * shade;
-            if self.classifier.absorbs[m] {
+            if self.classifier.per_code[m + 1].absorbs {
                 absorbed += wgt;
             }
         }

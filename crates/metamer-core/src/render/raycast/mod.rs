@@ -243,6 +243,30 @@ impl MaterialWeights {
     }
 }
 
+/// Where a raycast kept its derived-field blocks (smooth gradients, label distances).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FieldStore {
+    /// No derived field was needed (unshaded, or cell gradients in a value mode).
+    #[default]
+    None,
+    /// Every block the raycast can build fits the cap: each built once, never evicted, read without a
+    /// lock.
+    Pinned,
+    /// Capped with least-recently-used eviction; the rows of tiles traced one after another, `rows`
+    /// pixel rows each, so an evicted block is one the rays have passed.
+    Capped { rows: usize },
+}
+
+impl std::fmt::Display for FieldStore {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FieldStore::None => write!(f, "no store"),
+            FieldStore::Pinned => write!(f, "pinned store"),
+            FieldStore::Capped { rows } => write!(f, "capped store, tile rows of {rows} px traced in turn"),
+        }
+    }
+}
+
 /// Counters of one raycast.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RaycastStats {
@@ -269,6 +293,8 @@ pub struct RaycastStats {
     pub field_evicted: u64,
     pub field_cap: u64,
     pub field_peak: u64,
+    /// Which store held the blocks.
+    pub field_store: FieldStore,
 }
 
 impl RaycastStats {
@@ -363,39 +389,49 @@ pub fn raycast(
         height: h,
     };
 
-    const TILE: usize = 16;
+    // Tiles of TILE columns × `rows` rows. While field blocks may be evicted, the rows of tiles are traced
+    // one after another (each row's tiles in parallel), so the blocks in use at once are those under one
+    // row of tiles and the brick projections reaching into the next: a block leaves the cache once the
+    // rays past it are done, and is not needed again.
+    let room = fields.as_ref().and_then(Fields::room);
+    let rows = room
+        .map_or(TILE, |r| band_rows(r, reachable.unwrap_or_else(|| fields::brick_count(volume)), &view, volume, w, h));
     let tiles_x = w.div_ceil(TILE);
-    let tiles_y = h.div_ceil(TILE);
-    let tiles: Vec<(Vec<f32>, RaycastStats)> = (0..tiles_x * tiles_y)
-        .into_par_iter()
-        .map(|t| {
-            let (tx, ty) = (t % tiles_x, t / tiles_x);
-            let mut stats = RaycastStats::default();
-            let mut buf = vec![0f32; TILE * TILE * n_mat];
-            for j in 0..TILE {
-                let py = ty * TILE + j;
-                if py >= h {
+    let tiles_y = h.div_ceil(rows);
+    let trace_tile = |t: usize| {
+        let (tx, ty) = (t % tiles_x, t / tiles_x);
+        let mut stats = RaycastStats::default();
+        let mut buf = vec![0f32; TILE * rows * n_mat];
+        for j in 0..rows {
+            let py = ty * rows + j;
+            if py >= h {
+                break;
+            }
+            for i in 0..TILE {
+                let px = tx * TILE + i;
+                if px >= w {
                     break;
                 }
-                for i in 0..TILE {
-                    let px = tx * TILE + i;
-                    if px >= w {
-                        break;
-                    }
-                    let off = (j * TILE + i) * n_mat;
-                    ctx.trace(px, py, &mut buf[off..off + n_mat], &mut stats);
-                }
+                let off = (j * TILE + i) * n_mat;
+                ctx.trace(px, py, &mut buf[off..off + n_mat], &mut stats);
             }
-            (buf, stats)
-        })
-        .collect();
+        }
+        (buf, stats)
+    };
+    let tiles: Vec<(Vec<f32>, RaycastStats)> = if room.is_some() {
+        (0..tiles_y)
+            .flat_map(|ty| (ty * tiles_x..(ty + 1) * tiles_x).into_par_iter().map(trace_tile).collect::<Vec<_>>())
+            .collect()
+    } else {
+        (0..tiles_x * tiles_y).into_par_iter().map(trace_tile).collect()
+    };
     let mut data = vec![0f32; w * h * n_mat];
     let mut stats = RaycastStats::default();
     for (t, (buf, s)) in tiles.iter().enumerate() {
         stats.add(s);
         let (tx, ty) = (t % tiles_x, t / tiles_x);
-        for j in 0..TILE {
-            let py = ty * TILE + j;
+        for j in 0..rows {
+            let py = ty * rows + j;
             if py >= h {
                 break;
             }
@@ -409,12 +445,35 @@ pub fn raycast(
         let u = f.usage();
         (stats.field_blocks, stats.field_bytes, stats.field_evicted, stats.field_cap, stats.field_peak) =
             (u.built, u.built_bytes, u.evicted, u.cap, u.peak);
+        stats.field_store = if room.is_some() { FieldStore::Capped { rows } } else { FieldStore::Pinned };
     }
     if let Some(t) = &table {
         (stats.bricks, stats.empty_bricks, stats.uniform_bricks) =
             (t.class.len() as u64, t.empty as u64, t.uniform as u64);
     }
     (MaterialWeights { width: w, height: h, materials: n_mat, data }, stats)
+}
+
+/// Tile edge in pixels (columns; rows too unless [`band_rows`] makes them fewer).
+const TILE: usize = 16;
+
+/// Rows per tile while field blocks may be evicted (the tile rows then traced one after another): the
+/// most of 16, 8, 4, 2, 1 whose blocks in use at once fit half the cap's `room` (in blocks). Those are
+/// estimated as the `bricks` that can be reached, spread evenly over the image's height, that project
+/// onto one row of tiles or reach into it from the next (a brick's projection is at most its diagonal).
+/// The other half leaves room for rows that cross more bricks than the average.
+fn band_rows(room: u64, bricks: usize, view: &View, volume: &Volume, w: usize, h: usize) -> usize {
+    let s = volume.spacing;
+    // World units per pixel, the image's height, a brick's diagonal.
+    let pixel = 2.0 * view.half_extent / w as f64;
+    let image = pixel * h as f64;
+    let brick = fields::FIELD_BRICK as f64 * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+    let per_height = bricks as f64 / (image + brick);
+    let mut rows = TILE;
+    while rows > 1 && per_height * (rows as f64 * pixel + brick) > room as f64 / 2.0 {
+        rows /= 2;
+    }
+    rows
 }
 
 /// Bricks within `k` bricks (along each axis) of an occupied one count as occupied: a label field

@@ -359,6 +359,29 @@ fn a_field_cache_that_evicts_keeps_the_frames_byte_identical() {
     }
 }
 
+#[test]
+fn a_capped_field_cache_traced_in_bands_builds_each_block_about_once() {
+    // Thin materials: rays reach most bricks. With a cap of half the blocks, the rows of tiles are traced
+    // one after another, so a block evicted is one the rays have passed: almost none is built twice.
+    let engine = crate::volume::generate::engine_like(96);
+    let thin = [MaterialClass::new([18.0, 75.0], 0.02), MaterialClass::new([105.0, 175.0], 0.03)];
+    let cam = Camera { azimuth_deg: 20.0, elevation_deg: 60.0, ..Camera::default() };
+    let base = RaycastOptions { width: 96, height: 96, ..Default::default() };
+    let (whole, s_whole) = raycast(&engine, &thin, None, &cam, &base);
+    assert_eq!(s_whole.field_evicted, 0);
+    let capped = RaycastOptions { field_cache: Some(s_whole.field_peak / 2), ..base };
+    let (img, s) = raycast(&engine, &thin, None, &cam, &capped);
+    assert!(img.data == whole.data, "the cap changed the image");
+    assert!(s.field_evicted > s_whole.field_blocks / 4, "the cap evicts: {s:?}");
+    assert!(s.field_blocks <= s_whole.field_blocks + s_whole.field_blocks / 100, "{s:?} vs {s_whole:?}");
+    // The stats name the store: pinned when everything fits, capped (rows traced in turn) otherwise, none
+    // when no field is needed.
+    assert_eq!(s_whole.field_store, FieldStore::Pinned);
+    assert!(matches!(s.field_store, FieldStore::Capped { rows } if (1..=16).contains(&rows)), "{s:?}");
+    let (_, s_flat) = raycast(&engine, &thin, None, &cam, &RaycastOptions { shading: Shading::Unshaded, ..base });
+    assert_eq!((s_flat.field_store, s_flat.field_blocks), (FieldStore::None, 0));
+}
+
 /// A horizontal plate `slices` slices thick through the middle of an `n × n × nz` grid (slices `dz`
 /// apart), `value` in 0.
 fn thin_plate(n: usize, nz: usize, dz: f64, value: f32, slices: usize) -> Volume {
