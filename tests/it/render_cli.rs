@@ -46,11 +46,11 @@ fn builtin_sweep_writes_frames_and_contact_sheet_and_split_ranges_combine() {
     ]);
     ok(&out);
     // The summary says what the derived fields took: blocks built, the most resident and the cap (a 32³
-    // volume's blocks fit the 64 MiB floor, so none is evicted).
+    // volume's blocks fit the 64 MiB floor, so none is evicted and the store is pinned).
     let summary = String::from_utf8_lossy(&out.stdout);
     let fields = summary.split("derived fields ").nth(1).unwrap_or_default();
     let built: u64 = fields.split(' ').next().and_then(|n| n.parse().ok()).unwrap_or(0);
-    assert!(built > 0 && fields.contains("resident of a 64 MiB cap (0 evicted)"), "{summary}");
+    assert!(built > 0 && fields.contains("resident of a 64 MiB cap (0 evicted), pinned store\n"), "{summary}");
     assert!(summary.contains("peak memory ") && summary.contains(" MiB\n"), "{summary}");
     for k in 0..5 {
         let img = image::open(frame(&all, k)).unwrap().to_rgb8();
