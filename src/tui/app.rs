@@ -157,18 +157,40 @@ impl PromptText {
         PromptText(tui_input::Input::new(text))
     }
 
-    pub fn as_str(&self) -> &str {
+    pub(crate) fn as_str(&self) -> &str {
         self.0.value()
     }
 
-    /// The cursor's position in display columns from the start of the line.
-    pub(crate) fn cursor_column(&self) -> usize {
-        self.0.visual_cursor()
-    }
-
-    /// The first display column shown in a field `width` columns wide, so that the cursor is in view.
-    pub(crate) fn scroll(&self, width: usize) -> usize {
-        self.0.visual_scroll(width)
+    /// What a field `width` columns wide shows of the line, scrolled so that the cursor is in view: the
+    /// characters before the cursor, the one under it (none when the cursor is past the end), and those
+    /// after it. A wide character that would straddle either edge of the field is left out.
+    pub(crate) fn visible(&self, width: usize) -> VisibleText {
+        let cursor = self.0.visual_cursor();
+        // `visual_scroll(n)` keeps the cursor's column at most `n` columns right of the first one shown, so
+        // the field is asked with the room the cursor takes subtracted: the character under it (two columns
+        // for a wide one) or the bar past the end, so either is inside the field.
+        let mut at = 0;
+        let under = self.0.value().chars().find(|c| {
+            let here = at;
+            at += unicode_width::UnicodeWidthChar::width(*c).unwrap_or(0);
+            here == cursor
+        });
+        let room = under.map_or(1, |c| unicode_width::UnicodeWidthChar::width(c).unwrap_or(0).max(1));
+        let scroll = self.0.visual_scroll(width.saturating_sub(room));
+        let mut v = VisibleText::default();
+        let mut column = 0;
+        for c in self.0.value().chars() {
+            let cw = unicode_width::UnicodeWidthChar::width(c).unwrap_or(0);
+            if column >= scroll && column + cw <= scroll + width {
+                match column.cmp(&cursor) {
+                    std::cmp::Ordering::Less => v.before.push(c),
+                    std::cmp::Ordering::Equal if v.under.is_none() => v.under = Some(c),
+                    _ => v.after.push(c),
+                }
+            }
+            column += cw;
+        }
+        v
     }
 
     /// Carries out one edit; true if the text changed. Typing past [`Self::MAX_CHARS`] is refused.
@@ -180,6 +202,14 @@ impl PromptText {
         }
         self.0.handle(request).is_some_and(|changed| changed.value)
     }
+}
+
+/// The part of a prompt's line a field shows ([`PromptText::visible`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct VisibleText {
+    pub(crate) before: String,
+    pub(crate) under: Option<char>,
+    pub(crate) after: String,
 }
 
 impl PartialEq for PromptText {
@@ -431,6 +461,39 @@ impl State {
         match (self.ui.show_feasibility, self.target()) {
             (true, Target::Cell { light, reflectance }) => self.doc.cell_index(light, reflectance),
             _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod prompt_text_tests {
+    use super::PromptText;
+    use tui_input::InputRequest;
+    use unicode_width::UnicodeWidthStr;
+
+    /// At every cursor position of a line with wide characters, in fields of several widths, the field
+    /// shows the character under the cursor (none past the end) with the text just before and after it,
+    /// and no more than fits.
+    #[test]
+    fn the_visible_part_keeps_the_cursor_in_view_and_fits_the_field() {
+        let line = "ab日本cd語efgh";
+        let chars: Vec<char> = line.chars().collect();
+        for width in [3, 4, 5, 8, 40] {
+            let mut p = PromptText::new(line.to_string());
+            for back in 0..=chars.len() {
+                let at = chars.len() - back;
+                let v = p.visible(width);
+                assert_eq!(v.under, chars.get(at).copied(), "cursor {at}, width {width}: {v:?}");
+                let before: String = chars[..at].iter().collect();
+                let after: String = chars.get(at + 1..).unwrap_or_default().iter().collect();
+                assert!(before.ends_with(&v.before) && after.starts_with(&v.after), "{v:?}");
+                let shown = v.before.width() + v.under.map_or(1, |c| c.to_string().width()) + v.after.width();
+                assert!(shown <= width.max(2), "cursor {at}, width {width}: {v:?} is {shown} wide");
+                if width > line.width() {
+                    assert_eq!((v.before, v.after), (before, after));
+                }
+                p.edit(InputRequest::GoToPrevChar);
+            }
         }
     }
 }

@@ -165,21 +165,7 @@ impl Widget for PopupView<'_> {
                 let w = usize::from(inner.width.saturating_sub(4));
                 // The line scrolls so that the cursor stays in view; the character under it is highlighted, and
                 // a cursor past the end is a bar.
-                let scroll = p.input.scroll(w);
-                let cursor = p.input.cursor_column();
-                let (mut before, mut under, mut after) = (String::new(), None, String::new());
-                let mut column = 0;
-                for c in p.input.as_str().chars() {
-                    let cw = unicode_width::UnicodeWidthChar::width(c).unwrap_or(0);
-                    if column >= scroll && column + cw <= scroll + w {
-                        match column.cmp(&cursor) {
-                            std::cmp::Ordering::Less => before.push(c),
-                            std::cmp::Ordering::Equal if under.is_none() => under = Some(c),
-                            _ => after.push(c),
-                        }
-                    }
-                    column += cw;
-                }
+                let crate::tui::app::VisibleText { before, under, after } = p.input.visible(w);
                 let text = Style::new().fg(Color::White);
                 let x = put(buf, inner, 1, row, "› ", bold);
                 let x = put(buf, inner, x, row, &before, text);
