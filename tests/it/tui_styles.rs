@@ -174,3 +174,27 @@ fn the_spectra_pane_names_its_curves_in_the_header_in_their_colours() {
         }
     }
 }
+
+/// After editing a setting the settings row keeps the focus and says so: its header names its keys in
+/// the focus colour; ↓ (there is no row below) says which keys work, ↑ goes back to the matrix (issue 30,
+/// defect 6: the focus was hard to see and ↑ did nothing).
+#[test]
+fn the_focused_settings_row_shows_its_keys_and_up_leaves_it() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let header = " settings · ←/→ field · enter edit · ↑ back ";
+    let (text, buf) = replay(&mut s, "Tab\nTab\nRight *5\nEnter\nCtrl-u\n\"0.01\"\nEnter", 80, 24);
+    assert_eq!(s.doc.palette.settings.smoothness, 0.01);
+    let y = (0..24).find(|&y| (0..80).map(|x| buf[(x, y)].symbol()).collect::<String>().contains(header));
+    let y = y.unwrap_or_else(|| panic!("no focused settings header in\n{text}"));
+    let row: String = (0..80).map(|x| buf[(x, y)].symbol()).collect();
+    let x0 = row[..row.find(header).unwrap_or(0)].chars().count() as u16;
+    assert!((x0..x0 + 10).all(|x| buf[(x + 1, y)].fg == Color::LightGreen), "{row}");
+    let (text, _) = replay(&mut s, "Down", 80, 24);
+    assert!(text.contains("settings is the last row"), "{text}");
+    let (text, _) = replay(&mut s, "Up", 80, 24);
+    assert!(!text.contains(header) && text.contains(" settings "), "{text}");
+    // Back in the matrix, the arrows move the selection again.
+    let before = s.ui.selection.row;
+    replay(&mut s, "Down", 80, 24);
+    assert_eq!(s.ui.selection.row, before + 1, "↓ in the matrix moves the selection");
+}

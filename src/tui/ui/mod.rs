@@ -16,6 +16,7 @@ use crate::tui::colour::ColourMode;
 use ratatui::buffer::Buffer;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
+use ratatui::text::Span;
 use ratatui::widgets::{Block, Borders, Widget};
 
 /// Rows the full sliders panel needs.
@@ -113,7 +114,15 @@ impl Widget for &State {
             block.render(a.sliders, buf);
             sliders::Sliders(self).render(inner, buf);
         }
-        let block = Block::new().borders(Borders::TOP).title(" settings ");
+        // Focused, the row's header says so in the focus colour and names its keys.
+        let block = if self.ui.focus == crate::tui::app::Focus::Settings {
+            Block::new().borders(Borders::TOP).title(Span::styled(
+                " settings · ←/→ field · enter edit · ↑ back ",
+                Style::new().fg(Color::LightGreen).add_modifier(Modifier::BOLD),
+            ))
+        } else {
+            Block::new().borders(Borders::TOP).title(" settings ")
+        };
         let inner = block.inner(a.settings);
         block.render(a.settings, buf);
         settings::SettingsRow(self).render(inner, buf);

@@ -297,7 +297,12 @@ fn move_in_focus(state: &mut State, d: Direction) {
         Focus::Settings => match d {
             Direction::Left => state.ui.setting = state.ui.setting.saturating_sub(1),
             Direction::Right => state.ui.setting = (state.ui.setting + 1).min(SettingField::ALL.len() - 1),
-            Direction::Up | Direction::Down => {}
+            // The settings row is the last: up goes back to the matrix above it (issue 30, defect 6: the
+            // key did nothing and said nothing), down says where the row's keys are.
+            Direction::Up => state.ui.focus = Focus::Matrix,
+            Direction::Down => {
+                state.say("settings is the last row: ←/→ choose a field, enter edits it, ↑ or tab leaves")
+            }
         },
     }
 }
