@@ -193,6 +193,8 @@ fn mismatch_region_overlay() {
     assert!(text.contains("reachable · "), "no region drawn:\n{text}");
     assert!(text.contains("L* ") && text.contains("held within ΔE 0.5"));
     assert!(text.contains('×') && text.contains('○'));
+    // The axes are named, with the ranges the canvas spans.
+    assert!(text.contains("a* ") && text.contains(" across · b* ") && text.contains(" up"), "{text}");
     snap!("feasibility_100x30", text);
     // It follows the selection; `m` closes it.
     let (text, _) = replay(&mut s, "Right", 100, 30);

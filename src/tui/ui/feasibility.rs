@@ -1,6 +1,6 @@
 //! The mismatch-region overlay (`m`): the selected cell's region of reachable colours, sliced through
 //! CIELAB at the target's L* (a*–b* plane, braille canvas) with the target (`×`) and the colour now (`○`)
-//! marked, and its L* range: the inner region (reachable with the other cells held, cyan) inside the outer one
+//! marked, its L* range and the a*, b* ranges the canvas spans: the inner region (reachable with the other cells held, cyan) inside the outer one
 //! (what the ΔE00 τ criterion could accept at most, grey). The region is computed by the worker after each solve
 //! ([`crate::design::feasibility::panel`]); this only draws it.
 
@@ -70,7 +70,7 @@ impl Widget for FeasibilityOverlay<'_> {
     }
 }
 
-/// The three lines under the canvas.
+/// The lines under the canvas: the L* range, where the target is, the axes' ranges, what is held.
 pub(crate) fn summary(panel: &Panel, stale: bool) -> Vec<String> {
     let (lo, hi) = panel.l_range;
     let range = format!("L* {:.1}…{:.1}, slice at target L* {:.1}", lo, hi, panel.target_lab[0]);
@@ -87,18 +87,26 @@ pub(crate) fn summary(panel: &Panel, stale: bool) -> Vec<String> {
         panel.tolerance,
         if stale { " · updating…" } else { "" }
     );
-    vec![range, format!("{place} · ○ now"), held]
+    // The axes, named with the ranges the canvas spans (issue 30, defect 7: the plot had no a*/b* labels).
+    let axes =
+        canvas_bounds(panel).map(|([x0, x1], [y0, y1])| format!("a* {x0:.0}…{x1:.0} across · b* {y0:.0}…{y1:.0} up"));
+    [Some(range), Some(format!("{place} · ○ now")), axes, Some(held)].into_iter().flatten().collect()
 }
 
-/// The slice polygon and the two marks on a braille canvas, a* across, b* up.
-fn draw_slice(panel: &Panel, area: Rect, buf: &mut Buffer) {
-    if area.height < 2 {
-        return;
-    }
-    let poly: Vec<[f64; 2]> =
-        panel.slice.as_ref().map(|s| s.lab.iter().map(|l| [l[1], l[2]]).collect()).unwrap_or_default();
-    let outer: Vec<[f64; 2]> =
-        panel.outer_slice.as_ref().map(|s| s.lab.iter().map(|l| [l[1], l[2]]).collect()).unwrap_or_default();
+/// The inner and the outer slice polygons in the a*–b* plane.
+fn slice_polygons(panel: &Panel) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+    let ab = |s: &Option<_>| -> Vec<[f64; 2]> {
+        s.as_ref()
+            .map(|s: &crate::design::feasibility::Slice| s.lab.iter().map(|l| [l[1], l[2]]).collect())
+            .unwrap_or_default()
+    };
+    (ab(&panel.slice), ab(&panel.outer_slice))
+}
+
+/// The a* and b* ranges the canvas shows: the polygons and both marks, each axis padded by a tenth (at least
+/// one unit); none when nothing is finite.
+fn canvas_bounds(panel: &Panel) -> Option<([f64; 2], [f64; 2])> {
+    let (poly, outer) = slice_polygons(panel);
     let marks = [[panel.target_lab[1], panel.target_lab[2]], [panel.achieved_lab[1], panel.achieved_lab[2]]];
     let all = poly.iter().chain(&outer).chain(&marks);
     let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
@@ -109,30 +117,38 @@ fn draw_slice(panel: &Panel, area: Rect, buf: &mut Buffer) {
         y1 = y1.max(p[1]);
     }
     if !(x0.is_finite() && y0.is_finite()) {
-        return;
+        return None;
     }
     // Equal scales would waste the wide canvas; pad each axis by a tenth (at least one unit).
     let pad = |a: f64, b: f64| ((b - a) * 0.1).max(1.0);
     let (px, py) = (pad(x0, x1), pad(y0, y1));
+    Some(([x0 - px, x1 + px], [y0 - py, y1 + py]))
+}
+
+/// The slice polygon and the two marks on a braille canvas, a* across, b* up (the ranges are in the summary).
+fn draw_slice(panel: &Panel, area: Rect, buf: &mut Buffer) {
+    if area.height < 2 {
+        return;
+    }
+    let (poly, outer) = slice_polygons(panel);
+    let marks = [[panel.target_lab[1], panel.target_lab[2]], [panel.achieved_lab[1], panel.achieved_lab[2]]];
+    let Some(([x0, x1], [y0, y1])) = canvas_bounds(panel) else { return };
     let region = Color::LightCyan;
-    let canvas =
-        Canvas::default().marker(Marker::Braille).x_bounds([x0 - px, x1 + px]).y_bounds([y0 - py, y1 + py]).paint(
-            |ctx| {
-                // The outer boundary first (dimmer), the inner one over it.
-                for (k, a) in outer.iter().enumerate() {
-                    let b = outer[(k + 1) % outer.len()];
-                    ctx.draw(&CanvasLine { x1: a[0], y1: a[1], x2: b[0], y2: b[1], color: Color::DarkGray });
-                }
-                for (k, a) in poly.iter().enumerate() {
-                    let b = poly[(k + 1) % poly.len()];
-                    ctx.draw(&CanvasLine { x1: a[0], y1: a[1], x2: b[0], y2: b[1], color: region });
-                }
-                ctx.layer();
-                let bold = Style::new().add_modifier(Modifier::BOLD);
-                ctx.print(marks[1][0], marks[1][1], ratatui::text::Line::styled("○", bold.fg(Color::LightGreen)));
-                ctx.print(marks[0][0], marks[0][1], ratatui::text::Line::styled("×", bold.fg(Color::LightRed)));
-            },
-        );
+    let canvas = Canvas::default().marker(Marker::Braille).x_bounds([x0, x1]).y_bounds([y0, y1]).paint(|ctx| {
+        // The outer boundary first (dimmer), the inner one over it.
+        for (k, a) in outer.iter().enumerate() {
+            let b = outer[(k + 1) % outer.len()];
+            ctx.draw(&CanvasLine { x1: a[0], y1: a[1], x2: b[0], y2: b[1], color: Color::DarkGray });
+        }
+        for (k, a) in poly.iter().enumerate() {
+            let b = poly[(k + 1) % poly.len()];
+            ctx.draw(&CanvasLine { x1: a[0], y1: a[1], x2: b[0], y2: b[1], color: region });
+        }
+        ctx.layer();
+        let bold = Style::new().add_modifier(Modifier::BOLD);
+        ctx.print(marks[1][0], marks[1][1], ratatui::text::Line::styled("○", bold.fg(Color::LightGreen)));
+        ctx.print(marks[0][0], marks[0][1], ratatui::text::Line::styled("×", bold.fg(Color::LightRed)));
+    });
     canvas.render(area, buf);
     if poly.is_empty() {
         put(buf, area, 0, 0, "the region does not reach this L*", Style::new().fg(Color::Gray));
