@@ -6,10 +6,8 @@ use crate::colorimetry::Colorimetry;
 use crate::palette::Kind;
 use crate::palette::file::PaletteFile;
 use crate::tui::colour::ColourMode;
-use crate::tui::derived::Derived;
-use crate::tui::model::{Document, LiveDial, PreviewState, SolveState, UiState};
+use crate::tui::model::{Document, PreviewState, SolveState, UiState};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 pub(crate) use crate::tui::model::{EditKey, Import};
 
@@ -329,7 +327,7 @@ impl State {
             ui: UiState::new(colour_mode),
             colorimetry: Colorimetry::default(),
         };
-        state.clamp_selection();
+        state.ui.clamp_selection(&state.doc.palette);
         state.refresh();
         state
     }
@@ -356,64 +354,33 @@ impl State {
         self.doc.is_dirty()
     }
 
-    /// Recompute the derived colours (after any change of palette, solution or basis) and relight.
-    pub fn refresh(&mut self) {
-        self.solve.derived = Derived::compute(
-            &self.doc.palette,
-            self.solve.latest(),
-            &self.colorimetry,
-            self.solve.basis.as_ref().map(|b| (&b.key, b.basis())),
-        );
+    /// Derive the colours the view shows from the palette, the solution and the basis, and relight the
+    /// preview with them (the update step does this after a message that changed one of them; a new
+    /// designer does it once).
+    pub(crate) fn refresh(&mut self) {
+        self.solve.derive(&self.doc.palette, &self.colorimetry);
         self.relight();
     }
 
     /// Relight the scene preview with the current spectra at the current dial position.
     pub fn relight(&mut self) {
-        let lut = crate::tui::preview::lut();
-        let p = &mut self.preview;
-        // The basis of the spectra shown, once trained, is the one `metamer render` would use for them.
-        if let (Some(ready), Some(shown)) = (&mut p.ready, self.solve.basis_of_shown()) {
-            ready.follow_basis(&self.doc.palette, &shown.key, shown.basis());
-        }
-        p.frame = match (&mut p.ready, &p.dial) {
-            (Some(ready), Some(d)) => ready.frame(&self.doc.palette, &self.solve.derived, &d.state, lut),
-            _ => Vec::new(),
-        };
-        let size = p.ready.as_ref().map_or((0, 0), |r| r.size());
-        p.graphics.encode(&p.frame, size);
+        self.preview.relight(&self.doc.palette, &self.solve);
     }
 
     /// Attach a scene preview and show it.
     pub fn set_preview(&mut self, preview: crate::tui::preview::Preview) {
-        if self.preview.dial.is_none() {
-            self.preview.dial = Some(LiveDial::at(&preview.scene, 0.0));
-        }
-        self.preview.ready = Some(preview);
-        self.preview.waiting = None;
-        self.preview.shown = true;
+        self.preview.attach(preview);
         self.relight();
     }
 
     /// Attach a scene whose raycast runs off the UI thread (the event loop starts it at the panel's size).
     pub fn set_preview_scene(&mut self, scene: crate::render::scene::Scene) {
-        let along = self.preview.dial.as_ref().map_or(0.0, |d| d.along);
-        self.preview.dial = Some(LiveDial::at(&scene, along));
-        self.preview.waiting = Some(Arc::new(scene));
-        self.preview.shown = true;
+        self.preview.attach_scene(scene);
     }
 
     /// What the selection points at.
     pub(crate) fn target(&self) -> Target {
-        let palette = &self.doc.palette;
-        let (nl, nr) = (palette.lights.len(), palette.reflectances.len());
-        let Selection { col, row } = self.ui.selection;
-        match (col, row) {
-            (0, 0) => Target::Nothing,
-            (0, r) if r <= nr => Target::Reflectance(r - 1),
-            (c, 0) if c <= nl => Target::Light(c - 1),
-            (c, r) if c <= nl && r <= nr => Target::Cell { light: c - 1, reflectance: r - 1 },
-            _ => Target::Nothing,
-        }
+        self.ui.target(&self.doc.palette)
     }
 
     /// The light and reflectance whose spectra the plot shows: the selected cell's, or the selected swatch.
@@ -426,42 +393,27 @@ impl State {
         }
     }
 
-    /// Keep the selection inside the matrix (after removing a spectrum, or on an empty palette).
-    pub(crate) fn clamp_selection(&mut self) {
-        let (nl, nr) = (self.doc.palette.lights.len(), self.doc.palette.reflectances.len());
-        let s = &mut self.ui.selection;
-        s.col = s.col.min(nl);
-        s.row = s.row.min(nr);
-        if s.col == 0 && s.row == 0 {
-            if nl > 0 {
-                s.col = 1;
-            } else if nr > 0 {
-                s.row = 1;
-            }
-        }
-    }
-
     /// Show a message until the next key.
     pub(crate) fn say(&mut self, text: impl Into<String>) {
         self.ui.say(text);
     }
 
-    /// Show an error until the next key.
-    pub(crate) fn complain(&mut self, text: impl Into<String>) {
-        self.ui.complain(text);
-    }
-
     /// The latest solution's diagnostics (of the current palette, else the last one solved).
     pub fn diagnostics(&self) -> &[crate::design::Diagnostic] {
-        self.solve.latest().map_or(&[], |s| s.diagnostics.as_slice())
+        self.solve.diagnostics()
     }
 
     /// The cell whose mismatch region the overlay wants: the selected cell, when the overlay is on.
     pub(crate) fn feasibility_cell(&self) -> Option<usize> {
-        match (self.ui.show_feasibility, self.target()) {
-            (true, Target::Cell { light, reflectance }) => self.doc.cell_index(light, reflectance),
-            _ => None,
-        }
+        feasibility_cell(&self.ui, &self.doc)
+    }
+}
+
+/// The cell whose mismatch region the overlay wants: the selected cell, when the overlay is on.
+pub(crate) fn feasibility_cell(ui: &UiState, doc: &Document) -> Option<usize> {
+    match (ui.show_feasibility, ui.target(&doc.palette)) {
+        (true, Target::Cell { light, reflectance }) => doc.cell_index(light, reflectance),
+        _ => None,
     }
 }
 

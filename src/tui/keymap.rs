@@ -2,7 +2,7 @@
 //! what it shows is exactly what the keys do.
 
 use crate::tui::action::{Action, Direction};
-use crate::tui::app::{Popup, State};
+use crate::tui::app::Popup;
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 
 /// A key with its modifiers (Shift is folded into the character for letter keys).
@@ -198,10 +198,10 @@ pub const TABLES: &[(&str, &[Binding])] = &[
     ("diagnostics", DIAGNOSTICS),
 ];
 
-/// The table in force for the state's popup.
-pub(crate) fn table_for(state: &State) -> &'static [Binding] {
-    match state.ui.popup {
-        None if state.preview.keys => DIAL,
+/// The table in force for the open popup (`dial_keys`: the light dial has the main screen's keys).
+pub(crate) fn table_for(popup: Option<&Popup>, dial_keys: bool) -> &'static [Binding] {
+    match popup {
+        None if dial_keys => DIAL,
         None => MAIN,
         Some(Popup::Help { .. }) => HELP,
         Some(Popup::Diagnostics { .. }) => DIAGNOSTICS,
@@ -226,10 +226,10 @@ pub(crate) fn normalise(event: KeyEvent) -> Option<Key> {
     Some(Key { code: event.code, modifiers })
 }
 
-/// The action a key asks for in the current mode.
-pub(crate) fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
+/// The action a key asks for with `popup` open (`dial_keys`: the light dial has the main screen's keys).
+pub(crate) fn action_for(popup: Option<&Popup>, dial_keys: bool, event: KeyEvent) -> Option<Action> {
     let key = normalise(event)?;
-    let table = table_for(state);
+    let table = table_for(popup, dial_keys);
     if let Some(b) = table.iter().find(|b| b.keys.contains(&key)) {
         // One binding for the number keys: the action carries the number pressed.
         return Some(match (b.action, key.code) {
@@ -237,7 +237,7 @@ pub(crate) fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
             (a, _) => a,
         });
     }
-    match (&state.ui.popup, key.code) {
+    match (popup, key.code) {
         (Some(Popup::Prompt(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => {
             Some(Action::Edit(tui_input::InputRequest::InsertChar(c)))
         }

@@ -1,9 +1,25 @@
 //! The document: the palette file, the palette being edited and its undo history, and the file work
 //! (save, save as, reload, CSV import) under way. The one owner of the palette.
 
+use crate::colorimetry::Colorimetry;
 use crate::palette::file::PaletteFile;
 use crate::palette::{Bounds, Kind, Palette};
+use crate::tui::edits::{EditError, EditResult};
 use std::path::{Path, PathBuf};
+
+/// How the palette changed since the update step last looked: it then starts a new generation (solved
+/// anew), keeps the selection inside the matrix, derives the colours again and relights.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) enum PaletteChange {
+    /// Unchanged.
+    #[default]
+    None,
+    /// Edited (an edit, undo, redo, reload, restore, import): a new generation, solved anew.
+    Edited,
+    /// Replaced by the palette the current solution already describes (its designed spectra written by a
+    /// save): a new generation that keeps the solution, so nothing is solved again.
+    Carried,
+}
 
 /// Groups consecutive edits of one slider of one cell into one undo step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,6 +75,8 @@ pub struct Document {
     pub imports: u64,
     /// Bounds to restore when bounds are switched back on.
     pub remembered_bounds: (Bounds, Bounds),
+    /// How the palette changed while the update step handled the current message.
+    pub(crate) change: PaletteChange,
 }
 
 impl Document {
@@ -73,7 +91,79 @@ impl Document {
             import: None,
             imports: 0,
             remembered_bounds: (Bounds::new(0.0, 1.0), Bounds::new(0.0, f64::INFINITY)),
+            change: PaletteChange::None,
         }
+    }
+
+    /// Make an edit on a copy of the palette; keep it (with an undo step) when it succeeds and changed
+    /// something. A refused edit leaves the palette as it was. True when the palette changed.
+    pub(crate) fn edit(
+        &mut self,
+        key: EditKey,
+        colorimetry: &Colorimetry,
+        f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult,
+    ) -> Result<bool, EditError> {
+        let mut next = self.palette.clone();
+        f(&mut next, colorimetry)?;
+        if next == self.palette {
+            return Ok(false);
+        }
+        self.remember(key);
+        self.palette = next;
+        self.touch(PaletteChange::Edited);
+        Ok(true)
+    }
+
+    /// Step back (`undo`) or forward through the history; false when there is nothing to step to.
+    pub(crate) fn step_history(&mut self, undo: bool) -> bool {
+        let (from, to) = if undo {
+            (&mut self.history.undo, &mut self.history.redo)
+        } else {
+            (&mut self.history.redo, &mut self.history.undo)
+        };
+        let Some(other) = from.pop() else { return false };
+        to.push(std::mem::replace(&mut self.palette, other));
+        self.history.last_edit = None;
+        self.touch(PaletteChange::Edited);
+        true
+    }
+
+    /// The palette file read again: the palette on screen is kept in the undo history (`z` brings it back).
+    pub(crate) fn reloaded(&mut self, file: PaletteFile) {
+        let mine = std::mem::replace(&mut self.palette, file.palette.clone());
+        self.history.undo.push(mine);
+        self.history.redo.clear();
+        self.history.last_edit = None;
+        self.file = file;
+        self.overwrite_armed = false;
+        self.touch(PaletteChange::Edited);
+    }
+
+    /// A save went through: `file` is the palette file as written. The palette on screen becomes the
+    /// file's as written (read back), so the `●` marker compares with what is on disk, when it is still
+    /// the one the save started from (`before`); keys that came while the file was written are kept. The
+    /// written palette's designed spectra are the solution's: the solution the user saw stays its
+    /// solution ([`PaletteChange::Carried`]: no new solve, which could move a joint design from its new
+    /// start), so saving changes no result.
+    pub(crate) fn saved(&mut self, file: PaletteFile, before: &Palette) {
+        self.file = file;
+        self.overwrite_armed = false;
+        if self.palette == *before && self.file.palette != self.palette {
+            self.palette = self.file.palette.clone();
+            self.touch(PaletteChange::Carried);
+        }
+    }
+
+    /// Note a change of the palette (an edit outranks a carried solution).
+    fn touch(&mut self, change: PaletteChange) {
+        if self.change != PaletteChange::Edited {
+            self.change = change;
+        }
+    }
+
+    /// How the palette changed since the last call.
+    pub(crate) fn take_change(&mut self) -> PaletteChange {
+        std::mem::take(&mut self.change)
     }
 
     /// The palette file's path.

@@ -14,10 +14,11 @@ mod preview_state;
 mod solve_state;
 mod ui_state;
 
-pub(crate) use document::EditKey;
 pub use document::{Document, History, Import};
+pub(crate) use document::{EditKey, PaletteChange};
 pub use preview_state::{LiveDial, PreviewState};
 pub(crate) use preview_state::{NO_SCENE, PreviewMsg, is_dial_action};
 pub(crate) use solve_state::SolveMsg;
 pub use solve_state::{BasisKey, ShownBasis, SolveState};
+pub(crate) use ui_state::UiMsg;
 pub use ui_state::UiState;

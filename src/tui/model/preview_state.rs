@@ -2,11 +2,13 @@
 //! this session, the relit frame and how it reaches the terminal.
 
 use crate::colorimetry::Colorimetry;
+use crate::palette::Palette;
 use crate::render::dial::DialState;
 use crate::render::scene::Scene;
 use crate::tui::action::Action;
 use crate::tui::app::Message;
 use crate::tui::graphics::Graphics;
+use crate::tui::model::SolveState;
 use crate::tui::msg::{Effect, SavedScene};
 use crate::tui::preview::{Loaded, Preview};
 use std::sync::Arc;
@@ -73,6 +75,9 @@ pub struct PreviewState {
     /// The terminal is being asked for its graphics ([`crate::tui::msg::Msg::Graphics`] answers): the
     /// first raycast waits for the panel's pixel size.
     pub probing: bool,
+    /// `frame` no longer shows the current spectra, dial or scene: the update step relights once the
+    /// message is handled ([`PreviewState::relight`]), however many changes the message made.
+    pub(crate) stale: bool,
 }
 
 impl PreviewState {
@@ -99,11 +104,60 @@ impl PreviewState {
         self.pending.map(|(w, h)| format!("raycasting {w}×{h} pixels…"))
     }
 
+    /// Attach a raycast scene and show it (the caller relights).
+    pub(crate) fn attach(&mut self, preview: Preview) {
+        if self.dial.is_none() {
+            self.dial = Some(LiveDial::at(&preview.scene, 0.0));
+        }
+        self.ready = Some(preview);
+        self.waiting = None;
+        self.shown = true;
+        self.stale = true;
+    }
+
+    /// Attach a scene whose raycast runs off the UI thread (the update step asks for it at the panel's
+    /// size), keeping the position along the sweep.
+    pub(crate) fn attach_scene(&mut self, scene: Scene) {
+        let along = self.dial.as_ref().map_or(0.0, |d| d.along);
+        self.dial = Some(LiveDial::at(&scene, along));
+        self.waiting = Some(Arc::new(scene));
+        self.shown = true;
+    }
+
+    /// Relight the scene with `palette`'s current spectra (the solve's, where solved) at the dial's
+    /// position, and encode the frame for the terminal. The basis of the spectra shown, once trained, is
+    /// the one `metamer render` would use for them.
+    pub(crate) fn relight(&mut self, palette: &Palette, solve: &SolveState) {
+        self.stale = false;
+        let lut = crate::tui::preview::lut();
+        if let (Some(ready), Some(shown)) = (&mut self.ready, solve.basis_of_shown()) {
+            ready.follow_basis(palette, &shown.key, shown.basis());
+        }
+        self.frame = match (&mut self.ready, &self.dial) {
+            (Some(ready), Some(d)) => ready.frame(palette, &solve.derived, &d.state, lut),
+            _ => Vec::new(),
+        };
+        let size = self.ready.as_ref().map_or((0, 0), |r| r.size());
+        self.graphics.encode(&self.frame, size);
+    }
+
     /// Handle one message of the preview: a dial key (after `g`, and `[`/`]`), the scene saved with the
-    /// keyframes, a finished raycast. The caller relights when [`PreviewUpdate::relight`] says so.
+    /// keyframes, a finished raycast, the terminal's graphics. What changes the picture marks the frame
+    /// [`PreviewState::stale`].
     pub(crate) fn update(&mut self, msg: PreviewMsg, colorimetry: &Colorimetry) -> PreviewUpdate {
         match msg {
-            PreviewMsg::Dial(action) => self.on_dial(action),
+            PreviewMsg::Graphics { graphics, warning } => {
+                self.graphics = graphics;
+                self.probing = false;
+                // The frame encoded for the new protocol (the raycast follows at the panel's new pixel size).
+                self.stale = true;
+                PreviewUpdate { effects: Vec::new(), message: warning.map(Message::error) }
+            }
+            PreviewMsg::Dial(action) => {
+                let (update, relight) = self.on_dial(action);
+                self.stale |= relight;
+                update
+            }
             PreviewMsg::SceneSaved(result) => {
                 self.saving = false;
                 let message = match result {
@@ -125,7 +179,8 @@ impl PreviewState {
                     }
                     Err(e) => Message::error(format!("scene not saved: {e}")),
                 };
-                PreviewUpdate { effects: Vec::new(), message: Some(message), relight: true }
+                self.stale = true;
+                PreviewUpdate { effects: Vec::new(), message: Some(message) }
             }
             PreviewMsg::Raycast(loaded) => {
                 let size = (loaded.weights.width, loaded.weights.height);
@@ -143,7 +198,8 @@ impl PreviewState {
                         self.waiting = None;
                     }
                 }
-                PreviewUpdate { effects: Vec::new(), message: None, relight: true }
+                self.stale = true;
+                PreviewUpdate { effects: Vec::new(), message: None }
             }
         }
     }
@@ -152,22 +208,20 @@ impl PreviewState {
     /// number keys switch lights, `+`/`-` change the selected light's intensity, `a` adds the dial as a
     /// keyframe and Ctrl-s asks the loop to write the keyframes into the scene file, which
     /// `metamer render` then sweeps (the `[[dial.keyframes]]` format of `docs/formats/dial.md`); `[`/`]`
-    /// step along the scene's sweep. Every change relights the preview.
-    fn on_dial(&mut self, action: Action) -> PreviewUpdate {
-        let mut update = PreviewUpdate { effects: Vec::new(), message: None, relight: true };
+    /// step along the scene's sweep. Every change relights the preview (the second value: relight).
+    fn on_dial(&mut self, action: Action) -> (PreviewUpdate, bool) {
+        let mut update = PreviewUpdate { effects: Vec::new(), message: None };
         let Some(scene) = self.scene() else {
             update.message = Some(Message::error(NO_SCENE));
-            update.relight = false;
-            return update;
+            return (update, false);
         };
         let Some(live) = self.dial.as_mut() else {
-            update.relight = false;
-            return update;
+            return (update, false);
         };
         if let Action::Dial { forward } = action {
             self.shown = true;
             live.step_along(&scene, forward);
-            return update;
+            return (update, true);
         }
         let [[x0, y0], [x1, y1]] = scene.dial.base.bounds();
         let extent = (x1 - x0).max(y1 - y0).max(1e-3);
@@ -176,8 +230,7 @@ impl PreviewState {
         let result: Result<(), String> = match action {
             Action::DialLeave => {
                 self.keys = false;
-                update.relight = false;
-                return update;
+                return (update, false);
             }
             Action::DialSlide { dx, dy, big } => {
                 let step = extent * if big { LARGE_STEP } else { SMALL_STEP };
@@ -251,7 +304,7 @@ impl PreviewState {
         if let Err(e) = result {
             update.message = Some(Message::error(e));
         }
-        update
+        (update, true)
     }
 }
 
@@ -273,6 +326,9 @@ pub(crate) fn is_dial_action(action: Action) -> bool {
 /// A message for the preview. (One per raycast or save, moved once: the variants' sizes do not matter.)
 #[allow(clippy::large_enum_variant)]
 pub(crate) enum PreviewMsg {
+    /// The terminal answered the graphics probe (or its deadline passed): how the preview is drawn, and a
+    /// warning when it had to guess.
+    Graphics { graphics: Graphics, warning: Option<String> },
     /// A dial key or a sweep key.
     Dial(Action),
     /// The keyframes were written into the scene file (and the scene read back), or why not.
@@ -281,10 +337,9 @@ pub(crate) enum PreviewMsg {
     Raycast(Loaded),
 }
 
-/// What a preview message asks for: effects for the loop, a line for the message area, a relight.
+/// What a preview message asks for: effects for the loop, a line for the message area.
 #[must_use]
 pub(crate) struct PreviewUpdate {
     pub(crate) effects: Vec<Effect>,
     pub(crate) message: Option<Message>,
-    pub(crate) relight: bool,
 }

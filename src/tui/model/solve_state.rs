@@ -116,6 +116,11 @@ impl SolveState {
         self.current().or(self.solution.as_ref().map(|(_, s)| s.as_ref()))
     }
 
+    /// The latest solution's diagnostics (of the current palette, else the last one solved).
+    pub fn diagnostics(&self) -> &[crate::design::Diagnostic] {
+        self.latest().map_or(&[], |s| s.diagnostics.as_slice())
+    }
+
     /// The factor model's mean ΔE00 on the shown basis's own pairs, when it is poor (above
     /// [`crate::basis::POOR_MODEL_MEAN_DE00`]); nothing when the latest basis could not be had.
     pub fn basis_poor(&self) -> Option<f64> {

@@ -1,8 +1,19 @@
 //! The interface: the selection, the focused panel, the popup, the message line, the terminal's size and
 //! colours, and whether the designer is to quit.
 
-use crate::tui::app::{Focus, Message, Popup, Selection};
+use crate::palette::{Kind, Palette};
+use crate::tui::app::{Focus, Message, Popup, Selection, Target};
 use crate::tui::colour::ColourMode;
+
+/// A message for the interface alone. (The keys are the interface's too, but most act on the document
+/// as well: [`crate::tui::update`] hands them to handlers that take both.)
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum UiMsg {
+    /// The terminal's size in cells.
+    Screen { width: u16, height: u16 },
+    /// A tick of the spinner's clock.
+    Tick,
+}
 
 /// What the user is looking at and pointing at.
 #[derive(Debug)]
@@ -49,6 +60,14 @@ impl UiState {
         }
     }
 
+    /// Handle one message of the interface: the terminal's size, a tick of the spinner.
+    pub(crate) fn update(&mut self, msg: UiMsg) {
+        match msg {
+            UiMsg::Screen { width, height } => self.screen = (width, height),
+            UiMsg::Tick => self.ticks += 1,
+        }
+    }
+
     /// Show a message until the next key.
     pub(crate) fn say(&mut self, text: impl Into<String>) {
         self.message = Some(Message::info(text));
@@ -57,5 +76,42 @@ impl UiState {
     /// Show an error until the next key.
     pub(crate) fn complain(&mut self, text: impl Into<String>) {
         self.message = Some(Message::error(text));
+    }
+
+    /// What the selection points at in `palette`.
+    pub(crate) fn target(&self, palette: &Palette) -> Target {
+        let (nl, nr) = (palette.lights.len(), palette.reflectances.len());
+        let Selection { col, row } = self.selection;
+        match (col, row) {
+            (0, 0) => Target::Nothing,
+            (0, r) if r <= nr => Target::Reflectance(r - 1),
+            (c, 0) if c <= nl => Target::Light(c - 1),
+            (c, r) if c <= nl && r <= nr => Target::Cell { light: c - 1, reflectance: r - 1 },
+            _ => Target::Nothing,
+        }
+    }
+
+    /// Keep the selection inside `palette`'s matrix (after removing a spectrum, or on an empty palette).
+    pub(crate) fn clamp_selection(&mut self, palette: &Palette) {
+        let (nl, nr) = (palette.lights.len(), palette.reflectances.len());
+        let s = &mut self.selection;
+        s.col = s.col.min(nl);
+        s.row = s.row.min(nr);
+        if s.col == 0 && s.row == 0 {
+            if nl > 0 {
+                s.col = 1;
+            } else if nr > 0 {
+                s.row = 1;
+            }
+        }
+    }
+
+    /// Select the swatch of `palette`'s newest light or reflectance.
+    pub(crate) fn select_newest(&mut self, palette: &Palette, kind: Kind) {
+        self.selection = match kind {
+            Kind::Light => Selection { col: palette.lights.len(), row: 0 },
+            Kind::Reflectance => Selection { col: 0, row: palette.reflectances.len() },
+        };
+        self.clamp_selection(palette);
     }
 }

@@ -5,63 +5,46 @@
 use crate::colorimetry::Colorimetry;
 use crate::palette::{Kind, Palette, Source};
 use crate::spectrum::Normalize;
-use crate::tui::app::{
-    EditKey, Import, Popup, Prompt, PromptPurpose, PromptText, Selection, SpectrumOp, State, Target,
-};
+use crate::tui::app::{EditKey, Import, Popup, Prompt, PromptPurpose, PromptText, SpectrumOp, Target};
 use crate::tui::edits::{self, EditError, EditResult};
+use crate::tui::model::{Document, SolveState, UiState};
 use crate::tui::msg::Effect;
 use nalgebra::Vector3;
 
-/// Make an edit on a copy of the palette; keep it (with an undo step) when it succeeds and changed
-/// something. A refused edit is shown in the message line. True when the palette changed.
-pub(super) fn edit(state: &mut State, key: EditKey, f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult) -> bool {
-    try_edit(state, key, f).unwrap_or_else(|reason| {
-        state.complain(reason.to_string());
+/// Make an edit of the document (an undo step when it changed something; the update step then solves,
+/// derives and relights). A refused edit is shown in the message line. True when the palette changed.
+pub(super) fn edit(
+    doc: &mut Document,
+    ui: &mut UiState,
+    colorimetry: &Colorimetry,
+    key: EditKey,
+    f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult,
+) -> bool {
+    doc.edit(key, colorimetry, f).unwrap_or_else(|reason| {
+        ui.complain(reason.to_string());
         false
     })
 }
 
-/// Like [`edit`], but a refused edit is returned (for a prompt to show) and the state is left as it was.
-pub(super) fn try_edit(
-    state: &mut State,
-    key: EditKey,
-    f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult,
-) -> Result<bool, EditError> {
-    let mut next = state.doc.palette.clone();
-    f(&mut next, &state.colorimetry)?;
-    if next == state.doc.palette {
-        return Ok(false);
-    }
-    state.doc.remember(key);
-    state.doc.palette = next;
-    changed(state);
-    Ok(true)
-}
-
-/// The palette changed (edit, undo, redo, reload, save): a new generation (which the update step then
-/// solves) and a new derived view.
-pub(super) fn changed(state: &mut State) {
-    state.solve.generation += 1;
-    state.clamp_selection();
-    state.refresh();
-}
-
 /// The colour the cell has now (solved where solved), for fit colour and new criteria.
-pub(super) fn current_colour(state: &State, light: usize, reflectance: usize) -> Vector3<f64> {
-    state.solve.derived.cell(light, reflectance).map(|c| c.full).unwrap_or_default()
+pub(super) fn current_colour(solve: &SolveState, light: usize, reflectance: usize) -> Vector3<f64> {
+    solve.derived.cell(light, reflectance).map(|c| c.full).unwrap_or_default()
 }
 
-/// Run `f` on the selected cell, or say that a cell must be selected.
-pub(super) fn with_cell(state: &mut State, f: impl FnOnce(&mut State, usize, usize)) {
-    match state.target() {
-        Target::Cell { light, reflectance } => f(state, light, reflectance),
-        _ => state.complain("select a cell of the matrix first"),
+/// The selected cell (light, reflectance), or `None` having said that a cell must be selected.
+pub(super) fn selected_cell(ui: &mut UiState, palette: &Palette) -> Option<(usize, usize)> {
+    match ui.target(palette) {
+        Target::Cell { light, reflectance } => Some((light, reflectance)),
+        _ => {
+            ui.complain("select a cell of the matrix first");
+            None
+        }
     }
 }
 
 /// Open a one-line prompt.
-pub(super) fn open_prompt(state: &mut State, title: &str, hint: &str, input: String, purpose: PromptPurpose) {
-    state.ui.popup = Some(Popup::Prompt(Prompt {
+pub(super) fn open_prompt(ui: &mut UiState, title: &str, hint: &str, input: String, purpose: PromptPurpose) {
+    ui.popup = Some(Popup::Prompt(Prompt {
         title: title.to_string(),
         hint: hint.to_string(),
         input: PromptText::new(input),
@@ -87,124 +70,135 @@ pub(super) fn save_as_prompt(input: String, error: Option<EditError>) -> Prompt 
 }
 
 /// The palette to write: designed spectra replaced by the current solution's ([`crate::design::Solution::apply_to`]).
-pub fn palette_to_save(state: &State) -> Palette {
-    match state.solve.current() {
-        Some(solution) => solution.apply_to(&state.doc.palette),
-        None => state.doc.palette.clone(),
+pub(super) fn palette_to_save(doc: &Document, solve: &SolveState) -> Palette {
+    match solve.current() {
+        Some(solution) => solution.apply_to(&doc.palette),
+        None => doc.palette.clone(),
     }
 }
 
 /// Save the palette to its file (then quit, when `quit_after`).
-pub(super) fn save(state: &mut State, quit_after: bool) -> Vec<Effect> {
-    state.doc.file_busy = true;
+pub(super) fn save(doc: &mut Document, solve: &SolveState, quit_after: bool) -> Vec<Effect> {
+    doc.file_busy = true;
     vec![Effect::Save {
-        file: state.doc.file.clone(),
-        palette: palette_to_save(state),
-        before: state.doc.palette.clone(),
+        file: doc.file.clone(),
+        palette: palette_to_save(doc, solve),
+        before: doc.palette.clone(),
         quit_after,
-        overwrite: std::mem::take(&mut state.doc.overwrite_armed),
+        overwrite: std::mem::take(&mut doc.overwrite_armed),
     }]
 }
 
 /// Save the palette to `path`, which becomes the palette file (`replace`: the user was asked).
-pub(super) fn save_as(state: &mut State, path: std::path::PathBuf, replace: bool) -> Vec<Effect> {
-    state.doc.file_busy = true;
-    let (palette, before) = (palette_to_save(state), state.doc.palette.clone());
-    vec![Effect::SaveAs { file: state.doc.file.clone(), palette, before, path, replace }]
+pub(super) fn save_as(doc: &mut Document, solve: &SolveState, path: std::path::PathBuf, replace: bool) -> Vec<Effect> {
+    doc.file_busy = true;
+    let (palette, before) = (palette_to_save(doc, solve), doc.palette.clone());
+    vec![Effect::SaveAs { file: doc.file.clone(), palette, before, path, replace }]
 }
 
 /// Read the palette file again.
-pub(super) fn reload(state: &mut State) -> Vec<Effect> {
-    state.doc.file_busy = true;
-    vec![Effect::Reload { file: state.doc.file.clone() }]
+pub(super) fn reload(doc: &mut Document) -> Vec<Effect> {
+    doc.file_busy = true;
+    vec![Effect::Reload { file: doc.file.clone() }]
 }
 
 /// Add a built-in spectrum of `kind` named after `base` and select it.
-pub(super) fn add_spectrum(state: &mut State, kind: Kind, base: &str, source: Source) {
-    let name = edits::unique_name(&state.doc.palette, kind, base);
-    let base_dir = state.doc.base_dir();
-    if edit(state, EditKey::Other, |p, c| edits::add(p, kind, &name, source, &base_dir, c)) {
-        state.say(format!("added {} {name}", kind.as_str()));
-        select_newest(state, kind);
+pub(super) fn add_spectrum(
+    doc: &mut Document,
+    ui: &mut UiState,
+    colorimetry: &Colorimetry,
+    kind: Kind,
+    base: &str,
+    source: Source,
+) {
+    let name = edits::unique_name(&doc.palette, kind, base);
+    let base_dir = doc.base_dir();
+    if edit(doc, ui, colorimetry, EditKey::Other, |p, c| edits::add(p, kind, &name, source, &base_dir, c)) {
+        ui.say(format!("added {} {name}", kind.as_str()));
+        ui.select_newest(&doc.palette, kind);
     }
 }
 
 /// Start importing the CSV file `path` as a new spectrum of `kind` off the UI thread: the UI stays
 /// responsive, Esc cancels (the reply is dropped), the update step applies the reply.
-pub fn start_import(state: &mut State, kind: Kind, path: &str) -> Vec<Effect> {
+pub(super) fn start_import(
+    doc: &mut Document,
+    ui: &mut UiState,
+    colorimetry: &Colorimetry,
+    kind: Kind,
+    path: &str,
+) -> Vec<Effect> {
     let base = std::path::Path::new(path)
         .file_stem()
         .map(|s| s.to_string_lossy().to_string())
         .unwrap_or_else(|| "imported".into());
-    let name = edits::unique_name(&state.doc.palette, kind, &base);
-    state.say(format!("reading {}… (Esc cancels)", crate::fsio::escape(path)));
-    state.doc.imports += 1;
-    let import =
-        Import { id: state.doc.imports, path: path.to_string(), kind, name, before: state.doc.palette.clone() };
+    let name = edits::unique_name(&doc.palette, kind, &base);
+    ui.say(format!("reading {}… (Esc cancels)", crate::fsio::escape(path)));
+    doc.imports += 1;
+    let import = Import { id: doc.imports, path: path.to_string(), kind, name, before: doc.palette.clone() };
     let effect = Effect::Import {
         id: import.id,
         kind,
         name: import.name.clone(),
         path: import.path.clone(),
-        base_dir: state.doc.base_dir(),
+        base_dir: doc.base_dir(),
         palette: import.before.clone(),
-        colorimetry: state.colorimetry.clone(),
+        colorimetry: colorimetry.clone(),
     };
-    state.doc.import = Some(import);
+    doc.import = Some(import);
     vec![effect]
 }
 
-/// Select the swatch of the newest light or reflectance.
-pub(super) fn select_newest(state: &mut State, kind: Kind) {
-    state.ui.selection = match kind {
-        Kind::Light => Selection { col: state.doc.palette.lights.len(), row: 0 },
-        Kind::Reflectance => Selection { col: 0, row: state.doc.palette.reflectances.len() },
-    };
-    state.clamp_selection();
-}
-
 /// A spectrum operation on light or reflectance `index` (from a swatch, or the choice popup of a cell).
-pub(super) fn apply_spectrum_op(state: &mut State, op: SpectrumOp, kind: Kind, index: usize) {
-    let Some(name) = state.doc.palette.entries(kind).get(index).map(|e| e.name.clone()) else {
+pub(super) fn apply_spectrum_op(
+    doc: &mut Document,
+    ui: &mut UiState,
+    colorimetry: &Colorimetry,
+    op: SpectrumOp,
+    kind: Kind,
+    index: usize,
+) {
+    let Some(name) = doc.palette.entries(kind).get(index).map(|e| e.name.clone()) else {
         return;
     };
+    let c = colorimetry;
     match op {
         SpectrumOp::ToggleDesign => {
-            edit(state, EditKey::Other, |p, _| edits::toggle_design(p, kind, index));
+            edit(doc, ui, c, EditKey::Other, |p, _| edits::toggle_design(p, kind, index));
         }
         SpectrumOp::NormaliseLuminance | SpectrumOp::NormaliseL2 if kind == Kind::Reflectance => {
-            state.complain("reflectances are never normalised; scale them instead (s)");
+            ui.complain("reflectances are never normalised; scale them instead (s)");
         }
         SpectrumOp::NormaliseLuminance => {
-            edit(state, EditKey::Other, |p, c| edits::normalise(p, index, Normalize::Luminance, c));
+            edit(doc, ui, c, EditKey::Other, |p, c| edits::normalise(p, index, Normalize::Luminance, c));
         }
         SpectrumOp::NormaliseL2 => {
-            edit(state, EditKey::Other, |p, c| edits::normalise(p, index, Normalize::L2, c));
+            edit(doc, ui, c, EditKey::Other, |p, c| edits::normalise(p, index, Normalize::L2, c));
         }
         SpectrumOp::Planck if kind == Kind::Reflectance => {
-            state.complain("Planck black bodies are lights: select a light");
+            ui.complain("Planck black bodies are lights: select a light");
         }
         SpectrumOp::Planck => {
-            let t = match state.doc.palette.lights[index].source {
+            let t = match doc.palette.lights[index].source {
                 Source::Planck(t) => t,
                 _ => 6500.0,
             };
             let title = format!("make {name} a Planck black body");
-            open_prompt(state, &title, "temperature in kelvin", format!("{t}"), PromptPurpose::Planck { light: index })
+            open_prompt(ui, &title, "temperature in kelvin", format!("{t}"), PromptPurpose::Planck { light: index })
         }
         SpectrumOp::Scale => {
             let title = format!("scale of {name}");
-            let now = num_text(state.doc.palette.entries(kind)[index].scale);
+            let now = num_text(doc.palette.entries(kind)[index].scale);
             let hint = if kind == Kind::Light {
                 "spectrum = normalised source × scale"
             } else {
                 "spectrum = source × scale"
             };
-            open_prompt(state, &title, hint, now, PromptPurpose::Scale { kind, index })
+            open_prompt(ui, &title, hint, now, PromptPurpose::Scale { kind, index })
         }
         SpectrumOp::Remove => {
-            if edit(state, EditKey::Other, |p, _| edits::remove(p, kind, index)) {
-                state.say(format!("removed {} {name} (z undoes)", kind.as_str()));
+            if edit(doc, ui, c, EditKey::Other, |p, _| edits::remove(p, kind, index)) {
+                ui.say(format!("removed {} {name} (z undoes)", kind.as_str()));
             }
         }
     }

@@ -3,18 +3,25 @@
 //! is for, and returns the [`Effect`]s the event loop must run (as data). Nothing here draws, blocks,
 //! reads a file or the clock, or starts a thread.
 //!
-//! - the solve's and the preview's messages go to their own `update` ([`crate::tui::model::SolveState`],
-//!   [`crate::tui::model::PreviewState`]);
-//! - [`keys`]: the main screen's actions, one handler per group of keys;
-//! - [`popups`]: each popup's own key handler (a popup hands keys that are not its own back here);
-//! - [`prompt`]: a submitted prompt;
-//! - [`files`]: what comes back from file work (imports, saves, reloads, recovery copies);
+//! The state is taken apart into its sub-models once, here; no handler sees the whole [`State`]:
+//!
+//! - the interface's, the solve's and the preview's own messages go to their `update`
+//!   ([`crate::tui::model::UiState::update`], [`crate::tui::model::SolveState::update`],
+//!   [`crate::tui::model::PreviewState::update`]);
+//! - a key becomes an action through the [`keymap`] (which reads the open popup and whether the dial has
+//!   the keys); the open popup's handler gets it ([`popups`]), else the dial's keys go to the preview and
+//!   the main screen's to [`keys`], one handler per group of keys;
+//! - [`prompt`]: a submitted prompt; [`files`]: what comes back from file work (imports, saves, reloads,
+//!   recovery copies);
 //! - [`edit`]: what they share (edits, prompts, file requests); it imports none of them, so the modules
 //!   form no circle.
 //!
-//! After every message two rules of the model ask for what is missing: a palette generation (or a
-//! mismatch-region cell) not asked for yet is solved, and a scene preview not raycast at its panel's size
-//! is raycast.
+//! A handler takes the sub-models it needs: the [`Document`] it edits, the [`UiState`] it selects,
+//! prompts and speaks in, the [`SolveState`] it reads the solved colours from. An edit only changes the
+//! document (which notes the change); after every message [`settle`] does what follows from the changes,
+//! once: a changed palette starts a new generation, keeps the selection inside the matrix and derives the
+//! colours again; a palette generation (or a mismatch-region cell) not asked for yet is solved; a stale
+//! preview is relit; a scene preview not raycast at its panel's size is raycast.
 
 mod edit;
 mod files;
@@ -22,12 +29,13 @@ mod keys;
 mod popups;
 mod prompt;
 
-pub use edit::{palette_to_save, start_import};
-
+use crate::colorimetry::Colorimetry;
 use crate::tui::action::Action;
-use crate::tui::app::State;
+use crate::tui::app::{State, feasibility_cell};
 use crate::tui::keymap;
-use crate::tui::model::{PreviewMsg, SolveMsg, is_dial_action};
+use crate::tui::model::{
+    Document, PaletteChange, PreviewMsg, PreviewState, SolveMsg, SolveState, UiMsg, UiState, is_dial_action,
+};
 use crate::tui::msg::{Effect, Msg};
 use crate::tui::preview::{MAX_PREVIEW_EDGE, Preview};
 use popups::PopupOutcome;
@@ -36,86 +44,82 @@ use ratatui::layout::Rect;
 
 /// Handle one message: change the state, return the effects to run.
 pub fn update(state: &mut State, msg: Msg) -> Vec<Effect> {
+    let State { doc, solve, preview, ui, colorimetry } = state;
     let mut effects = match msg {
         Msg::Start { width, height, trains_bases } => {
-            state.ui.screen = (width, height);
-            state.solve.trains_bases = trains_bases;
+            solve.trains_bases = trains_bases;
+            ui.update(UiMsg::Screen { width, height });
             Vec::new()
         }
         Msg::Resize { width, height } => {
-            state.ui.screen = (width, height);
+            ui.update(UiMsg::Screen { width, height });
             Vec::new()
         }
+        Msg::Tick(now) => {
+            ui.update(UiMsg::Tick);
+            on_solve(solve, preview, &doc.palette, colorimetry, SolveMsg::Tick(now))
+        }
         Msg::Graphics { graphics, warning } => {
-            state.preview.graphics = graphics;
-            state.preview.probing = false;
-            if let Some(w) = warning {
-                state.complain(w);
-            }
-            // The frame encoded for the new protocol (the raycast follows at the panel's new pixel size).
-            state.relight();
-            Vec::new()
+            on_preview(preview, ui, PreviewMsg::Graphics { graphics, warning }, colorimetry)
         }
         Msg::Key(key) => {
             // Each key is looked up in the keymap in force after the one before it acted.
             let mut effects = Vec::new();
-            for key in keys_for(state, key) {
-                if let Some(action) = keymap::action_for(state, key) {
-                    effects.extend(on_action(state, action));
+            for key in keys_for(ui, preview, key) {
+                if let Some(action) = keymap::action_for(ui.popup.as_ref(), preview.keys, key) {
+                    effects.extend(on_action(doc, ui, solve, preview, colorimetry, action));
                 }
             }
             effects
         }
-        Msg::Action(action) => on_action(state, action),
-        Msg::Worker(reply) => solve(state, SolveMsg::Worker(reply)),
-        Msg::SolveStarted { ticket, at } => solve(state, SolveMsg::Started { ticket, at }),
-        Msg::Tick(now) => {
-            state.ui.ticks += 1;
-            solve(state, SolveMsg::Tick(now))
+        Msg::Action(action) => on_action(doc, ui, solve, preview, colorimetry, action),
+        Msg::Worker(reply) => on_solve(solve, preview, &doc.palette, colorimetry, SolveMsg::Worker(reply)),
+        Msg::SolveStarted { ticket, at } => {
+            on_solve(solve, preview, &doc.palette, colorimetry, SolveMsg::Started { ticket, at })
         }
-        Msg::Preview(loaded) => preview(state, PreviewMsg::Raycast(loaded)),
-        Msg::SceneSaved(result) => preview(state, PreviewMsg::SceneSaved(result)),
+        Msg::Preview(loaded) => on_preview(preview, ui, PreviewMsg::Raycast(loaded), colorimetry),
+        Msg::SceneSaved(result) => on_preview(preview, ui, PreviewMsg::SceneSaved(result), colorimetry),
         Msg::Imported { id, result } => {
-            files::imported(state, id, result);
+            files::imported(doc, ui, colorimetry, id, result);
             Vec::new()
         }
         Msg::File(outcome) => {
-            files::file(state, outcome);
+            files::file(doc, ui, solve, colorimetry, outcome);
             Vec::new()
         }
-        Msg::Terminated => files::terminated(state),
+        Msg::Terminated => files::terminated(doc, ui, solve),
         Msg::WaitSolve | Msg::End => Vec::new(),
     };
-    want_solve(state, &mut effects);
-    want_preview(state, &mut effects);
+    settle(state, &mut effects);
     effects
 }
 
-/// A message for the solve; the preview relights when the derived colours changed.
-fn solve(state: &mut State, msg: SolveMsg) -> Vec<Effect> {
-    let update = state.solve.update(msg, &state.doc.palette, &state.colorimetry);
-    if update.derived {
-        state.relight();
-    }
+/// A message for the solve; the preview is stale when the derived colours changed.
+fn on_solve(
+    solve: &mut SolveState,
+    preview: &mut PreviewState,
+    palette: &crate::palette::Palette,
+    colorimetry: &Colorimetry,
+    msg: SolveMsg,
+) -> Vec<Effect> {
+    let update = solve.update(msg, palette, colorimetry);
+    preview.stale |= update.derived;
     update.effects
 }
 
 /// A message for the preview; its line goes to the message area.
-fn preview(state: &mut State, msg: PreviewMsg) -> Vec<Effect> {
-    let update = state.preview.update(msg, &state.colorimetry);
+fn on_preview(preview: &mut PreviewState, ui: &mut UiState, msg: PreviewMsg, colorimetry: &Colorimetry) -> Vec<Effect> {
+    let update = preview.update(msg, colorimetry);
     if let Some(message) = update.message {
-        state.ui.message = Some(message);
-    }
-    if update.relight {
-        state.relight();
+        ui.message = Some(message);
     }
     update.effects
 }
 
 /// The keys a key event stands for. Esc followed at once by a key reaches us as Alt+key (the terminal
 /// cannot tell them apart); nothing is bound to Alt, so take it as Esc, then the key.
-fn keys_for(state: &State, key: KeyEvent) -> Vec<KeyEvent> {
-    match keymap::action_for(state, key) {
+fn keys_for(ui: &UiState, preview: &PreviewState, key: KeyEvent) -> Vec<KeyEvent> {
+    match keymap::action_for(ui.popup.as_ref(), preview.keys, key) {
         None if key.modifiers.contains(KeyModifiers::ALT) => {
             let mut plain = key;
             plain.modifiers.remove(KeyModifiers::ALT);
@@ -126,43 +130,62 @@ fn keys_for(state: &State, key: KeyEvent) -> Vec<KeyEvent> {
 }
 
 /// One user action: the open popup's handler, or the main screen's.
-fn on_action(state: &mut State, action: Action) -> Vec<Effect> {
-    state.ui.message = None;
-    match state.ui.popup.take() {
-        Some(popup) => match popups::update_popup(state, popup, action) {
-            PopupOutcome::Done(effects) => effects,
-            PopupOutcome::Main(action) => main_screen(state, action),
+fn on_action(
+    doc: &mut Document,
+    ui: &mut UiState,
+    solve: &SolveState,
+    preview: &mut PreviewState,
+    colorimetry: &Colorimetry,
+    action: Action,
+) -> Vec<Effect> {
+    ui.message = None;
+    let action = match ui.popup.take() {
+        Some(popup) => match popups::update_popup(doc, ui, solve, colorimetry, popup, action) {
+            PopupOutcome::Done(effects) => return effects,
+            PopupOutcome::Main(action) => action,
         },
-        None => main_screen(state, action),
-    }
-}
-
-/// An action on the main screen: the dial's keys are the preview's, the others the main screen's.
-fn main_screen(state: &mut State, action: Action) -> Vec<Effect> {
+        None => action,
+    };
+    // On the main screen the dial's keys are the preview's, the others the main screen's.
     if is_dial_action(action) {
-        state.doc.history.last_edit = None;
-        return preview(state, PreviewMsg::Dial(action));
+        doc.history.last_edit = None;
+        return on_preview(preview, ui, PreviewMsg::Dial(action), colorimetry);
     }
-    keys::update_main(state, action)
+    keys::update_main(doc, ui, solve, preview, colorimetry, action)
 }
 
-/// Solve the palette when its generation, or the mismatch region the overlay wants, was not asked for
-/// yet (not while quitting).
-fn want_solve(state: &mut State, effects: &mut Vec<Effect>) {
-    let feasibility = state.feasibility_cell();
-    if state.ui.quit || !state.solve.wants_solve(feasibility) {
-        return;
+/// What follows from the message's changes, once: a changed palette starts a new generation (or carries
+/// the solution to it), keeps the selection inside the matrix and derives the colours again; a palette
+/// generation or a mismatch-region cell not asked for yet is solved (not while quitting); a stale preview
+/// is relit; a scene preview not raycast at its panel's size is raycast.
+fn settle(state: &mut State, effects: &mut Vec<Effect>) {
+    let State { doc, solve, preview, ui, colorimetry } = state;
+    let change = doc.take_change();
+    if change != PaletteChange::None {
+        if change == PaletteChange::Carried {
+            solve.carry_to_next_generation();
+        } else {
+            solve.generation += 1;
+        }
+        ui.clamp_selection(&doc.palette);
+        solve.derive(&doc.palette, colorimetry);
+        preview.stale = true;
     }
-    let update = state.solve.submit(&state.doc.palette, feasibility, &state.colorimetry);
-    if update.derived {
-        state.relight();
+    let feasibility = feasibility_cell(ui, doc);
+    if !ui.quit && solve.wants_solve(feasibility) {
+        let update = solve.submit(&doc.palette, feasibility, colorimetry);
+        preview.stale |= update.derived;
+        effects.extend(update.effects);
     }
-    effects.extend(update.effects);
+    if preview.stale {
+        preview.relight(&doc.palette, solve);
+    }
+    want_preview(state, effects);
 }
 
 /// Keep the scene preview at its panel's pixel size: ask for a raycast when the scene is new or the panel
 /// changed size.
-pub(super) fn want_preview(state: &mut State, effects: &mut Vec<Effect>) {
+fn want_preview(state: &mut State, effects: &mut Vec<Effect>) {
     // While the terminal is asked for its graphics, the panel's pixel size is not known yet.
     if !state.preview.has_scene() || state.preview.probing {
         return;
@@ -171,14 +194,14 @@ pub(super) fn want_preview(state: &mut State, effects: &mut Vec<Effect>) {
     let Some(areas) = crate::tui::ui::preview_areas(state, Rect::new(0, 0, width, height)) else { return };
     let side = state.preview.graphics.pixels_for(areas.image, MAX_PREVIEW_EDGE).max(2);
     let want = (side, side);
-    let have = state.preview.ready.as_ref().map(Preview::size);
-    if have == Some(want) || state.preview.pending == Some(want) {
+    let preview = &mut state.preview;
+    let have = preview.ready.as_ref().map(Preview::size);
+    if have == Some(want) || preview.pending == Some(want) {
         return;
     }
-    let scene = state.preview.ready.as_ref().map(|p| p.scene.clone()).or_else(|| state.preview.waiting.clone());
-    if let Some(scene) = scene {
-        let model = state.preview.ready.as_ref().map(|p| p.model.clone());
+    if let Some(scene) = preview.scene() {
+        let model = preview.ready.as_ref().map(|p| p.model.clone());
         effects.push(Effect::Raycast { scene, model, size: want, colorimetry: state.colorimetry.clone() });
-        state.preview.pending = Some(want);
+        preview.pending = Some(want);
     }
 }

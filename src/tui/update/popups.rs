@@ -5,9 +5,11 @@
 
 use super::edit::{add_spectrum, apply_spectrum_op, open_prompt, save};
 use super::prompt::submit_prompt;
+use crate::colorimetry::Colorimetry;
 use crate::palette::{Kind, Source};
 use crate::tui::action::{Action, Direction};
-use crate::tui::app::{PickItem, Popup, Prompt, PromptPurpose, SpectrumOp, State};
+use crate::tui::app::{PickItem, Popup, Prompt, PromptPurpose, SpectrumOp};
+use crate::tui::model::{Document, SolveState, UiState};
 use crate::tui::msg::Effect;
 
 /// What a popup's handler did with an action.
@@ -21,29 +23,36 @@ pub(super) enum PopupOutcome {
 
 use PopupOutcome::{Done, Main};
 
-/// An action while `popup` is open: handed to that popup's own handler.
-pub(super) fn update_popup(state: &mut State, popup: Popup, action: Action) -> PopupOutcome {
+/// An action while `popup` (taken out of `ui`) is open: handed to that popup's own handler.
+pub(super) fn update_popup(
+    doc: &mut Document,
+    ui: &mut UiState,
+    solve: &SolveState,
+    c: &Colorimetry,
+    popup: Popup,
+    action: Action,
+) -> PopupOutcome {
     match popup {
-        Popup::Help { scroll } => on_scroll(state, action, scroll, 200, |scroll| Popup::Help { scroll }),
-        Popup::Diagnostics { scroll } => on_scroll(state, action, scroll, 500, |scroll| Popup::Diagnostics { scroll }),
-        Popup::Prompt(prompt) => Done(on_prompt(state, prompt, action)),
+        Popup::Help { scroll } => on_scroll(ui, action, scroll, 200, |scroll| Popup::Help { scroll }),
+        Popup::Diagnostics { scroll } => on_scroll(ui, action, scroll, 500, |scroll| Popup::Diagnostics { scroll }),
+        Popup::Prompt(prompt) => Done(on_prompt(doc, ui, solve, c, prompt, action)),
         Popup::ChooseSpectrum { op, light, reflectance } => {
-            on_choose(state, action, op, light, reflectance);
+            on_choose(doc, ui, c, action, op, light, reflectance);
             Done(Vec::new())
         }
         Popup::Pick { kind, items, selected } => {
-            on_pick(state, action, kind, items, selected);
+            on_pick(doc, ui, c, action, kind, items, selected);
             Done(Vec::new())
         }
-        Popup::ConfirmQuit => Done(on_confirm_quit(state, action)),
-        Popup::Conflict { text } => on_conflict(state, action, text),
-        Popup::Recovery { path } => Done(on_recovery(state, action, path)),
+        Popup::ConfirmQuit => Done(on_confirm_quit(doc, ui, solve, action)),
+        Popup::Conflict { text } => on_conflict(ui, action, text),
+        Popup::Recovery { path } => Done(on_recovery(doc, ui, action, path)),
     }
 }
 
 /// Help and diagnostics: arrows scroll, Esc closes, any other key closes and acts on the main screen.
-fn on_scroll(state: &mut State, action: Action, scroll: u16, max: u16, popup: impl Fn(u16) -> Popup) -> PopupOutcome {
-    state.ui.popup = match action {
+fn on_scroll(ui: &mut UiState, action: Action, scroll: u16, max: u16, popup: impl Fn(u16) -> Popup) -> PopupOutcome {
+    ui.popup = match action {
         Action::Back => None,
         Action::Move(Direction::Up) => Some(popup(scroll.saturating_sub(1))),
         Action::Move(Direction::Down) => Some(popup(scroll.saturating_add(1).min(max))),
@@ -53,34 +62,57 @@ fn on_scroll(state: &mut State, action: Action, scroll: u16, max: u16, popup: im
 }
 
 /// A one-line prompt: typing edits the text, Enter submits, Esc cancels.
-fn on_prompt(state: &mut State, mut prompt: Prompt, action: Action) -> Vec<Effect> {
+fn on_prompt(
+    doc: &mut Document,
+    ui: &mut UiState,
+    solve: &SolveState,
+    c: &Colorimetry,
+    mut prompt: Prompt,
+    action: Action,
+) -> Vec<Effect> {
     match action {
         Action::Back => return Vec::new(),
-        Action::Submit => return submit_prompt(state, prompt),
+        Action::Submit => return submit_prompt(doc, ui, solve, c, prompt),
         // An edit that changes the text clears the last refusal; a cursor move keeps it.
         Action::Edit(request) if prompt.input.edit(request) => prompt.error = None,
         _ => {}
     }
-    state.ui.popup = Some(Popup::Prompt(prompt));
+    ui.popup = Some(Popup::Prompt(prompt));
     Vec::new()
 }
 
 /// Light or reflectance of the selected cell.
-fn on_choose(state: &mut State, action: Action, op: SpectrumOp, light: usize, reflectance: usize) {
+fn on_choose(
+    doc: &mut Document,
+    ui: &mut UiState,
+    c: &Colorimetry,
+    action: Action,
+    op: SpectrumOp,
+    light: usize,
+    reflectance: usize,
+) {
     match action {
-        Action::ChooseLight => apply_spectrum_op(state, op, Kind::Light, light),
-        Action::ChooseReflectance => apply_spectrum_op(state, op, Kind::Reflectance, reflectance),
+        Action::ChooseLight => apply_spectrum_op(doc, ui, c, op, Kind::Light, light),
+        Action::ChooseReflectance => apply_spectrum_op(doc, ui, c, op, Kind::Reflectance, reflectance),
         Action::Back => {}
-        _ => state.ui.popup = Some(Popup::ChooseSpectrum { op, light, reflectance }),
+        _ => ui.popup = Some(Popup::ChooseSpectrum { op, light, reflectance }),
     }
 }
 
 /// A list to add from.
-fn on_pick(state: &mut State, action: Action, kind: Kind, items: Vec<PickItem>, selected: usize) {
+fn on_pick(
+    doc: &mut Document,
+    ui: &mut UiState,
+    c: &Colorimetry,
+    action: Action,
+    kind: Kind,
+    items: Vec<PickItem>,
+    selected: usize,
+) {
     let last = items.len().saturating_sub(1);
     let selected = match action {
         Action::Back => return,
-        Action::Submit => return pick(state, kind, items.get(selected).cloned()),
+        Action::Submit => return pick(doc, ui, c, kind, items.get(selected).cloned()),
         Action::Move(Direction::Up) => selected.saturating_sub(1),
         Action::Move(Direction::Down) => (selected + 1).min(last),
         Action::BigStep { up: true } => selected.saturating_sub(10),
@@ -89,47 +121,47 @@ fn on_pick(state: &mut State, action: Action, kind: Kind, items: Vec<PickItem>, 
         Action::ListEnd { last: true } => last,
         _ => selected,
     };
-    state.ui.popup = Some(Popup::Pick { kind, items, selected });
+    ui.popup = Some(Popup::Pick { kind, items, selected });
 }
 
 /// `q` with unsaved changes: save and quit, quit, or stay.
-fn on_confirm_quit(state: &mut State, action: Action) -> Vec<Effect> {
+fn on_confirm_quit(doc: &mut Document, ui: &mut UiState, solve: &SolveState, action: Action) -> Vec<Effect> {
     match action {
-        Action::Discard => state.ui.quit = true,
-        Action::SaveAndQuit => return save(state, true),
+        Action::Discard => ui.quit = true,
+        Action::SaveAndQuit => return save(doc, solve, true),
         Action::Back => {}
-        _ => state.ui.popup = Some(Popup::ConfirmQuit),
+        _ => ui.popup = Some(Popup::ConfirmQuit),
     }
     Vec::new()
 }
 
 /// The file changed on disk: overwrite it (the next save does), reload it, save as another file, or keep
 /// editing (Esc).
-fn on_conflict(state: &mut State, action: Action, text: String) -> PopupOutcome {
+fn on_conflict(ui: &mut UiState, action: Action, text: String) -> PopupOutcome {
     match action {
         Action::Save | Action::Reload | Action::SaveAs => return Main(action),
         Action::Back => {}
-        _ => state.ui.popup = Some(Popup::Conflict { text }),
+        _ => ui.popup = Some(Popup::Conflict { text }),
     }
     Done(Vec::new())
 }
 
 /// A recovery copy found on opening: restore it (read by the loop), or keep the file as it is.
-fn on_recovery(state: &mut State, action: Action, path: std::path::PathBuf) -> Vec<Effect> {
+fn on_recovery(doc: &mut Document, ui: &mut UiState, action: Action, path: std::path::PathBuf) -> Vec<Effect> {
     match action {
         Action::Restore => {
-            state.doc.file_busy = true;
+            doc.file_busy = true;
             return vec![Effect::Restore { path }];
         }
         Action::Back => {
-            state.say(format!("the recovery copy stays in {} (delete it when done)", crate::fsio::show(&path)))
+            ui.say(format!("the recovery copy stays in {} (delete it when done)", crate::fsio::show(&path)))
         }
-        _ => state.ui.popup = Some(Popup::Recovery { path }),
+        _ => ui.popup = Some(Popup::Recovery { path }),
     }
     Vec::new()
 }
 
-fn pick(state: &mut State, kind: Kind, item: Option<PickItem>) {
+fn pick(doc: &mut Document, ui: &mut UiState, c: &Colorimetry, kind: Kind, item: Option<PickItem>) {
     let (base, source) = match item {
         None => return,
         Some(PickItem::Illuminant(n)) => (n.to_string(), Source::Illuminant(n.to_string())),
@@ -139,7 +171,7 @@ fn pick(state: &mut State, kind: Kind, item: Option<PickItem>) {
         }
         Some(PickItem::Planck) => {
             return open_prompt(
-                state,
+                ui,
                 "new Planck light",
                 "temperature in kelvin",
                 "6500".into(),
@@ -149,7 +181,7 @@ fn pick(state: &mut State, kind: Kind, item: Option<PickItem>) {
         Some(PickItem::Csv) => {
             let title = format!("import a {} from CSV", kind.as_str());
             return open_prompt(
-                state,
+                ui,
                 &title,
                 "path relative to the palette: rows of nm,value over 400–700 nm",
                 String::new(),
@@ -157,5 +189,5 @@ fn pick(state: &mut State, kind: Kind, item: Option<PickItem>) {
             );
         }
     };
-    add_spectrum(state, kind, &base, source);
+    add_spectrum(doc, ui, c, kind, &base, source);
 }

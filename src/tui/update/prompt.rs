@@ -1,10 +1,11 @@
 //! A submitted prompt: its text parsed and the edit made, or the reason shown in the prompt.
 
-use super::edit::{add_spectrum, current_colour, save_as, start_import, try_edit};
+use super::edit::{add_spectrum, current_colour, save_as, start_import};
 use crate::colorimetry::{Colorimetry, hex_to_linear};
 use crate::palette::{Bounds, Kind, Palette, Source};
-use crate::tui::app::{EditKey, Popup, Prompt, PromptPurpose, SettingField, State};
+use crate::tui::app::{EditKey, Popup, Prompt, PromptPurpose, SettingField};
 use crate::tui::edits::{self, EditError, EditResult, FileError};
+use crate::tui::model::{Document, SolveState, UiState};
 use crate::tui::msg::Effect;
 use nalgebra::Vector3;
 
@@ -18,24 +19,30 @@ fn parse_number(text: &str) -> Result<f64, EditError> {
 }
 
 /// Carry out a submitted prompt; a refused answer keeps the prompt open with the reason.
-pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Vec<Effect> {
+pub(super) fn submit_prompt(
+    doc: &mut Document,
+    ui: &mut UiState,
+    solve: &SolveState,
+    c: &Colorimetry,
+    mut prompt: Prompt,
+) -> Vec<Effect> {
     let result: Result<Vec<Effect>, EditError> = (|| {
         let input = prompt.input.as_str().trim().to_string();
         Ok(match prompt.purpose.clone() {
             PromptPurpose::Hex { light, reflectance } => {
                 let hex = if input.starts_with('#') { input.clone() } else { format!("#{input}") };
                 let rgb = hex_to_linear(&hex).ok_or_else(|| EditError::NotHex(input.clone()))?;
-                edit_or_err(state, |p, _| edits::set_target(p, light, reflectance, rgb))?
+                edit_or_err(doc, c, |p, _| edits::set_target(p, light, reflectance, rgb))?
             }
             PromptPurpose::Weight { light, reflectance } => {
                 let w = parse_number(&input)?;
-                let now = current_colour(state, light, reflectance);
-                edit_or_err(state, |p, _| edits::set_weight(p, light, reflectance, w, now))?
+                let now = current_colour(solve, light, reflectance);
+                edit_or_err(doc, c, |p, _| edits::set_weight(p, light, reflectance, w, now))?
             }
             PromptPurpose::FreeGroup { light, reflectance } => {
-                let now = current_colour(state, light, reflectance);
+                let now = current_colour(solve, light, reflectance);
                 let name = (!input.is_empty()).then_some(input.as_str());
-                edit_or_err(state, |p, _| edits::set_free(p, light, reflectance, name, now))?
+                edit_or_err(doc, c, |p, _| edits::set_free(p, light, reflectance, name, now))?
             }
             PromptPurpose::FreeBounds { group } => {
                 let v: Vec<f64> = input
@@ -48,21 +55,21 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Vec<Effect
                     [a, b, c, d, e, f] => (Vector3::new(*a, *b, *c), Vector3::new(*d, *e, *f)),
                     _ => return Err(EditError::BoundsCount),
                 };
-                edit_or_err(state, |p, _| edits::set_free_bounds(p, group, lower, upper))?
+                edit_or_err(doc, c, |p, _| edits::set_free_bounds(p, group, lower, upper))?
             }
             PromptPurpose::Planck { light } => {
                 let t = parse_number(&input)?;
                 if !(t.is_finite() && t > 0.0) {
                     return Err(EditError::Temperature);
                 }
-                edit_or_err(state, |p, c| edits::make_planck(p, light, t, c))?
+                edit_or_err(doc, c, |p, c| edits::make_planck(p, light, t, c))?
             }
             PromptPurpose::NewPlanck => {
                 let t = parse_number(&input)?;
                 if !(t.is_finite() && t > 0.0) {
                     return Err(EditError::Temperature);
                 }
-                add_spectrum(state, Kind::Light, &format!("planck_{}K", t.round()), Source::Planck(t));
+                add_spectrum(doc, ui, c, Kind::Light, &format!("planck_{}K", t.round()), Source::Planck(t));
                 Vec::new()
             }
             PromptPurpose::Scale { kind, index } => {
@@ -70,13 +77,13 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Vec<Effect
                 if !(k.is_finite() && k > 0.0) {
                     return Err(EditError::Scale);
                 }
-                edit_or_err(state, |p, c| edits::scale(p, kind, index, k, c))?
+                edit_or_err(doc, c, |p, c| edits::scale(p, kind, index, k, c))?
             }
             PromptPurpose::CsvPath(kind) => {
                 if input.is_empty() {
                     return Err(EditError::NoPath);
                 }
-                start_import(state, kind, &input)
+                start_import(doc, ui, c, kind, &input)
             }
             PromptPurpose::SaveAs => {
                 if input.is_empty() {
@@ -89,32 +96,33 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Vec<Effect
                     prompt.error.as_ref().map(|r| &*r.0),
                     Some(EditError::File(FileError::Exists(p))) if *p == path
                 );
-                save_as(state, path, asked)
+                save_as(doc, solve, path, asked)
             }
             PromptPurpose::Setting(field) => {
                 let v = parse_number(&input)?;
-                edit_or_err(state, |p, _| set_setting(p, field, v))?
+                edit_or_err(doc, c, |p, _| set_setting(p, field, v))?
             }
         })
     })();
     match result {
         Ok(effects) => effects,
         Err(reason) => {
-            state.ui.message = None;
+            ui.message = None;
             prompt.error = Some(reason.into());
-            state.ui.popup = Some(Popup::Prompt(prompt));
+            ui.popup = Some(Popup::Prompt(prompt));
             Vec::new()
         }
     }
 }
 
-/// Like [`super::edit::edit`], but a refused edit is an error for the prompt to show (an edit needs no
+/// An edit of the document whose refusal is an error for the prompt to show (an edit needs no
 /// effect: the update step solves the new generation).
 fn edit_or_err(
-    state: &mut State,
+    doc: &mut Document,
+    c: &Colorimetry,
     f: impl FnOnce(&mut Palette, &Colorimetry) -> EditResult,
 ) -> Result<Vec<Effect>, EditError> {
-    try_edit(state, EditKey::Other, f).map(|_| Vec::new())
+    doc.edit(EditKey::Other, c, f).map(|_| Vec::new())
 }
 
 fn set_setting(p: &mut Palette, field: SettingField, v: f64) -> EditResult {
