@@ -33,6 +33,7 @@ mod stress;
 mod tui_edits;
 mod tui_live;
 mod tui_loop;
+mod tui_model;
 mod tui_preview;
 mod tui_robust;
 mod tui_save;
