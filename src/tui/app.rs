@@ -357,7 +357,7 @@ impl State {
     /// Derive the colours the view shows from the palette, the solution and the basis, and relight the
     /// preview with them (the update step does this after a message that changed one of them; a new
     /// designer does it once).
-    pub(crate) fn refresh(&mut self) {
+    pub fn refresh(&mut self) {
         self.solve.derive(&self.doc.palette, &self.colorimetry);
         self.relight();
     }

@@ -2,9 +2,11 @@
 //! (save, save as, reload, CSV import) under way. The one owner of the palette.
 
 use crate::colorimetry::Colorimetry;
+use crate::design::Solution;
 use crate::palette::file::PaletteFile;
 use crate::palette::{Bounds, Kind, Palette};
 use crate::tui::edits::{EditError, EditResult};
+use crate::tui::msg::Effect;
 use std::path::{Path, PathBuf};
 
 /// How the palette changed since the update step last looked: it then starts a new generation (solved
@@ -152,6 +154,46 @@ impl Document {
             self.palette = self.file.palette.clone();
             self.touch(PaletteChange::Carried);
         }
+    }
+
+    /// The palette to write: designed spectra replaced by `solution`'s, the solution of the palette
+    /// ([`Solution::apply_to`]).
+    pub(crate) fn palette_to_save(&self, solution: Option<&Solution>) -> Palette {
+        match solution {
+            Some(solution) => solution.apply_to(&self.palette),
+            None => self.palette.clone(),
+        }
+    }
+
+    /// Save the palette (with `solution`'s designed spectra) to its file, then quit when `quit_after`.
+    pub(crate) fn save(&mut self, solution: Option<&Solution>, quit_after: bool) -> Vec<Effect> {
+        self.file_busy = true;
+        vec![Effect::Save {
+            file: self.file.clone(),
+            palette: self.palette_to_save(solution),
+            before: self.palette.clone(),
+            quit_after,
+            overwrite: std::mem::take(&mut self.overwrite_armed),
+        }]
+    }
+
+    /// Save the palette to `path`, which becomes the palette file (`replace`: the user was asked).
+    pub(crate) fn save_as(&mut self, solution: Option<&Solution>, path: PathBuf, replace: bool) -> Vec<Effect> {
+        self.file_busy = true;
+        let (palette, before) = (self.palette_to_save(solution), self.palette.clone());
+        vec![Effect::SaveAs { file: self.file.clone(), palette, before, path, replace }]
+    }
+
+    /// Read the palette file again.
+    pub(crate) fn reload(&mut self) -> Vec<Effect> {
+        self.file_busy = true;
+        vec![Effect::Reload { file: self.file.clone() }]
+    }
+
+    /// Write a recovery copy of unsaved work (with `solution`'s designed spectra) beside the file.
+    pub(crate) fn recover(&mut self, solution: Option<&Solution>) -> Vec<Effect> {
+        self.file_busy = true;
+        vec![Effect::Recover { file: self.file.clone(), palette: self.palette_to_save(solution) }]
     }
 
     /// Note a change of the palette (an edit outranks a carried solution).

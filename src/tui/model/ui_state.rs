@@ -2,7 +2,7 @@
 //! colours, and whether the designer is to quit.
 
 use crate::palette::{Kind, Palette};
-use crate::tui::app::{Focus, Message, Popup, Selection, Target};
+use crate::tui::app::{Focus, Message, Popup, Prompt, PromptPurpose, PromptText, Selection, Target};
 use crate::tui::colour::ColourMode;
 
 /// A message for the interface alone. (The keys are the interface's too, but most act on the document
@@ -89,6 +89,29 @@ impl UiState {
             (c, r) if c <= nl && r <= nr => Target::Cell { light: c - 1, reflectance: r - 1 },
             _ => Target::Nothing,
         }
+    }
+
+    /// The selected cell (light, reflectance) of `palette`, or `None` having said that a cell must be
+    /// selected.
+    pub(crate) fn selected_cell(&mut self, palette: &Palette) -> Option<(usize, usize)> {
+        match self.target(palette) {
+            Target::Cell { light, reflectance } => Some((light, reflectance)),
+            _ => {
+                self.complain("select a cell of the matrix first");
+                None
+            }
+        }
+    }
+
+    /// Open a one-line prompt.
+    pub(crate) fn open_prompt(&mut self, title: &str, hint: &str, input: String, purpose: PromptPurpose) {
+        self.popup = Some(Popup::Prompt(Prompt {
+            title: title.to_string(),
+            hint: hint.to_string(),
+            input: PromptText::new(input),
+            purpose,
+            error: None,
+        }));
     }
 
     /// Keep the selection inside `palette`'s matrix (after removing a spectrum, or on an empty palette).

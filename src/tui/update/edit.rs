@@ -5,7 +5,7 @@
 use crate::colorimetry::Colorimetry;
 use crate::palette::{Kind, Palette, Source};
 use crate::spectrum::Normalize;
-use crate::tui::app::{EditKey, Import, Popup, Prompt, PromptPurpose, PromptText, SpectrumOp, Target};
+use crate::tui::app::{EditKey, Import, Prompt, PromptPurpose, PromptText, SpectrumOp};
 use crate::tui::edits::{self, EditError, EditResult};
 use crate::tui::model::{Document, SolveState, UiState};
 use crate::tui::msg::Effect;
@@ -31,28 +31,6 @@ pub(super) fn current_colour(solve: &SolveState, light: usize, reflectance: usiz
     solve.derived.cell(light, reflectance).map(|c| c.full).unwrap_or_default()
 }
 
-/// The selected cell (light, reflectance), or `None` having said that a cell must be selected.
-pub(super) fn selected_cell(ui: &mut UiState, palette: &Palette) -> Option<(usize, usize)> {
-    match ui.target(palette) {
-        Target::Cell { light, reflectance } => Some((light, reflectance)),
-        _ => {
-            ui.complain("select a cell of the matrix first");
-            None
-        }
-    }
-}
-
-/// Open a one-line prompt.
-pub(super) fn open_prompt(ui: &mut UiState, title: &str, hint: &str, input: String, purpose: PromptPurpose) {
-    ui.popup = Some(Popup::Prompt(Prompt {
-        title: title.to_string(),
-        hint: hint.to_string(),
-        input: PromptText::new(input),
-        purpose,
-        error: None,
-    }));
-}
-
 /// A number as prompts prefill it (shortest round-trip form).
 pub(super) fn num_text(v: f64) -> String {
     format!("{v}")
@@ -67,39 +45,6 @@ pub(super) fn save_as_prompt(input: String, error: Option<EditError>) -> Prompt 
         purpose: PromptPurpose::SaveAs,
         error: error.map(Into::into),
     }
-}
-
-/// The palette to write: designed spectra replaced by the current solution's ([`crate::design::Solution::apply_to`]).
-pub(super) fn palette_to_save(doc: &Document, solve: &SolveState) -> Palette {
-    match solve.current() {
-        Some(solution) => solution.apply_to(&doc.palette),
-        None => doc.palette.clone(),
-    }
-}
-
-/// Save the palette to its file (then quit, when `quit_after`).
-pub(super) fn save(doc: &mut Document, solve: &SolveState, quit_after: bool) -> Vec<Effect> {
-    doc.file_busy = true;
-    vec![Effect::Save {
-        file: doc.file.clone(),
-        palette: palette_to_save(doc, solve),
-        before: doc.palette.clone(),
-        quit_after,
-        overwrite: std::mem::take(&mut doc.overwrite_armed),
-    }]
-}
-
-/// Save the palette to `path`, which becomes the palette file (`replace`: the user was asked).
-pub(super) fn save_as(doc: &mut Document, solve: &SolveState, path: std::path::PathBuf, replace: bool) -> Vec<Effect> {
-    doc.file_busy = true;
-    let (palette, before) = (palette_to_save(doc, solve), doc.palette.clone());
-    vec![Effect::SaveAs { file: doc.file.clone(), palette, before, path, replace }]
-}
-
-/// Read the palette file again.
-pub(super) fn reload(doc: &mut Document) -> Vec<Effect> {
-    doc.file_busy = true;
-    vec![Effect::Reload { file: doc.file.clone() }]
 }
 
 /// Add a built-in spectrum of `kind` named after `base` and select it.
@@ -184,7 +129,7 @@ pub(super) fn apply_spectrum_op(
                 _ => 6500.0,
             };
             let title = format!("make {name} a Planck black body");
-            open_prompt(ui, &title, "temperature in kelvin", format!("{t}"), PromptPurpose::Planck { light: index })
+            ui.open_prompt(&title, "temperature in kelvin", format!("{t}"), PromptPurpose::Planck { light: index })
         }
         SpectrumOp::Scale => {
             let title = format!("scale of {name}");
@@ -194,7 +139,7 @@ pub(super) fn apply_spectrum_op(
             } else {
                 "spectrum = source × scale"
             };
-            open_prompt(ui, &title, hint, now, PromptPurpose::Scale { kind, index })
+            ui.open_prompt(&title, hint, now, PromptPurpose::Scale { kind, index })
         }
         SpectrumOp::Remove => {
             if edit(doc, ui, c, EditKey::Other, |p, _| edits::remove(p, kind, index)) {

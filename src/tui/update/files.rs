@@ -2,7 +2,7 @@
 //! recovery copies — and the end signals. (Solves, bases, raycasts and the dial's scene are the solve's
 //! and the preview's own messages: [`crate::tui::model`].)
 
-use super::edit::{edit, palette_to_save, save_as_prompt};
+use super::edit::{edit, save_as_prompt};
 use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
 use crate::tui::app::{EditKey, Popup};
@@ -108,8 +108,7 @@ pub(super) fn file(doc: &mut Document, ui: &mut UiState, solve: &SolveState, c: 
 /// SIGTERM or SIGHUP: write unsaved work as a recovery copy (offered on the next open), then stop.
 pub(super) fn terminated(doc: &mut Document, ui: &mut UiState, solve: &SolveState) -> Vec<Effect> {
     if doc.is_dirty() {
-        doc.file_busy = true;
-        vec![Effect::Recover { file: doc.file.clone(), palette: palette_to_save(doc, solve) }]
+        doc.recover(solve.current())
     } else {
         ui.terminated = Some(None);
         ui.quit = true;

@@ -12,7 +12,7 @@ use crate::tui::model::{Document, PreviewState, SolveState, UiState};
 use crate::tui::msg::Effect;
 use nalgebra::Vector3;
 
-use super::edit::{apply_spectrum_op, current_colour, edit, open_prompt, reload, save, save_as_prompt, selected_cell};
+use super::edit::{apply_spectrum_op, current_colour, edit, save_as_prompt};
 
 /// An edit whose outcome the handler does not need (a refusal is shown in the message line).
 fn change(
@@ -134,12 +134,11 @@ fn on_cell(doc: &mut Document, ui: &mut UiState, solve: &SolveState, c: &Colorim
             fits.iter().try_for_each(|(l, r, rgb)| edits::set_target(p, *l, *r, *rgb))
         });
     }
-    let Some((light, reflectance)) = selected_cell(ui, &doc.palette) else { return };
+    let Some((light, reflectance)) = ui.selected_cell(&doc.palette) else { return };
     match action {
         Action::HexEntry => {
             let current = solve.derived.cell(light, reflectance).and_then(|c| c.desired).unwrap_or_default();
-            open_prompt(
-                ui,
+            ui.open_prompt(
                 "target colour",
                 "#rrggbb (display sRGB)",
                 linear_to_hex(&current),
@@ -148,7 +147,7 @@ fn on_cell(doc: &mut Document, ui: &mut UiState, solve: &SolveState, c: &Colorim
         }
         Action::EditWeight => {
             let w = doc.palette.cell(light, reflectance).map_or(1.0, |c| c.weight);
-            open_prompt(ui, "weight", "a number ≥ 0", format!("{w}"), PromptPurpose::Weight { light, reflectance })
+            ui.open_prompt("weight", "a number ≥ 0", format!("{w}"), PromptPurpose::Weight { light, reflectance })
         }
         Action::ToggleUse => {
             let now = current_colour(solve, light, reflectance);
@@ -157,8 +156,7 @@ fn on_cell(doc: &mut Document, ui: &mut UiState, solve: &SolveState, c: &Colorim
         Action::AssignFree => {
             let now = doc.palette.cell(light, reflectance).and_then(|c| c.free);
             let name = now.and_then(|g| doc.palette.free.get(g)).map(|g| g.name.clone()).unwrap_or_default();
-            open_prompt(
-                ui,
+            ui.open_prompt(
                 "free-colour group",
                 "a group name such as A; empty: not free",
                 name,
@@ -184,8 +182,7 @@ fn free_bounds(doc: &Document, ui: &mut UiState, light: usize, reflectance: usiz
             let text =
                 format!("{} {} {}  {} {} {}", g.lower[0], g.lower[1], g.lower[2], g.upper[0], g.upper[1], g.upper[2]);
             let title = format!("bounds of free group {}", g.name);
-            open_prompt(
-                ui,
+            ui.open_prompt(
                 &title,
                 "lower upper, or lower r g b then upper r g b (linear sRGB)",
                 text,
@@ -235,12 +232,12 @@ fn on_palette(
                 (true, false) => ui.say("redone"),
             }
         }
-        Action::Save => return save(doc, solve, false),
+        Action::Save => return doc.save(solve.current(), false),
         Action::SaveAs => {
             let now = doc.path().display().to_string();
             ui.popup = Some(Popup::Prompt(save_as_prompt(now, None)));
         }
-        Action::Reload => return reload(doc),
+        Action::Reload => return doc.reload(),
         _ => {
             if doc.is_dirty() {
                 ui.popup = Some(Popup::ConfirmQuit);
@@ -379,7 +376,7 @@ fn activate(doc: &mut Document, ui: &mut UiState, c: &Colorimetry) {
                         _ => s.basis_dimension.to_string(),
                     };
                     let (title, hint) = setting_prompt_text(other);
-                    open_prompt(ui, title, hint, value, PromptPurpose::Setting(other))
+                    ui.open_prompt(title, hint, value, PromptPurpose::Setting(other))
                 }
             }
         }

@@ -3,7 +3,7 @@
 //! not call the main screen's: it hands the action back ([`PopupOutcome::Main`]) and the update step
 //! routes it.
 
-use super::edit::{add_spectrum, apply_spectrum_op, open_prompt, save};
+use super::edit::{add_spectrum, apply_spectrum_op};
 use super::prompt::submit_prompt;
 use crate::colorimetry::Colorimetry;
 use crate::palette::{Kind, Source};
@@ -128,7 +128,7 @@ fn on_pick(
 fn on_confirm_quit(doc: &mut Document, ui: &mut UiState, solve: &SolveState, action: Action) -> Vec<Effect> {
     match action {
         Action::Discard => ui.quit = true,
-        Action::SaveAndQuit => return save(doc, solve, true),
+        Action::SaveAndQuit => return doc.save(solve.current(), true),
         Action::Back => {}
         _ => ui.popup = Some(Popup::ConfirmQuit),
     }
@@ -170,8 +170,7 @@ fn pick(doc: &mut Document, ui: &mut UiState, c: &Colorimetry, kind: Kind, item:
             (if kind == Kind::Light { "flat".into() } else { format!("flat_{v}") }, Source::Flat(v))
         }
         Some(PickItem::Planck) => {
-            return open_prompt(
-                ui,
+            return ui.open_prompt(
                 "new Planck light",
                 "temperature in kelvin",
                 "6500".into(),
@@ -180,8 +179,7 @@ fn pick(doc: &mut Document, ui: &mut UiState, c: &Colorimetry, kind: Kind, item:
         }
         Some(PickItem::Csv) => {
             let title = format!("import a {} from CSV", kind.as_str());
-            return open_prompt(
-                ui,
+            return ui.open_prompt(
                 &title,
                 "path relative to the palette: rows of nm,value over 400–700 nm",
                 String::new(),

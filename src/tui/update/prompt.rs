@@ -1,6 +1,6 @@
 //! A submitted prompt: its text parsed and the edit made, or the reason shown in the prompt.
 
-use super::edit::{add_spectrum, current_colour, save_as, start_import};
+use super::edit::{add_spectrum, current_colour, start_import};
 use crate::colorimetry::{Colorimetry, hex_to_linear};
 use crate::palette::{Bounds, Kind, Palette, Source};
 use crate::tui::app::{EditKey, Popup, Prompt, PromptPurpose, SettingField};
@@ -96,7 +96,7 @@ pub(super) fn submit_prompt(
                     prompt.error.as_ref().map(|r| &*r.0),
                     Some(EditError::File(FileError::Exists(p))) if *p == path
                 );
-                save_as(doc, solve, path, asked)
+                doc.save_as(solve.current(), path, asked)
             }
             PromptPurpose::Setting(field) => {
                 let v = parse_number(&input)?;
