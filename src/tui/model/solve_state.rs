@@ -168,14 +168,9 @@ impl SolveState {
     }
 
     /// Solve `palette` (the current generation) as it stands, with the mismatch region of `feasibility`;
-    /// the newest request cancels the running one. Returns the effects (the solve, and the basis of the
-    /// shown spectra when it is missing) and whether the derived colours changed.
-    pub(crate) fn submit(
-        &mut self,
-        palette: &Palette,
-        feasibility: Option<usize>,
-        colorimetry: &Colorimetry,
-    ) -> SolveUpdate {
+    /// the newest request cancels the running one. Returns the effects: the solve, and the basis of the
+    /// shown spectra when it is missing.
+    pub(crate) fn submit(&mut self, palette: &Palette, feasibility: Option<usize>) -> Vec<Effect> {
         self.tickets += 1;
         let solve =
             Effect::Solve { ticket: self.tickets, generation: self.generation, palette: palette.clone(), feasibility };
@@ -184,16 +179,17 @@ impl SolveState {
         // The loop's clock comes back with `SolveMsg::Started`.
         self.started = None;
         self.running_for = Duration::ZERO;
-        let mut update = self.ensure_basis(palette, colorimetry);
-        update.effects.insert(0, solve);
-        update
+        let mut effects = self.ensure_basis(palette).effects;
+        effects.insert(0, solve);
+        effects
     }
 
-    /// Have the basis of the spectra the matrix shows: at once from the basis memory, else asked of the
-    /// worker (the V7 half shows "updating" meanwhile). Nothing is asked while a solve of a palette with
-    /// designed spectra is under way (the shown spectra are about to change), nor for spectra asked for
-    /// already.
-    fn ensure_basis(&mut self, palette: &Palette, colorimetry: &Colorimetry) -> SolveUpdate {
+    /// Have the basis of the spectra the matrix shows: asked of the worker, which answers from the basis
+    /// memory when it holds it and trains it otherwise (the V7 half shows "updating" meanwhile); the
+    /// update step reads no memory shared with the worker. Nothing is asked while a solve of a palette
+    /// with designed spectra is under way (the shown spectra are about to change), nor for spectra asked
+    /// for already.
+    fn ensure_basis(&mut self, palette: &Palette) -> SolveUpdate {
         let mut update = SolveUpdate::default();
         let Some(key) = self.derived.basis_key.clone() else { return update };
         if self.basis.as_ref().is_some_and(|b| b.key == key) {
@@ -201,13 +197,6 @@ impl SolveState {
         }
         if !self.trains_bases {
             self.basis_error = Some("basis training is off".into());
-            return update;
-        }
-        if let Some(hit) = crate::basis::policy::cached(key.as_str()) {
-            self.basis = Some(ShownBasis::new(key, hit));
-            self.basis_error = None;
-            self.derive(palette, colorimetry);
-            update.derived = true;
             return update;
         }
         let designs = palette.lights.iter().chain(&palette.reflectances).any(|e| e.design);
@@ -250,7 +239,7 @@ impl SolveState {
                 }
                 if self.derived.basis_key.as_ref() != Some(&t.key) {
                     // For spectra no longer shown (it stays in the basis memory if they come back).
-                    return self.ensure_basis(palette, colorimetry);
+                    return self.ensure_basis(palette);
                 }
                 match t.result {
                     Ok(resolved) => {
@@ -290,7 +279,7 @@ impl SolveState {
     /// Derive again, then have the basis of the spectra now shown.
     fn refreshed(&mut self, palette: &Palette, colorimetry: &Colorimetry) -> SolveUpdate {
         self.derive(palette, colorimetry);
-        let mut update = self.ensure_basis(palette, colorimetry);
+        let mut update = self.ensure_basis(palette);
         update.derived = true;
         update
     }
@@ -323,8 +312,8 @@ mod tests {
     #[test]
     fn the_progress_clock_is_the_loop_s_own() {
         let (mut solve, palette, c) = (SolveState::default(), Palette::default(), Colorimetry::default());
-        let first = solve.submit(&palette, None, &c);
-        assert!(matches!(first.effects.as_slice(), [Effect::Solve { ticket: 1, .. }]));
+        let first = solve.submit(&palette, None);
+        assert!(matches!(first.as_slice(), [Effect::Solve { ticket: 1, .. }]));
         assert!(!solve.wants_solve(None), "asked for");
         let t0 = Instant::now();
         // No clock read here: until the loop says when it started the solve, no time passes.
@@ -336,7 +325,7 @@ mod tests {
         // A newer request: the older one's clock is ignored.
         solve.generation += 1;
         assert!(solve.wants_solve(None));
-        let _ = solve.submit(&palette, None, &c);
+        let _ = solve.submit(&palette, None);
         let _ = solve.update(SolveMsg::Started { ticket: 1, at: t0 }, &palette, &c);
         assert_eq!(solve.started, None);
         // The overlay of a cell not asked for is a reason to solve; turning it off is not.

@@ -173,9 +173,7 @@ fn settle(state: &mut State, effects: &mut Vec<Effect>) {
     }
     let feasibility = feasibility_cell(ui, doc);
     if !ui.quit && solve.wants_solve(feasibility) {
-        let update = solve.submit(&doc.palette, feasibility, colorimetry);
-        preview.stale |= update.derived;
-        effects.extend(update.effects);
+        effects.extend(solve.submit(&doc.palette, feasibility));
     }
     if preview.stale {
         preview.relight(&doc.palette, solve);
