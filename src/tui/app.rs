@@ -4,7 +4,7 @@
 
 use crate::colorimetry::Colorimetry;
 use crate::palette::Kind;
-use crate::palette::file::PaletteFile;
+use crate::palette::PaletteFile;
 use crate::tui::colour::ColourMode;
 use crate::tui::derived::Derived;
 use crate::tui::model::{Document, LiveDial, PreviewState, SolveState, UiState};
@@ -395,7 +395,7 @@ impl State {
     }
 
     /// Attach a scene whose raycast runs off the UI thread (the event loop starts it at the panel's size).
-    pub fn set_preview_scene(&mut self, scene: crate::render::scene::Scene) {
+    pub fn set_preview_scene(&mut self, scene: crate::render::Scene) {
         let along = self.preview.dial.as_ref().map_or(0.0, |d| d.along);
         self.preview.dial = Some(LiveDial::at(&scene, along));
         self.preview.waiting = Some(Arc::new(scene));

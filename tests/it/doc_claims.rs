@@ -3,7 +3,7 @@
 //! scene reader accepts is documented in docs/formats/scene.md (dial keyframe keys in dial.md), and the test
 //! build resolves every shared crate as the release build does.
 
-use metamer_core::render::scene::Scene;
+use metamer_core::render::Scene;
 use std::path::{Path, PathBuf};
 
 fn root() -> &'static Path {

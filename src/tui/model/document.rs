@@ -1,7 +1,7 @@
 //! The document: the palette file, the palette being edited and its undo history, and the file work
 //! (save, save as, reload, CSV import) under way. The one owner of the palette.
 
-use crate::palette::file::PaletteFile;
+use crate::palette::PaletteFile;
 use crate::palette::{Bounds, Kind, Palette};
 use std::path::{Path, PathBuf};
 

@@ -2,8 +2,8 @@
 //! this session, the relit frame and how it reaches the terminal.
 
 use crate::colorimetry::Colorimetry;
-use crate::render::dial::DialState;
-use crate::render::scene::Scene;
+use crate::render::DialState;
+use crate::render::Scene;
 use crate::tui::action::Action;
 use crate::tui::app::Message;
 use crate::tui::graphics::Graphics;

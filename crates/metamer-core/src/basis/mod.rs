@@ -20,15 +20,18 @@
 //! off-diagonal entries (they act in directions `Q_rgb,m` barely sees). `metamer basis` reports both.
 
 pub mod accuracy;
-pub mod policy;
-pub mod refine;
-pub mod sharpen;
-pub mod store;
-pub mod train;
+pub(crate) mod policy;
+pub(crate) mod refine;
+pub(crate) mod sharpen;
+pub(crate) mod store;
+pub(crate) mod train;
 
-pub use policy::{POOR_MODEL_MEAN_DE00, basis_for, basis_for_palette};
-pub use store::{Report, for_palette, palette_uses_basis};
-pub use train::{TrainError, TrainOptions, Trained, TrainingSet, train, train_for_palette};
+pub use policy::{POOR_MODEL_MEAN_DE00, Resolved, basis_for, basis_for_palette, cached};
+pub use store::{AccuracyReport, Report, cache_key, for_palette, for_set, palette_uses_basis, sidecar_path};
+pub use train::{
+    CandidateSummary, StageResult, Start, TrainError, TrainOptions, Trained, TrainingSet, balanced_condition, train,
+    train_for_palette,
+};
 
 use crate::colorimetry::{Colorimetry, Q31};
 use crate::spectrum::{SAMPLES, Spectrum};

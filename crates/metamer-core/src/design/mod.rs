@@ -24,13 +24,18 @@ pub mod feasibility;
 pub fn cell_name(light: &str, reflectance: &str) -> String {
     format!("{light} × {reflectance}")
 }
-pub mod joint;
-pub mod layout;
-pub mod lbfgsb;
-pub mod lsq;
-pub mod report;
-pub mod solve;
-pub mod system;
+pub(crate) mod joint;
+pub(crate) mod layout;
+pub(crate) mod lbfgsb;
+pub(crate) mod lsq;
+pub(crate) mod report;
+pub(crate) mod solve;
+pub(crate) mod system;
+
+pub use joint::{JointLimits, NonlinearProblem};
+pub use report::{Fixed, pair_colours};
+pub use solve::{solve_all, solve_dense};
+pub use system::{Design, Layout, Unit, Values};
 
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;

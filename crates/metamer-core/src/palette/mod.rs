@@ -5,12 +5,15 @@
 //! resolved to samples (lights normalised and scaled), every target in linear sRGB, every reference
 //! to a light, reflectance or free group an index. Reading and writing TOML lives in [`file`].
 
-pub mod edit;
-pub mod file;
+pub(crate) mod edit;
+pub(crate) mod file;
 pub mod mixing;
 /// Seeded generated palettes: the workloads of `metamer bench`, the benchmarks, the examples and the tests.
 pub mod random;
-pub mod source;
+pub(crate) mod source;
+
+pub use edit::EditError;
+pub use file::{PaletteError, PaletteFile};
 
 use crate::spectrum::{Normalize, Spectrum};
 use nalgebra::Vector3;

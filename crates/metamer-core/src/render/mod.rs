@@ -10,20 +10,35 @@
 //! - [`sweep`]: frames to PNG, exposure, contact sheet;
 //! - [`accuracy`]: factor and RGB model frames against the full-spectrum reference (ΔE00).
 
-pub mod accuracy;
-pub mod dial;
-pub mod overlay;
-pub mod raycast;
-pub mod relight;
-pub mod scene;
-pub mod sweep;
-pub mod text;
+pub(crate) mod accuracy;
+pub(crate) mod dial;
+pub(crate) mod overlay;
+pub(crate) mod raycast;
+pub(crate) mod relight;
+pub(crate) mod scene;
+pub(crate) mod sweep;
+pub(crate) mod text;
+
+pub use accuracy::{AccuracyReport, FrameError, ModelError, compare_models, compare_views};
+pub use dial::{Dial, DialState, Sweep, Timing};
+pub use overlay::{Corner, DialOverlay};
+pub use raycast::{
+    BrickMap, Camera, ChannelImage, Gradient, Interpolation, LABEL_RADIUS, LABEL_RAMP, LABEL_REACH, LABEL_SIGMA,
+    MAX_RAY_STEPS, MIN_FIELD_CACHE, MaterialClass, MaterialWeights, REFINED_STEP, RaycastOptions, RaycastStats,
+    Shading, default_field_cache, raycast,
+};
+pub use relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
+pub use scene::{
+    Scene, builtin_scene, colorchecker_scene, engine_check_scene, generated_check_scene, generated_u16_check_scene,
+};
+pub use sweep::{
+    PngCompression, SweepOptions, contact_sheet_from_frames, downsample, encode_png, frame_name, frame_srgb8,
+    render_exposure, sweep_exposure, write_sweep,
+};
+pub use text::FONT;
 
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
-use raycast::{BrickMap, ChannelImage, RaycastOptions, RaycastStats, raycast};
-use relight::{ColourModel, Mode};
-use scene::Scene;
 use std::path::PathBuf;
 use std::time::Instant;
 

@@ -1,8 +1,10 @@
 //! Spectra: 31 point samples on an explicit wavelength grid (400..=700 nm, 10 nm steps),
 //! built-in tables (CIE illuminants, ColorChecker reflectances), Planck lights and normalisation.
 
-pub mod csv;
-pub mod tables;
+pub(crate) mod csv;
+pub(crate) mod tables;
+
+pub use csv::{parse_spectrum_csv, parse_spectrum_csv_bytes};
 
 use nalgebra::SVector;
 use std::fmt;

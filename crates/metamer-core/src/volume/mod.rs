@@ -7,14 +7,16 @@
 //! material ranges are written in the file's own units (e.g. `0..=255` for 8-bit CT).
 //! Every reader returns a [`VolumeError`] naming the file and the reason; none panics on bad input.
 
-pub mod data;
+pub(crate) mod data;
 pub(crate) mod fill;
-pub mod generate;
+pub(crate) mod generate;
 pub mod nrrd;
 pub mod raw;
-pub mod voxels;
+pub(crate) mod voxels;
 pub mod vti;
 
+pub use data::{find_in, find_in_data_dir};
+pub use generate::{U16_SCALE, engine_like_u16};
 pub use voxels::{Buf, Voxel, VoxelVisitor, Voxels};
 
 use std::path::{Path, PathBuf};
