@@ -167,7 +167,7 @@ pub(crate) const MULTI_START_MIN_CELLS: usize = 64;
 /// Limits of the joint solve.
 #[derive(Clone, Debug)]
 pub struct JointLimits {
-    pub deadline: Instant,
+    pub(crate) deadline: Instant,
     pub(crate) cancel: Option<Arc<AtomicBool>>,
     /// Alternating rounds before L-BFGS-B.
     pub(crate) first_rounds: usize,

@@ -125,9 +125,9 @@ impl Values {
 /// The design problem of a palette: which units are unknown and which rows exist.
 #[derive(Clone, Debug)]
 pub struct Design<'a> {
-    pub palette: &'a Palette,
-    pub basis: Option<&'a Basis>,
-    pub q_rgb: Q31,
+    pub(crate) palette: &'a Palette,
+    pub(crate) basis: Option<&'a Basis>,
+    pub(crate) q_rgb: Q31,
     pub terms: Vec<CellTerm>,
     /// ω_D (0 = no smoothness rows).
     pub smoothness: f64,

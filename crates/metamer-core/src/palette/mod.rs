@@ -168,7 +168,7 @@ pub struct MixtureCell {
     pub mix: Mix,
     pub spec: MixSpec,
     pub target: Vector3<f64>,
-    pub notation: TargetNotation,
+    pub(crate) notation: TargetNotation,
     pub weight: f64,
     pub free: Option<usize>,
     pub enabled: bool,
@@ -197,9 +197,9 @@ pub enum Route {
 #[derive(Clone, Debug, PartialEq)]
 pub struct PathConstancy {
     pub reflectance: usize,
-    pub route: Route,
+    pub(crate) route: Route,
     pub target: Vector3<f64>,
-    pub notation: TargetNotation,
+    pub(crate) notation: TargetNotation,
     pub weight: f64,
     pub free: Option<usize>,
     pub enabled: bool,

@@ -49,7 +49,7 @@ impl Mode {
 #[derive(Clone, Debug)]
 pub struct ColourModel {
     pub mode: Mode,
-    pub colorimetry: Colorimetry,
+    pub(crate) colorimetry: Colorimetry,
     /// The sharpened basis (factor mode only).
     pub basis: Option<Basis>,
 }

@@ -215,9 +215,9 @@ pub struct CandidateSummary {
 /// What one stage reached: its objective (mean squared local ΔE00 over the pairs) and iterations.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StageResult {
-    pub stage: Stage,
-    pub objective: f64,
-    pub iterations: u64,
+    pub(crate) stage: Stage,
+    pub(crate) objective: f64,
+    pub(crate) iterations: u64,
 }
 
 /// A trained basis with what it took.

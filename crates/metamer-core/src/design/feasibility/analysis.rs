@@ -39,8 +39,6 @@ impl RegionCache {
 #[derive(Clone, Debug)]
 pub struct CellFeasibility {
     pub(crate) cell: usize,
-    pub target: Vector3<f64>,
-    pub achieved: Vector3<f64>,
     pub verdict: Verdict,
     /// Can the bounds alone (no partner held) reach the target?
     pub reachable_alone: bool,
@@ -77,8 +75,6 @@ pub fn analyse(problem: &Problem, cache: &RegionCache, directions: usize) -> Res
         };
     Ok(CellFeasibility {
         cell: problem.cell,
-        target: problem.target,
-        achieved: problem.achieved,
         verdict,
         reachable_alone,
         blockers,
@@ -166,7 +162,7 @@ pub struct Panel {
     pub l_range: (f64, f64),
     pub placement: Placement,
     pub signed_delta_e: f64,
-    pub volume_lab: f64,
+    pub(crate) volume_lab: f64,
     /// Partner cells held.
     pub held: usize,
 }

@@ -252,7 +252,7 @@ pub fn place(problem: &Problem, region: &Region, target: &Vector3<f64>) -> Resul
 /// The region's slice at one L*: a polygon in the a*–b* plane.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Slice {
-    pub l_star: f64,
+    pub(crate) l_star: f64,
     /// Polygon vertices in CIELAB (L*, a*, b*), in angular order.
     pub lab: Vec<[f64; 3]>,
 }
