@@ -97,7 +97,10 @@ pub fn default_position(i: usize, n: usize) -> [f64; 2] {
 /// frame is lit by and what the overlay draws; a terminal widget can drive it directly.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DialState {
+    /// The dial's lights (a scene's: every light of its palette, in palette order); an index into this list
+    /// names a light everywhere on the dial (weights, `Sweep::Path`, toggles).
     pub lights: Vec<DialLight>,
+    /// The slider point in dial coordinates; the Shepard weights are taken here.
     pub slider: [f64; 2],
     /// Weights for [`Sweep::Path`] frames (linear mix of two neighbours) instead of Shepard weights.
     pub fixed_weights: Option<Vec<f64>>,
@@ -247,7 +250,9 @@ pub enum Sweep {
 pub struct Dial {
     /// The dial at rest: every light with its vertex, on/off and intensity; the slider at the start.
     pub base: DialState,
+    /// What the frames do with the dial: a path of lights or keyframes.
     pub sweep: Sweep,
+    /// How the frames are spread over the keyframes (by arc length, or evenly per keyframe).
     pub timing: Timing,
 }
 

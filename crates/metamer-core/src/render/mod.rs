@@ -47,19 +47,39 @@ use std::time::Instant;
 pub enum RenderError {
     /// A scene file problem: the file, the key and the reason.
     #[error("{}: {key}: {reason}", path.display())]
-    Scene { path: PathBuf, key: String, reason: String },
+    Scene {
+        /// The scene file as the caller named it (for a built-in scene, the name it goes by).
+        path: PathBuf,
+        /// Where in the file: a key path (`dial.keyframes`, `render.step`), `line N` for a TOML error, or
+        /// `file` for the file as a whole.
+        key: String,
+        /// Why, in words (a palette's or the file system's own message where they refused).
+        reason: String,
+    },
+    /// The scene's volume could not be read, parsed or generated.
     #[error(transparent)]
     Volume(#[from] crate::volume::VolumeError),
+    /// An output (a frame, the contact sheet, the output folder) could not be made or written.
     #[error("{}: {reason}", path.display())]
-    Output { path: PathBuf, reason: String },
+    Output {
+        /// The file or folder that could not be written.
+        path: PathBuf,
+        /// Why: the file system's or the image encoder's message.
+        reason: String,
+    },
+    /// Anything else the renderer refuses (no basis for the factor model, an empty frame range, …): the
+    /// whole message.
     #[error("{0}")]
     Invalid(String),
 }
 
 /// One raycast view: the K-channel image of the chosen colour model, ready for relighting.
 pub struct RenderedView {
+    /// The composited image in the model's K channels, one pixel per ray.
     pub image: ChannelImage,
+    /// The colour model the image is in; it makes the frame matrices that relight it.
     pub model: ColourModel,
+    /// The counters of the raycast, the same for every model projected from it.
     pub stats: RaycastStats,
     /// Wall-clock seconds of the raycast (including projection onto the model's channels).
     pub seconds: f64,
@@ -68,7 +88,9 @@ pub struct RenderedView {
 /// Switches of the raycaster that do not change the picture (beyond the termination threshold).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Acceleration {
+    /// Stop a ray once its transmittance falls below `termination_transmittance`.
     pub early_termination: bool,
+    /// Step over bricks whose value range holds no material.
     pub empty_space_skipping: bool,
     /// Transmittance below which early termination stops a ray
     /// ([`raycast::TERMINATION_TRANSMITTANCE`] by default).

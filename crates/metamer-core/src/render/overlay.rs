@@ -46,9 +46,13 @@ const BORDER: [u8; 3] = [150, 150, 160];
 /// Which corner of the frame holds the dial.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Corner {
+    /// The lower right corner (`lower-right`), the seed's placement and the first tried.
     LowerRight,
+    /// The lower left corner (`lower-left`).
     LowerLeft,
+    /// The upper right corner (`upper-right`).
     UpperRight,
+    /// The upper left corner (`upper-left`).
     UpperLeft,
 }
 
