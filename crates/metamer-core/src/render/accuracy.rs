@@ -130,7 +130,7 @@ pub struct FrameError {
 /// How far `other` strays from `reference` (two raycasts of `scene` in the same colour model, e.g. with a
 /// skip or a quality step turned off in one): CIEDE2000 per pixel over an N-frame sweep of the scene's
 /// dial, on the 8-bit frames as written (one exposure, the reference's conservative one), over the
-/// pixels that are not black in both. The images must have the same size (`other` is box-filtered down
+/// pixels that are not black in either frame. The images must have the same size (`other` is box-filtered down
 /// when it is a whole multiple larger, as a supersampled reference is).
 pub fn compare_views(
     scene: &Scene,

@@ -20,14 +20,14 @@ pub(crate) mod sweep;
 pub(crate) mod text;
 
 pub use accuracy::{AccuracyReport, FrameError, ModelError, compare_models, compare_views};
-pub use dial::{Dial, DialState, Sweep, Timing};
+pub use dial::{Dial, DialError, DialLight, DialState, Sweep, Timing};
 pub use overlay::{Corner, DialOverlay};
 pub use raycast::{
     BrickMap, Camera, ChannelImage, Gradient, Interpolation, LABEL_RADIUS, LABEL_RAMP, LABEL_REACH, LABEL_SIGMA,
     MAX_RAY_STEPS, MIN_FIELD_CACHE, MaterialClass, MaterialWeights, REFINED_STEP, RaycastOptions, RaycastStats,
     Shading, default_field_cache, raycast,
 };
-pub use relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
+pub use relight::{ColourModel, FrameMatrix, Mode, SrgbLut, relight_srgb8};
 pub use scene::{
     Scene, builtin_scene, colorchecker_scene, engine_check_scene, generated_check_scene, generated_u16_check_scene,
 };

@@ -60,6 +60,7 @@ pub struct ColourModel {
 /// The 3×K matrix of one frame, row-major, exposure included.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameMatrix {
+    /// The number of image channels K it multiplies (m in factor mode, 31 in full, 3 in RGB).
     pub channels: usize,
     pub(crate) m: Vec<f32>,
 }

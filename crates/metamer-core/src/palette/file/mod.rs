@@ -89,7 +89,7 @@ pub enum PaletteError {
     /// memory than allowed; refused before any parse.
     #[error(
         "{}: the palette holds {tables} tables, {arrays} arrays and {values} values for its size: parsing it \
-         would take about {estimate_mb} MB, more than the limit of {limit_mb} MB",
+         would take about {estimate_mb} MiB, more than the limit of {limit_mb} MiB",
         path.display()
     )]
     TooComplex {
