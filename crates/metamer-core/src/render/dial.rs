@@ -60,7 +60,8 @@ pub enum DialError {
     /// A position (a vertex, the slider or a keyframe) with a coordinate that is not a finite number.
     #[error("{what}: [{x}, {y}] is not a pair of finite numbers")]
     NotFinite {
-        /// What the position is, as the message names it: "slider", or "light `NAME` vertex" for a light's vertex.
+        /// What the position is, as the message names it: "slider", or "light `NAME` vertex" for a
+        /// light's vertex.
         what: String,
         /// Its x coordinate in dial units.
         x: f64,
