@@ -559,5 +559,4 @@ where
 }
 
 #[cfg(test)]
-#[path = "lbfgsb_tests.rs"]
 mod tests;

@@ -539,5 +539,4 @@ fn rounded_rect(x: f32, y: f32, w: f32, h: f32, r: f32) -> Option<tiny_skia::Pat
 }
 
 #[cfg(test)]
-#[path = "overlay_tests.rs"]
 mod tests;
