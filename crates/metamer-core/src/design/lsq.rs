@@ -23,7 +23,7 @@
 //!    find the active set roughly and the QR finish starts from it, which keeps the QR solves few.
 //!
 //! On the normal-equations path the final free set is solved once more from a fresh factor (free
-//! variables in ascending order, `Work::polish` in `lsq_finish.rs`), so the result is a function of the
+//! variables in ascending order, `Work::polish` in `lsq/finish.rs`), so the result is a function of the
 //! active set alone, whatever path of binds and releases led to it: both starts give the same bits.
 //!
 //! The reported objective and KKT residual are computed from the residual `Ax − b`.
@@ -277,10 +277,8 @@ fn run_lbfgsb(problem: Objective, solver: LBfgsB, x0: DVector<f64>, max_iters: u
     x.iter().all(|v| v.is_finite()).then_some((x, iters))
 }
 
-#[path = "lsq_kernels.rs"]
 mod kernels;
 
-#[path = "lsq_finish.rs"]
 mod finish;
 use finish::{Work, with_work};
 
@@ -306,5 +304,4 @@ pub(crate) fn solve_system(sys: &LinearSystem) -> LsqOutcome {
 }
 
 #[cfg(test)]
-#[path = "lsq_tests.rs"]
 mod tests;
