@@ -3,7 +3,7 @@
 //! Run: `cargo bench --bench basis`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use metamer::basis::train::{self, TrainOptions, TrainingSet};
+use metamer::basis::{self, TrainOptions, TrainingSet};
 use metamer::colorimetry::Colorimetry;
 use std::hint::black_box;
 use std::time::Duration;
@@ -19,7 +19,7 @@ fn training(c: &mut Criterion) {
         ("full (default)", TrainOptions::default()),
     ] {
         group.bench_function(name, |b| {
-            b.iter(|| train::train(black_box(&set), 7, &colorimetry, &options).map(|t| t.basis.b[(0, 0)]))
+            b.iter(|| basis::train(black_box(&set), 7, &colorimetry, &options).map(|t| t.basis.b[(0, 0)]))
         });
     }
     group.finish();

@@ -8,8 +8,8 @@ use metamer::palette::random;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use metamer::colorimetry::Colorimetry;
+use metamer::design::Values;
 use metamer::design::feasibility::{self, DEFAULT_TOLERANCE, Problem};
-use metamer::design::system::Values;
 use metamer::design::{self, SolveOptions};
 use std::hint::black_box;
 

@@ -11,7 +11,7 @@
 mod tui_support;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use metamer::render::scene::builtin_scene;
+use metamer::render::builtin_scene;
 use metamer::tui::action::Action;
 use metamer::tui::colour::ColourMode;
 use metamer::tui::graphics::{Graphics, PreviewMode};

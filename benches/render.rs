@@ -4,10 +4,10 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use metamer::colorimetry::Colorimetry;
-use metamer::render::raycast::BrickMap;
-use metamer::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
-use metamer::render::scene::generated_check_scene;
+use metamer::render::BrickMap;
+use metamer::render::generated_check_scene;
 use metamer::render::{Acceleration, colour_model, render_views};
+use metamer::render::{ColourModel, Mode, SrgbLut, relight_srgb8};
 use std::hint::black_box;
 
 fn raycast(c: &mut Criterion) {

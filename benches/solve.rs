@@ -7,7 +7,7 @@ use metamer::palette::random;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use metamer::colorimetry::Colorimetry;
-use metamer::design::{self, SolveOptions, system::Design};
+use metamer::design::{self, Design, SolveOptions};
 use metamer::palette::Bounds;
 use std::hint::black_box;
 
@@ -43,9 +43,7 @@ fn blocks_vs_dense(c: &mut Criterion) {
     });
     let d = Design::new(&p, None, &col).expect("valid palette");
     let start = d.start_values();
-    group.bench_function("one dense system", |b| {
-        b.iter(|| design::solve::solve_dense(black_box(&d), &start).map(|r| r.1))
-    });
+    group.bench_function("one dense system", |b| b.iter(|| design::solve_dense(black_box(&d), &start).map(|r| r.1)));
     group.finish();
 }
 

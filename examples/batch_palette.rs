@@ -6,7 +6,7 @@
 use metamer::colorimetry::Colorimetry;
 use metamer::palette::random;
 
-use metamer::palette::file::PaletteFile;
+use metamer::palette::PaletteFile;
 use std::path::Path;
 
 fn main() -> anyhow::Result<()> {

@@ -17,7 +17,7 @@ fn main() -> anyhow::Result<()> {
         [] => [512, 512, 384],
         _ => anyhow::bail!("give all three of X Y Z, or none"),
     };
-    let volume = metamer::volume::generate::engine_like_u16(dims);
+    let volume = metamer::volume::engine_like_u16(dims);
     let dims = volume.dims;
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let raw = out.join("large.raw");
@@ -33,7 +33,7 @@ fn main() -> anyhow::Result<()> {
         dims[0], dims[1], dims[2]
     );
     std::fs::write(out.join("large.nhdr"), header)?;
-    let k = metamer::volume::generate::U16_SCALE;
+    let k = metamer::volume::U16_SCALE;
     let palette = std::path::absolute("volumes/engine_palette.toml")?;
     let scene = format!(
         "palette = {:?}\nvolume = \"large.nhdr\"\n\n[[materials]]\nreflectance = \"smoke\"\nrange = [{}, {}]\nopacity = 0.05\n\n[[materials]]\nreflectance = \"block\"\nrange = [{}, {}]\nopacity = 0.15\n\n[[materials]]\nreflectance = \"inner\"\nrange = [{}, {}]\nopacity = 0.6\n\n[dial]\npath = [\"hide\", \"split\", \"glow\"]\n",

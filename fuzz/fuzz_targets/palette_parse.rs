@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use metamer_core::palette::file::PaletteFile;
+use metamer_core::palette::PaletteFile;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {

@@ -2,7 +2,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use metamer_core::spectrum::csv::parse_spectrum_csv_bytes;
+use metamer_core::spectrum::parse_spectrum_csv_bytes;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(s) = parse_spectrum_csv_bytes(data) {

@@ -13,7 +13,7 @@
 use super::plot::{self, PlotError, Scale, Series, XyPlot};
 use super::{Timing, markdown_table, time_runs};
 use crate::basis::accuracy::{self, ErrorStats, Model};
-use crate::basis::train::{self, TrainError, TrainOptions, TrainingSet};
+use crate::basis::{self, TrainError, TrainOptions, TrainingSet};
 use crate::basis::{Basis, BasisError};
 use crate::colorimetry::Colorimetry;
 use std::hint::black_box;
@@ -131,7 +131,7 @@ pub fn run(options: &BenchOptions) -> Result<Results, BenchError> {
     let mut rows = Vec::new();
     for m in options.dimensions.clone() {
         let start = Instant::now();
-        let trained = train::train(&set, m, &colorimetry, &options.training)?;
+        let trained = basis::train(&set, m, &colorimetry, &options.training)?;
         let training_seconds = start.elapsed().as_secs_f64();
         let t_basis = Basis::from_matrix(trained.transform_only.clone(), &colorimetry)?;
         let light: Vec<f32> = trained.basis.coefficients(&set.lights[0]).iter().map(|v| *v as f32).collect();
@@ -276,7 +276,7 @@ mod tests {
         let set = TrainingSet::colorchecker_seven_lights(&c);
         let opts =
             TrainOptions { sharpen: true, transform_iterations: 30, full_iterations: 0, ..TrainOptions::default() };
-        let basis = train::train(&set, 5, &c, &opts).unwrap().basis;
+        let basis = basis::train(&set, 5, &c, &opts).unwrap().basis;
         let e = &set.lights[2];
         let coefficients: Vec<f32> = set
             .reflectances

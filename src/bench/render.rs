@@ -20,18 +20,18 @@
 //! Writes `render.md` and `render_raycast.png`, `render_relight.png`, `render_pareto_quality.png` into the
 //! output folder.
 //!
-//! [`generate::engine_like_u16`]: crate::volume::generate::engine_like_u16
+//! [`generate::engine_like_u16`]: crate::volume::engine_like_u16
 
 use super::plot::{Scale, Series, XyPlot, draw};
 use super::{format_seconds, markdown_table, time_runs};
 use crate::colorimetry::Colorimetry;
-use crate::render::accuracy::{AccuracyReport, ModelError, compare_models};
-use crate::render::overlay::DialOverlay;
-use crate::render::raycast::BrickMap;
-use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
-use crate::render::scene::{Scene, engine_check_scene, generated_check_scene};
-use crate::render::sweep::{SweepOptions, sweep_exposure, write_sweep};
+use crate::render::BrickMap;
+use crate::render::DialOverlay;
 use crate::render::{Acceleration, RenderError, colour_model, render_views};
+use crate::render::{AccuracyReport, ModelError, compare_models};
+use crate::render::{ColourModel, Mode, SrgbLut, relight_srgb8};
+use crate::render::{Scene, engine_check_scene, generated_check_scene};
+use crate::render::{SweepOptions, sweep_exposure, write_sweep};
 use crate::volume::Volume;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -105,7 +105,7 @@ pub(crate) struct RelightRow {
 pub(crate) struct QualityRow {
     pub(crate) what: String,
     pub(crate) median_s: f64,
-    pub(crate) error: crate::render::accuracy::FrameError,
+    pub(crate) error: crate::render::FrameError,
 }
 
 /// The large generated volume's raycast.
@@ -117,7 +117,7 @@ pub(crate) struct LargeRow {
     pub(crate) size: usize,
     pub(crate) median_s: f64,
     pub(crate) cpu_s: Option<f64>,
-    pub(crate) stats: crate::render::raycast::RaycastStats,
+    pub(crate) stats: crate::render::RaycastStats,
     /// Relight + PNG of a few frames after the raycast, per frame.
     pub(crate) per_frame_s: f64,
     /// The process's peak resident memory during the raycasts and frames (VmHWM reset before them), and
@@ -192,7 +192,7 @@ pub struct RenderBenchReport {
 /// `../shared/volumes/engine.nhdr` from the working folder (a checkout with the data folder beside it).
 pub(crate) fn find_shared_engine() -> Option<PathBuf> {
     let name = std::ffi::OsStr::new("engine.nhdr");
-    crate::volume::data::find_in_data_dir(name).or_else(|| crate::volume::data::find_in(Path::new("../shared"), name))
+    crate::volume::find_in_data_dir(name).or_else(|| crate::volume::find_in(Path::new("../shared"), name))
 }
 
 /// User + system CPU seconds of this process so far (Linux `/proc/self/stat`, 100 ticks per second).
@@ -355,7 +355,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
         f(&mut sc);
         sc
     };
-    use crate::render::raycast::{Gradient, Interpolation, Shading};
+    use crate::render::{Gradient, Interpolation, Shading};
     let configs: Vec<(String, Scene, usize)> = vec![
         (
             "fixed-phase sampling, cell gradient (no quality steps)".into(),
@@ -392,7 +392,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
         let mut v = render_views(&sc, vec![factor.clone()], size * 2, size * 2, Acceleration::default(), None)
             .pop()
             .ok_or_else(|| RenderError::Invalid("no view".into()))?;
-        v.image = crate::render::sweep::downsample(&v.image, 2);
+        v.image = crate::render::downsample(&v.image, 2);
         v
     };
     let mut quality = Vec::new();
@@ -402,7 +402,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
         });
         let view = view.ok_or_else(|| RenderError::Invalid("no view".into()))?;
         // compare_views box-filters a supersampled view down to the reference's size.
-        let error = crate::render::accuracy::compare_views(&scene, &col, &reference, &view, options.quality_frames);
+        let error = crate::render::compare_views(&scene, &col, &reference, &view, options.quality_frames);
         quality.push(QualityRow { what, median_s: timing.median, error });
     }
 
@@ -468,7 +468,7 @@ fn large_volume(
     tmp: &tempfile::TempDir,
 ) -> Result<LargeRow, RenderError> {
     let t = Instant::now();
-    let scene = crate::render::scene::generated_u16_check_scene(options.large_dims);
+    let scene = crate::render::generated_u16_check_scene(options.large_dims);
     let generate_s = t.elapsed().as_secs_f64();
     let dims = scene.volume.dims;
     let voxel_bytes = scene.volume.voxels.bytes() as u64;
@@ -514,7 +514,7 @@ fn vtk_ratio(
     runs: usize,
     tmp: &tempfile::TempDir,
 ) -> VtkRatio {
-    use crate::render::raycast::Shading;
+    use crate::render::Shading;
     let script = Path::new("benches/vtk_compare.py");
     let scene_file = Path::new("volumes/engine.toml");
     let Some(engine) = engine.filter(|p| p.extension().is_some_and(|e| e == "nhdr")) else {

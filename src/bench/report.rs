@@ -4,8 +4,8 @@
 
 use super::render::{RenderBenchOptions, RenderBenchReport};
 use super::{basis, fixed, format_seconds, markdown_table, render, solve, summary};
-use crate::basis::train::TrainOptions;
-use crate::render::relight::Mode;
+use crate::basis::TrainOptions;
+use crate::render::Mode;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 

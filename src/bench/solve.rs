@@ -330,12 +330,12 @@ pub(crate) fn blocks_vs_dense(cfg: &Config) -> Vec<Row> {
             &SolveOptions::default(),
             true,
         ));
-        let design = match design::system::Design::new(&p, None, &col) {
+        let design = match design::Design::new(&p, None, &col) {
             Ok(d) => d,
             Err(_) => continue,
         };
         let start = design.start_values();
-        let (timing, out) = time_runs(cfg.runs, || design::solve::solve_dense(&design, &start));
+        let (timing, out) = time_runs(cfg.runs, || design::solve_dense(&design, &start));
         if let Some((v, _)) = out {
             rows.push(Row {
                 group: "bounded, one dense system".into(),
@@ -450,7 +450,7 @@ pub(crate) fn versus_scipy(designs: usize, reachable: bool) -> VersusScipy {
     } else {
         ("random targets", random::batch_palette(designs, 1, &col))
     };
-    let mut file = crate::palette::file::PaletteFile::from_palette(&palette);
+    let mut file = crate::palette::PaletteFile::from_palette(&palette);
     if let Err(e) = file.save_as(&palette, &path) {
         return skip(format!("cannot write the batch file: {e}"));
     }

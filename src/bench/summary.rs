@@ -11,9 +11,9 @@ use super::plot::{self, PlotError, Scale, Series, XyPlot};
 use super::render::RenderBenchReport;
 use super::{basis, format_seconds, markdown_table, pareto_front, solve};
 use crate::colorimetry::Colorimetry;
-use crate::design::system::{Design, Layout};
+use crate::design::{Design, Layout};
 use crate::palette::{Bounds, Palette};
-use crate::render::relight::Mode;
+use crate::render::Mode;
 use metamer_core::palette::random;
 use std::path::Path;
 
@@ -319,7 +319,7 @@ pub(crate) fn palette_conditions(name: &str, palette: &Palette) -> Option<Condit
     }
     for block in design.blocks() {
         let units: Vec<_> = if block.bilinear {
-            block.units.iter().copied().filter(|u| !matches!(u, crate::design::system::Unit::Light(_))).collect()
+            block.units.iter().copied().filter(|u| !matches!(u, crate::design::Unit::Light(_))).collect()
         } else {
             block.units.clone()
         };

@@ -2,10 +2,10 @@
 //! factor basis and report how faithfully the factor model reproduces the palette's own light × reflectance
 //! colours, beside the RGB factor model and the unsharpened PCA projection (DESIGN_SPEC §5).
 
-use crate::basis::store::{self, Report};
-use crate::basis::train::{TrainOptions, TrainingSet};
+use crate::basis::{self, Report};
 use crate::basis::{Basis, POOR_MODEL_MEAN_DE00, accuracy::ErrorStats};
-use crate::palette::file::PaletteFile;
+use crate::basis::{TrainOptions, TrainingSet};
+use crate::palette::PaletteFile;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
 
@@ -47,14 +47,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Err(e) = crate::basis::check_dimension(m) {
         bail!("--dimension: the {e}");
     }
-    let sidecar = store::sidecar_path(&args.palette);
+    let sidecar = basis::sidecar_path(&args.palette);
     let cache = (!args.no_cache).then_some(sidecar.as_path());
     let set = TrainingSet::from_palette(&file.palette)
         .with_context(|| format!("{}: cannot build its basis", args.palette.display()))?;
     let resolved = if args.no_cache {
         // Train afresh: neither the sidecar nor this process's memory.
         std::sync::Arc::new(
-            store::for_set(&set, m, None, &TrainOptions::default())
+            basis::for_set(&set, m, None, &TrainOptions::default())
                 .with_context(|| format!("{}: cannot build its basis", args.palette.display()))?,
         )
     } else {
@@ -92,10 +92,10 @@ pub(crate) struct BasisJson<'a> {
     stored: bool,
     training_seconds: f64,
     key: &'a str,
-    accuracy: &'a store::AccuracyReport,
-    stages: &'a [crate::basis::train::StageResult],
-    start: Option<crate::basis::train::Start>,
-    candidates: &'a [crate::basis::train::CandidateSummary],
+    accuracy: &'a basis::AccuracyReport,
+    stages: &'a [crate::basis::StageResult],
+    start: Option<crate::basis::Start>,
+    candidates: &'a [crate::basis::CandidateSummary],
     condition: f64,
     poor_model_threshold: f64,
     poor_model: Option<String>,

@@ -3,7 +3,7 @@
 //! every cell's current colour and its target — with truecolor swatches when stdout is a terminal.
 
 use crate::colorimetry::{Colorimetry, linear_to_hex};
-use crate::palette::file::PaletteFile;
+use crate::palette::PaletteFile;
 use crate::palette::{Palette, Source, SpectrumEntry};
 use crate::spectrum::Spectrum;
 use anyhow::bail;

@@ -1,9 +1,9 @@
 //! `metamer design PALETTE.toml`: the terminal palette designer, or with `--replay` a headless run of a
 //! key script that writes the screen as text.
 
-use crate::basis::store::sidecar_path;
-use crate::palette::file::PaletteFile;
-use crate::render::scene::{Scene, builtin_scene};
+use crate::basis::sidecar_path;
+use crate::palette::PaletteFile;
+use crate::render::{Scene, builtin_scene};
 use crate::tui::colour::ColourMode;
 use crate::tui::event_loop::{self, FileSaver, Io};
 use crate::tui::graphics::{Graphics, PreviewMode};

@@ -7,13 +7,13 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::colorimetry::Colorimetry;
-use crate::render::dial::Timing;
-use crate::render::overlay::{Corner, DialOverlay};
-use crate::render::raycast::{Gradient, Shading};
-use crate::render::relight::Mode;
-use crate::render::scene::Scene;
-use crate::render::sweep::{PngCompression, SweepOptions, downsample, render_exposure, write_sweep};
+use crate::render::Mode;
+use crate::render::Scene;
+use crate::render::Timing;
 use crate::render::{Acceleration, colour_model, render_views};
+use crate::render::{Corner, DialOverlay};
+use crate::render::{Gradient, Shading};
+use crate::render::{PngCompression, SweepOptions, downsample, render_exposure, write_sweep};
 
 /// The dial's formula and scene format, shown by `metamer render --help` (docs/formats/dial.md has more).
 const DIAL_HELP: &str = "\
@@ -226,7 +226,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         }
         (Some(_), true) => bail!("give either a scene file or --builtin, not both"),
         (None, _) if args.volume.is_some() => bail!("--volume needs a scene file (it replaces the scene's `volume`)"),
-        (None, _) => crate::render::scene::builtin_scene(args.builtin_volume_size)?,
+        (None, _) => crate::render::builtin_scene(args.builtin_volume_size)?,
     };
     if let Some(sh) = &args.shading {
         scene.settings.shading = match sh.as_str() {
@@ -270,21 +270,21 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     }
     if let Some(p) = &scene.palette_path {
         files.input("palette", p);
-        files.input("basis sidecar", &crate::basis::store::sidecar_path(p));
+        files.input("basis sidecar", &crate::basis::sidecar_path(p));
     }
     if let Some(p) = &scene.volume_path {
         files.input("volume", p);
     }
     files.inputs_read(&read);
     for k in range.clone() {
-        let frame = args.output.join(crate::render::sweep::frame_name(k));
+        let frame = args.output.join(crate::render::frame_name(k));
         files.check("frame", &frame)?;
         // Before anything is rendered: a frame that is a link the renderer did not make is refused.
         crate::fsio::check_chosen(&frame, args.replace())?;
     }
     if let Some(sheet) = &args.contact_sheet {
         files.output("contact sheet", sheet)?;
-        let frames = range.clone().map(|k| args.output.join(crate::render::sweep::frame_name(k)));
+        let frames = range.clone().map(|k| args.output.join(crate::render::frame_name(k)));
         let mut frames_only = crate::fsio::Outputs::new();
         for f in frames {
             frames_only.input("frame", &f);
@@ -429,10 +429,10 @@ fn assemble_sheet(
     }
     files.inputs_read(read);
     for k in range.clone() {
-        files.input("frame", &args.output.join(crate::render::sweep::frame_name(k)));
+        files.input("frame", &args.output.join(crate::render::frame_name(k)));
     }
     files.output("contact sheet", sheet)?;
-    let n = crate::render::sweep::contact_sheet_from_frames(
+    let n = crate::render::contact_sheet_from_frames(
         &args.output,
         range.clone(),
         args.frames,

@@ -5,11 +5,11 @@
 
 use crate::basis::Basis;
 use crate::basis::basis_for_palette;
-use crate::basis::store::{self, palette_uses_basis};
+use crate::basis::{self, palette_uses_basis};
 use crate::colorimetry::{Colorimetry, linear_to_hex};
-use crate::design::report::Fixed;
+use crate::design::Fixed;
 use crate::design::{self, Criterion, Solution, SolveOptions};
-use crate::palette::file::PaletteFile;
+use crate::palette::PaletteFile;
 use crate::palette::mixing;
 use crate::palette::{MixSpec, Palette, SpectrumEntry};
 use anyhow::Context;
@@ -77,7 +77,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut file = PaletteFile::load(&args.input)?;
     let palette = &file.palette;
     let colorimetry = Colorimetry::default();
-    let sidecar = store::sidecar_path(&args.input);
+    let sidecar = basis::sidecar_path(&args.input);
     // No output may be an input or another output (compared as files, not as strings). The solved palette
     // may be IN itself (an in-place solve), but nothing else may.
     let mut files = crate::fsio::Outputs::new();

@@ -4,7 +4,7 @@
 
 use crate::colorimetry::Colorimetry;
 use crate::palette::Kind;
-use crate::palette::file::PaletteFile;
+use crate::palette::PaletteFile;
 use crate::tui::colour::ColourMode;
 use crate::tui::model::{Document, PreviewState, SolveState, UiState};
 use std::path::{Path, PathBuf};
@@ -374,7 +374,7 @@ impl State {
     }
 
     /// Attach a scene whose raycast runs off the UI thread (the event loop starts it at the panel's size).
-    pub fn set_preview_scene(&mut self, scene: crate::render::scene::Scene) {
+    pub fn set_preview_scene(&mut self, scene: crate::render::Scene) {
         self.preview.attach_scene(scene);
     }
 

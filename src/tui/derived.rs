@@ -6,12 +6,12 @@
 //! holds for what is shown; its subspace colour is set from the basis of the shown spectra, which the
 //! one basis policy delivers later (until then the view says "updating", [`Derived::subspace_pending`]).
 //! Cells without a criterion, and cells edited since the solve, are computed by the same domain functions
-//! ([`CellResult::new`], [`report::pair_colours`]).
+//! ([`CellResult::new`], [`pair_colours`]).
 
 use crate::basis::Basis;
-use crate::basis::train::TrainingSet;
+use crate::basis::TrainingSet;
 use crate::colorimetry::Colorimetry;
-use crate::design::{CellResult, Solution, report};
+use crate::design::{CellResult, Solution, pair_colours};
 use crate::palette::{Palette, SpectrumEntry};
 use crate::spectrum::Spectrum;
 use crate::tui::model::BasisKey;
@@ -147,7 +147,7 @@ impl Derived {
                 };
                 let (full, subspace) = match &result {
                     Some(r) => (r.rgb_full, r.rgb_subspace),
-                    None => report::pair_colours(e, s, basis, colorimetry),
+                    None => pair_colours(e, s, basis, colorimetry),
                 };
                 let delta_e_full = result.as_ref().map(|r| r.delta_e_full);
                 let delta_e_subspace = result.as_ref().and_then(|r| r.delta_e_subspace);

@@ -16,7 +16,7 @@ use std::path::Path;
 pub enum EditError {
     /// The palette model refused the edit.
     #[error(transparent)]
-    Palette(#[from] crate::palette::edit::EditError),
+    Palette(#[from] crate::palette::EditError),
     #[error("'{0}' is not a group name (use letters or digits, no spaces)")]
     GroupName(String),
     #[error("channel {channel}: lower bound {lower} is not ≤ upper bound {upper}")]
@@ -95,7 +95,7 @@ impl From<EditError> for Refusal {
 /// The outcome of an edit.
 pub(crate) type EditResult = Result<(), EditError>;
 
-fn text(e: crate::palette::edit::EditError) -> EditError {
+fn text(e: crate::palette::EditError) -> EditError {
     EditError::Palette(e)
 }
 

@@ -9,7 +9,7 @@
 //! once nothing is under way ([`State::busy`]), so its screens are reproducible.
 
 use crate::palette::Palette;
-use crate::palette::file::PaletteFile;
+use crate::palette::PaletteFile;
 use crate::tui::app::State;
 use crate::tui::edits::FileError;
 use crate::tui::msg::{Effect, FileOutcome, Msg, Saved, SavedScene};
@@ -151,7 +151,7 @@ impl Saver for FileSaver {
         files.inputs_read(&crate::fsio::read_by_this_process(others));
         if let Some(own) = &file.path {
             // Its basis sidecar is the tool's cache, read on the next open: not a place for a palette.
-            files.input("basis sidecar", &crate::basis::store::sidecar_path(own));
+            files.input("basis sidecar", &crate::basis::sidecar_path(own));
         }
         match file.path.clone() {
             Some(own) => files.output_except("palette", path, &own).map(|_| ()),
@@ -329,7 +329,7 @@ impl Runner<'_> {
                 let result = crate::tui::keyframes::save_keyframes(&path, &keyframes).map(|text| SavedScene {
                     text,
                     count: keyframes.len(),
-                    reloaded: crate::render::scene::Scene::load(&path).map_err(|e| e.to_string()),
+                    reloaded: crate::render::Scene::load(&path).map_err(|e| e.to_string()),
                 });
                 self.send(Msg::SceneSaved(result));
             }

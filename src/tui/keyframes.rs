@@ -2,7 +2,7 @@
 //! `docs/formats/dial.md`), everything else of the file kept as the user wrote it. Run by the event loop
 //! ([`crate::tui::msg::Effect::SaveKeyframes`]), never inside the update step.
 
-use crate::render::dial::DialState;
+use crate::render::DialState;
 use std::path::Path;
 use toml_edit::{Array, ArrayOfTables, DocumentMut, InlineTable, Item, Table, value};
 

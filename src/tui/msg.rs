@@ -7,13 +7,13 @@
 //! data — the one kind of request there is: every file read or write, thread and clock reading is one —
 //! and the loop runs them; their results come back as messages. Nothing else changes the state.
 
-use crate::basis::train::TrainingSet;
+use crate::basis::TrainingSet;
 use crate::colorimetry::Colorimetry;
-use crate::palette::file::PaletteFile;
+use crate::palette::PaletteFile;
 use crate::palette::{Kind, Palette};
-use crate::render::dial::DialState;
-use crate::render::relight::ColourModel;
-use crate::render::scene::Scene;
+use crate::render::ColourModel;
+use crate::render::DialState;
+use crate::render::Scene;
 use crate::tui::action::Action;
 use crate::tui::edits::{EditError, FileError};
 use crate::tui::preview::Loaded;

@@ -2,7 +2,7 @@
 //! is raycast once into per-pixel material weights at the panel's pixel size (off the UI thread, see
 //! [`PreviewLoader`]); the weights are projected onto the scene's colour model (the factor model of
 //! `metamer render`) with the designer's current reflectances; every dial change then only builds one
-//! frame matrix and relights ([`crate::render::relight::relight_srgb8`], post-illumination, seed §2.2),
+//! frame matrix and relights ([`crate::render::relight_srgb8`], post-illumination, seed §2.2),
 //! with the exposure `metamer render` uses. So the preview at a dial position shows the colours
 //! `metamer render` writes for it.
 //!
@@ -13,12 +13,12 @@
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
-use crate::render::dial::{Dial, DialState, Sweep};
-use crate::render::raycast::{ChannelImage, MaterialWeights, raycast};
-use crate::render::relight::{ColourModel, Mode, SrgbLut, relight_srgb8};
-use crate::render::scene::Scene;
-use crate::render::sweep::render_exposure;
+use crate::render::Scene;
+use crate::render::render_exposure;
 use crate::render::{Acceleration, colour_model, raycast_options};
+use crate::render::{ChannelImage, MaterialWeights, raycast};
+use crate::render::{ColourModel, Mode, SrgbLut, relight_srgb8};
+use crate::render::{Dial, DialState, Sweep};
 use crate::spectrum::Spectrum;
 use crate::tui::derived::Derived;
 use std::sync::Arc;

@@ -15,7 +15,7 @@
 //! ```
 
 use crate::palette::Palette;
-use crate::palette::file::PaletteFile;
+use crate::palette::PaletteFile;
 use crate::tui::app::State;
 use crate::tui::edits::FileError;
 use crate::tui::event_loop::{self, Events, Io, Saver};

@@ -12,9 +12,9 @@
 //! (the solved ones), which the UI requests with [`Worker::request_basis`] after each solve.
 
 use crate::basis::Basis;
-use crate::basis::policy::{self, Resolved};
-use crate::basis::store::palette_uses_basis;
-use crate::basis::train::TrainingSet;
+use crate::basis::TrainingSet;
+use crate::basis::palette_uses_basis;
+use crate::basis::{self, Resolved};
 use crate::colorimetry::Colorimetry;
 use crate::design::feasibility::{self, Panel, RegionCache};
 use crate::design::{self, DesignError, Solution, SolveOptions};
@@ -112,7 +112,7 @@ fn feasibility_panel(
     cell: usize,
     regions: &RegionCache,
 ) -> Result<Arc<Panel>, String> {
-    let values = design::system::Values {
+    let values = design::Values {
         lights: solution.palette.lights.iter().map(|e| e.spectrum).collect(),
         reflectances: solution.palette.reflectances.iter().map(|e| e.spectrum).collect(),
         free: solution.free.clone(),
@@ -135,7 +135,7 @@ fn serve_solves(requests: Receiver<Request>, deliver: Deliver, config: WorkerCon
             let cancelled = request.cancel.load(Ordering::Relaxed);
             let basis = match (&config.basis, palette_uses_basis(&request.palette)) {
                 (BasisMode::Train { sidecar }, true) if !cancelled => {
-                    Some(policy::basis_for_palette(&request.palette, sidecar.as_deref()).map_err(|e| e.to_string()))
+                    Some(basis::basis_for_palette(&request.palette, sidecar.as_deref()).map_err(|e| e.to_string()))
                 }
                 _ => None,
             };
@@ -177,7 +177,7 @@ fn serve_bases(requests: Receiver<BasisRequest>, deliver: Deliver, sidecar: Opti
     while let Ok(first) = requests.recv() {
         let Some(request) = newest(first, &requests) else { return };
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            policy::basis_for(&request.set, request.m, sidecar.as_deref())
+            basis::basis_for(&request.set, request.m, sidecar.as_deref())
                 .map_err(|e| format!("cannot train the basis: {e}"))
         }))
         .unwrap_or_else(|panic| Err(panic_message(&panic)));

@@ -10,12 +10,12 @@
 //! test as ignored, by name (a failure under `CI=true`).
 
 use metamer::colorimetry::{Colorimetry, delta_e00, srgb_decode, xyz_to_lab};
-use metamer::render::dial::{Sweep, Timing};
-use metamer::render::raycast::{Shading, raycast};
-use metamer::render::relight::{Mode, SrgbLut};
-use metamer::render::scene::Scene;
-use metamer::render::sweep::{frame_srgb8, sweep_exposure};
+use metamer::render::Scene;
 use metamer::render::{Acceleration, colour_model, raycast_options};
+use metamer::render::{Mode, SrgbLut};
+use metamer::render::{Shading, raycast};
+use metamer::render::{Sweep, Timing};
+use metamer::render::{frame_srgb8, sweep_exposure};
 use metamer::spectrum::Spectrum;
 use nalgebra::{DMatrix, Vector3};
 use std::collections::BTreeMap;
@@ -414,7 +414,7 @@ pub(crate) fn frog_sweep_reveal_and_fluorescent_split_the_tissues() {
 /// is measured in every frame as the stages above are measured.
 pub(crate) fn frames_along_a_constrained_path_keep_the_block_on_target_while_the_smoke_changes() {
     use metamer::colorimetry::delta_e00;
-    use metamer::render::relight::Mode;
+    use metamer::render::Mode;
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("volumes/fig6d_path.toml");
     let text = std::fs::read_to_string(&path).expect("the shipped scene");
     let text: String = text

@@ -4,8 +4,8 @@
 //! printed beside it (it is expected to be worse, but is not bounded here).
 
 use metamer::colorimetry::Colorimetry;
-use metamer::render::accuracy::{compare_models, compare_views};
-use metamer::render::scene::{Scene, engine_check_scene, generated_check_scene};
+use metamer::render::{Scene, engine_check_scene, generated_check_scene};
+use metamer::render::{compare_models, compare_views};
 use metamer::volume::Volume;
 
 fn check(scene: &Scene, size: usize, frames: usize, what: &str) {
@@ -41,7 +41,7 @@ pub(crate) fn factor_model_tracks_full_spectra_on_the_shared_engine() {
 /// What the skips change (issue 24): empty bricks stepped over, single-material bricks taken from the
 /// brick table, rays stopped at transmittance 0.01, against the same raycast with both switches off.
 fn skips_against_reference(scene: &Scene, size: usize, what: &str) {
-    use metamer::render::relight::Mode;
+    use metamer::render::Mode;
     use metamer::render::{Acceleration, colour_model, render_views};
     let col = Colorimetry::default();
     let model = colour_model(scene, Mode::Factor, &col).expect("model");

@@ -7,7 +7,7 @@ use metamer::volume::Volume;
 /// The engine swept D65 → A → F11 with four ColorChecker materials: the factor model within mean ΔE00
 /// 1.5 of the full-spectrum frames.
 pub(crate) fn engine_sweep_factor_mode_tracks_full_mode() {
-    use metamer::render::accuracy::compare_models;
+    use metamer::render::compare_models;
     let volumes = crate::data::volumes();
     let volume = Volume::open(&volumes.join("engine.nhdr")).expect("engine.nhdr reads");
     let materials = [
@@ -16,7 +16,7 @@ pub(crate) fn engine_sweep_factor_mode_tracks_full_mode() {
         ("block", "green", [128.0, 175.0], 0.3),
         ("hot", "red", [176.0, 255.0], 0.6),
     ];
-    let scene = metamer::render::scene::colorchecker_scene("issue11", volume, &["D65", "A", "F11"], &materials)
+    let scene = metamer::render::colorchecker_scene("issue11", volume, &["D65", "A", "F11"], &materials)
         .expect("built-in lights and patches");
     let r = compare_models(&scene, &Colorimetry::default(), 128, 9).expect("renders");
     note!(

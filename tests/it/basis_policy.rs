@@ -7,10 +7,10 @@
 use crate::tui_support;
 
 use metamer::basis::accuracy::{self, Model};
-use metamer::basis::train::{self, TrainOptions, TrainingSet, balanced_condition};
+use metamer::basis::{self, TrainOptions, TrainingSet, balanced_condition};
 use metamer::basis::{Basis, POOR_MODEL_MEAN_DE00};
 use metamer::colorimetry::Colorimetry;
-use metamer::palette::file::PaletteFile;
+use metamer::palette::PaletteFile;
 use metamer::spectrum::{Normalize, Spectrum};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
@@ -44,9 +44,9 @@ struct Measured {
     condition: f64,
 }
 
-fn measure(set: &TrainingSet, m: usize) -> (train::Trained, Measured) {
+fn measure(set: &TrainingSet, m: usize) -> (basis::Trained, Measured) {
     let c = Colorimetry::default();
-    let trained = train::train(set, m, &c, &TrainOptions::default()).expect("trains");
+    let trained = basis::train(set, m, &c, &TrainOptions::default()).expect("trains");
     let pca = Basis::from_matrix(trained.pca.clone(), &c).expect("PCA basis");
     let measured = Measured {
         factor: accuracy::stats(set, Model::Factor(&trained.basis), &c),
@@ -57,7 +57,7 @@ fn measure(set: &TrainingSet, m: usize) -> (train::Trained, Measured) {
     (trained, measured)
 }
 
-fn assert_sound(trained: &train::Trained, r: &Measured, case: &str) {
+fn assert_sound(trained: &basis::Trained, r: &Measured, case: &str) {
     // Never worse than the PCA basis used as a factor model, on the training pairs.
     assert!(r.factor.mean <= r.pca_factor.mean, "{case}: {:?} worse than the PCA basis {:?}", r.factor, r.pca_factor);
     // B⁺ stable in double precision: B⁺B = I to 1e-9 and a moderate condition number.

@@ -3,8 +3,8 @@
 //! `s = B⁺S`, must predict every colour within mean ΔE00 1.0 and p95 2.5.
 
 use metamer::basis::Basis;
+use metamer::basis::TrainingSet;
 use metamer::basis::accuracy::{self, Model};
-use metamer::basis::train::TrainingSet;
 use metamer::colorimetry::Colorimetry;
 use nalgebra::DMatrix;
 use std::path::{Path, PathBuf};

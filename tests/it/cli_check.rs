@@ -37,7 +37,7 @@ fn every_example_palette_checks() {
         // Piped output is plain text with hex values.
         assert!(!stdout.contains('\x1b'), "escape codes in piped output: {stdout}");
         assert!(stdout.contains("#"), "{stdout}");
-        let file = metamer::palette::file::PaletteFile::load(path).unwrap();
+        let file = metamer::palette::PaletteFile::load(path).unwrap();
         for light in &file.palette.lights {
             assert!(stdout.contains(&light.name), "light {} not shown: {stdout}", light.name);
         }

@@ -3,9 +3,9 @@
 use crate::common::random;
 use metamer::basis::Basis;
 use metamer::colorimetry::Colorimetry;
-use metamer::design::joint::NonlinearProblem;
-use metamer::design::system::{Design, Layout};
+use metamer::design::NonlinearProblem;
 use metamer::design::{self, DesignError, SolveOptions};
+use metamer::design::{Design, Layout};
 use metamer::palette::{Bounds, FreeGroup, Kind, Palette, Settings};
 use metamer::spectrum::Spectrum;
 use nalgebra::{DMatrix, DVector, Vector3};
@@ -168,8 +168,8 @@ fn joint_design_decreases_monotonically_and_is_deterministic() {
     let design = Design::new(&p, None, &c).unwrap();
     let start = design.start_values();
     let limits =
-        metamer::design::joint::JointLimits::new(std::time::Instant::now() + std::time::Duration::from_secs(20), None);
-    let (_, reports) = metamer::design::solve::solve_all(&design, &start, &limits, false);
+        metamer::design::JointLimits::new(std::time::Instant::now() + std::time::Duration::from_secs(20), None);
+    let (_, reports) = metamer::design::solve_all(&design, &start, &limits, false);
     assert_eq!(reports.len(), 1);
     let h = &reports[0].history;
     assert!(h.len() > 2);

@@ -4,13 +4,13 @@
 
 use crate::common::{kkt_residual, stack, stacked_solution};
 use metamer::colorimetry::Colorimetry;
-use metamer::design::joint::NonlinearProblem;
-use metamer::design::system::{Design, Layout};
+use metamer::design::NonlinearProblem;
 use metamer::design::{self, Criterion, SolveOptions};
-use metamer::palette::file::{PaletteError, PaletteFile};
+use metamer::design::{Design, Layout};
 use metamer::palette::mixing::light_of;
 use metamer::palette::{ColourCell, Kind, Palette, Source, SpectrumEntry, TargetNotation};
-use metamer::render::scene::Scene;
+use metamer::palette::{PaletteError, PaletteFile};
+use metamer::render::Scene;
 use metamer::spectrum::{Normalize, Spectrum};
 use nalgebra::Vector3;
 use std::path::Path;

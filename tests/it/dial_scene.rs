@@ -2,8 +2,8 @@
 //! (docs/formats/dial.md).
 
 use metamer::render::RenderError;
-use metamer::render::dial::Sweep;
-use metamer::render::scene::Scene;
+use metamer::render::Scene;
+use metamer::render::Sweep;
 use std::path::{Path, PathBuf};
 
 /// A scene next to the shipped engine palette, over the generated volume (no data files needed).
@@ -125,11 +125,11 @@ fn degenerate_dials_are_refused_like_every_light_off() {
 #[test]
 fn dial_frames_are_deterministic_and_the_dial_stays_lower_right() {
     use metamer::colorimetry::Colorimetry;
-    use metamer::render::overlay::DialOverlay;
-    use metamer::render::relight::Mode;
-    use metamer::render::sweep::{SweepOptions, sweep_exposure, write_sweep};
+    use metamer::render::DialOverlay;
+    use metamer::render::Mode;
     use metamer::render::{Acceleration, colour_model, render_views};
-    let scene = metamer::render::scene::builtin_scene(32).unwrap();
+    use metamer::render::{SweepOptions, sweep_exposure, write_sweep};
+    let scene = metamer::render::builtin_scene(32).unwrap();
     let col = Colorimetry::default();
     // The smallest frames get no dial (its names would be under 6 px): 224² has one.
     let size = 224;

@@ -1,9 +1,10 @@
 //! What the docs claim about the repository, checked: every repository path README.md and docs/ name exists,
 //! every `DESIGN_SPEC §N` citation in code and docs names a section of docs/DESIGN_SPEC.md, and every key the
 //! scene reader accepts is documented in docs/formats/scene.md (dial keyframe keys in dial.md), and the test
-//! build resolves every shared crate as the release build does.
+//! build resolves every shared crate as the release build does; the core warns on missing docs and has no
+//! `#[path]` modules.
 
-use metamer_core::render::scene::Scene;
+use metamer_core::render::Scene;
 use std::path::{Path, PathBuf};
 
 fn root() -> &'static Path {
@@ -244,4 +245,22 @@ fn the_test_build_reuses_the_release_build() {
          again); name the missing features in Cargo.toml's [dependencies]:\n{}",
         differ.join("\n")
     );
+}
+
+/// ARCHITECTURE.md's rules for the core's face: missing docs warn (CI's `clippy -D warnings` makes them errors),
+/// and the module tree is the folder tree (no `#[path]` in the core).
+#[test]
+fn the_core_warns_on_missing_docs_and_its_module_tree_is_its_folder_tree() {
+    let src = root().join("crates/metamer-core/src");
+    let lib = std::fs::read_to_string(src.join("lib.rs")).expect("lib.rs");
+    assert!(lib.contains("#![warn(missing_docs)]"), "metamer-core's lib.rs must warn on missing docs");
+    let mut files = Vec::new();
+    sources(&src, &["rs"], &mut files);
+    assert!(files.len() > 50, "expected the core's sources, found {}", files.len());
+    let with_path: Vec<String> = files
+        .iter()
+        .filter(|f| std::fs::read_to_string(f).is_ok_and(|t| t.lines().any(|l| l.trim_start().starts_with("#[path"))))
+        .map(|f| f.display().to_string())
+        .collect();
+    assert!(with_path.is_empty(), "#[path] makes the module tree differ from the folder tree: {with_path:?}");
 }

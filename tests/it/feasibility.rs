@@ -14,10 +14,10 @@
 use crate::common::random::{self, Rng};
 use metamer::colorimetry::Colorimetry;
 use metamer::colorimetry::{delta_e00, xyz_to_lab};
+use metamer::design::Values;
 use metamer::design::feasibility::{
     self, DEFAULT_DIRECTIONS, DEFAULT_TOLERANCE, MET_BOX_MARGIN, Placement, Problem, RegionCache, hull_volume, met_box,
 };
-use metamer::design::system::Values;
 use metamer::design::{self, SolveOptions};
 use metamer::palette::{Bounds, Kind, Palette, Settings};
 use metamer::spectrum::{SAMPLES, Spectrum};

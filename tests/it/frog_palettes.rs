@@ -12,7 +12,7 @@
 
 use metamer::colorimetry::Colorimetry;
 use metamer::palette::Palette;
-use metamer::palette::file::PaletteFile;
+use metamer::palette::PaletteFile;
 use nalgebra::Vector3;
 use std::path::Path;
 

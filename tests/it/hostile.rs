@@ -5,8 +5,8 @@
 use metamer::colorimetry::Colorimetry;
 use metamer::design::{self, SolveOptions};
 use metamer::fsio::{self, FsError, Kind, Outputs};
-use metamer::palette::file::PaletteFile;
-use metamer::render::raycast::{Camera, MaterialClass, RaycastOptions, raycast};
+use metamer::palette::PaletteFile;
+use metamer::render::{Camera, MaterialClass, RaycastOptions, raycast};
 use metamer::tui::State;
 use metamer::tui::colour::ColourMode;
 use metamer::tui::event_loop::{FileSaver, Saver, mine_path, recovery_path};

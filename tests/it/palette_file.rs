@@ -2,8 +2,8 @@
 //! saving (comments, key order and unknown keys kept; atomic; a failed save never destroys the original).
 
 use metamer::colorimetry::{Colorimetry, hex_to_linear};
-use metamer::palette::file::{PaletteError, PaletteFile};
 use metamer::palette::{Kind, Source, TargetNotation};
+use metamer::palette::{PaletteError, PaletteFile};
 use metamer::spectrum::{Normalize, Spectrum};
 use std::path::{Path, PathBuf};
 

@@ -286,7 +286,7 @@ fn bad_scenes_are_one_readable_error() {
 
 #[test]
 fn builtin_scene_matches_the_generated_engine_scene_file() {
-    use metamer::render::scene::{Scene, builtin_scene};
+    use metamer::render::{Scene, builtin_scene};
     let file = Scene::load(&repo().join("volumes/engine_generated.toml")).expect("scene file loads");
     let builtin = builtin_scene(160).expect("built-in scene");
     assert_eq!(file.materials, builtin.materials);

@@ -3,10 +3,10 @@
 //! the palette editing helpers save and load back to the same palette.
 
 use metamer::colorimetry::Colorimetry;
-use metamer::palette::file::PaletteFile;
+use metamer::palette::PaletteFile;
 use metamer::palette::{Kind, Palette, Source, TargetNotation};
 use metamer::spectrum::Spectrum;
-use metamer::spectrum::csv::{parse_spectrum_csv, parse_spectrum_csv_bytes};
+use metamer::spectrum::{parse_spectrum_csv, parse_spectrum_csv_bytes};
 use nalgebra::Vector3;
 use proptest::prelude::*;
 use std::path::Path;

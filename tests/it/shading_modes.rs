@@ -5,7 +5,7 @@
 //! the eye; `headlight` lights from the eye (so the diffuse term is |n·v|), `key` from a fixed light above
 //! left of the eye, `unshaded` is 1 everywhere.
 
-use metamer::render::raycast::{Camera, MaterialClass, RaycastOptions, Shading, raycast};
+use metamer::render::{Camera, MaterialClass, RaycastOptions, Shading, raycast};
 use metamer::volume::Volume;
 use std::path::Path;
 

@@ -19,8 +19,8 @@ use crate::common::random::{self, Rng};
 use common::{Stacked, bound_violation, kkt_residual, objective, oracle_point, stack, stacked_solution};
 use metamer::bench::summary::condition_number;
 use metamer::colorimetry::Colorimetry;
-use metamer::design::joint::JointLimits;
-use metamer::design::system::Design;
+use metamer::design::Design;
+use metamer::design::JointLimits;
 use metamer::design::{self, Solution, SolveOptions};
 use metamer::palette::{Bounds, FreeGroup, Kind, Palette, Settings, SpectrumEntry};
 use metamer::spectrum::{SAMPLES, Spectrum};
@@ -234,7 +234,7 @@ fn spiky_light(lines: &[(usize, f64)], shift: usize) -> Spectrum {
     let table = f11_one_nm(lines);
     if shift == 0 {
         let csv: String = table.iter().map(|(w, v)| format!("{w},{v}\n")).collect();
-        metamer::spectrum::csv::parse_spectrum_csv(&csv).unwrap_or_else(|e| panic!("CSV import of F11: {e}"))
+        metamer::spectrum::parse_spectrum_csv(&csv).unwrap_or_else(|e| panic!("CSV import of F11: {e}"))
     } else {
         let v: Vec<f64> = (0..SAMPLES).map(|k| table[(10 * k + shift).min(300)].1).collect();
         Spectrum::from_slice(&v).unwrap_or(Spectrum::flat(1.0))
@@ -411,7 +411,7 @@ fn check_joint_monotone(n: usize, seed: u64, wide_weights: bool) {
     let start = design.start_values();
     let f0 = design.objective(&start);
     let limits = JointLimits::new(Instant::now() + Duration::from_secs(2), None);
-    let (values, blocks) = design::solve::solve_all(&design, &start, &limits, false);
+    let (values, blocks) = design::solve_all(&design, &start, &limits, false);
     let f1 = design.objective(&values);
     assert!(f1.is_finite() && f1 <= f0 * (1.0 + 1e-12), "n {n} seed {seed}: final {f1} > start {f0}");
     assert!(blocks.iter().any(|b| b.bilinear), "the capacity palette is joint");

@@ -4,7 +4,7 @@
 use crate::tui_support;
 
 use metamer::colorimetry::Colorimetry;
-use metamer::render::scene::builtin_scene;
+use metamer::render::builtin_scene;
 use metamer::tui::colour::ColourMode;
 use metamer::tui::derived::Derived;
 use metamer::tui::graphics::{Graphics, PreviewMode};
@@ -109,7 +109,7 @@ fn half_blocks_in_preview(s: &metamer::tui::State, buf: &ratatui::buffer::Buffer
 /// The demo palette over the built-in scene (no files), dial keys and all.
 fn demo_live() -> metamer::tui::State {
     let palette = tui_support::demo_palette();
-    let scene = metamer::render::scene::Scene::builtin(palette.clone(), 32).expect("built-in scene");
+    let scene = metamer::render::Scene::builtin(palette.clone(), 32).expect("built-in scene");
     let mut s = state(palette, ColourMode::TrueColor);
     s.preview.graphics = Graphics::halfblocks();
     s.set_preview_scene(scene);
@@ -167,7 +167,7 @@ fn saved_keyframes_render_as_previewed() {
     let body = std::fs::read_to_string(repo.join("volumes/engine_generated.toml")).unwrap();
     let scene_path = dir.path().join("scene.toml");
     std::fs::write(&scene_path, body.replace("generated_size = 160", "generated_size = 40")).unwrap();
-    let scene = metamer::render::scene::Scene::load(&scene_path).expect("scene");
+    let scene = metamer::render::Scene::load(&scene_path).expect("scene");
     let mut s = state(scene.palette.clone(), ColourMode::TrueColor);
     s.set_preview_scene(scene);
     // Between the lights, light 1 off, keyframe; then further, keyframe; save into the scene.
@@ -178,7 +178,7 @@ fn saved_keyframes_render_as_previewed() {
     let (text, _) = replay(&mut s, "Ctrl-s", 100, 30);
     assert!(text.contains("saved 2 keyframes"), "{text}");
     assert!(s.preview.keyframes.is_empty(), "saved keyframes are no longer pending: {:?}", s.ui.message);
-    let saved = metamer::render::scene::Scene::load(&scene_path).expect("the saved scene loads");
+    let saved = metamer::render::Scene::load(&scene_path).expect("the saved scene loads");
     let col = Colorimetry::default();
     let side = 48;
     let mut preview =
@@ -234,7 +234,7 @@ fn dial_labels_never_overlap_at_80x24_and_100x30() {
     for n in [3, 4, 6] {
         for (w, h) in [(80, 24), (100, 30)] {
             let palette = palette_with_lights(n);
-            let scene = metamer::render::scene::Scene::builtin(palette.clone(), 32).expect("built-in scene");
+            let scene = metamer::render::Scene::builtin(palette.clone(), 32).expect("built-in scene");
             let mut s = state(palette, ColourMode::TrueColor);
             s.preview.graphics = Graphics::halfblocks();
             s.set_preview_scene(scene);
@@ -259,7 +259,7 @@ fn dial_labels_never_overlap_at_80x24_and_100x30() {
 
 #[test]
 fn the_preview_of_an_unsaved_solve_is_what_render_draws_once_saved() {
-    use metamer::palette::file::PaletteFile;
+    use metamer::palette::PaletteFile;
     let dir = tempfile::tempdir().unwrap();
     let start = tui_support::demo_palette();
     let palette_path = dir.path().join("demo.toml");
@@ -275,7 +275,7 @@ fn the_preview_of_an_unsaved_solve_is_what_render_draws_once_saved() {
         )
     };
     std::fs::write(dir.path().join("scene.toml"), scene_text("demo.toml")).unwrap();
-    let scene = metamer::render::scene::Scene::load(&dir.path().join("scene.toml")).expect("scene");
+    let scene = metamer::render::Scene::load(&dir.path().join("scene.toml")).expect("scene");
     let mut s = metamer::tui::State::new(palette_path.clone(), start.clone(), ColourMode::TrueColor);
     s.preview.graphics = Graphics::halfblocks();
     s.set_preview_scene(scene.clone());
@@ -353,7 +353,7 @@ fn saving_keyframes_keeps_the_scene_as_written() {
         [render]\ngenerated_size = 24\n";
     let path = dir.path().join("scene.toml");
     std::fs::write(&path, original).unwrap();
-    let scene = metamer::render::scene::Scene::load(&path).expect("scene");
+    let scene = metamer::render::Scene::load(&path).expect("scene");
     let mut k = scene.dial.base.clone();
     k.set_slider([0.25, 0.5]).unwrap();
     k.set_on(0, false).unwrap();
@@ -373,7 +373,7 @@ fn saving_keyframes_keeps_the_scene_as_written() {
         "the path and its comment are kept as comments:\n{saved}"
     );
     assert!(!saved.lines().any(|l| l.starts_with("path")), "a dial has either a path or keyframes:\n{saved}");
-    let loaded = metamer::render::scene::Scene::load(&path).expect("the saved scene loads");
+    let loaded = metamer::render::Scene::load(&path).expect("the saved scene loads");
     assert_eq!(loaded.palette_path, scene.palette_path, "the palette is the same file");
     assert_eq!(loaded.materials.len(), 2);
     assert_eq!(loaded.dial.keyframe_count(), 1);
@@ -389,6 +389,6 @@ fn saving_keyframes_keeps_the_scene_as_written() {
     let render = again.find("[render]").expect("[render] kept");
     assert!(second < render, "the keyframes stay in the dial's part of the file:\n{again}");
     assert_eq!(format!("{}{}", &again[..second], &again[render..]), saved, "only the new keyframe is added");
-    let loaded = metamer::render::scene::Scene::load(&path).expect("loads");
+    let loaded = metamer::render::Scene::load(&path).expect("loads");
     assert_eq!(loaded.dial.keyframe_count(), 2);
 }

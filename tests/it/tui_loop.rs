@@ -7,7 +7,7 @@ use crate::tui_support::{self, demo_palette, keys, run_live, state};
 
 use metamer::colorimetry::Colorimetry;
 use metamer::design::{self, SolveOptions};
-use metamer::palette::file::PaletteFile;
+use metamer::palette::PaletteFile;
 use metamer::tui::State;
 use metamer::tui::app::Popup;
 use metamer::tui::colour::ColourMode;
@@ -311,7 +311,7 @@ fn save_as_is_an_effect_and_the_question_comes_back_as_a_message() {
 
 #[test]
 fn the_dial_s_scene_save_is_an_effect_and_its_outcome_a_message() {
-    let mut scene = metamer::render::scene::builtin_scene(16).expect("built-in scene");
+    let mut scene = metamer::render::builtin_scene(16).expect("built-in scene");
     let path = std::path::PathBuf::from("/nonexistent-metamer-dir/scene.toml");
     scene.path = Some(path.clone());
     let mut s = state(scene.palette.clone(), ColourMode::TrueColor);
@@ -365,7 +365,7 @@ impl metamer::tui::event_loop::Events for ProbingSource {
 #[test]
 fn keys_typed_before_the_first_draw_and_during_the_probe_are_all_taken() {
     use metamer::tui::event_loop::{self, Io};
-    let scene = metamer::render::scene::builtin_scene(16).expect("built-in scene");
+    let scene = metamer::render::builtin_scene(16).expect("built-in scene");
     let mut s = state(scene.palette.clone(), ColourMode::TrueColor);
     s.set_preview_scene(scene);
     s.preview.probing = true;

@@ -5,8 +5,8 @@
 use crate::tui_support::{demo_palette, state};
 
 use metamer::design::DesignError;
-use metamer::palette::file::PaletteFile;
-use metamer::render::scene::Scene;
+use metamer::palette::PaletteFile;
+use metamer::render::Scene;
 use metamer::tui::State;
 use metamer::tui::action::{Action, Direction};
 use metamer::tui::app::{Popup, Selection};

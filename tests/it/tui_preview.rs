@@ -3,7 +3,7 @@
 use crate::tui_support;
 
 use metamer::colorimetry::Colorimetry;
-use metamer::render::scene::Scene;
+use metamer::render::Scene;
 use metamer::tui::colour::ColourMode;
 use metamer::tui::preview::Preview;
 use tui_support::{demo_palette, replay, state};
@@ -65,7 +65,7 @@ fn the_preview_says_when_it_shows_the_scene_s_palette_and_not_the_designed_one()
     let (text, _) = replay(&mut s, "", 80, 24);
     assert!(!text.contains("the preview"), "{text}");
     // A scene whose materials and lights none of the designed palette's names: said plainly, wrapped.
-    let scene = metamer::render::scene::builtin_scene(32).expect("built-in scene");
+    let scene = metamer::render::builtin_scene(32).expect("built-in scene");
     let mut other = demo_palette();
     for (k, e) in other.lights.iter_mut().enumerate() {
         e.name = format!("lamp{k}");

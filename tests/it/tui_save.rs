@@ -3,7 +3,7 @@
 
 use metamer::colorimetry::Colorimetry;
 use metamer::design::{self, SolveOptions};
-use metamer::palette::file::PaletteFile;
+use metamer::palette::PaletteFile;
 use metamer::tui::State;
 use metamer::tui::colour::ColourMode;
 use metamer::tui::event_loop::FileSaver;

@@ -249,7 +249,7 @@ fn the_recovery_copy_is_offered_in_a_popup_and_restored_from_inside() {
     let recovery = metamer::tui::event_loop::recovery_path(&path);
     let mut edited = demo_palette();
     edited.colours[0].weight = 7.0;
-    let doc = metamer::palette::file::PaletteFile::from_palette(&edited);
+    let doc = metamer::palette::PaletteFile::from_palette(&edited);
     std::fs::write(&recovery, doc.text()).expect("write the recovery copy");
     let mut s = metamer::tui::State::new(path, demo_palette(), ColourMode::TrueColor);
     s.ui.popup = Some(metamer::tui::app::Popup::Recovery { path: recovery.clone() });
@@ -309,9 +309,9 @@ fn at_80x24_a_refusal_in_a_prompt_wraps_and_is_read_whole() {
     let name = dir.path().file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let rel = std::path::Path::new("target").join(&name);
     let path = rel.join("p.toml");
-    std::fs::write(&path, metamer::palette::file::PaletteFile::from_palette(&demo_palette()).text()).expect("write");
+    std::fs::write(&path, metamer::palette::PaletteFile::from_palette(&demo_palette()).text()).expect("write");
     std::fs::create_dir(rel.join("a_folder_not_a_file")).expect("folder");
-    let file = metamer::palette::file::PaletteFile::load(&path).expect("loads");
+    let file = metamer::palette::PaletteFile::load(&path).expect("loads");
     let mut s = metamer::tui::State::with_file(file, ColourMode::TrueColor);
     let target = rel.join("a_folder_not_a_file");
     let script = format!("Ctrl-w\nCtrl-u\n\"{}\"\nEnter", target.display());

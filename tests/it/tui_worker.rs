@@ -39,7 +39,7 @@ fn the_newest_palette_is_always_solved_last() {
 
 #[test]
 fn the_basis_is_trained_once_per_training_set() {
-    use metamer::basis::train::TrainingSet;
+    use metamer::basis::TrainingSet;
     use metamer::tui::model::BasisKey;
     let mut worker =
         Worker::start(WorkerConfig { time_limit: Duration::from_secs(30), basis: BasisMode::Train { sidecar: None } })

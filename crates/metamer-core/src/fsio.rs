@@ -100,37 +100,102 @@ impl Kind {
 /// the reason.
 #[derive(Debug, thiserror::Error)]
 pub enum FsError {
+    /// Looking at, opening or reading the file failed (missing, no permission, …), or a text file is not UTF-8.
     #[error("{}: cannot read the {}: {source}", show(path), kind.label())]
-    Read { path: PathBuf, kind: Kind, source: std::io::Error },
+    Read {
+        /// The file as the caller named it (a link not resolved).
+        path: PathBuf,
+        /// What the file was read as; names it in the message.
+        kind: Kind,
+        /// The operating system's error (`InvalidData` naming the byte offset for text that is not UTF-8).
+        source: std::io::Error,
+    },
+    /// The file to read is a directory, FIFO, device, socket or other non-regular file.
     #[error("{}: the {} is {found}, not a regular file", show(path), kind.label())]
-    NotRegularInput { path: PathBuf, kind: Kind, found: &'static str },
+    NotRegularInput {
+        /// The file as the caller named it (a link not resolved).
+        path: PathBuf,
+        /// What the file was read as; names it in the message.
+        kind: Kind,
+        /// What is there instead, as words (`a FIFO`, `a directory`, …).
+        found: &'static str,
+    },
+    /// The file is larger than the cap of its kind (or of the caller), or grew past it while being read.
     #[error("{}: the {} is {size} bytes, more than the limit of {cap} bytes", show(path), kind.label())]
-    TooLarge { path: PathBuf, kind: Kind, size: u64, cap: u64 },
+    TooLarge {
+        /// The file as the caller named it (a link not resolved).
+        path: PathBuf,
+        /// What the file was read as; names it in the message.
+        kind: Kind,
+        /// The file's size in bytes as `fstat` gave it, or cap + 1 when it grew past the cap while read.
+        size: u64,
+        /// The most bytes that are read of this file: its kind's [`Kind::cap`] or the caller's cap.
+        cap: u64,
+    },
+    /// The target exists and is not a regular file (a directory, FIFO, device: `-o /dev/null`).
     #[error("{}: refusing to write: it is {found}, not a regular file", show(path))]
-    NotRegularOutput { path: PathBuf, found: &'static str },
+    NotRegularOutput {
+        /// The output as the caller named it.
+        path: PathBuf,
+        /// What is there instead, as words (`a FIFO`, `a character device`, …).
+        found: &'static str,
+    },
+    /// An output is the same file (device and inode, or canonical name) as an input or another output
+    /// already recorded in [`Outputs`].
     #[error("{}: refusing to write the {role}: it is the same file as the {other_role} {}", show(path), show(other))]
-    SameFile { path: PathBuf, role: String, other: PathBuf, other_role: String },
+    SameFile {
+        /// The output refused, as the caller named it.
+        path: PathBuf,
+        /// What the output is, as the caller named its role (`palette`, `benchmark report`, …).
+        role: String,
+        /// The file recorded first, as it was named then (possibly another spelling or a link).
+        other: PathBuf,
+        /// The role recorded with `other` (`palette`, `CSV spectrum`, `key script`, …).
+        other_role: String,
+    },
+    /// Creating, writing, syncing or renaming the temporary file failed (no such folder, full disk, …).
     #[error("{}: cannot write: {source}", show(path))]
-    Write { path: PathBuf, source: std::io::Error },
+    Write {
+        /// The output as the caller named it.
+        path: PathBuf,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
+    /// The target's mode gives no write permission and the caller did not pass [`Replace::Force`].
     #[error(
         "{}: refusing to replace a read-only file (no write permission in its mode): make it writable, or ask \
          for it explicitly (solve --force)",
         show(path)
     )]
-    ReadOnly { path: PathBuf },
+    ReadOnly {
+        /// The output as the caller named it.
+        path: PathBuf,
+    },
+    /// The target changed on disk since this process read it and the caller did not pass
+    /// [`Replace::Changed`] or [`Replace::Force`].
     #[error(
         "{}: refusing to replace it: it changed on disk since this command read it (another program wrote it \
          meanwhile); nothing was written: run again on the new file, or ask for it explicitly (--force)",
         show(path)
     )]
-    Changed { path: PathBuf },
+    Changed {
+        /// The output as the caller named it.
+        path: PathBuf,
+    },
+    /// A name the command chose in the user's folder is a symbolic link and the caller did not pass
+    /// [`Replace::Force`].
     #[error(
         "{}: refusing to write through a symbolic link this command did not make (it points to {}): remove \
          the link, or ask for it explicitly (--force)",
         show(path),
         show(target)
     )]
-    ChosenLink { path: PathBuf, target: PathBuf },
+    ChosenLink {
+        /// The output at the name the command chose.
+        path: PathBuf,
+        /// Where the link points, as stored in the link (empty when it could not be read).
+        target: PathBuf,
+    },
 }
 
 /// What the one writer may replace besides an ordinary writable file: a file whose mode gives no write
@@ -575,6 +640,7 @@ pub struct Outputs {
 }
 
 impl Outputs {
+    /// Nothing recorded yet.
     pub fn new() -> Outputs {
         Outputs::default()
     }

@@ -6,12 +6,14 @@
 //! application crate at the repository root, and this crate's dependencies (no ratatui, crossterm,
 //! clap, indicatif or plotters) make any import back up a build error. See docs/ARCHITECTURE.md.
 
+#![warn(missing_docs)]
+
 pub mod basis;
 pub mod colorimetry;
 pub mod design;
 pub mod fsio;
 pub mod memory;
-pub mod optimize;
+pub(crate) mod optimize;
 pub mod palette;
 pub mod render;
 pub mod spectrum;

@@ -16,7 +16,7 @@ pub const LIMIT_ENV: &str = "METAMER_MEMORY_LIMIT";
 /// Memory available to this process and what limits it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Available {
-    pub bytes: u64,
+    pub(crate) bytes: u64,
     /// `"MemAvailable"`, `"cgroup limit"` or `"METAMER_MEMORY_LIMIT"`.
     pub source: &'static str,
 }
@@ -29,9 +29,9 @@ pub struct Available {
     available / MIB
 )]
 pub struct MemoryError {
-    pub what: String,
-    pub needed: u64,
-    pub available: u64,
+    pub(crate) what: String,
+    pub(crate) needed: u64,
+    pub(crate) available: u64,
     /// What limits it (as [`Available::source`]).
     pub limit: &'static str,
 }

@@ -61,8 +61,7 @@ fn register_font() {
     REGISTER.call_once(|| {
         // A known-good TTF compiled into the binary; if registration failed, text would be missing,
         // which the plot tests catch.
-        let _ =
-            plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, crate::render::text::FONT);
+        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, crate::render::FONT);
     });
 }
 
@@ -526,8 +525,8 @@ pub(crate) fn draw(plot: &XyPlot, path: &Path, width: u32, height: u32) -> Resul
         }
         root.present().map_err(|e| err(&e))?;
     }
-    let png = crate::render::sweep::encode_png(&rgb, width as usize, height as usize, Default::default())
-        .map_err(|e| err(&e))?;
+    let png =
+        crate::render::encode_png(&rgb, width as usize, height as usize, Default::default()).map_err(|e| err(&e))?;
     crate::bench::write_own(path, &png).map_err(|e| err(&e))
 }
 

@@ -3,7 +3,7 @@
 
 use crate::colorimetry::Colorimetry;
 use crate::design::Solution;
-use crate::palette::file::PaletteFile;
+use crate::palette::PaletteFile;
 use crate::palette::{Bounds, Kind, Palette};
 use crate::tui::edits::{EditError, EditResult};
 use crate::tui::msg::Effect;

@@ -3,8 +3,8 @@
 
 use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
-use crate::render::dial::DialState;
-use crate::render::scene::Scene;
+use crate::render::DialState;
+use crate::render::Scene;
 use crate::tui::action::Action;
 use crate::tui::app::Message;
 use crate::tui::graphics::Graphics;

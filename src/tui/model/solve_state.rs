@@ -2,8 +2,8 @@
 //! matrix shows, the colours derived from them for the view, and the mismatch region of a cell.
 
 use crate::basis::Basis;
-use crate::basis::policy::Resolved;
-use crate::basis::train::TrainingSet;
+use crate::basis::Resolved;
+use crate::basis::TrainingSet;
 use crate::colorimetry::Colorimetry;
 use crate::design::{DesignError, Solution};
 use crate::palette::Palette;
@@ -13,7 +13,7 @@ use crate::tui::worker::Reply;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// The key of a basis: the exact spectra it is trained on and m ([`crate::basis::store::cache_key`]).
+/// The key of a basis: the exact spectra it is trained on and m ([`crate::basis::cache_key`]).
 /// The shown basis, the basis asked for and the derived colours compare these, never strings.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct BasisKey(String);
@@ -21,7 +21,7 @@ pub struct BasisKey(String);
 impl BasisKey {
     /// The key of the basis of dimension `m` for `set`.
     pub fn of(set: &TrainingSet, m: usize) -> BasisKey {
-        BasisKey(crate::basis::store::cache_key(set, m))
+        BasisKey(crate::basis::cache_key(set, m))
     }
 
     /// The key as the basis memory and the sidecar cache store it.

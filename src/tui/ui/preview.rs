@@ -2,7 +2,7 @@
 //! protocol ([`crate::tui::graphics`]) or in half blocks (two square pixels per character) — centred in
 //! the panel, and a progress line while the raycast runs.
 
-use crate::render::dial::DialState;
+use crate::render::DialState;
 use crate::spectrum::Spectrum;
 use crate::tui::app::State;
 use ratatui::buffer::Buffer;

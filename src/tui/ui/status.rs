@@ -46,7 +46,7 @@ pub(crate) fn title_right(state: &State, compact: bool) -> Line<'static> {
     let elapsed =
         if state.ui.hide_times { String::new() } else { format!(" {}", time_text(s.running_for.as_secs_f64())) };
     if s.running.is_some() {
-        let what = if s.training && crate::basis::store::palette_uses_basis(&state.doc.palette) {
+        let what = if s.training && crate::basis::palette_uses_basis(&state.doc.palette) {
             "training basis, solving…"
         } else {
             "solving…"

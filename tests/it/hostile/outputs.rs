@@ -7,7 +7,7 @@ use super::{metamer, stderr};
 use crate::common::random;
 use metamer::colorimetry::Colorimetry;
 use metamer::fsio::{self, FsError, Replace};
-use metamer::palette::file::PaletteFile;
+use metamer::palette::PaletteFile;
 use std::path::Path;
 use std::time::{Duration, Instant};
 

@@ -59,13 +59,17 @@ pub(crate) fn f64_or_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<
 /// Summary of a set of ΔE00 values.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ErrorStats {
+    /// Mean ΔE00 (+∞ when any value is not finite); 0 when there are no values.
     #[serde(deserialize_with = "f64_or_infinity")]
     pub mean: f64,
     /// 95th percentile, linearly interpolated between order statistics (as numpy's default).
     #[serde(deserialize_with = "f64_or_infinity")]
     pub p95: f64,
+    /// Largest ΔE00 (+∞ when any value is not finite).
     #[serde(deserialize_with = "f64_or_infinity")]
     pub max: f64,
+    /// Number of values summarised (for a model's accuracy: the light × reflectance pairs whose light has
+    /// positive luminance).
     pub count: usize,
 }
 

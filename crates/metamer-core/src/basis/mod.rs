@@ -20,15 +20,18 @@
 //! off-diagonal entries (they act in directions `Q_rgb,m` barely sees). `metamer basis` reports both.
 
 pub mod accuracy;
-pub mod policy;
-pub mod refine;
-pub mod sharpen;
-pub mod store;
-pub mod train;
+pub(crate) mod policy;
+pub(crate) mod refine;
+pub(crate) mod sharpen;
+pub(crate) mod store;
+pub(crate) mod train;
 
-pub use policy::{POOR_MODEL_MEAN_DE00, basis_for, basis_for_palette};
-pub use store::{Report, for_palette, palette_uses_basis};
-pub use train::{TrainError, TrainOptions, Trained, TrainingSet, train, train_for_palette};
+pub use policy::{POOR_MODEL_MEAN_DE00, Resolved, basis_for, basis_for_palette, cached};
+pub use store::{AccuracyReport, Report, cache_key, for_palette, for_set, palette_uses_basis, sidecar_path};
+pub use train::{
+    CandidateSummary, StageResult, Start, TrainError, TrainOptions, Trained, TrainingSet, balanced_condition, train,
+    train_for_palette,
+};
 
 use crate::colorimetry::{Colorimetry, Q31};
 use crate::spectrum::{SAMPLES, Spectrum};
@@ -50,14 +53,23 @@ pub fn clamp_dimension(m: usize) -> usize {
 /// Why a basis cannot be built from a matrix.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum BasisError {
+    /// The matrix does not have one row per sample; the number is the rows it has.
     #[error("a basis needs {SAMPLES} rows (one per sample), got {0}")]
     WrongRows(usize),
+    /// The dimension m (the number) is outside `BASIS_DIMENSIONS`, 1 ..= 31.
     #[error("basis dimension must be between 1 and {SAMPLES}, got {0}")]
     BadDimension(usize),
+    /// An entry of B is NaN or infinite, or the SVD or pseudo-inverse of B failed.
     #[error("the basis has a non-finite entry")]
     NotFinite,
+    /// The columns of B are linearly dependent, so B⁺ does not invert B on its span.
     #[error("the basis columns are linearly dependent (rank {rank} < {m})")]
-    RankDeficient { rank: usize, m: usize },
+    RankDeficient {
+        /// The numerical rank of B (singular values above 31·10⁻¹² of the largest).
+        rank: usize,
+        /// The number of columns of B, the dimension asked for.
+        m: usize,
+    },
 }
 
 /// A (sharpened) spectral basis and its derived operators.

@@ -74,11 +74,6 @@ pub fn basis_for_palette(palette: &Palette, sidecar: Option<&Path>) -> Result<Re
     basis_for(&TrainingSet::from_palette(palette)?, palette.settings.basis_dimension, sidecar)
 }
 
-/// The cache key of a palette's basis (`None` when it cannot have one, e.g. no lights).
-pub fn palette_key(palette: &Palette) -> Option<String> {
-    TrainingSet::from_palette(palette).ok().map(|set| store::cache_key(&set, palette.settings.basis_dimension))
-}
-
 /// A basis already in memory under this key, without any work.
 pub fn cached(key: &str) -> Option<Resolved> {
     memory().lock().ok().and_then(|m| m.entries.get(key).cloned())

@@ -106,11 +106,13 @@ impl AccuracyReport {
 /// What [`for_palette`] did and how good the basis is.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Report {
+    /// m, the number of basis spectra (columns of B).
     pub dimension: usize,
     /// Number of light × reflectance pairs trained on.
     pub pairs: usize,
     /// Rank of the colour signals; `padded` columns were added outside their span when it is below m.
     pub signal_rank: usize,
+    /// Columns added outside the signals' span: `m − min(signal_rank, m)`.
     pub padded: usize,
     /// The cache key (hex).
     pub key: String,
@@ -121,14 +123,17 @@ pub struct Report {
     pub stored: bool,
     /// Wall-clock seconds of the training (as recorded when it was trained, for a cached basis).
     pub training_seconds: f64,
+    /// What each training stage reached (its objective and iterations), in order.
     pub stages: Vec<StageResult>,
     /// The start the accepted basis was refined from, and every candidate tried.
     pub start: Option<Start>,
+    /// Every candidate tried, in order (the last is the unrefined PCA basis).
     pub candidates: Vec<CandidateSummary>,
     /// Condition number of the accepted B with unit-norm columns (B⁺ loses about log10 of it in digits).
     pub condition: f64,
     /// Measured once, when the basis was trained, and stored with it.
     pub accuracy: AccuracyReport,
+    /// Things the user should know: padding, a skipped or failed stage, a sidecar ignored or not written.
     pub notes: Vec<String>,
 }
 

@@ -39,9 +39,13 @@ use std::time::Instant;
 
 /// The objective of a set of terms as a function of a layout's unknowns (others held at `base`).
 pub struct NonlinearProblem<'a> {
+    /// The design whose terms and smoothness make the objective.
     pub design: &'a Design<'a>,
+    /// Where each unknown unit sits in the vector `x`.
     pub layout: &'a Layout,
+    /// Indices into `Design::terms` of the terms summed (a block's).
     pub terms: &'a [usize],
+    /// The values of every unit not in `layout`, held fixed.
     pub base: &'a Values,
 }
 
@@ -167,7 +171,7 @@ pub(crate) const MULTI_START_MIN_CELLS: usize = 64;
 /// Limits of the joint solve.
 #[derive(Clone, Debug)]
 pub struct JointLimits {
-    pub deadline: Instant,
+    pub(crate) deadline: Instant,
     pub(crate) cancel: Option<Arc<AtomicBool>>,
     /// Alternating rounds before L-BFGS-B.
     pub(crate) first_rounds: usize,
@@ -187,6 +191,7 @@ pub struct JointLimits {
 }
 
 impl JointLimits {
+    /// Limits that stop at `deadline` or when `cancel` is set, with the default rounds, tolerances and starts.
     pub fn new(deadline: Instant, cancel: Option<Arc<AtomicBool>>) -> JointLimits {
         JointLimits {
             deadline,

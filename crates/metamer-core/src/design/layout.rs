@@ -23,6 +23,7 @@ pub struct Layout {
 }
 
 impl Layout {
+    /// The layout of `units` stacked in the order given, each unit's unknowns (31 or 3) after the last's.
     pub fn new(units: &[Unit]) -> Layout {
         let mut off = 0;
         let units = units

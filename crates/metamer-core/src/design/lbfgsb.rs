@@ -539,8 +539,10 @@ where
 }
 
 /// Run L-BFGS-B from `x0` (projected onto the box) for at most `max_iters` iterations, through the one
-/// argmin set-up ([`crate::optimize::run`]). Returns the final point, its cost and gradient.
-pub fn minimize<O>(
+/// argmin set-up ([`crate::optimize::run`]). Returns the final point, its cost and gradient. (The
+/// design calls L-BFGS-B through its own problems in `lsq.rs` and `joint.rs`; this entry serves the tests.)
+#[cfg(test)]
+pub(crate) fn minimize<O>(
     problem: O,
     solver: LBfgsB,
     x0: DVector<f64>,
@@ -557,5 +559,4 @@ where
 }
 
 #[cfg(test)]
-#[path = "lbfgsb_tests.rs"]
 mod tests;

@@ -23,14 +23,14 @@
 //!    find the active set roughly and the QR finish starts from it, which keeps the QR solves few.
 //!
 //! On the normal-equations path the final free set is solved once more from a fresh factor (free
-//! variables in ascending order, `Work::polish` in `lsq_finish.rs`), so the result is a function of the
+//! variables in ascending order, `Work::polish` in `lsq/finish.rs`), so the result is a function of the
 //! active set alone, whatever path of binds and releases led to it: both starts give the same bits.
 //!
 //! The reported objective and KKT residual are computed from the residual `Ax − b`.
 //! The factorisation (SVD pseudo-inverse, `AᵀA` and `cond(A)`) depends on A only; [`Factor`]s are shared
 //! between systems with the same A (e.g. many reflectances under the same lights).
 
-use super::lbfgsb::{self, LBfgsB, projected_gradient_norm};
+use super::lbfgsb::{LBfgsB, projected_gradient_norm};
 use super::system::LinearSystem;
 use argmin::core::{CostFunction, Error, Gradient};
 use nalgebra::{DMatrix, DVector};
@@ -98,9 +98,12 @@ pub struct LsqOutcome {
     pub(crate) kkt: f64,
     /// False when the unconstrained solution already satisfied the bounds.
     pub(crate) bounds_active: bool,
-    /// L-BFGS-B iterations and active-set steps used.
-    pub lbfgsb_iterations: u64,
-    pub active_set_steps: usize,
+    /// L-BFGS-B iterations and active-set steps used: counted for a reader in a debugger; neither the
+    /// report nor a test reads them.
+    #[expect(dead_code, reason = "diagnostics kept for debugging, not reported")]
+    pub(crate) lbfgsb_iterations: u64,
+    #[expect(dead_code, reason = "diagnostics kept for debugging, not reported")]
+    pub(crate) active_set_steps: usize,
 }
 
 /// `‖Ax − b‖²` as an argmin problem: through `H = AᵀA` and `Aᵀb` when A is well conditioned, else from the
@@ -274,10 +277,8 @@ fn run_lbfgsb(problem: Objective, solver: LBfgsB, x0: DVector<f64>, max_iters: u
     x.iter().all(|v| v.is_finite()).then_some((x, iters))
 }
 
-#[path = "lsq_kernels.rs"]
 mod kernels;
 
-#[path = "lsq_finish.rs"]
 mod finish;
 use finish::{Work, with_work};
 
@@ -297,14 +298,10 @@ pub(crate) fn solve_from(sys: &LinearSystem, h: &DMatrix<f64>, x0: &DVector<f64>
     LsqOutcome { x, objective, kkt, bounds_active: true, lbfgsb_iterations: 0, active_set_steps: steps }
 }
 
-/// Plain entry for tests and benchmarks: factor and solve in one call.
+/// Plain entry for the tests and [`super::solve::solve_dense`]: factor and solve in one call.
 pub(crate) fn solve_system(sys: &LinearSystem) -> LsqOutcome {
     solve(sys, &Factor::new(&sys.a))
 }
 
-/// Re-export for callers who only need L-BFGS-B.
-pub use lbfgsb::minimize as lbfgsb_minimize;
-
 #[cfg(test)]
-#[path = "lsq_tests.rs"]
 mod tests;

@@ -24,13 +24,18 @@ pub mod feasibility;
 pub fn cell_name(light: &str, reflectance: &str) -> String {
     format!("{light} × {reflectance}")
 }
-pub mod joint;
-pub mod layout;
-pub mod lbfgsb;
-pub mod lsq;
-pub mod report;
-pub mod solve;
-pub mod system;
+pub(crate) mod joint;
+pub(crate) mod layout;
+pub(crate) mod lbfgsb;
+pub(crate) mod lsq;
+pub(crate) mod report;
+pub(crate) mod solve;
+pub(crate) mod system;
+
+pub use joint::{JointLimits, NonlinearProblem};
+pub use report::{Fixed, pair_colours};
+pub use solve::{solve_all, solve_dense};
+pub use system::{Design, Layout, Unit, Values};
 
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
@@ -81,6 +86,7 @@ pub struct CellResult {
     pub rgb_subspace: Option<Vector3<f64>>,
     /// CIEDE2000 of the full colour from the target (under the cell's light); `f64::MAX` when not finite.
     pub delta_e_full: f64,
+    /// CIEDE2000 of the subspace colour from the target, when a basis was given; `f64::MAX` when not finite.
     pub delta_e_subspace: Option<f64>,
     pub(crate) status: CellStatus,
 }
@@ -131,6 +137,7 @@ pub struct Diagnostic {
     pub cell: Option<usize>,
     /// The mixture or path it is about (then `cell` is `None`).
     pub criterion: Option<Criterion>,
+    /// What the diagnostic is about (unmet, duplicate, unused, non-finite, stopped early).
     pub kind: DiagnosticKind,
     /// The sentence shown to the user (the table's remark, the report's `message`).
     pub message: String,
@@ -154,12 +161,16 @@ pub struct Solution {
     pub objective: f64,
     /// Largest violation of the first-order (KKT) conditions, scaled.
     pub kkt_residual: f64,
+    /// Wall-clock seconds of the whole solve, checks and report included.
     pub seconds: f64,
+    /// One per `palette.colours` entry, in the same order (`CellResult::cell` indexes `palette.colours`).
     pub cells: Vec<CellResult>,
     /// One per `palette.mixtures` entry (`CellResult::cell` indexes `palette.mixtures`).
     pub mixtures: Vec<CellResult>,
     /// One per `palette.paths` entry: the colour checked densely along the path.
     pub paths: Vec<PathResult>,
+    /// Remarks on the result, in this order: non-finite values, blocks stopped early, then the cells', the
+    /// mixtures' and the paths' (unmet, duplicate, unused).
     pub diagnostics: Vec<Diagnostic>,
 }
 
@@ -180,11 +191,13 @@ pub struct PathResult {
     pub worst_at_samples: f64,
     /// Where the worst is: `t` in [0, 1] along the path, and the slider's point there.
     pub worst_t: f64,
+    /// The slider's point in dial coordinates at `worst_t` (`[0, 0]` when the path could not be evaluated).
     pub worst_point: [f64; 2],
     /// The full colour at the worst position.
     pub worst_rgb: Vector3<f64>,
     /// The largest ΔE00 of the factor-model colour over the checked positions, when a basis was given.
     pub worst_delta_e_subspace: Option<f64>,
+    /// The largest ΔE00 allowed anywhere along the path (the path's `tolerance`).
     pub tolerance: f64,
     pub(crate) status: CellStatus,
 }
@@ -219,8 +232,11 @@ impl Solution {
 /// [`Solution::diagnostics`]).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DesignError {
+    /// The solve's cancel flag was set, before it started or while it ran; there is no solution.
     #[error("the solve was cancelled")]
     Cancelled,
+    /// The palette cannot be designed (a number too large, a reference that does not exist, a non-finite
+    /// objective): the whole message, naming the key where there is one.
     #[error("{0}")]
     Invalid(String),
 }

@@ -715,5 +715,4 @@ pub(crate) fn mixture_diagnostics(
 }
 
 #[cfg(test)]
-#[path = "report_tests.rs"]
 mod tests;

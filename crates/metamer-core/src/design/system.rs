@@ -37,8 +37,11 @@ pub fn smoothness_scale() -> f64 {
 /// A group of unknowns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Unit {
+    /// The 31 samples of the light at this index of `palette.lights`.
     Light(usize),
+    /// The 31 samples of the reflectance at this index of `palette.reflectances`.
     Reflectance(usize),
+    /// The linear-sRGB colour (3 unknowns) of the free-colour group at this index of `palette.free`.
     Free(usize),
 }
 
@@ -97,8 +100,12 @@ pub struct CellTerm {
 /// Current values of every spectrum and free colour.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Values {
+    /// One spectrum per `palette.lights` entry, same order: a designed light's current samples, a fixed
+    /// light's resolved ones.
     pub lights: Vec<Spectrum>,
+    /// One spectrum per `palette.reflectances` entry, same order: designed or resolved samples as for `lights`.
     pub reflectances: Vec<Spectrum>,
+    /// One linear-sRGB colour per `palette.free` group, same order.
     pub free: Vec<Vector3<f64>>,
 }
 
@@ -125,9 +132,11 @@ impl Values {
 /// The design problem of a palette: which units are unknown and which rows exist.
 #[derive(Clone, Debug)]
 pub struct Design<'a> {
-    pub palette: &'a Palette,
-    pub basis: Option<&'a Basis>,
-    pub q_rgb: Q31,
+    pub(crate) palette: &'a Palette,
+    pub(crate) basis: Option<&'a Basis>,
+    pub(crate) q_rgb: Q31,
+    /// One term per active criterion that touches an unknown (a cell, a mixture, or one design sample of a
+    /// path): the cells', then the mixtures', then the paths'; blocks refer to them by index.
     pub terms: Vec<CellTerm>,
     /// ω_D (0 = no smoothness rows).
     pub smoothness: f64,

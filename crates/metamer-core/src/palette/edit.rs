@@ -11,28 +11,68 @@ use nalgebra::Vector3;
 /// Why an edit was refused (the palette is then unchanged).
 #[derive(Debug, thiserror::Error)]
 pub enum EditError {
+    /// The index is past the end of the light or reflectance list.
     #[error("there is no {} number {index}", kind.as_str())]
-    NoSuchEntry { kind: Kind, index: usize },
+    NoSuchEntry {
+        /// Which list was indexed.
+        kind: Kind,
+        /// The index asked for, into [`Palette::lights`] or [`Palette::reflectances`].
+        index: usize,
+    },
+    /// The free group index (the number) is past the end of [`Palette::free`].
     #[error("there is no free group number {0}")]
     NoSuchFreeGroup(usize),
+    /// No colour cell joins this light and this reflectance.
     #[error("light {light} on reflectance {reflectance} has no colour cell")]
-    NoSuchCell { light: usize, reflectance: usize },
+    NoSuchCell {
+        /// Index into [`Palette::lights`].
+        light: usize,
+        /// Index into [`Palette::reflectances`].
+        reflectance: usize,
+    },
+    /// Another light (or reflectance) already has the name.
     #[error("a {} named `{name}` already exists", kind.as_str())]
-    DuplicateName { kind: Kind, name: String },
+    DuplicateName {
+        /// The list in which the name clashes.
+        kind: Kind,
+        /// The name asked for.
+        name: String,
+    },
+    /// The free group name is already used by another group; the string is that name.
     #[error("a free group named `{0}` already exists")]
     DuplicateFreeGroup(String),
+    /// A light, reflectance or free group was given an empty (or all-blank) name.
     #[error("a name must not be empty")]
     EmptyName,
+    /// A number outside what the edit accepts (NaN, infinite, or a negative weight).
     #[error("{what} must be {rule}, got {value}")]
-    BadNumber { what: &'static str, rule: &'static str, value: f64 },
+    BadNumber {
+        /// What the number is, for the message (`scale`, `a weight`, `a target channel`, `a bound`).
+        what: &'static str,
+        /// What it must be, for the message (`a finite number ≥ 0`, …).
+        rule: &'static str,
+        /// The number given.
+        value: f64,
+    },
+    /// A new free group's lower bound is above its upper bound on some channel.
     #[error("inverted bounds: lower {lower} is above upper {upper}")]
-    InvertedBounds { lower: f64, upper: f64 },
+    InvertedBounds {
+        /// That channel's lower bound, linear sRGB.
+        lower: f64,
+        /// That channel's upper bound, linear sRGB.
+        upper: f64,
+    },
+    /// A normalisation was asked of a reflectance; reflectances are never normalised.
     #[error("only lights are normalised")]
     NotALight,
+    /// A designed or edited spectrum has scale 0, so dividing by the old scale cannot recover its samples.
     #[error("the samples were scaled by 0, so their shape cannot be recovered: set a source first")]
     ZeroScale,
+    /// A source gave no samples (adding a spectrum or changing its source): an unknown built-in name, a bad
+    /// temperature, a wrong sample count, …
     #[error(transparent)]
     Source(#[from] SourceError),
+    /// A light could not be normalised (zero luminance or norm) or its resolved samples are not finite.
     #[error(transparent)]
     Normalize(#[from] NormalizeError),
 }

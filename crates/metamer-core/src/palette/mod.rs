@@ -5,12 +5,15 @@
 //! resolved to samples (lights normalised and scaled), every target in linear sRGB, every reference
 //! to a light, reflectance or free group an index. Reading and writing TOML lives in [`file`].
 
-pub mod edit;
-pub mod file;
+pub(crate) mod edit;
+pub(crate) mod file;
 pub mod mixing;
 /// Seeded generated palettes: the workloads of `metamer bench`, the benchmarks, the examples and the tests.
 pub mod random;
-pub mod source;
+pub(crate) mod source;
+
+pub use edit::EditError;
+pub use file::{PaletteError, PaletteFile};
 
 use crate::spectrum::{Normalize, Spectrum};
 use nalgebra::Vector3;
@@ -18,13 +21,17 @@ use nalgebra::Vector3;
 /// Inclusive bounds on a value; `-inf` / `inf` mean unbounded on that side.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bounds {
+    /// The smallest value allowed; `-inf` when there is none.
     pub lower: f64,
+    /// The largest value allowed; `inf` when there is none.
     pub upper: f64,
 }
 
 impl Bounds {
+    /// No bound on either side: what an absent bounds key means.
     pub const UNBOUNDED: Bounds = Bounds { lower: f64::NEG_INFINITY, upper: f64::INFINITY };
 
+    /// Bounds from `lower` to `upper` as given; nothing is checked here (the palette reader refuses inverted bounds).
     pub fn new(lower: f64, upper: f64) -> Bounds {
         Bounds { lower, upper }
     }
@@ -49,11 +56,14 @@ impl Default for Bounds {
 /// Which side of the design matrix a spectrum stands on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kind {
+    /// A light: a column of the design matrix (`[[lights]]`).
     Light,
+    /// A reflectance: a row of the design matrix (`[[reflectances]]`).
     Reflectance,
 }
 
 impl Kind {
+    /// The kind as a word for messages and the report's `kind` field: `light` or `reflectance`.
     pub fn as_str(&self) -> &'static str {
         match self {
             Kind::Light => "light",
@@ -82,11 +92,15 @@ pub enum Source {
 /// A light or a reflectance of the palette.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpectrumEntry {
+    /// The spectrum's name, unique among the palette's lights (or reflectances); cells refer to it by this name.
     pub name: String,
+    /// Which list the entry belongs to: [`Palette::lights`] or [`Palette::reflectances`].
     pub kind: Kind,
+    /// Where the starting samples come from, kept so that saving writes the same key back.
     pub source: Source,
     /// Lights only; reflectances are never normalised.
     pub normalize: Normalize,
+    /// The factor applied after normalisation (`scale`, default 1), for lights and reflectances alike.
     pub scale: f64,
     /// Open to design: the samples are unknowns and [`SpectrumEntry::spectrum`] is only the start.
     pub design: bool,
@@ -116,6 +130,7 @@ pub struct ColourCell {
     pub reflectance: usize,
     /// Desired colour in linear sRGB (ignored when the cell is in a free group).
     pub target: Vector3<f64>,
+    /// How the target was written (`"#rrggbb"` or `[r, g, b]`), so saving writes it back the same way.
     pub notation: TargetNotation,
     /// ω ≥ 0; a weight of 0 leaves the cell's rows out.
     pub weight: f64,
@@ -135,6 +150,7 @@ impl ColourCell {
 /// A free-colour group (seed Eq. 24): its colour is an unknown shared by its cells, within bounds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FreeGroup {
+    /// The group's name, unique among the palette's groups; cells join the group by it (`free = "A"`).
     pub name: String,
     /// Per-channel lower bound in linear sRGB (`-inf` where absent).
     pub lower: Vector3<f64>,
@@ -150,7 +166,12 @@ pub type Mix = Vec<(usize, f64)>;
 pub enum MixSpec {
     /// `dial = [x, y]` (and `off = [...]`): the light dial's Shepard weights at that point
     /// ([`crate::render::dial`], the renderer's own code), the lights listed in `off` switched off.
-    Dial { at: [f64; 2], off: Vec<usize> },
+    Dial {
+        /// The dial point `[x, y]` in dial coordinates, each within ±1e6.
+        at: [f64; 2],
+        /// Indices into [`Palette::lights`] of the lights switched off, each once; never every light.
+        off: Vec<usize>,
+    },
     /// `mix = { light = w, … }`: explicit weights, used as given.
     Weights,
 }
@@ -163,11 +184,16 @@ pub struct MixtureCell {
     pub reflectance: usize,
     /// The weights, resolved when the file was read.
     pub mix: Mix,
+    /// How the mixture was written: a dial position or explicit weights.
     pub spec: MixSpec,
+    /// Desired colour in linear sRGB (ignored when the cell is in a free group).
     pub target: Vector3<f64>,
-    pub notation: TargetNotation,
+    pub(crate) notation: TargetNotation,
+    /// ω ≥ 0; a weight of 0 leaves the cell's rows out.
     pub weight: f64,
+    /// Index into [`Palette::free`] when the cell joins a free-colour group.
     pub free: Option<usize>,
+    /// `use = false` keeps the cell in the file but out of the design.
     pub enabled: bool,
 }
 
@@ -183,7 +209,14 @@ impl MixtureCell {
 pub enum Route {
     /// `through = [...]`: the dial's slider along the polyline through these points at constant speed,
     /// Shepard weights at every position, the lights in `off` switched off (a scene's keyframes).
-    Dial { through: Vec<[f64; 2]>, off: Vec<usize> },
+    Dial {
+        /// The dial points `[x, y]` the path passes through in order (a light's name in the file stands
+        /// for its vertex), at least 2.
+        through: Vec<[f64; 2]>,
+        /// Indices into [`Palette::lights`] of the lights switched off all along the path, each once;
+        /// never every light.
+        off: Vec<usize>,
+    },
     /// `lights = [...]`: from light to light, mixing the two neighbours linearly (a scene's `path`).
     Lights(Vec<usize>),
 }
@@ -193,12 +226,18 @@ pub enum Route {
 /// solve then checks the colour densely between them against `tolerance` (ΔE00).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PathConstancy {
+    /// Index into [`Palette::reflectances`]: the reflectance whose colour is kept.
     pub reflectance: usize,
-    pub route: Route,
+    pub(crate) route: Route,
+    /// The colour to keep, in linear sRGB (ignored when the path is in a free group).
     pub target: Vector3<f64>,
-    pub notation: TargetNotation,
+    pub(crate) notation: TargetNotation,
+    /// ω ≥ 0 for the whole path: each of the `samples` positions gets ω/√samples, so a path weighs as much as
+    /// one cell; a weight of 0 leaves the path's rows out.
     pub weight: f64,
+    /// Index into [`Palette::free`] when the path keeps a free-colour group's colour instead of `target`.
     pub free: Option<usize>,
+    /// `use = false` keeps the path in the file but out of the design.
     pub enabled: bool,
     /// Positions the design uses, evenly along the path (both ends included), ≥ 2.
     pub samples: usize,
@@ -224,7 +263,9 @@ pub struct Settings {
     pub subspace_error: f64,
     /// Use the subspace colour (`Q_rgb,m Λ Q_m,31`) in the colour rows ("use V7").
     pub fit_in_subspace: bool,
+    /// Bounds on every sample of a designed reflectance, unless the reflectance has its own (`reflectance_bounds`).
     pub reflectance_bounds: Bounds,
+    /// Bounds on every sample of a designed light, unless the light has its own (`light_bounds`).
     pub light_bounds: Bounds,
 }
 
@@ -251,11 +292,17 @@ impl Default for Settings {
 /// A resolved palette.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Palette {
+    /// The palette's `name`, or the file's stem when the file gives none.
     pub name: String,
+    /// The design settings (`[settings]`), defaults where the file gives none.
     pub settings: Settings,
+    /// The lights (`[[lights]]`) in file order: the columns of the design matrix.
     pub lights: Vec<SpectrumEntry>,
+    /// The reflectances (`[[reflectances]]`) in file order: the rows of the design matrix.
     pub reflectances: Vec<SpectrumEntry>,
+    /// Colour criteria on light × reflectance cells (`[[colours]]`), in file order, at most one per cell.
     pub colours: Vec<ColourCell>,
+    /// Free-colour groups (`[[free]]`) in file order; cells refer to them by index.
     pub free: Vec<FreeGroup>,
     /// Colour criteria under mixtures of lights (`[[mixtures]]`).
     pub mixtures: Vec<MixtureCell>,

@@ -93,7 +93,9 @@ pub enum CapacityLightScale {
 /// Variations of the capacity protocol a checker might use; [`Default`] is [`capacity_palette`].
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct CapacityOptions {
+    /// How the lights and reflectances start (default: illuminants, Planck radiators and ColorChecker patches).
     pub start: CapacityStart,
+    /// How the starting lights are scaled (default: luminance 1).
     pub light_scale: CapacityLightScale,
     /// Reflectances bounded to `[0, 1]` instead of `[0, ∞)`.
     pub reflectances_below_one: bool,

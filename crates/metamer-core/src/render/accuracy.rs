@@ -15,8 +15,11 @@ use rayon::prelude::*;
 /// ΔE00 statistics of one model against the reference.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ModelError {
+    /// Mean ΔE00 over the pixels compared (0 when there are none).
     pub mean: f64,
+    /// 95th percentile ΔE00 (nearest rank).
     pub p95: f64,
+    /// Largest ΔE00.
     pub max: f64,
 }
 
@@ -25,12 +28,15 @@ pub struct ModelError {
 pub struct AccuracyReport {
     /// On the 8-bit frames as written.
     pub factor: ModelError,
+    /// The RGB factor model on the 8-bit frames as written.
     pub rgb: ModelError,
     /// On the exposed linear frames before 8-bit quantisation (clamped to the display range).
     pub factor_unquantised: ModelError,
+    /// The RGB factor model on the exposed linear frames before quantisation (clamped to the display range).
     pub rgb_unquantised: ModelError,
     /// Non-black reference pixels compared, summed over frames.
     pub pixels: usize,
+    /// Frames of the sweep compared (as asked; a request of 0 still compares one frame).
     pub frames: usize,
     /// Basis dimension of the factor model.
     pub dimension: usize,
@@ -111,8 +117,11 @@ pub fn compare_models(
 /// ΔE00 statistics of one rendering against a reference rendering of the same scene.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameError {
+    /// Mean ΔE00 over the pixels compared; infinite when the images' sizes differ, 0 when no pixel is covered.
     pub mean: f64,
+    /// 99th percentile ΔE00 (nearest rank); infinite when the images' sizes differ.
     pub p99: f64,
+    /// Largest ΔE00; infinite when the images' sizes differ.
     pub max: f64,
     /// Pixels compared (covered in either frame, summed over frames).
     pub pixels: usize,
@@ -121,7 +130,7 @@ pub struct FrameError {
 /// How far `other` strays from `reference` (two raycasts of `scene` in the same colour model, e.g. with a
 /// skip or a quality step turned off in one): CIEDE2000 per pixel over an N-frame sweep of the scene's
 /// dial, on the 8-bit frames as written (one exposure, the reference's conservative one), over the
-/// pixels that are not black in both. The images must have the same size (`other` is box-filtered down
+/// pixels that are not black in either frame. The images must have the same size (`other` is box-filtered down
 /// when it is a whole multiple larger, as a supersampled reference is).
 pub fn compare_views(
     scene: &Scene,

@@ -46,23 +46,48 @@ const AT_VERTEX: f64 = 1e-9;
 /// Why a dial operation was refused.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DialError {
+    /// A dial was asked for with no lights.
     #[error("the dial needs at least one light")]
     NoLights,
+    /// A light index past the end of the dial's lights.
     #[error("light {index} does not exist (the dial has {count} lights)")]
-    NoSuchLight { index: usize, count: usize },
+    NoSuchLight {
+        /// The index asked for.
+        index: usize,
+        /// How many lights the dial has.
+        count: usize,
+    },
+    /// A position (a vertex, the slider or a keyframe) with a coordinate that is not a finite number.
     #[error("{what}: [{x}, {y}] is not a pair of finite numbers")]
-    NotFinite { what: String, x: f64, y: f64 },
+    NotFinite {
+        /// What the position is, as the message names it: "slider", or "light `NAME` vertex" for a
+        /// light's vertex.
+        what: String,
+        /// Its x coordinate in dial units.
+        x: f64,
+        /// Its y coordinate in dial units.
+        y: f64,
+    },
+    /// A light's intensity factor that is negative or not finite.
     #[error("light `{name}`: intensity {value} is not a finite number ≥ 0")]
-    BadIntensity { name: String, value: f64 },
+    BadIntensity {
+        /// The light's name.
+        name: String,
+        /// The refused factor.
+        value: f64,
+    },
 }
 
 /// One light of the dial: its spectrum, its vertex, on or off, and an intensity factor.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DialLight {
+    /// The light's name in the palette or scene.
     pub name: String,
+    /// Its spectrum on the 31-sample grid, before the intensity factor.
     pub spectrum: Spectrum,
     /// The vertex in dial coordinates (the palette's `dial = [x, y]`, or a default on a unit circle).
     pub position: [f64; 2],
+    /// Whether the light is switched on (an off light weighs nothing in the mixture).
     pub on: bool,
     /// Multiplies the light's spectrum (1 = as in the palette).
     pub intensity: f64,
@@ -97,7 +122,10 @@ pub fn default_position(i: usize, n: usize) -> [f64; 2] {
 /// frame is lit by and what the overlay draws; a terminal widget can drive it directly.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DialState {
+    /// The dial's lights (a scene's: every light of its palette, in palette order); an index into this list
+    /// names a light everywhere on the dial (weights, `Sweep::Path`, toggles).
     pub lights: Vec<DialLight>,
+    /// The slider point in dial coordinates; the Shepard weights are taken here.
     pub slider: [f64; 2],
     /// Weights for [`Sweep::Path`] frames (linear mix of two neighbours) instead of Shepard weights.
     pub fixed_weights: Option<Vec<f64>>,
@@ -247,7 +275,9 @@ pub enum Sweep {
 pub struct Dial {
     /// The dial at rest: every light with its vertex, on/off and intensity; the slider at the start.
     pub base: DialState,
+    /// What the frames do with the dial: a path of lights or keyframes.
     pub sweep: Sweep,
+    /// How the frames are spread over the keyframes (by arc length, or evenly per keyframe).
     pub timing: Timing,
 }
 

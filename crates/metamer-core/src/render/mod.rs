@@ -10,20 +10,35 @@
 //! - [`sweep`]: frames to PNG, exposure, contact sheet;
 //! - [`accuracy`]: factor and RGB model frames against the full-spectrum reference (ΔE00).
 
-pub mod accuracy;
-pub mod dial;
-pub mod overlay;
-pub mod raycast;
-pub mod relight;
-pub mod scene;
-pub mod sweep;
-pub mod text;
+pub(crate) mod accuracy;
+pub(crate) mod dial;
+pub(crate) mod overlay;
+pub(crate) mod raycast;
+pub(crate) mod relight;
+pub(crate) mod scene;
+pub(crate) mod sweep;
+pub(crate) mod text;
+
+pub use accuracy::{AccuracyReport, FrameError, ModelError, compare_models, compare_views};
+pub use dial::{Dial, DialError, DialLight, DialState, Sweep, Timing};
+pub use overlay::{Corner, DialOverlay};
+pub use raycast::{
+    BrickMap, Camera, ChannelImage, Gradient, Interpolation, LABEL_RADIUS, LABEL_RAMP, LABEL_REACH, LABEL_SIGMA,
+    MAX_RAY_STEPS, MIN_FIELD_CACHE, MaterialClass, MaterialWeights, REFINED_STEP, RaycastOptions, RaycastStats,
+    Shading, default_field_cache, raycast,
+};
+pub use relight::{ColourModel, FrameMatrix, Mode, SrgbLut, relight_srgb8};
+pub use scene::{
+    Scene, builtin_scene, colorchecker_scene, engine_check_scene, generated_check_scene, generated_u16_check_scene,
+};
+pub use sweep::{
+    PngCompression, SweepOptions, contact_sheet_from_frames, downsample, encode_png, frame_name, frame_srgb8,
+    render_exposure, sweep_exposure, write_sweep,
+};
+pub use text::FONT;
 
 use crate::basis::Basis;
 use crate::colorimetry::Colorimetry;
-use raycast::{BrickMap, ChannelImage, RaycastOptions, RaycastStats, raycast};
-use relight::{ColourModel, Mode};
-use scene::Scene;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -32,19 +47,39 @@ use std::time::Instant;
 pub enum RenderError {
     /// A scene file problem: the file, the key and the reason.
     #[error("{}: {key}: {reason}", path.display())]
-    Scene { path: PathBuf, key: String, reason: String },
+    Scene {
+        /// The scene file as the caller named it (for a built-in scene, the name it goes by).
+        path: PathBuf,
+        /// Where in the file: a key path (`dial.keyframes`, `render.step`), `line N` for a TOML error, or
+        /// `file` for the file as a whole.
+        key: String,
+        /// Why, in words (a palette's or the file system's own message where they refused).
+        reason: String,
+    },
+    /// The scene's volume could not be read, parsed or generated.
     #[error(transparent)]
     Volume(#[from] crate::volume::VolumeError),
+    /// An output (a frame, the contact sheet, the output folder) could not be made or written.
     #[error("{}: {reason}", path.display())]
-    Output { path: PathBuf, reason: String },
+    Output {
+        /// The file or folder that could not be written.
+        path: PathBuf,
+        /// Why: the file system's or the image encoder's message.
+        reason: String,
+    },
+    /// Anything else the renderer refuses (no basis for the factor model, an empty frame range, …): the
+    /// whole message.
     #[error("{0}")]
     Invalid(String),
 }
 
 /// One raycast view: the K-channel image of the chosen colour model, ready for relighting.
 pub struct RenderedView {
+    /// The composited image in the model's K channels, one pixel per ray.
     pub image: ChannelImage,
+    /// The colour model the image is in; it makes the frame matrices that relight it.
     pub model: ColourModel,
+    /// The counters of the raycast, the same for every model projected from it.
     pub stats: RaycastStats,
     /// Wall-clock seconds of the raycast (including projection onto the model's channels).
     pub seconds: f64,
@@ -53,7 +88,9 @@ pub struct RenderedView {
 /// Switches of the raycaster that do not change the picture (beyond the termination threshold).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Acceleration {
+    /// Stop a ray once its transmittance falls below `termination_transmittance`.
     pub early_termination: bool,
+    /// Step over bricks whose value range holds no material.
     pub empty_space_skipping: bool,
     /// Transmittance below which early termination stops a ray
     /// ([`raycast::TERMINATION_TRANSMITTANCE`] by default).

@@ -46,9 +46,13 @@ const BORDER: [u8; 3] = [150, 150, 160];
 /// Which corner of the frame holds the dial.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Corner {
+    /// The lower right corner (`lower-right`), the seed's placement and the first tried.
     LowerRight,
+    /// The lower left corner (`lower-left`).
     LowerLeft,
+    /// The upper right corner (`upper-right`).
     UpperRight,
+    /// The upper left corner (`upper-left`).
     UpperLeft,
 }
 
@@ -535,5 +539,4 @@ fn rounded_rect(x: f32, y: f32, w: f32, h: f32, r: f32) -> Option<tiny_skia::Pat
 }
 
 #[cfg(test)]
-#[path = "overlay_tests.rs"]
 mod tests;

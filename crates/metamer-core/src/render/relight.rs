@@ -27,6 +27,7 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// The mode's name on the command line (`--mode`) and in reports: `factor`, `full` or `rgb`.
     pub fn as_str(&self) -> &'static str {
         match self {
             Mode::Factor => "factor",
@@ -35,6 +36,7 @@ impl Mode {
         }
     }
 
+    /// The mode called `s` (see `Mode::as_str`); `None` for any other word.
     pub fn parse(s: &str) -> Option<Mode> {
         match s {
             "factor" => Some(Mode::Factor),
@@ -48,8 +50,9 @@ impl Mode {
 /// A colour model ready to produce material vectors and frame matrices.
 #[derive(Clone, Debug)]
 pub struct ColourModel {
+    /// Which of the three representations the image channels hold.
     pub mode: Mode,
-    pub colorimetry: Colorimetry,
+    pub(crate) colorimetry: Colorimetry,
     /// The sharpened basis (factor mode only).
     pub basis: Option<Basis>,
 }
@@ -57,6 +60,7 @@ pub struct ColourModel {
 /// The 3×K matrix of one frame, row-major, exposure included.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameMatrix {
+    /// The number of image channels K it multiplies (m in factor mode, 31 in full, 3 in RGB).
     pub channels: usize,
     pub(crate) m: Vec<f32>,
 }
@@ -136,6 +140,7 @@ impl Default for SrgbLut {
 impl SrgbLut {
     const N: usize = 1 << 16;
 
+    /// The plain sRGB table (display gamma 1).
     pub fn new() -> SrgbLut {
         SrgbLut::with_gamma(1.0)
     }

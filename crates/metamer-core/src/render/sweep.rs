@@ -223,9 +223,11 @@ pub struct SweepOptions {
     pub frames: usize,
     /// The frames to write (global numbers, a sub-range of `0..frames`).
     pub range: Range<usize>,
+    /// The linear factor every frame's colours are multiplied by before sRGB encoding (folded into the frame matrix).
     pub exposure: f64,
     /// Display gamma applied before sRGB encoding (1 = none).
     pub gamma: f64,
+    /// The folder the frames are written to (`frame_0000.png`, …), made when missing.
     pub out_dir: PathBuf,
     /// Also write a contact sheet of the written frames here.
     pub contact_sheet: Option<PathBuf>,

@@ -1,8 +1,10 @@
 //! Spectra: 31 point samples on an explicit wavelength grid (400..=700 nm, 10 nm steps),
 //! built-in tables (CIE illuminants, ColorChecker reflectances), Planck lights and normalisation.
 
-pub mod csv;
-pub mod tables;
+pub(crate) mod csv;
+pub(crate) mod tables;
+
+pub use csv::{parse_spectrum_csv, parse_spectrum_csv_bytes};
 
 use nalgebra::SVector;
 use std::fmt;
@@ -26,6 +28,7 @@ pub type Samples = SVector<f64, SAMPLES>;
 /// by the engine (the sample count is a compile-time constant for speed).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Grid {
+    /// Wavelength of the first sample, nm (400 on the standard grid).
     pub start_nm: f64,
     pub(crate) step_nm: f64,
     pub(crate) count: usize,
@@ -71,6 +74,7 @@ pub enum Normalize {
 }
 
 impl Normalize {
+    /// The normalisation a palette's `normalize` key names: `luminance`, `l2` or `none`; `None` for any other word.
     pub fn parse(s: &str) -> Option<Normalize> {
         match s {
             "luminance" => Some(Normalize::Luminance),
@@ -80,6 +84,7 @@ impl Normalize {
         }
     }
 
+    /// The key's value for this normalisation, as written in palette files: `luminance`, `l2` or `none`.
     pub fn as_str(&self) -> &'static str {
         match self {
             Normalize::Luminance => "luminance",
@@ -92,10 +97,13 @@ impl Normalize {
 /// Why a spectrum cannot be normalised.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum NormalizeError {
+    /// The luminance Y of the spectrum is 0 (in magnitude below `f64::MIN_POSITIVE`) or not finite.
     #[error("the spectrum has zero luminance, so it cannot be normalised to luminance 1")]
     ZeroLuminance,
+    /// The Euclidean norm of the samples is 0 (below `f64::MIN_POSITIVE`) or not finite.
     #[error("the spectrum has zero L2 norm, so it cannot be normalised to norm 1")]
     ZeroNorm,
+    /// A sample is NaN or infinite (checked before any normalisation, and after scaling).
     #[error("the spectrum has a non-finite sample")]
     NotFinite,
 }

@@ -7,14 +7,16 @@
 //! material ranges are written in the file's own units (e.g. `0..=255` for 8-bit CT).
 //! Every reader returns a [`VolumeError`] naming the file and the reason; none panics on bad input.
 
-pub mod data;
+pub(crate) mod data;
 pub(crate) mod fill;
-pub mod generate;
+pub(crate) mod generate;
 pub mod nrrd;
 pub mod raw;
-pub mod voxels;
+pub(crate) mod voxels;
 pub mod vti;
 
+pub use data::{find_in, find_in_data_dir};
+pub use generate::{U16_SCALE, engine_like_u16};
 pub use voxels::{Buf, Voxel, VoxelVisitor, Voxels};
 
 use std::path::{Path, PathBuf};
@@ -22,10 +24,19 @@ use std::path::{Path, PathBuf};
 /// Why a volume could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum VolumeError {
+    /// A volume file (header or data) could not be opened or read: what the file system said.
     #[error("{0}")]
     File(crate::fsio::FsError),
+    /// A volume's content is wrong or could not be read through: a bad header field, a type or size that
+    /// does not match, data that ends early, a non-finite value, a read that failed midway, …
     #[error("{}: {reason}", crate::fsio::show(path))]
-    Invalid { path: PathBuf, reason: String },
+    Invalid {
+        /// The file at fault (a detached data file when its data is), as named by the caller or the
+        /// header; for a generated or in-memory volume, the name it goes by.
+        path: PathBuf,
+        /// Why, in words.
+        reason: String,
+    },
     /// The volume is too large for the machine's memory (refused before it is allocated).
     #[error("{0}")]
     Memory(Box<crate::memory::MemoryError>),
@@ -47,13 +58,21 @@ pub const MAX_ANISOTROPY: f64 = 100.0;
 /// The storage type of voxel values in a file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ScalarType {
+    /// Unsigned 8-bit integers.
     U8,
+    /// Signed 8-bit integers.
     I8,
+    /// Unsigned 16-bit integers.
     U16,
+    /// Signed 16-bit integers.
     I16,
+    /// Unsigned 32-bit integers (converted to `f32` on reading).
     U32,
+    /// Signed 32-bit integers (converted to `f32` on reading).
     I32,
+    /// 32-bit IEEE floats.
     F32,
+    /// 64-bit IEEE floats (converted to `f32` on reading).
     F64,
 }
 
@@ -97,8 +116,10 @@ impl ScalarType {
 /// Byte order of multi-byte values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Endian {
+    /// Least significant byte first (the default, as on x86 and most ARM machines).
     #[default]
     Little,
+    /// Most significant byte first.
     Big,
 }
 

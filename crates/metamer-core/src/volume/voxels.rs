@@ -125,10 +125,15 @@ impl<T: Voxel> std::fmt::Debug for Buf<T> {
 /// A volume's voxels in their stored type.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Voxels {
+    /// Unsigned 8-bit values, as stored in the file.
     U8(Buf<u8>),
+    /// Signed 8-bit values, as stored in the file.
     I8(Buf<i8>),
+    /// Unsigned 16-bit values, as stored in the file.
     U16(Buf<u16>),
+    /// Signed 16-bit values, as stored in the file.
     I16(Buf<i16>),
+    /// 32-bit floats: stored so in the file, or converted from u32, i32 or f64.
     F32(Buf<f32>),
 }
 
@@ -155,7 +160,9 @@ macro_rules! with_voxels {
 
 /// A computation over the voxels of any type: [`Voxels::visit`] calls `visit` once with the typed slice.
 pub trait VoxelVisitor {
+    /// The result of the computation.
     type Output;
+    /// Run the computation on the voxels as one typed slice, x fastest, then y, then z.
     fn visit<T: Voxel>(self, data: &[T]) -> Self::Output;
 }
 

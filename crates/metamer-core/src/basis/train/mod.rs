@@ -72,12 +72,26 @@ pub(crate) const REFERENCE_LIGHTS: [&str; 7] = ["D65", "A", "F2", "F7", "F11", "
 /// Why a basis cannot be trained.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum TrainError {
+    /// The set has no light or no reflectance, so there is no pair to train on.
     #[error("training needs at least one light and one reflectance (got {lights} lights, {reflectances} reflectances)")]
-    NoSpectra { lights: usize, reflectances: usize },
+    NoSpectra {
+        /// Number of lights given.
+        lights: usize,
+        /// Number of reflectances given.
+        reflectances: usize,
+    },
+    /// A spectrum of the set has a NaN or infinite sample.
     #[error("{kind} {index} has a non-finite sample")]
-    NotFinite { kind: &'static str, index: usize },
+    NotFinite {
+        /// Which side: `light` or `reflectance`.
+        kind: &'static str,
+        /// Index of the spectrum in the set's lights or reflectances.
+        index: usize,
+    },
+    /// The dimension m asked for (the number) is outside 1 ..= 31.
     #[error("basis dimension must be between 1 and {SAMPLES}, got {0}")]
     BadDimension(usize),
+    /// The trained matrix did not make a basis (non-finite entries, dependent columns).
     #[error(transparent)]
     Basis(#[from] BasisError),
 }
@@ -196,16 +210,20 @@ impl Start {
 /// its column-balanced B.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CandidateSummary {
+    /// Where the candidate's refinement started.
     pub start: Start,
     /// False for the unrefined PCA basis (the fallback that makes the guarantee hold).
     pub refined: bool,
     /// True when refined with the screening budget only ([`TrainOptions::screen_iterations`]).
     #[serde(default)]
     pub screened: bool,
+    /// Mean factor-model ΔE00 on the training pairs (+∞ when not finite).
     #[serde(deserialize_with = "super::accuracy::f64_or_infinity")]
     pub factor_mean: f64,
+    /// 95th-percentile factor-model ΔE00 on the training pairs (+∞ when not finite).
     #[serde(deserialize_with = "super::accuracy::f64_or_infinity")]
     pub factor_p95: f64,
+    /// Condition number of the candidate's B with unit-norm columns (+∞ when not finite).
     #[serde(deserialize_with = "super::accuracy::f64_or_infinity")]
     pub condition: f64,
     /// True for the candidate that was kept.
@@ -215,14 +233,15 @@ pub struct CandidateSummary {
 /// What one stage reached: its objective (mean squared local ΔE00 over the pairs) and iterations.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StageResult {
-    pub stage: Stage,
-    pub objective: f64,
-    pub iterations: u64,
+    pub(crate) stage: Stage,
+    pub(crate) objective: f64,
+    pub(crate) iterations: u64,
 }
 
 /// A trained basis with what it took.
 #[derive(Clone, Debug)]
 pub struct Trained {
+    /// The accepted (sharpened, refined) basis.
     pub basis: Basis,
     /// The orthonormal PCA basis `B0` (31×m) it started from (with any padding).
     pub pca: DMatrix<f64>,

@@ -5,7 +5,9 @@ use super::*;
 /// The spectra a basis is trained from: every light is paired with every reflectance.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainingSet {
+    /// The lights, at least one; every sample finite when made by `TrainingSet::new`.
     pub lights: Vec<Spectrum>,
+    /// The reflectances, at least one; every sample finite when made by `TrainingSet::new`.
     pub reflectances: Vec<Spectrum>,
 }
 

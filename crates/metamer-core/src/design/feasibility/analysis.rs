@@ -30,6 +30,7 @@ impl RegionCache {
         self.map.lock().map(|m| m.len()).unwrap_or(0)
     }
 
+    /// True when no region is held.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -39,8 +40,7 @@ impl RegionCache {
 #[derive(Clone, Debug)]
 pub struct CellFeasibility {
     pub(crate) cell: usize,
-    pub target: Vector3<f64>,
-    pub achieved: Vector3<f64>,
+    /// Where the target lies against the cell's region, how far from its boundary, and the closest reachable colour.
     pub verdict: Verdict,
     /// Can the bounds alone (no partner held) reach the target?
     pub reachable_alone: bool,
@@ -52,6 +52,7 @@ pub struct CellFeasibility {
     pub(crate) together: bool,
     /// Active cells on the spectrum not modelled (their other side is designed too).
     pub(crate) joint: Vec<usize>,
+    /// The cell's region (shared with the cache).
     pub region: Arc<Region>,
 }
 
@@ -77,8 +78,6 @@ pub fn analyse(problem: &Problem, cache: &RegionCache, directions: usize) -> Res
         };
     Ok(CellFeasibility {
         cell: problem.cell,
-        target: problem.target,
-        achieved: problem.achieved,
         verdict,
         reachable_alone,
         blockers,
@@ -156,17 +155,23 @@ pub struct Panel {
     pub(crate) cell: usize,
     /// "light × reflectance".
     pub label: String,
+    /// The tolerance τ the partners are held to, ΔE.
     pub tolerance: f64,
     /// The slice at the target's L* (`None` when the region does not reach it).
     pub slice: Option<Slice>,
     /// The outer region's slice at the same L* (`None` when it does not reach it or is empty).
     pub outer_slice: Option<Slice>,
+    /// The target in CIELAB (L*, a*, b*) under the cell's light.
     pub target_lab: [f64; 3],
+    /// The cell's current colour in CIELAB (L*, a*, b*) under the cell's light.
     pub achieved_lab: [f64; 3],
+    /// The lowest and highest L* the inner region reaches under the cell's light (`±∞` where unbounded).
     pub l_range: (f64, f64),
+    /// Where the target lies against the regions (inside, on, undecided, outside).
     pub placement: Placement,
+    /// ΔE00 from the target to the inner region's boundary: negative inside, positive outside.
     pub signed_delta_e: f64,
-    pub volume_lab: f64,
+    pub(crate) volume_lab: f64,
     /// Partner cells held.
     pub held: usize,
 }

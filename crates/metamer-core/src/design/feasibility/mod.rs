@@ -100,18 +100,40 @@ pub const SLICE_DIRECTIONS: usize = 72;
 /// Why a region cannot be computed.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum FeasibilityError {
+    /// The index (the number) is past the end of `palette.colours`.
     #[error("colours[{0}] does not exist")]
     NoSuchCell(usize),
+    /// The cell's colour is not linear in one designed spectrum: both of its sides are designed, or neither.
     #[error("cell {cell}: {why}")]
-    NotLinear { cell: String, why: &'static str },
+    NotLinear {
+        /// The cell as `light × reflectance` (names escaped), or `colours[k]`.
+        cell: String,
+        /// Which of the two it is, as a sentence.
+        why: &'static str,
+    },
+    /// The cell is not used (`use = false` or weight 0), so it has no region.
     #[error("cell {cell}: the cell is not used (disabled or weight 0)")]
-    Inactive { cell: String },
+    Inactive {
+        /// The cell as `light × reflectance` (names escaped), or `colours[k]`.
+        cell: String,
+    },
+    /// No spectrum within the bounds holds every partner at its colour: the region is empty.
     #[error(
         "cell {cell}: the other cells' current colours cannot be held within the bounds (the spectrum is outside its bounds?)"
     )]
-    Infeasible { cell: String },
+    Infeasible {
+        /// The cell as `light × reflectance` (names escaped), or `colours[k]`.
+        cell: String,
+    },
+    /// The LP or QP solver failed to set up or stopped without an answer (iteration limit, numerical trouble).
     #[error("cell {cell}: the LP solver stopped ({status})")]
-    Solver { cell: String, status: String },
+    Solver {
+        /// The cell as `light × reflectance` (names escaped), or `colours[k]`.
+        cell: String,
+        /// The solver's status or error, as its debug text (`MaxIterations`, `QP unbounded`, …).
+        status: String,
+    },
+    /// The palette cannot be designed at all (see `DesignError`).
     #[error(transparent)]
     Design(#[from] DesignError),
 }
@@ -184,7 +206,9 @@ pub struct Problem {
     pub(crate) unit: Unit,
     /// x ↦ the cell's colour.
     pub op: Q31,
+    /// The lower bound on every sample of the designed spectrum (its own, else the palette's; `-inf` if none).
     pub lower: f64,
+    /// The upper bound on every sample of the designed spectrum (its own, else the palette's; `inf` if none).
     pub upper: f64,
     /// The designed spectrum now.
     pub current: Spectrum,
@@ -195,6 +219,7 @@ pub struct Problem {
     /// CIELAB reference white (XYZ) of the cell's light.
     pub(crate) white: Vector3<f64>,
     pub(crate) rgb_to_xyz: Matrix3<f64>,
+    /// The other active cells on the same designed spectrum whose other side is fixed, held in their boxes.
     pub partners: Vec<Partner>,
     /// τ (ΔE): each partner's box has half-width τ/√3 per CIELAB component.
     pub tolerance: f64,

@@ -166,6 +166,7 @@ pub enum Placement {
 }
 
 impl Placement {
+    /// The placement's word in the JSON report's `feasibility` entries: `inside`, `on`, `undecided` or `outside`.
     pub fn as_str(&self) -> &'static str {
         match self {
             Placement::Inside => "inside",
@@ -179,6 +180,7 @@ impl Placement {
 /// A target against a region.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Verdict {
+    /// Where the target lies: inside, on the boundary, undecided, or provably outside.
     pub placement: Placement,
     /// ΔE00 to the boundary: negative inside, positive outside (−∞ inside an unbounded region).
     pub signed_delta_e: f64,
@@ -252,7 +254,7 @@ pub fn place(problem: &Problem, region: &Region, target: &Vector3<f64>) -> Resul
 /// The region's slice at one L*: a polygon in the a*–b* plane.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Slice {
-    pub l_star: f64,
+    pub(crate) l_star: f64,
     /// Polygon vertices in CIELAB (L*, a*, b*), in angular order.
     pub lab: Vec<[f64; 3]>,
 }

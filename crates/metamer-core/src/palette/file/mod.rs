@@ -31,31 +31,82 @@ use toml_edit::DocumentMut;
 /// Why a palette file cannot be read, validated or written.
 #[derive(Debug, thiserror::Error)]
 pub enum PaletteError {
+    /// The file could not be read (missing, a folder, unreadable, too large, …).
     #[error("{cause}")]
-    Read { path: PathBuf, cause: Box<crate::fsio::FsError> },
+    Read {
+        /// The palette file as the caller named it.
+        path: PathBuf,
+        /// What the file system said, with the path and the kind of file in its message.
+        cause: Box<crate::fsio::FsError>,
+    },
+    /// The text is blank, or holds only comments and no key.
     #[error("{}: the file is empty (a palette needs at least a name, lights and reflectances)", path.display())]
-    Empty { path: PathBuf },
+    Empty {
+        /// The palette file as the caller named it.
+        path: PathBuf,
+    },
+    /// The bytes are not UTF-8 text, or hold a NUL byte.
     #[error("{}: not a text file (invalid UTF-8 at byte {offset})", path.display())]
-    Binary { path: PathBuf, offset: usize },
+    Binary {
+        /// The palette file as the caller named it.
+        path: PathBuf,
+        /// Byte offset (from 0) of the first invalid UTF-8 sequence or, in valid UTF-8, of the first NUL.
+        offset: usize,
+    },
+    /// The text is not valid TOML, or holds a number TOML cannot represent.
     #[error("{}: TOML syntax error at line {line}, column {column}: {message}", path.display())]
-    Syntax { path: PathBuf, line: usize, column: usize, message: String },
+    Syntax {
+        /// The palette file as the caller named it (empty for a palette that has no file yet).
+        path: PathBuf,
+        /// Line of the error, from 1.
+        line: usize,
+        /// Column of the error, from 1, counted in characters.
+        column: usize,
+        /// The parser's message, trimmed and joined onto one line.
+        message: String,
+    },
+    /// The TOML is well formed but a key's value breaks the palette's rules (DESIGN_SPEC §3).
     #[error("{}{}: {key}: {reason}", path.display(), at_line(line))]
     Invalid {
+        /// The palette file as the caller named it.
         path: PathBuf,
         /// The key path, e.g. `colours[3].light`.
         key: String,
+        /// Why the value is refused, in words that say what would be accepted.
         reason: String,
         /// The line of the key (or of its table when the key is missing), when known.
         line: Option<usize>,
     },
+    /// The new text could not be staged beside the target or put in place; the file on disk is unchanged.
     #[error("{cause}")]
-    Write { path: PathBuf, cause: Box<crate::fsio::FsError> },
+    Write {
+        /// The file being saved to, as the caller named it.
+        path: PathBuf,
+        /// What the file system said, with the path in its message.
+        cause: Box<crate::fsio::FsError>,
+    },
+    /// The text holds so many tables, arrays and values for its size that parsing it would take more
+    /// memory than allowed; refused before any parse.
     #[error(
         "{}: the palette holds {tables} tables, {arrays} arrays and {values} values for its size: parsing it \
-         would take about {estimate_mb} MB, more than the limit of {limit_mb} MB",
+         would take about {estimate_mb} MiB, more than the limit of {limit_mb} MiB",
         path.display()
     )]
-    TooComplex { path: PathBuf, tables: u64, arrays: u64, values: u64, estimate_mb: u64, limit_mb: u64 },
+    TooComplex {
+        /// The palette file as the caller named it.
+        path: PathBuf,
+        /// Tables counted in the text (`{` and headers), outside strings and comments.
+        tables: u64,
+        /// Arrays counted in the text, outside strings and comments.
+        arrays: u64,
+        /// Values counted in the text (`=` and `,`), outside strings and comments.
+        values: u64,
+        /// The estimated memory of the parse, MiB (2²⁰ bytes), rounded down.
+        estimate_mb: u64,
+        /// The most the parse of a text of this length may take, MiB, rounded down.
+        limit_mb: u64,
+    },
+    /// `save` was asked of a palette made in memory, which has no file yet.
     #[error("this palette has no file yet: save it with save_as")]
     NoPath,
 }

@@ -163,5 +163,4 @@ fn cuts(text: &str, pieces: usize, headers: &[usize]) -> Vec<usize> {
 }
 
 #[cfg(test)]
-#[path = "pieces_tests.rs"]
 mod tests;

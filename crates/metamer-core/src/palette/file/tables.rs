@@ -300,5 +300,4 @@ fn rewrite_document(
 }
 
 #[cfg(test)]
-#[path = "tables_tests.rs"]
 mod tests;

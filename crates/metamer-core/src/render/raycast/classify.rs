@@ -217,6 +217,7 @@ pub struct BrickMap {
 }
 
 impl BrickMap {
+    /// The min/max map of `volume` in bricks of `size` voxels a side (clamped to 1…4096, rounded up to a power of two).
     pub fn new(volume: &Volume, size: usize) -> BrickMap {
         let size = size.clamp(1, 1 << 12).next_power_of_two();
         let shift = size.trailing_zeros();

@@ -135,6 +135,7 @@ pub(crate) const MAX_MATERIALS: usize = 64;
 /// (0° looks along +y), elevation lifts the camera towards +z.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Degrees about the volume's z axis; 0 looks along +y.
     pub azimuth_deg: f64,
     pub(crate) elevation_deg: f64,
     /// 1 frames the view's target (see `fit`) with a small margin; larger values magnify.
@@ -153,19 +154,24 @@ impl Default for Camera {
 /// Raycasting settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RaycastOptions {
+    /// Image width in pixels (one ray per pixel).
     pub width: usize,
+    /// Image height in pixels (one ray per pixel).
     pub height: usize,
     /// Distance between samples in voxels (of the smallest spacing).
     pub step: f64,
     /// Weight of the shading-independent part: `shade = ambient + (1 − ambient)·max(n·l, 0)`.
     pub ambient: f64,
+    /// Which light the scalar shading term uses (key light, headlight, or none).
     pub shading: Shading,
+    /// How shading normals are taken: central differences of the smoothed field, or the cell's own gradient.
     pub gradient: Gradient,
     /// Start every ray a pixel-dependent fraction of a step in (interleaved gradient noise).
     pub jitter: bool,
     /// Split a step that crosses a material boundary into substeps of about [`REFINED_STEP`] voxels
     /// (see the module docs).
     pub refine: bool,
+    /// How a sample's value is reconstructed from the voxels (trilinear, nearest, or shape-based labels).
     pub interpolation: Interpolation,
     /// Stop a ray once its transmittance falls below `termination_transmittance`.
     pub early_termination: bool,
@@ -204,18 +210,27 @@ impl Default for RaycastOptions {
 /// Per pixel, the composited weight of every material (row-major pixels, materials innermost).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MaterialWeights {
+    /// Image width in pixels.
     pub width: usize,
+    /// Image height in pixels.
     pub height: usize,
+    /// Number of materials per pixel: the classes given to `raycast`, in their order.
     pub materials: usize,
+    /// `width × height × materials` composited weights `Σ T·α·shade`, row-major pixels (the top row first),
+    /// materials innermost.
     pub data: Vec<f32>,
 }
 
 /// A multi-channel image: per pixel `channels` values (row-major pixels, channels innermost).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChannelImage {
+    /// Image width in pixels.
     pub width: usize,
+    /// Image height in pixels.
     pub height: usize,
+    /// Values per pixel, K: the length of the colour vectors projected (m, 31 or 3 by the colour model).
     pub channels: usize,
+    /// `width × height × channels` values, row-major pixels (the top row first), channels innermost.
     pub data: Vec<f32>,
 }
 
@@ -283,15 +298,20 @@ pub struct RaycastStats {
     pub terminated: u64,
     /// The brick table: bricks, of which empty and single-material for this transfer function.
     pub bricks: u64,
+    /// Of `bricks`, those whose value range meets no material: rays step over them.
     pub empty_bricks: u64,
+    /// Of `bricks`, those whose value range lies within one material's: sampled without a lookup.
     pub uniform_bricks: u64,
     /// Per-brick field blocks built (smooth gradients, smoothed label occupancy; one evicted and needed
     /// again counts again) and their bytes.
     pub field_blocks: u64,
+    /// Bytes of the field blocks counted in `field_blocks`.
     pub field_bytes: u64,
     /// Field blocks evicted to stay within the cap, the cap, and the most bytes resident at once.
     pub field_evicted: u64,
+    /// The most bytes of field blocks kept resident: `RaycastOptions::field_cache`, or the volume's default.
     pub field_cap: u64,
+    /// The most bytes held at one time by field blocks and their slot table during the raycast.
     pub field_peak: u64,
     /// Which store held the blocks.
     pub field_store: FieldStore,

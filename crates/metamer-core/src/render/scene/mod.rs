@@ -96,11 +96,18 @@ pub struct Scene {
     pub palette_path: Option<PathBuf>,
     /// The volume file read, if any (an input no output may overwrite).
     pub volume_path: Option<PathBuf>,
+    /// The palette the materials' reflectances and the dial's lights come from.
     pub palette: Palette,
+    /// The voxels the rays march through.
     pub volume: Volume,
+    /// The transfer function, at most 64 materials in file order; a material's index here is its channel in
+    /// the raycast's `MaterialWeights`.
     pub materials: Vec<Material>,
+    /// View direction and framing.
     pub camera: Camera,
+    /// The light dial: every light of the palette, its vertices and the sweep the frames follow.
     pub dial: Dial,
+    /// Render settings (`[render]`), defaults where the file gives none.
     pub settings: SceneSettings,
 }
 
