@@ -13,7 +13,7 @@
 //!   light on flat white, which is not (1, 1, 1) because sRGB's white is D65) ([`Model::Rgb`]).
 
 use super::Basis;
-use super::train::TrainingSet;
+use super::set::TrainingSet;
 use crate::colorimetry::Colorimetry;
 use crate::spectrum::Spectrum;
 use nalgebra::Vector3;

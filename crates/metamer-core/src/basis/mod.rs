@@ -22,15 +22,16 @@
 pub mod accuracy;
 pub(crate) mod policy;
 pub(crate) mod refine;
+pub(crate) mod set;
 pub(crate) mod sharpen;
 pub(crate) mod store;
 pub(crate) mod train;
 
 pub use policy::{POOR_MODEL_MEAN_DE00, Resolved, basis_for, basis_for_palette, cached};
+pub use set::{TrainError, TrainingSet};
 pub use store::{AccuracyReport, Report, cache_key, for_palette, for_set, palette_uses_basis, sidecar_path};
 pub use train::{
-    CandidateSummary, StageResult, Start, TrainError, TrainOptions, Trained, TrainingSet, balanced_condition, train,
-    train_for_palette,
+    CandidateSummary, StageResult, Start, TrainOptions, Trained, balanced_condition, train, train_for_palette,
 };
 
 use crate::colorimetry::{Colorimetry, Q31};

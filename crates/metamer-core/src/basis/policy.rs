@@ -12,8 +12,9 @@
 //! mean ΔE00 above [`POOR_MODEL_MEAN_DE00`] against full 31-sample colour.
 
 use super::Basis;
+use super::set::TrainingSet;
 use super::store::{self, Report, StoreError};
-use super::train::{TrainOptions, TrainingSet};
+use super::train::TrainOptions;
 use crate::palette::Palette;
 use std::collections::HashMap;
 use std::path::Path;

@@ -22,7 +22,7 @@
 //! using `dP = −P dB P + K dBᵀ (I − B P)` for a full-column-rank B. For `B = B0 T`, `∂f/∂T = B0ᵀ ∂f/∂B`.
 //! Both are checked against central finite differences in the tests.
 
-use super::train::TrainingSet;
+use super::set::TrainingSet;
 use crate::colorimetry::Colorimetry;
 use crate::spectrum::{SAMPLES, Spectrum};
 use argmin::core::{CostFunction, Error, Gradient};

@@ -21,9 +21,8 @@
 //! training and no accuracy work: each entry stores the [`AccuracyReport`] measured at training.
 
 use super::accuracy::{self, ErrorStats, LambdaMass, Model};
-use super::train::{
-    self, CandidateSummary, Fnv1a, StageResult, Start, TRAINING_VERSION, TrainError, TrainOptions, TrainingSet,
-};
+use super::set::{Fnv1a, TrainError, TrainingSet};
+use super::train::{self, CandidateSummary, StageResult, Start, TRAINING_VERSION, TrainOptions};
 use super::{Basis, BasisError};
 use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;

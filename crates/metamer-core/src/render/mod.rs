@@ -175,7 +175,7 @@ pub fn scene_basis_report(scene: &Scene) -> Result<crate::basis::policy::Resolve
     let sidecar = scene.palette_path.as_deref().map(crate::basis::store::sidecar_path);
     let err =
         |e: crate::basis::store::StoreError| RenderError::Invalid(format!("palette `{}`: {e}", scene.palette.name));
-    let set = crate::basis::train::TrainingSet::from_palette(&scene.palette)
+    let set = crate::basis::TrainingSet::from_palette(&scene.palette)
         .map_err(|e| err(crate::basis::store::StoreError::Train(e)))?;
     crate::basis::basis_for(&set, m, sidecar.as_deref()).map_err(err)
 }

@@ -32,11 +32,12 @@
 
 use super::accuracy::{self, ErrorStats, Model};
 use super::refine::{self, Objective, RefineOutcome};
+use super::set::{TrainError, TrainingSet};
 use super::sharpen;
 use super::{Basis, BasisError};
 use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;
-use crate::spectrum::{Normalize, SAMPLES, Spectrum};
+use crate::spectrum::SAMPLES;
 #[cfg(test)]
 use nalgebra::Vector3;
 use nalgebra::{DMatrix, DVector};
@@ -65,39 +66,6 @@ pub(crate) const DEFAULT_SCREEN_ITERATIONS: u64 = 300;
 /// A singular value counts towards the rank of the colour signals when it exceeds this fraction of the
 /// largest one (the signals are f64 products of tabulated spectra; 1e-9 is far above rounding noise).
 pub(crate) const RANK_TOLERANCE: f64 = 1e-9;
-
-/// The lights of [`TrainingSet::colorchecker_seven_lights`].
-pub(crate) const REFERENCE_LIGHTS: [&str; 7] = ["D65", "A", "F2", "F7", "F11", "LED_B3", "D50"];
-
-/// Why a basis cannot be trained.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum TrainError {
-    /// The set has no light or no reflectance, so there is no pair to train on.
-    #[error("training needs at least one light and one reflectance (got {lights} lights, {reflectances} reflectances)")]
-    NoSpectra {
-        /// Number of lights given.
-        lights: usize,
-        /// Number of reflectances given.
-        reflectances: usize,
-    },
-    /// A spectrum of the set has a NaN or infinite sample.
-    #[error("{kind} {index} has a non-finite sample")]
-    NotFinite {
-        /// Which side: `light` or `reflectance`.
-        kind: &'static str,
-        /// Index of the spectrum in the set's lights or reflectances.
-        index: usize,
-    },
-    /// The dimension m asked for (the number) is outside 1 ..= 31.
-    #[error("basis dimension must be between 1 and {SAMPLES}, got {0}")]
-    BadDimension(usize),
-    /// The trained matrix did not make a basis (non-finite entries, dependent columns).
-    #[error(transparent)]
-    Basis(#[from] BasisError),
-}
-
-mod set;
-pub use set::*;
 
 /// How far training goes.
 #[derive(Clone, Debug, PartialEq)]

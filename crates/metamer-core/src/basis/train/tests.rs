@@ -1,6 +1,7 @@
 use super::super::accuracy::{self, Model};
 use super::super::refine::Objective;
 use super::*;
+use crate::spectrum::Spectrum;
 
 fn small_set(c: &Colorimetry) -> TrainingSet {
     let full = TrainingSet::colorchecker_seven_lights(c);

@@ -1,6 +1,41 @@
-//! The spectra a basis is trained from, and the stable hash their cache keys use.
+//! The spectra a basis is trained from, why a set or a training is refused, and the stable hash the
+//! basis cache keys use.
 
-use super::*;
+use super::BasisError;
+use crate::colorimetry::Colorimetry;
+use crate::palette::Palette;
+use crate::spectrum::{Normalize, SAMPLES, Spectrum};
+use nalgebra::DMatrix;
+
+/// The lights of [`TrainingSet::colorchecker_seven_lights`].
+const REFERENCE_LIGHTS: [&str; 7] = ["D65", "A", "F2", "F7", "F11", "LED_B3", "D50"];
+
+/// Why a basis cannot be trained.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TrainError {
+    /// The set has no light or no reflectance, so there is no pair to train on.
+    #[error("training needs at least one light and one reflectance (got {lights} lights, {reflectances} reflectances)")]
+    NoSpectra {
+        /// Number of lights given.
+        lights: usize,
+        /// Number of reflectances given.
+        reflectances: usize,
+    },
+    /// A spectrum of the set has a NaN or infinite sample.
+    #[error("{kind} {index} has a non-finite sample")]
+    NotFinite {
+        /// Which side: `light` or `reflectance`.
+        kind: &'static str,
+        /// Index of the spectrum in the set's lights or reflectances.
+        index: usize,
+    },
+    /// The dimension m asked for (the number) is outside 1 ..= 31.
+    #[error("basis dimension must be between 1 and {SAMPLES}, got {0}")]
+    BadDimension(usize),
+    /// The trained matrix did not make a basis (non-finite entries, dependent columns).
+    #[error(transparent)]
+    Basis(#[from] BasisError),
+}
 
 /// The spectra a basis is trained from: every light is paired with every reflectance.
 #[derive(Clone, Debug, PartialEq)]
