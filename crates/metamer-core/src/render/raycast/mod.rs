@@ -29,7 +29,7 @@
 //!   which is the gradient of a smoothed field: continuous across voxel cells, so no faceted terraces.
 //!   They are precomputed per voxel (`i16` triples) only in the bricks rays reach, each brick's block
 //!   built the first time a ray needs it (at most [`RaycastOptions::field_cache`] bytes resident, the
-//!   least recently used evicted and rebuilt when needed again), and interpolated trilinearly at
+//!   one whose rays end soonest evicted, rebuilt if needed again), and interpolated trilinearly at
 //!   shaded samples only.
 //! - **shape-based labels** ([`Interpolation::Labels`]): for label volumes each material gets, per
 //!   brick reached, the signed distance to its boundary within each z slice (a 2D distance transform,
@@ -357,9 +357,9 @@ pub fn raycast(
     let reach = if labels { labels::label_reach(volume) } else { 1 };
     let table =
         bricks.map(|b| BrickTable::new(b, &classifier, !labels, if labels { reach.div_ceil(b.size) } else { 0 }));
-    let framed = camera
-        .fit_materials
-        .then(|| MaterialRows::new(volume, &classifier, bricks.zip(table.as_ref()).map(|(b, t)| (b, t.class.as_slice()))));
+    let framed = camera.fit_materials.then(|| {
+        MaterialRows::new(volume, &classifier, bricks.zip(table.as_ref()).map(|(b, t)| (b, t.class.as_slice())))
+    });
     let view = View::new(volume, camera, step, options.shading, h as f64 / w as f64, framed.as_ref(), reach as f64);
     let gradients = options.shading != Shading::Unshaded && options.gradient == Gradient::Smooth;
     let kind = match options.interpolation {
