@@ -278,7 +278,9 @@ impl<'a> Fields<'a> {
     /// The brick holding cell start `i`.
     #[inline(always)]
     pub(crate) fn brick_of(&self, i: [usize; 3]) -> [usize; 3] {
-        [0, 1, 2].map(|a| (i[a] >> SHIFT).min(self.counts[a] - 1))
+        // Written out: `[0, 1, 2].map` is not always inlined, and this runs at every shaded sample.
+        let c = &self.counts;
+        [(i[0] >> SHIFT).min(c[0] - 1), (i[1] >> SHIFT).min(c[1] - 1), (i[2] >> SHIFT).min(c[2] - 1)]
     }
 
     /// The block of the brick holding cell start `i` (held by the ray's `cursor`), and the local index of
@@ -286,7 +288,7 @@ impl<'a> Fields<'a> {
     #[inline(always)]
     pub(crate) fn block<'c>(&'a self, i: [usize; 3], cursor: &'c mut Cursor<'a>) -> (&'c BlockRef<'a>, usize) {
         let b = self.brick_of(i);
-        let l = [0, 1, 2].map(|a| i[a] - (b[a] << SHIFT));
+        let l = [i[0] - (b[0] << SHIFT), i[1] - (b[1] << SHIFT), i[2] - (b[2] << SHIFT)];
         let bi = b[0] + self.counts[0] * (b[1] + self.counts[1] * b[2]);
         let local = l[0] + S * (l[1] + S * l[2]);
         if cursor.brick != bi || cursor.block.is_none() {
