@@ -777,7 +777,7 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
             .into(),
     };
     s += "The smooth gradient interpolates per-voxel central differences \
-          (i16, 6 bytes an entry) at shaded samples only, built per 8³ brick the first time a ray reaches it (capped at half the voxels' bytes, least recently used evicted); shape-based \
+          (i16, 6 bytes an entry) at shaded samples only, built per 8³ brick the first time a ray reaches it (capped at half the voxels' bytes, the block whose rays end soonest evicted); shape-based \
           labels build, per brick reached, each nearby material's in-slice signed distance (a 2D distance transform per \
           slice, smoothed; u16 per material present) and sample it trilinearly, with one distance gradient per material \
           (here on the CT's value classes; on a label volume such as the frog it replaces voxel terraces by smooth \

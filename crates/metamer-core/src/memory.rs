@@ -70,7 +70,7 @@ pub fn ensure(what: impl FnOnce() -> String, needed: u64) -> Result<(), MemoryEr
 /// What rendering a volume of `voxel_bytes` may take at the usual frame sizes (≤ 1024²): the voxels, half as
 /// much again for the derived fields (gradients, skipping structure) and 160 MiB for images, model and code.
 /// This is the budget the renderer is held to (issue 25): the derived fields are capped at half the voxels
-/// (at least 64 MiB, `render::raycast::default_field_cache`), the least recently used evicted. Measured for
+/// (at least 64 MiB, `render::raycast::default_field_cache`), the others evicted. Measured for
 /// 192 MiB of u16 voxels (512×512×384) at 512²: peak 313–316 MiB against this 448 MiB, with a transfer
 /// function whose rays reach every brick (886 MiB before the cap).
 pub fn render_estimate(voxel_bytes: u64) -> u64 {

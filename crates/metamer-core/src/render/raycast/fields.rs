@@ -5,10 +5,12 @@
 //! rays actually reach are built — a fraction of the volume — instead of a whole-volume grid per
 //! raycast. A thin transfer function lets rays reach every brick, so the resident blocks are capped
 //! ([`default_field_cache`]: half the voxels' bytes, at least 64 MiB; `RaycastOptions::field_cache`) and
-//! the least recently used are evicted (a clock with a second chance); a block needed again is rebuilt,
-//! identical, so frames are byte-identical whatever the cap (`tests.rs` checks it with a cap that
-//! evicts almost everything). While blocks may be evicted the raycast traces its rows of tiles one after
-//! another, so an evicted block is one the rays have passed (`super::band_rows`). When the largest block times the bricks a raycast can reach fits the cap,
+//! others are evicted; a block needed again is rebuilt, identical, so frames are byte-identical whatever
+//! the cap (`tests.rs` checks it with a cap that evicts almost everything). While blocks may be evicted
+//! the raycast traces its rows of tiles one after another (`super::band_rows`), and the block evicted
+//! first is the one whose last pixel row (the lowest row of the image its brick projects onto) comes
+//! soonest: one the rays have passed, never needed again, while there is one. When the largest block
+//! times the bricks a raycast can reach fits the cap,
 //! nothing can be evicted: each block is then built once into a per-brick `OnceLock` and rays read it
 //! without a lock or a reference count (the pinned store; `tests.rs` compares it with the capped one).
 //!
@@ -28,9 +30,10 @@
 use super::classify::Classifier;
 use super::labels;
 use crate::volume::Volume;
-use std::collections::VecDeque;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 use std::ops::Deref;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 /// log2 of the brick edge.
@@ -91,11 +94,9 @@ impl Block {
     }
 }
 
-/// One brick's place in the cache: its block while resident, and whether a ray used it since the
-/// clock hand last passed (the second chance).
+/// One brick's place in the cache: its block while resident.
 struct Slot {
     block: Mutex<Option<Arc<Block>>>,
-    used: AtomicBool,
 }
 
 /// A ray's hold on the block it is in: rays stay in a brick for several samples, so the cache is asked
@@ -131,9 +132,9 @@ enum Store {
     /// Every block the raycast can build fits within the cap: each built once (under its cell's
     /// once-lock: a thread wanting the same brick waits for it), never evicted, read without a lock.
     Pinned(Vec<OnceLock<Block>>),
-    /// Capped with least-recently-used eviction: per brick a slot; the resident bricks in the order
-    /// they were built (the clock's circle).
-    Capped { slots: Vec<Slot>, clock: Mutex<VecDeque<u32>> },
+    /// Capped with eviction: per brick a slot; the resident bricks keyed by the last pixel row whose
+    /// rays can reach them (`Fields::last_rows`), the soonest passed evicted first.
+    Capped { slots: Vec<Slot>, resident: Mutex<BinaryHeap<Reverse<(u32, u32)>>> },
 }
 
 /// Counters of a [`Fields`] after a raycast.
@@ -151,9 +152,8 @@ pub(super) struct Usage {
 }
 
 /// The per-brick blocks of one raycast, built on demand and bounded: at most `cap` bytes of blocks are
-/// resident (beyond those the running rays hold, one per thread), the least recently used evicted first
-/// (approximated by a clock with a second chance: a block used since the hand last passed is kept once
-/// more). An evicted block needed again is rebuilt — identical, since it depends only on the volume
+/// resident (beyond those the running rays hold, one per thread), those whose rays end soonest evicted
+/// first ([`Fields::evict_by_rows`]). An evicted block needed again is rebuilt — identical, since it depends only on the volume
 /// and the transfer function — so frames are the same whatever the cap.
 pub(super) struct Fields<'a> {
     volume: &'a Volume,
@@ -169,6 +169,12 @@ pub(super) struct Fields<'a> {
     pub(crate) scale: f32,
     /// The capped store's room in blocks of the largest size (None: pinned, nothing is evicted).
     room: Option<u64>,
+    /// Capped store: per brick, the last pixel row whose ray can reach it. The raycast traces its rows of
+    /// tiles in turn, so a block whose last row is above the rows being traced is never needed again.
+    /// Empty: evicted in the order built.
+    last_rows: Vec<u32>,
+    /// Blocks admitted so far (the eviction order without `last_rows`).
+    admitted: AtomicU64,
     built_bytes: AtomicU64,
     built: AtomicU64,
     evicted: AtomicU64,
@@ -211,10 +217,10 @@ impl<'a> Fields<'a> {
         let (store, slot_bytes, room) = if largest.saturating_mul(reach).saturating_add(pinned_bytes) <= cap {
             (Store::Pinned((0..n).map(|_| OnceLock::new()).collect()), pinned_bytes, None)
         } else {
-            let slots = (0..n).map(|_| Slot { block: Mutex::new(None), used: AtomicBool::new(false) }).collect();
-            let slot_bytes = (n * std::mem::size_of::<Slot>()) as u64;
+            let slots = (0..n).map(|_| Slot { block: Mutex::new(None) }).collect();
+            let slot_bytes = (n * (std::mem::size_of::<Slot>() + std::mem::size_of::<u32>())) as u64;
             (
-                Store::Capped { slots, clock: Mutex::new(VecDeque::new()) },
+                Store::Capped { slots, resident: Mutex::new(BinaryHeap::new()) },
                 slot_bytes,
                 Some(cap.saturating_sub(slot_bytes) / largest),
             )
@@ -231,6 +237,8 @@ impl<'a> Fields<'a> {
             peak: AtomicU64::new(slot_bytes),
             scale,
             room,
+            last_rows: Vec::new(),
+            admitted: AtomicU64::new(0),
             built_bytes: AtomicU64::new(0),
             built: AtomicU64::new(0),
             evicted: AtomicU64::new(0),
@@ -241,6 +249,19 @@ impl<'a> Fields<'a> {
     /// fits, none is evicted). The raycast orders its rays by it ([`super::band_rows`]).
     pub(super) fn room(&self) -> Option<u64> {
         self.room
+    }
+
+    /// Capped store: evict by `last_rows` (per field brick in x-fastest order, the last pixel row whose
+    /// ray can reach it), the block whose rays end soonest first; a block whose rays are all traced is
+    /// never needed again. Only the time depends on it, never the frame.
+    pub(super) fn evict_by_rows(&mut self, last_rows: Vec<u32>) {
+        debug_assert_eq!(last_rows.len(), brick_count(self.volume));
+        self.last_rows = last_rows;
+    }
+
+    /// Field bricks per axis.
+    pub(super) fn counts(&self) -> [usize; 3] {
+        self.counts
     }
 
     /// What the cache did.
@@ -257,7 +278,9 @@ impl<'a> Fields<'a> {
     /// The brick holding cell start `i`.
     #[inline(always)]
     pub(crate) fn brick_of(&self, i: [usize; 3]) -> [usize; 3] {
-        [0, 1, 2].map(|a| (i[a] >> SHIFT).min(self.counts[a] - 1))
+        // Written out: `[0, 1, 2].map` is not always inlined, and this runs at every shaded sample.
+        let c = &self.counts;
+        [(i[0] >> SHIFT).min(c[0] - 1), (i[1] >> SHIFT).min(c[1] - 1), (i[2] >> SHIFT).min(c[2] - 1)]
     }
 
     /// The block of the brick holding cell start `i` (held by the ray's `cursor`), and the local index of
@@ -265,7 +288,7 @@ impl<'a> Fields<'a> {
     #[inline(always)]
     pub(crate) fn block<'c>(&'a self, i: [usize; 3], cursor: &'c mut Cursor<'a>) -> (&'c BlockRef<'a>, usize) {
         let b = self.brick_of(i);
-        let l = [0, 1, 2].map(|a| i[a] - (b[a] << SHIFT));
+        let l = [i[0] - (b[0] << SHIFT), i[1] - (b[1] << SHIFT), i[2] - (b[2] << SHIFT)];
         let bi = b[0] + self.counts[0] * (b[1] + self.counts[1] * b[2]);
         let local = l[0] + S * (l[1] + S * l[2]);
         if cursor.brick != bi || cursor.block.is_none() {
@@ -283,7 +306,7 @@ impl<'a> Fields<'a> {
     fn fetch(&'a self, bi: usize, b: [usize; 3]) -> BlockRef<'a> {
         match &self.store {
             Store::Pinned(cells) => BlockRef::Pinned(cells[bi].get_or_init(|| self.build_counted(b))),
-            Store::Capped { slots, clock } => BlockRef::Held(self.fetch_capped(slots, clock, bi, b)),
+            Store::Capped { slots, resident } => BlockRef::Held(self.fetch_capped(slots, resident, bi, b)),
         }
     }
 
@@ -307,14 +330,17 @@ impl<'a> Fields<'a> {
 
     /// [`Self::fetch`] from the capped store.
     #[cold]
-    fn fetch_capped(&self, slots: &[Slot], clock: &Mutex<VecDeque<u32>>, bi: usize, b: [usize; 3]) -> Arc<Block> {
+    fn fetch_capped(
+        &self,
+        slots: &[Slot],
+        resident: &Mutex<BinaryHeap<Reverse<(u32, u32)>>>,
+        bi: usize,
+        b: [usize; 3],
+    ) -> Arc<Block> {
         let slot = &slots[bi];
         // A panic while a slot was locked (building its block) leaves it empty or whole: either is valid.
         let mut held = slot.block.lock().unwrap_or_else(PoisonError::into_inner);
         if let Some(block) = &*held {
-            if !slot.used.load(Ordering::Relaxed) {
-                slot.used.store(true, Ordering::Relaxed);
-            }
             return Arc::clone(block);
         }
         // Built under the slot's lock: a thread that wants the same brick waits for it rather than building it
@@ -323,32 +349,31 @@ impl<'a> Fields<'a> {
         *held = Some(Arc::clone(&block));
         drop(held);
         let bytes = self.count_built(&block);
-        self.admit(slots, clock, bi, bytes);
+        self.admit(slots, resident, bi, bytes);
         block
     }
 
-    /// Count a newly built block of brick `bi` as resident, evicting others while the cap is exceeded.
-    fn admit(&self, slots: &[Slot], clock: &Mutex<VecDeque<u32>>, bi: usize, bytes: u64) {
-        let mut clock = clock.lock().unwrap_or_else(PoisonError::into_inner);
-        clock.push_back(bi as u32);
-        let mut resident = self.resident.fetch_add(bytes, Ordering::Relaxed) + bytes;
-        // Every block is passed at most twice (the second time its mark is cleared), so this ends.
-        let mut turns = 2 * clock.len();
-        while resident > self.cap && turns > 0 && clock.len() > 1 {
-            turns -= 1;
-            let Some(j) = clock.pop_front() else { break };
-            let slot = &slots[j as usize];
-            if j as usize == bi || slot.used.swap(false, Ordering::Relaxed) {
-                clock.push_back(j);
-                continue;
-            }
-            let gone = slot.block.lock().unwrap_or_else(PoisonError::into_inner).take();
+    /// Count a newly built block of brick `bi` as resident, evicting others while the cap is exceeded: the
+    /// one whose rays end soonest first (with the rows of tiles traced in turn, those above the rows being
+    /// traced are never needed again), else the oldest.
+    fn admit(&self, slots: &[Slot], resident: &Mutex<BinaryHeap<Reverse<(u32, u32)>>>, bi: usize, bytes: u64) {
+        let mut heap = resident.lock().unwrap_or_else(PoisonError::into_inner);
+        let key = match self.last_rows.get(bi) {
+            Some(&row) => row,
+            None => self.admitted.fetch_add(1, Ordering::Relaxed).min(u64::from(u32::MAX)) as u32,
+        };
+        let mut total = self.resident.fetch_add(bytes, Ordering::Relaxed) + bytes;
+        while total > self.cap && !heap.is_empty() {
+            let Some(Reverse((_, j))) = heap.pop() else { break };
+            let gone = slots[j as usize].block.lock().unwrap_or_else(PoisonError::into_inner).take();
             if let Some(g) = gone {
-                resident = self.resident.fetch_sub(g.bytes(), Ordering::Relaxed) - g.bytes();
+                total = self.resident.fetch_sub(g.bytes(), Ordering::Relaxed) - g.bytes();
                 self.evicted.fetch_add(1, Ordering::Relaxed);
             }
         }
-        self.peak.fetch_max(resident, Ordering::Relaxed);
+        // The new block is admitted last, so it is never the one evicted for itself.
+        heap.push(Reverse((key, bi as u32)));
+        self.peak.fetch_max(total, Ordering::Relaxed);
     }
 
     fn build(&self, b: [usize; 3]) -> Block {
@@ -441,9 +466,21 @@ impl<'a> Fields<'a> {
                     let yp = &field[base + h + h * n..][..S];
                     let zm = &field[base + h - h * n * n..][..S];
                     let zp = &field[base + h + h * n * n..][..S];
+                    // Each component along the row on its own (loops the compiler vectorises), then
+                    // interleaved.
+                    let (mut gx, mut gy, mut gz) = ([0i16; S], [0i16; S], [0i16; S]);
+                    for lx in 0..S {
+                        gx[lx] = diff(xp[lx], xm[lx]);
+                    }
+                    for lx in 0..S {
+                        gy[lx] = diff(yp[lx], ym[lx]);
+                    }
+                    for lx in 0..S {
+                        gz[lx] = diff(zp[lx], zm[lx]);
+                    }
                     let out = &mut grad[S * (ly + S * lz)..][..S];
                     for lx in 0..S {
-                        out[lx] = [diff(xp[lx], xm[lx]), diff(yp[lx], ym[lx]), diff(zp[lx], zm[lx])];
+                        out[lx] = [gx[lx], gy[lx], gz[lx]];
                     }
                 }
             }

@@ -589,7 +589,9 @@ impl<'a> RayContext<'a> {
             let mut uniform = MIXED;
             if let Some((bm, table)) = self.bricks {
                 // The brick of the sample's cell (it bounds the cell's eight voxels).
-                let b = [0, 1, 2].map(|a| (at.i[a] >> bm.shift).min(bm.counts[a] - 1));
+                // Written out: `[0, 1, 2].map` is not always inlined, and this runs at every sample.
+                let (c, sh) = (&bm.counts, bm.shift);
+                let b = [(at.i[0] >> sh).min(c[0] - 1), (at.i[1] >> sh).min(c[1] - 1), (at.i[2] >> sh).min(c[2] - 1)];
                 uniform = table[b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2])];
                 if uniform == EMPTY {
                     prev = Edge::EMPTY;

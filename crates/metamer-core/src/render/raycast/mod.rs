@@ -29,7 +29,7 @@
 //!   which is the gradient of a smoothed field: continuous across voxel cells, so no faceted terraces.
 //!   They are precomputed per voxel (`i16` triples) only in the bricks rays reach, each brick's block
 //!   built the first time a ray needs it (at most [`RaycastOptions::field_cache`] bytes resident, the
-//!   least recently used evicted and rebuilt when needed again), and interpolated trilinearly at
+//!   one whose rays end soonest evicted, rebuilt if needed again), and interpolated trilinearly at
 //!   shaded samples only.
 //! - **shape-based labels** ([`Interpolation::Labels`]): for label volumes each material gets, per
 //!   brick reached, the signed distance to its boundary within each z slice (a 2D distance transform,
@@ -377,7 +377,9 @@ pub fn raycast(
     let reach = if labels { labels::label_reach(volume) } else { 1 };
     let table =
         bricks.map(|b| BrickTable::new(b, &classifier, !labels, if labels { reach.div_ceil(b.size) } else { 0 }));
-    let framed = camera.fit_materials.then(|| MaterialRows::new(volume, &classifier));
+    let framed = camera.fit_materials.then(|| {
+        MaterialRows::new(volume, &classifier, bricks.zip(table.as_ref()).map(|(b, t)| (b, t.class.as_slice())))
+    });
     let view = View::new(volume, camera, step, options.shading, h as f64 / w as f64, framed.as_ref(), reach as f64);
     let gradients = options.shading != Shading::Unshaded && options.gradient == Gradient::Smooth;
     let kind = match options.interpolation {
@@ -392,7 +394,11 @@ pub fn raycast(
         .zip(table.as_ref())
         .filter(|(b, _)| !labels && b.size == fields::FIELD_BRICK)
         .map(|(_, t)| t.class.len() - t.empty);
-    let fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients, cap, reachable));
+    let mut fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients, cap, reachable));
+    if let Some(f) = fields.as_mut().filter(|f| f.room().is_some()) {
+        let rows = last_rows(&view, volume, f.counts(), w, h);
+        f.evict_by_rows(rows);
+    }
     let ctx = RayContext {
         volume,
         classifier: &classifier,
@@ -494,6 +500,37 @@ fn band_rows(room: u64, bricks: usize, view: &View, volume: &Volume, w: usize, h
         rows /= 2;
     }
     rows
+}
+
+/// Per field brick (x fastest), the last pixel row whose ray can reach it: the lowest row its box
+/// projects onto, grown by the voxel a trilinear cell reaches past it and by a row, within `0..=h`.
+/// Rays of one pixel row share the image's `up` coordinate, so a ray of a later row never enters the
+/// brick.
+fn last_rows(view: &View, volume: &Volume, counts: [usize; 3], w: usize, h: usize) -> Vec<u32> {
+    let s = volume.spacing;
+    let n = fields::FIELD_BRICK as f64;
+    let up = view.up;
+    let centre = (0..3).map(|a| view.centre_world[a] * up[a]).sum::<f64>();
+    // Image rows per world unit along `up` (pixel rows are `2·half_extent·h/w / h` apart).
+    let per_unit = w as f64 / (2.0 * view.half_extent);
+    // Per axis and brick index, the least `up` coordinate of the brick's (grown) extent along that axis.
+    let least = |a: usize, b: usize| {
+        let (lo, hi) = ((b as f64 * n - 1.0) * s[a] * up[a], ((b + 1) as f64 * n + 1.0) * s[a] * up[a]);
+        lo.min(hi)
+    };
+    let axis = |a: usize| (0..counts[a]).map(|b| least(a, b)).collect::<Vec<f64>>();
+    let (ux, uy, uz) = (axis(0), axis(1), axis(2));
+    let mut out = Vec::with_capacity(counts.iter().product());
+    for z in &uz {
+        for y in &uy {
+            for x in &ux {
+                // py + 0.5 = h/2 − (u − centre)·per_unit for the image's `up` coordinate u.
+                let row = 0.5 * h as f64 - (x + y + z - centre) * per_unit - 0.5;
+                out.push((row.ceil() + 1.0).clamp(0.0, h as f64) as u32);
+            }
+        }
+    }
+    out
 }
 
 /// Bricks within `k` bricks (along each axis) of an occupied one count as occupied: a label field
