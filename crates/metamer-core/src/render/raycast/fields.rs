@@ -27,6 +27,7 @@
 //!   `labels` (see there, `u16`) and its gradient, one `i16` triple per material and entry; a block
 //!   classifies the voxels around it by the transfer function's table as it is built.
 
+use super::block::{FIELD_BRICK, S, S3, SHIFT};
 use super::classify::Classifier;
 use super::labels;
 use crate::volume::Volume;
@@ -36,15 +37,7 @@ use std::ops::Deref;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
-/// log2 of the brick edge.
-pub(super) const SHIFT: u32 = 3;
-/// Brick edge in voxels.
-pub(super) const FIELD_BRICK: usize = 1 << SHIFT;
 const BRICK: usize = FIELD_BRICK;
-/// Block entries per axis: the brick and its upper seam.
-pub(super) const S: usize = BRICK + 1;
-/// Block entries.
-pub(super) const S3: usize = S * S * S;
 
 /// The least cap of the resident blocks (within the 160 MiB that [`crate::memory::render_estimate`] gives
 /// besides the voxels and their half): a small volume keeps all the blocks its rays reach.

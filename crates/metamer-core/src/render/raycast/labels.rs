@@ -16,8 +16,8 @@
 //! Shading normals are each material's own distance gradient (central differences one voxel either
 //! side, stored as `i16` triples and interpolated trilinearly): continuous across cells and slices.
 
+use super::block::{S, S3, SHIFT};
 use super::classify::Classifier;
-use super::fields::{S, S3, SHIFT};
 use crate::volume::Volume;
 
 /// Standard deviation (voxels, in-plane) of the Gaussian that smooths each slice's signed distance.

@@ -1,7 +1,8 @@
 //! Marching one ray: sample reconstruction, classification, shading and front-to-back compositing.
 
+use super::block::{FIELD_BRICK, S3};
 use super::classify::{BrickMap, Classifier, EMPTY, MIXED};
-use super::fields::{BlockRef, CELL, CORNERS, Cursor, FIELD_BRICK, Fields, S3, corner_weights};
+use super::fields::{BlockRef, CELL, CORNERS, Cursor, Fields, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 use super::view::View;
 use super::{

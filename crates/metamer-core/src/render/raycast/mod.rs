@@ -328,6 +328,7 @@ impl RaycastStats {
     }
 }
 
+mod block;
 mod classify;
 mod fields;
 mod labels;
@@ -392,7 +393,7 @@ pub fn raycast(
     // holds: with the skipping bricks the size of the field bricks, only the others can need a block.
     let reachable = bricks
         .zip(table.as_ref())
-        .filter(|(b, _)| !labels && b.size == fields::FIELD_BRICK)
+        .filter(|(b, _)| !labels && b.size == block::FIELD_BRICK)
         .map(|(_, t)| t.class.len() - t.empty);
     let mut fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients, cap, reachable));
     if let Some(f) = fields.as_mut().filter(|f| f.room().is_some()) {
@@ -493,7 +494,7 @@ fn band_rows(room: u64, bricks: usize, view: &View, volume: &Volume, w: usize, h
     // World units per pixel, the image's height, a brick's diagonal.
     let pixel = 2.0 * view.half_extent / w as f64;
     let image = pixel * h as f64;
-    let brick = fields::FIELD_BRICK as f64 * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+    let brick = block::FIELD_BRICK as f64 * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
     let per_height = bricks as f64 / (image + brick);
     let mut rows = TILE;
     while rows > 1 && per_height * (rows as f64 * pixel + brick) > room as f64 / 2.0 {
@@ -508,7 +509,7 @@ fn band_rows(room: u64, bricks: usize, view: &View, volume: &Volume, w: usize, h
 /// brick.
 fn last_rows(view: &View, volume: &Volume, counts: [usize; 3], w: usize, h: usize) -> Vec<u32> {
     let s = volume.spacing;
-    let n = fields::FIELD_BRICK as f64;
+    let n = block::FIELD_BRICK as f64;
     let up = view.up;
     let centre = (0..3).map(|a| view.centre_world[a] * up[a]).sum::<f64>();
     // Image rows per world unit along `up` (pixel rows are `2·half_extent·h/w / h` apart).
