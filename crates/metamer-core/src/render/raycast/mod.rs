@@ -7,8 +7,8 @@
 //! Files: this one holds the public types and [`raycast`] (setup and tiles); `classify` the transfer
 //! function's lookup tables, the min/max [`BrickMap`] and the framed voxels (their runs along x, which
 //! the camera projects to fit their silhouette); `view` the camera
-//! geometry; `fields` the per-brick fields built on demand, capped with least-recently-used eviction
-//! (smooth gradients, smoothed label occupancy);
+//! geometry; `fields` the per-brick fields built on demand, capped, the block whose rays end soonest
+//! evicted first (smooth gradients, smoothed label occupancy);
 //! `march` one ray's sampling, shading and compositing.
 //!
 //! Sampling quality (each switchable in [`RaycastOptions`], costs in `metamer bench render`):
@@ -267,7 +267,7 @@ pub enum FieldStore {
     /// Every block the raycast can build fits the cap: each built once, never evicted, read without a
     /// lock.
     Pinned,
-    /// Capped with least-recently-used eviction; the rows of tiles traced one after another, `rows`
+    /// Capped, the block whose last pixel row comes soonest evicted first; the rows of tiles traced one after another, `rows`
     /// pixel rows each, so an evicted block is one the rays have passed.
     Capped { rows: usize },
 }
