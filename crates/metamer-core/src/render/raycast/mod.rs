@@ -267,8 +267,8 @@ pub enum FieldStore {
     /// Every block the raycast can build fits the cap: each built once, never evicted, read without a
     /// lock.
     Pinned,
-    /// Capped, the block whose last pixel row comes soonest evicted first; the rows of tiles traced one after another, `rows`
-    /// pixel rows each, so an evicted block is one the rays have passed.
+    /// Capped, the block whose last pixel row comes soonest evicted first; the rows of tiles traced one
+    /// after another, `rows` pixel rows each, so an evicted block is one the rays have passed.
     Capped { rows: usize },
 }
 
