@@ -145,3 +145,78 @@ pub fn solve_dense(design: &Design, start: &Values) -> Option<(Values, f64)> {
     layout.scatter(&out.x, &mut v);
     Some((v, out.kkt))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::colorimetry::Colorimetry;
+    use crate::palette::{Bounds, Palette, random};
+    use nalgebra::DVector;
+    use std::time::{Duration, Instant};
+
+    /// A batch palette whose designs do not all share one matrix or one box: one cell weighs more (its
+    /// design's A differs) and two reflectances have bounds of their own.
+    fn mixed_batch(col: &Colorimetry) -> Palette {
+        let mut p = random::reachable_batch_palette(60, 3, col);
+        p.colours[4].weight = 2.0;
+        p.reflectances[7].bounds = Some(Bounds { lower: 0.1, upper: 0.9 });
+        p.reflectances[8].bounds = Some(Bounds { lower: 0.0, upper: 0.5 });
+        p
+    }
+
+    fn bits(v: &DVector<f64>) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    #[test]
+    fn a_shared_matrix_is_the_bits_of_each_designs_own_assembly() {
+        let col = Colorimetry::default();
+        for p in [mixed_batch(&col), random::batch_palette(60, 4, &col)] {
+            let design = Design::new(&p, None, &col).expect("valid");
+            let v = design.start_values();
+            let cache = FactorCache::default();
+            let mut keys = std::collections::HashSet::new();
+            for block in design.blocks() {
+                let layout = Layout::new(&block.units);
+                let own = design.linear_system(&layout, &block.terms, &v);
+                let key = design.matrix_key(&layout, &block.terms);
+                keys.insert(key.clone());
+                let shared = cache.get(key, || own.a.clone());
+                let sys = design.linear_system_with(&shared.a, &layout, &block.terms, &v);
+                assert_eq!(sys.a.shape(), own.a.shape());
+                assert!(sys.a.iter().zip(own.a.iter()).all(|(x, y)| x.to_bits() == y.to_bits()));
+                assert_eq!(bits(&sys.b), bits(&own.b));
+                assert_eq!(bits(&sys.lower), bits(&own.lower));
+                assert_eq!(bits(&sys.upper), bits(&own.upper));
+            }
+            // The heavier cell's design has a matrix of its own; the others share one.
+            assert_eq!(keys.len(), if p.colours[4].weight == 2.0 { 2 } else { 1 });
+        }
+    }
+
+    #[test]
+    fn the_batch_solve_is_each_design_solved_on_its_own_to_the_bit() {
+        let col = Colorimetry::default();
+        let p = mixed_batch(&col);
+        let design = Design::new(&p, None, &col).expect("valid");
+        let start = design.start_values();
+        let limits = JointLimits::new(Instant::now() + Duration::from_secs(600), None);
+        for parallel in [false, true] {
+            let (values, reports) = solve_all(&design, &start, &limits, parallel);
+            let mut bounded = 0;
+            for (block, report) in design.blocks().iter().zip(&reports) {
+                let layout = Layout::new(&block.units);
+                let sys = design.linear_system(&layout, &block.terms, &start);
+                let own = lsq::solve(&sys, &Factor::new(&sys.a));
+                assert_eq!(bits(&layout.gather(&values)), bits(&own.x));
+                assert_eq!(report.kkt.to_bits(), own.kkt.to_bits());
+                bounded += own.bounds_active as usize;
+            }
+            assert!(bounded > 0 && bounded < reports.len(), "{bounded} of {} designs bounded", reports.len());
+            // The designs with bounds of their own keep to them.
+            for (i, lo, hi) in [(7, 0.1, 0.9), (8, 0.0, 0.5)] {
+                assert!(values.reflectances[i].as_slice().iter().all(|&x| (lo..=hi).contains(&x)));
+            }
+        }
+    }
+}
