@@ -833,7 +833,8 @@ impl StagedWriter<'_> {
 
 impl Write for StagedWriter<'_> {
     /// Inlined: serialisers call this for every few bytes, and the common case is one copy into the buffer
-    /// (the call and `write_all`'s loop around it were 7 % of a 1200-design solve's instructions).
+    /// (with the call and `write_all`'s loop around it, a 1200-design solve's report took 103.7 M instructions
+    /// to serialise; 47.5 M inlined).
     #[inline]
     fn write(&mut self, data: &[u8]) -> std::io::Result<usize> {
         self.write_all(data)?;
