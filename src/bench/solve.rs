@@ -103,6 +103,16 @@ pub enum VersusScipy {
     Skipped(String),
 }
 
+/// The whole `metamer solve` process should take at most 1/20 of scipy's time on the batch (issue 27).
+const PROCESS_AIM: f64 = 20.0;
+/// The solve alone (the report's `solve_seconds`) per design, seconds (issue 27).
+const PER_DESIGN_AIM: f64 = 5e-6;
+
+/// `met` or `not met` (a figure that is not a number meets no aim).
+fn met(ok: bool) -> &'static str {
+    if ok { "met" } else { "not met" }
+}
+
 impl VersusScipy {
     /// One Markdown paragraph.
     pub(crate) fn markdown(&self) -> String {
@@ -119,14 +129,20 @@ impl VersusScipy {
                 "Whole process against scipy, {workload} ({designs} bounded single-reflectance designs, 3 lights \
                  each, one file): `metamer solve IN -o OUT --report R.json` {} ({} with `--quiet --no-subspace`; solve alone \
                  {}), scipy BVLS one by one {} ({} per design): **{:.1}× faster** as a process. Objective \
-                 (metamer − scipy) / scipy = {:.1e}. Rerun: `python3 benches/scipy_bvls.py FILE`.\n",
+                 (metamer − scipy) / scipy = {:.1e}. Aims (issue 27): the process ≥ {PROCESS_AIM}× faster than scipy, {}; \
+                 the solve alone ≤ {} per design, {} ({} per design). Where the process's time goes: \
+                 [docs/solve_performance.md](../solve_performance.md). Rerun: `python3 benches/scipy_bvls.py FILE`.\n",
                 format_seconds(*process_seconds),
                 format_seconds(*process_quiet_seconds),
                 format_seconds(*solve_seconds),
                 format_seconds(*scipy_seconds),
                 format_seconds(scipy_seconds / *designs as f64),
                 scipy_seconds / process_seconds,
-                relative_difference
+                relative_difference,
+                met(scipy_seconds / process_seconds >= PROCESS_AIM),
+                format_seconds(PER_DESIGN_AIM),
+                met(solve_seconds / *designs as f64 <= PER_DESIGN_AIM),
+                format_seconds(solve_seconds / *designs as f64),
             ),
             VersusScipy::Skipped(why) => format!("Whole process against scipy: skipped ({why}).\n"),
         }
@@ -512,4 +528,34 @@ pub fn run(cfg: &Config, plot_path: Option<&Path>) -> Report {
         eprintln!("could not draw the plot: {e}");
     }
     report
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn measured(scipy_seconds: f64, process_seconds: f64, solve_seconds: f64) -> VersusScipy {
+        VersusScipy::Measured {
+            workload: "reachable targets",
+            designs: 1200,
+            scipy_seconds,
+            process_seconds,
+            process_quiet_seconds: process_seconds,
+            solve_seconds,
+            relative_difference: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_whole_process_paragraph_says_which_aims_are_met() {
+        let both = measured(0.40, 0.018, 0.0048).markdown();
+        assert!(both.contains("22.2× faster"), "{both}");
+        assert!(both.contains("≥ 20× faster than scipy, met;"), "{both}");
+        assert!(both.contains("per design, met (4.00 µs per design)"), "{both}");
+        let neither = measured(0.40, 0.056, 0.012).markdown();
+        assert!(neither.contains("≥ 20× faster than scipy, not met;"), "{neither}");
+        assert!(neither.contains("per design, not met (10.00 µs per design)"), "{neither}");
+        let nan = measured(0.40, f64::NAN, f64::NAN).markdown();
+        assert_eq!(nan.matches("not met").count(), 2, "{nan}");
+    }
 }

@@ -24,7 +24,6 @@ use crate::palette::mixing::{light_of, mix_at, route_dial, sample_positions};
 use crate::palette::{Bounds, Kind, Mix, Palette};
 use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Vector3};
-use std::collections::HashMap;
 
 use super::DesignError;
 pub use super::layout::{Block, Layout, LinearSystem};
@@ -335,7 +334,30 @@ impl<'a> Design<'a> {
     /// `units` count as fixed and connect nothing. Each term goes to the component of its first unit in
     /// the set (terms touching none of `units` are dropped).
     pub(crate) fn components(&self, units: &[Unit], terms: &[usize]) -> Vec<Block> {
-        let index: HashMap<Unit, usize> = units.iter().enumerate().map(|(i, u)| (*u, i)).collect();
+        // Positions of the units in `units`, by kind and index (dense tables: a batch has thousands of
+        // units and terms, and hashing each lookup was most of this function's cost).
+        let p = self.palette;
+        const NONE: usize = usize::MAX;
+        let mut lights = vec![NONE; p.lights.len()];
+        let mut refl = vec![NONE; p.reflectances.len()];
+        let mut free = vec![NONE; p.free.len()];
+        for (i, u) in units.iter().enumerate() {
+            let (table, k) = match *u {
+                Unit::Light(k) => (&mut lights, k),
+                Unit::Reflectance(k) => (&mut refl, k),
+                Unit::Free(k) => (&mut free, k),
+            };
+            // A unit listed twice counts at its last position (as a map from unit to position would).
+            if let Some(slot) = table.get_mut(k) {
+                *slot = i;
+            }
+        }
+        let at = |table: &[usize], k: usize| table.get(k).copied().filter(|&i| i != NONE);
+        let index_of = |u: &Unit| match *u {
+            Unit::Light(k) => at(&lights, k),
+            Unit::Reflectance(k) => at(&refl, k),
+            Unit::Free(k) => at(&free, k),
+        };
         let mut parent: Vec<usize> = (0..units.len()).collect();
         fn find(parent: &mut [usize], mut i: usize) -> usize {
             while parent[i] != i {
@@ -344,10 +366,13 @@ impl<'a> Design<'a> {
             }
             i
         }
-        let in_set =
-            |t: &CellTerm| -> Vec<usize> { self.term_units(t).iter().filter_map(|u| index.get(u).copied()).collect() };
+        let in_set = |t: &CellTerm, out: &mut Vec<usize>| {
+            out.clear();
+            out.extend(self.term_units(t).iter().filter_map(index_of));
+        };
+        let mut us = Vec::with_capacity(4);
         for &ti in terms {
-            let us = in_set(&self.terms[ti]);
+            in_set(&self.terms[ti], &mut us);
             for w in us.windows(2) {
                 let a = find(&mut parent, w[0]);
                 let b = find(&mut parent, w[1]);
@@ -356,24 +381,24 @@ impl<'a> Design<'a> {
                 }
             }
         }
-        let mut by_root: HashMap<usize, usize> = HashMap::new();
+        let mut by_root = vec![NONE; units.len()];
         let mut blocks: Vec<Block> = Vec::new();
         for (i, unit) in units.iter().enumerate() {
             let r = find(&mut parent, i);
-            let k = *by_root.entry(r).or_insert_with(|| {
+            if by_root[r] == NONE {
                 blocks.push(Block::default());
-                blocks.len() - 1
-            });
-            blocks[k].units.push(*unit);
+                by_root[r] = blocks.len() - 1;
+            }
+            blocks[by_root[r]].units.push(*unit);
         }
         for &ti in terms {
             let t = &self.terms[ti];
-            let us = in_set(t);
+            in_set(t, &mut us);
             if let Some(&first) = us.first() {
-                let k = by_root[&find(&mut parent, first)];
+                let k = by_root[find(&mut parent, first)];
                 blocks[k].terms.push(ti);
-                let both = t.lights.iter().any(|&(i, _)| index.contains_key(&Unit::Light(i)))
-                    && index.contains_key(&Unit::Reflectance(t.reflectance));
+                let both =
+                    t.lights.iter().any(|&(i, _)| at(&lights, i).is_some()) && at(&refl, t.reflectance).is_some();
                 blocks[k].bilinear |= both;
             }
         }
@@ -441,19 +466,50 @@ impl<'a> Design<'a> {
     /// Only `terms` (indices into `self.terms`) are assembled; with `smoothness`, the layout's spectra get
     /// their smoothness rows.
     pub fn linear_system(&self, layout: &Layout, terms: &[usize], v: &Values) -> LinearSystem {
+        let (a, b) = self.assemble(layout, terms, v, true);
+        let (lower, upper) = layout.bounds(self);
+        LinearSystem { a, b, lower, upper }
+    }
+
+    /// [`Design::linear_system`] with A taken from `a`, a system assembled before from the same [`Values`]
+    /// with an equal [`Design::matrix_key`] (so A is bit-identical): only b and the bounds are assembled.
+    /// The batch path shares one A between all designs under the same lights this way.
+    pub(crate) fn linear_system_with(
+        &self,
+        a: &DMatrix<f64>,
+        layout: &Layout,
+        terms: &[usize],
+        v: &Values,
+    ) -> LinearSystem {
+        let (_, b) = self.assemble(layout, terms, v, false);
+        debug_assert_eq!((a.nrows(), a.ncols()), (b.len(), layout.len()));
+        let (lower, upper) = layout.bounds(self);
+        // A plain copy of the storage (memcpy); nalgebra's `clone` copies element by element.
+        let a = DMatrix::from_vec(a.nrows(), a.ncols(), a.as_slice().to_vec());
+        LinearSystem { a, b, lower, upper }
+    }
+
+    /// A (empty when `with_matrix` is false) and b of [`Design::linear_system`]: one routine for both, so b
+    /// is computed by the same operations whether A is assembled or shared.
+    fn assemble(
+        &self,
+        layout: &Layout,
+        terms: &[usize],
+        v: &Values,
+        with_matrix: bool,
+    ) -> (DMatrix<f64>, DVector<f64>) {
         let n = layout.len();
         let w_d = self.smoothness * smoothness_scale();
-        let spectra: Vec<(Unit, usize)> =
-            layout.units.iter().copied().filter(|(u, _)| !matches!(u, Unit::Free(_))).collect();
+        let spectra = layout.units.iter().filter(|(u, _)| !matches!(u, Unit::Free(_))).count();
         let mut rows = 0;
         for &ti in terms {
             let t = &self.terms[ti];
             rows += 3 + if t.error_scale > 0.0 { 3 } else { 0 };
         }
         if w_d > 0.0 {
-            rows += SAMPLES * spectra.len();
+            rows += SAMPLES * spectra;
         }
-        let mut a = DMatrix::zeros(rows, n);
+        let mut a = if with_matrix { DMatrix::zeros(rows, n) } else { DMatrix::zeros(0, 0) };
         let mut b = DVector::zeros(rows);
         let mut r0 = 0;
         for &ti in terms {
@@ -474,11 +530,13 @@ impl<'a> Design<'a> {
             let count = if t.error_scale > 0.0 { 2 } else { 1 };
             for &(form, scale, row) in &parts[..count] {
                 let constant = if let Some(off) = ro {
-                    let op = self.operator(form, &fixed) * scale;
-                    a.view_mut((row, off), (3, SAMPLES)).copy_from(&op);
+                    if with_matrix {
+                        let op = self.operator(form, &fixed) * scale;
+                        a.view_mut((row, off), (3, SAMPLES)).copy_from(&op);
+                    }
                     Vector3::zeros()
                 } else {
-                    if !unknown.is_empty() {
+                    if with_matrix && !unknown.is_empty() {
                         let op = self.operator(form, s) * scale;
                         for &(off, w) in &unknown {
                             let mut block = a.view_mut((row, off), (3, SAMPLES));
@@ -492,8 +550,10 @@ impl<'a> Design<'a> {
                     match t.free {
                         Some(g) => match layout.offset(Unit::Free(g)) {
                             Some(off) => {
-                                for k in 0..3 {
-                                    a[(row + k, off + k)] = -scale;
+                                if with_matrix {
+                                    for k in 0..3 {
+                                        a[(row + k, off + k)] = -scale;
+                                    }
                                 }
                             }
                             None => rhs += v.free[g] * scale,
@@ -505,8 +565,9 @@ impl<'a> Design<'a> {
             }
             r0 += 3 + if t.error_scale > 0.0 { 3 } else { 0 };
         }
-        if w_d > 0.0 {
-            for (_, off) in &spectra {
+        if w_d > 0.0 && with_matrix {
+            let spectra = layout.units.iter().filter(|(u, _)| !matches!(u, Unit::Free(_)));
+            for (_, off) in spectra {
                 for i in 0..SAMPLES {
                     a[(r0 + i, off + i)] = 2.0 * w_d;
                     if i > 0 {
@@ -519,8 +580,7 @@ impl<'a> Design<'a> {
                 r0 += SAMPLES;
             }
         }
-        let (lower, upper) = layout.bounds(self);
-        LinearSystem { a, b, lower, upper }
+        (a, b)
     }
 }
 
