@@ -293,7 +293,7 @@ fn alternate(
     };
     let (refl_side, light_side) = (side(false), side(true));
     let layout = Layout::new(&block.units);
-    let (lo, hi) = layout.bounds(design);
+    let (lo, hi) = layout.bounds(design.palette);
     let mut f = *out.history.last().unwrap_or(&design.block_objective(block, v));
     let mut beta: f64 = 0.5;
     let mut stalled = 0;
@@ -450,7 +450,7 @@ pub(crate) fn solve_block(design: &Design, block: &Block, v: &mut Values, limits
 /// stage, then the KKT residual.
 fn finish(design: &Design, block: &Block, v: &mut Values, limits: &JointLimits, out: &mut JointOutcome) {
     let layout = Layout::new(&block.units);
-    let (lo, hi) = layout.bounds(design);
+    let (lo, hi) = layout.bounds(design.palette);
     if out.stopped.is_none() {
         let base = v.clone();
         let problem = NonlinearProblem { design, layout: &layout, terms: &block.terms, base: &base };

@@ -1,15 +1,71 @@
-//! Blocks of unknowns and their stacked layout: which units are solved together ([`Block`]), where each
-//! unit's samples sit in a stacked vector ([`Layout`]: gather, scatter, bounds), and the bounded linear
-//! least-squares problem of a linear block ([`LinearSystem`]). Re-exported by [`super::system`].
+//! The unknowns and their stacked layout: the groups of unknowns ([`Unit`]) and their current values
+//! ([`Values`]), which units are solved together ([`Block`]), where each unit's samples sit in a stacked
+//! vector ([`Layout`]: gather, scatter, bounds), and the bounded linear least-squares problem of a linear
+//! block ([`LinearSystem`]). Re-exported by `super::system`, which builds the design on them; this file
+//! imports nothing of it.
 
-use super::system::{Design, Unit, Values};
-use nalgebra::{DMatrix, DVector};
+use crate::palette::Palette;
+use crate::spectrum::{SAMPLES, Spectrum};
+use nalgebra::{DMatrix, DVector, Vector3};
+
+/// A group of unknowns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Unit {
+    /// The 31 samples of the light at this index of `palette.lights`.
+    Light(usize),
+    /// The 31 samples of the reflectance at this index of `palette.reflectances`.
+    Reflectance(usize),
+    /// The linear-sRGB colour (3 unknowns) of the free-colour group at this index of `palette.free`.
+    Free(usize),
+}
+
+impl Unit {
+    /// Number of unknowns in the unit.
+    pub(crate) fn len(&self) -> usize {
+        match self {
+            Unit::Free(_) => 3,
+            _ => SAMPLES,
+        }
+    }
+}
+
+/// Current values of every spectrum and free colour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Values {
+    /// One spectrum per `palette.lights` entry, same order: a designed light's current samples, a fixed
+    /// light's resolved ones.
+    pub lights: Vec<Spectrum>,
+    /// One spectrum per `palette.reflectances` entry, same order: designed or resolved samples as for `lights`.
+    pub reflectances: Vec<Spectrum>,
+    /// One linear-sRGB colour per `palette.free` group, same order.
+    pub free: Vec<Vector3<f64>>,
+}
+
+impl Values {
+    /// The samples of a unit as a slice.
+    pub fn get(&self, unit: Unit) -> &[f64] {
+        match unit {
+            Unit::Light(i) => self.lights[i].as_slice(),
+            Unit::Reflectance(i) => self.reflectances[i].as_slice(),
+            Unit::Free(g) => self.free[g].as_slice(),
+        }
+    }
+
+    /// Overwrite a unit's values.
+    pub(crate) fn set(&mut self, unit: Unit, v: &[f64]) {
+        match unit {
+            Unit::Light(i) => self.lights[i].0.copy_from_slice(v),
+            Unit::Reflectance(i) => self.reflectances[i].0.copy_from_slice(v),
+            Unit::Free(g) => self.free[g].copy_from_slice(v),
+        }
+    }
+}
 
 /// A set of units that must be solved together, and the terms that touch them.
 #[derive(Clone, Debug, Default)]
 pub struct Block {
     pub units: Vec<Unit>,
-    /// Indices into [`Design::terms`].
+    /// Indices into the design's terms (`Design::terms`).
     pub terms: Vec<usize>,
     /// True when a term has both its light and its reflectance in the block.
     pub bilinear: bool,
@@ -64,10 +120,9 @@ impl Layout {
     }
 
     /// Bounds of the stacked unknowns.
-    pub fn bounds(&self, design: &Design) -> (DVector<f64>, DVector<f64>) {
+    pub fn bounds(&self, p: &Palette) -> (DVector<f64>, DVector<f64>) {
         let mut lo = DVector::zeros(self.len);
         let mut hi = DVector::zeros(self.len);
-        let p = design.palette;
         for (u, o) in &self.units {
             let n = u.len();
             match *u {

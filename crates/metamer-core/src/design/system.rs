@@ -26,32 +26,11 @@ use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::DesignError;
-pub use super::layout::{Block, Layout, LinearSystem};
+pub use super::layout::{Block, Layout, LinearSystem, Unit, Values};
 
 /// The scale of the smoothness operator: `D / (√31 · √6)`.
 pub fn smoothness_scale() -> f64 {
     1.0 / ((SAMPLES as f64).sqrt() * 6f64.sqrt())
-}
-
-/// A group of unknowns.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Unit {
-    /// The 31 samples of the light at this index of `palette.lights`.
-    Light(usize),
-    /// The 31 samples of the reflectance at this index of `palette.reflectances`.
-    Reflectance(usize),
-    /// The linear-sRGB colour (3 unknowns) of the free-colour group at this index of `palette.free`.
-    Free(usize),
-}
-
-impl Unit {
-    /// Number of unknowns in the unit.
-    pub(crate) fn len(&self) -> usize {
-        match self {
-            Unit::Free(_) => 3,
-            _ => SAMPLES,
-        }
-    }
 }
 
 /// Which bilinear form a row block uses.
@@ -94,38 +73,6 @@ pub struct CellTerm {
     pub(crate) form: Form,
     /// ω_F·ω/√3, 0 when there are no subspace-error rows.
     pub(crate) error_scale: f64,
-}
-
-/// Current values of every spectrum and free colour.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Values {
-    /// One spectrum per `palette.lights` entry, same order: a designed light's current samples, a fixed
-    /// light's resolved ones.
-    pub lights: Vec<Spectrum>,
-    /// One spectrum per `palette.reflectances` entry, same order: designed or resolved samples as for `lights`.
-    pub reflectances: Vec<Spectrum>,
-    /// One linear-sRGB colour per `palette.free` group, same order.
-    pub free: Vec<Vector3<f64>>,
-}
-
-impl Values {
-    /// The samples of a unit as a slice.
-    pub fn get(&self, unit: Unit) -> &[f64] {
-        match unit {
-            Unit::Light(i) => self.lights[i].as_slice(),
-            Unit::Reflectance(i) => self.reflectances[i].as_slice(),
-            Unit::Free(g) => self.free[g].as_slice(),
-        }
-    }
-
-    /// Overwrite a unit's values.
-    pub(crate) fn set(&mut self, unit: Unit, v: &[f64]) {
-        match unit {
-            Unit::Light(i) => self.lights[i].0.copy_from_slice(v),
-            Unit::Reflectance(i) => self.reflectances[i].0.copy_from_slice(v),
-            Unit::Free(g) => self.free[g].copy_from_slice(v),
-        }
-    }
 }
 
 /// The design problem of a palette: which units are unknown and which rows exist.
@@ -467,7 +414,7 @@ impl<'a> Design<'a> {
     /// their smoothness rows.
     pub fn linear_system(&self, layout: &Layout, terms: &[usize], v: &Values) -> LinearSystem {
         let (a, b) = self.assemble(layout, terms, v, true);
-        let (lower, upper) = layout.bounds(self);
+        let (lower, upper) = layout.bounds(self.palette);
         LinearSystem { a, b, lower, upper }
     }
 
@@ -483,7 +430,7 @@ impl<'a> Design<'a> {
     ) -> LinearSystem {
         let (_, b) = self.assemble(layout, terms, v, false);
         debug_assert_eq!((a.nrows(), a.ncols()), (b.len(), layout.len()));
-        let (lower, upper) = layout.bounds(self);
+        let (lower, upper) = layout.bounds(self.palette);
         // A plain copy of the storage (memcpy); nalgebra's `clone` copies element by element.
         let a = DMatrix::from_vec(a.nrows(), a.ncols(), a.as_slice().to_vec());
         LinearSystem { a, b, lower, upper }
