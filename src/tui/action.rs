@@ -44,6 +44,8 @@ pub enum Action {
     AddLight,
     AddReflectance,
     Remove,
+    /// Rename the selected light or reflectance (on a cell: its light, reflectance or free-colour group).
+    Rename,
     ToggleBounds,
     ToggleFitInSubspace,
     Undo,
@@ -97,6 +99,8 @@ pub enum Action {
     /// Choose the light / the reflectance of the selected cell.
     ChooseLight,
     ChooseReflectance,
+    /// Choose the free-colour group of the selected cell (rename).
+    ChooseGroup,
     /// Quit without saving.
     Discard,
     /// Save, then quit.

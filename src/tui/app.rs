@@ -92,6 +92,8 @@ pub enum SpectrumOp {
     Scale,
     Planck,
     Remove,
+    /// Rename the light or the reflectance (or the cell's free-colour group).
+    Rename,
 }
 
 impl SpectrumOp {
@@ -103,6 +105,7 @@ impl SpectrumOp {
             SpectrumOp::Scale => "scale",
             SpectrumOp::Planck => "make Planck",
             SpectrumOp::Remove => "remove",
+            SpectrumOp::Rename => "rename",
         }
     }
 }
@@ -130,6 +133,8 @@ pub(crate) enum PromptPurpose {
     NewPlanck,
     /// The path to save the palette to (save as).
     SaveAs,
+    /// The new name of a light, reflectance or free-colour group.
+    Rename(crate::tui::rename::Renamed),
 }
 
 /// A one-line text prompt.

@@ -67,6 +67,7 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('L')], A::AddLight, "add light (illuminant/Planck/CSV)"),
     bind(&[ch('R')], A::AddReflectance, "add reflectance (patch/flat/CSV)"),
     bind(&[ch('x'), plain(K::Delete)], A::Remove, "remove light or reflectance"),
+    bind(&[ch('r')], A::Rename, "rename light, reflectance, group"),
     bind(&[ch('B')], A::ToggleBounds, "bounds on/off"),
     bind(&[ch('V')], A::ToggleFitInSubspace, "fit in the subspace model on/off"),
     bind(&[ch('z'), ctrl('z')], A::Undo, "undo"),
@@ -146,6 +147,7 @@ pub(crate) const PICK: &[Binding] = &[
 pub(crate) const CHOOSE: &[Binding] = &[
     bind(&[ch('l')], A::ChooseLight, "the cell's light"),
     bind(&[ch('r')], A::ChooseReflectance, "the cell's reflectance"),
+    bind(&[ch('g')], A::ChooseGroup, "the cell's free-colour group (rename)"),
     bind(&[plain(K::Esc)], A::Back, "cancel"),
 ];
 

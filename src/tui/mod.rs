@@ -25,6 +25,7 @@ pub mod model;
 pub mod msg;
 pub mod preview;
 pub(crate) mod probe;
+pub mod rename;
 pub mod replay;
 pub mod terminal;
 pub mod ui;

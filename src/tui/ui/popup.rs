@@ -190,12 +190,20 @@ impl Widget for PopupView<'_> {
                 }
             }
             Popup::ChooseSpectrum { op, light, reflectance } => {
-                let r = centred(area, 60, 5);
+                let p = &state.doc.palette;
+                let group = (*op == crate::tui::app::SpectrumOp::Rename)
+                    .then(|| crate::tui::rename::group_of(p, *light, *reflectance))
+                    .flatten()
+                    .and_then(|g| p.free.get(g));
+                let r = centred(area, 60, 5 + u16::from(group.is_some()));
                 let inner = frame(r, buf, op.label());
-                let l = state.doc.palette.lights.get(*light).map_or("", |e| e.name.as_str());
-                let rf = state.doc.palette.reflectances.get(*reflectance).map_or("", |e| e.name.as_str());
+                let l = p.lights.get(*light).map_or("", |e| e.name.as_str());
+                let rf = p.reflectances.get(*reflectance).map_or("", |e| e.name.as_str());
                 put(buf, inner, 1, 0, &format!("l  the light {l}"), Style::new());
                 put(buf, inner, 1, 1, &format!("r  the reflectance {rf}"), Style::new());
+                if let Some(g) = group {
+                    put(buf, inner, 1, 2, &format!("g  the free-colour group {}", g.name), Style::new());
+                }
             }
             Popup::Pick { kind, items, selected } => {
                 let h = (items.len() as u16 + 2).min(area.height.saturating_sub(2)).max(3);

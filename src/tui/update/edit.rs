@@ -202,6 +202,11 @@ pub(super) fn apply_spectrum_op(state: &mut State, op: SpectrumOp, kind: Kind, i
             };
             open_prompt(state, &title, hint, now, PromptPurpose::Scale { kind, index })
         }
+        SpectrumOp::Rename => crate::tui::rename::open(
+            &mut state.ui,
+            &state.doc.palette,
+            crate::tui::rename::Renamed::Spectrum(kind, index),
+        ),
         SpectrumOp::Remove => {
             if edit(state, EditKey::Other, |p, _| edits::remove(p, kind, index)) {
                 state.say(format!("removed {} {name} (z undoes)", kind.as_str()));

@@ -50,6 +50,10 @@ pub(super) fn update_main(state: &mut State, action: Action) -> Vec<Effect> {
         Action::NormaliseL2 => spectrum_op(state, SpectrumOp::NormaliseL2),
         Action::Scale => spectrum_op(state, SpectrumOp::Scale),
         Action::Remove => spectrum_op(state, SpectrumOp::Remove),
+        Action::Rename => {
+            let target = state.target();
+            crate::tui::rename::start(&mut state.ui, &state.doc.palette, target)
+        }
         Action::Planck => spectrum_op(state, SpectrumOp::Planck),
         Action::AddLight | Action::AddReflectance => on_add(state, action),
         Action::ToggleBounds
@@ -78,6 +82,7 @@ pub(super) fn update_main(state: &mut State, action: Action) -> Vec<Effect> {
         | Action::Submit
         | Action::ChooseLight
         | Action::ChooseReflectance
+        | Action::ChooseGroup
         | Action::Discard
         | Action::SaveAndQuit
         | Action::Restore => {}

@@ -70,6 +70,17 @@ fn on_choose(state: &mut State, action: Action, op: SpectrumOp, light: usize, re
     match action {
         Action::ChooseLight => apply_spectrum_op(state, op, Kind::Light, light),
         Action::ChooseReflectance => apply_spectrum_op(state, op, Kind::Reflectance, reflectance),
+        Action::ChooseGroup if op == SpectrumOp::Rename => {
+            match crate::tui::rename::group_of(&state.doc.palette, light, reflectance) {
+                Some(g) => {
+                    crate::tui::rename::open(&mut state.ui, &state.doc.palette, crate::tui::rename::Renamed::Group(g))
+                }
+                None => {
+                    state.ui.popup = Some(Popup::ChooseSpectrum { op, light, reflectance });
+                    state.complain("this cell is in no free-colour group: l renames its light, r its reflectance");
+                }
+            }
+        }
         Action::Back => {}
         _ => state.ui.popup = Some(Popup::ChooseSpectrum { op, light, reflectance }),
     }

@@ -91,6 +91,21 @@ pub(super) fn submit_prompt(state: &mut State, mut prompt: Prompt) -> Vec<Effect
                 );
                 save_as(state, path, asked)
             }
+            PromptPurpose::Rename(what) => {
+                let old = what.name(&state.doc.palette).unwrap_or_default().to_string();
+                let effects = edit_or_err(state, |p, _| crate::tui::rename::rename(p, what, &input))?;
+                let new = what.name(&state.doc.palette).unwrap_or_default().to_string();
+                if new != old {
+                    let scene: Vec<String> = state
+                        .preview
+                        .ready
+                        .as_ref()
+                        .map(|p| p.materials.iter().map(|(n, _)| n.clone()).collect())
+                        .unwrap_or_default();
+                    state.say(crate::tui::rename::done_message(&old, &new, what, &scene));
+                }
+                effects
+            }
             PromptPurpose::Setting(field) => {
                 let v = parse_number(&input)?;
                 edit_or_err(state, |p, _| set_setting(p, field, v))?

@@ -1,0 +1,71 @@
+//! The designer as a daily tool (issue 30): rename, the legend of the marks, search and the command
+//! palette, keyframes listed and deleted. Screens at 80×24 (insta snapshots under `snapshots/`), updates
+//! checked on the state, colours on cell styles where they matter.
+
+use crate::tui_support;
+
+use metamer::palette::Kind;
+use metamer::tui::colour::ColourMode;
+use metamer::tui::replay::MemorySaver;
+use tui_support::{demo_palette, replay, state};
+
+macro_rules! snap {
+    ($name:expr, $text:expr) => {
+        insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
+            insta::assert_snapshot!($name, $text);
+        })
+    };
+}
+
+/// `r` on a cell asks light / reflectance / group; the prompt has the old name typed; the new name shows
+/// in the matrix, the message says what happened, a taken name is refused in the prompt, undo restores it
+/// and a save writes the renamed palette.
+#[test]
+fn rename_a_light_a_reflectance_and_a_group() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "r", 80, 24);
+    snap!("rename_choose_80x24", text);
+    assert!(text.contains("l  the light daylight") && text.contains("r  the reflectance skin"));
+    assert!(!text.contains("g  the free-colour group"), "skin × daylight is in no group");
+    let (text, _) = replay(&mut s, "l", 80, 24);
+    snap!("rename_prompt_80x24", text);
+    assert!(text.contains("rename light daylight") && text.contains("› daylight"));
+    // A name the other side already uses on this side is refused in the prompt, the palette unchanged.
+    let (text, _) = replay(&mut s, "Ctrl-u\n\"tungsten\"\nEnter", 80, 24);
+    assert!(text.contains("a light named `tungsten` already exists"), "{text}");
+    assert_eq!(s.doc.palette.lights[0].name, "daylight");
+    let (text, _) = replay(&mut s, "Ctrl-u\n\"sun\"\nEnter", 80, 24);
+    snap!("rename_done_80x24", text);
+    assert_eq!(s.doc.palette.lights[0].name, "sun");
+    assert!(text.contains("renamed daylight to sun (z undoes)"), "{text}");
+    assert!(s.is_dirty());
+    // The cell's colours did not change: the cells follow the light by index.
+    assert_eq!(s.doc.palette.colours, demo_palette().colours);
+    // A reflectance from its swatch (column 0): the prompt opens at once.
+    replay(&mut s, "Left\nr\nCtrl-u\n\"ochre\"\nEnter", 80, 24);
+    assert_eq!(s.doc.palette.reflectances[0].name, "ochre");
+    // The free group of tungsten × tissue: `g` in the choice.
+    let (text, _) = replay(&mut s, "Right *2\nDown *2\nr", 80, 24);
+    assert!(text.contains("g  the free-colour group A"), "{text}");
+    let (text, _) = replay(&mut s, "g\nCtrl-u\n\"warm\"\nEnter", 80, 24);
+    assert_eq!(s.doc.palette.free[0].name, "warm");
+    assert!(text.contains("renamed A to warm"), "{text}");
+    // The matrix marks the group's cells with its new initial, in the group colour.
+    assert!(text.lines().any(|l| l.contains("▌▀▀▀ w")), "{text}");
+    // Undo steps back through the renames.
+    replay(&mut s, "z", 80, 24);
+    assert_eq!(s.doc.palette.free[0].name, "A");
+    replay(&mut s, "z\nz", 80, 24);
+    assert_eq!(
+        (s.doc.palette.lights[0].name.as_str(), s.doc.palette.reflectances[0].name.as_str()),
+        ("daylight", "skin")
+    );
+    // Redo, save: the saver gets the renamed palette.
+    let mut saver = MemorySaver::default();
+    tui_support::replay_saving(&mut s, "Z\nZ\nZ\nCtrl-s", 80, 24, &mut saver);
+    let saved = &saver.saved[0];
+    assert_eq!(saved.lights[0].name, "sun");
+    assert_eq!(saved.reflectances[0].name, "ochre");
+    assert_eq!(saved.free[0].name, "warm");
+    assert_eq!(saved.entries(Kind::Light).len(), 3);
+}
