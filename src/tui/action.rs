@@ -56,6 +56,8 @@ pub enum Action {
     /// Read the palette file again (another program changed it), dropping unsaved changes (undo keeps them).
     Reload,
     Help,
+    /// The legend of the marks.
+    Legend,
     /// List the solver's diagnostics.
     Diagnostics,
     /// Move along the light dial of the scene preview.

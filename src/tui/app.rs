@@ -256,6 +256,10 @@ pub enum Popup {
     Diagnostics {
         scroll: u16,
     },
+    /// What the marks mean (`i`; [`crate::tui::legend`]).
+    Legend {
+        scroll: u16,
+    },
     Prompt(Prompt),
     /// Choose the light or the reflectance of the selected cell for a spectrum operation.
     ChooseSpectrum {

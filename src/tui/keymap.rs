@@ -82,6 +82,7 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('v')], A::TogglePreview, "scene preview / spectra plot"),
     bind(&[ch('g')], A::DialKeys, "preview: keys to the light dial"),
     bind(&[ch('?'), plain(K::F(1))], A::Help, "this help"),
+    bind(&[ch('i')], A::Legend, "legend: what the marks mean"),
     bind(&[ch('q'), ctrl('c')], A::Quit, "quit (asks if unsaved)"),
 ];
 
@@ -186,6 +187,13 @@ pub(crate) const DIAGNOSTICS: &[Binding] = &[
     bind(&[plain(K::Esc), ch('!'), ch('q')], A::Back, "close (other keys act on the main screen)"),
 ];
 
+/// The legend of the marks.
+pub(crate) const LEGEND: &[Binding] = &[
+    bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
+    bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
+    bind(&[plain(K::Esc), ch('i'), ch('q')], A::Back, "close (other keys act on the main screen)"),
+];
+
 /// Every table with its title, in the order the help shows them.
 pub const TABLES: &[(&str, &[Binding])] = &[
     ("main screen", MAIN),
@@ -198,6 +206,7 @@ pub const TABLES: &[(&str, &[Binding])] = &[
     ("recovery copy found", RECOVERY),
     ("help", HELP),
     ("diagnostics", DIAGNOSTICS),
+    ("legend (i)", LEGEND),
 ];
 
 /// The table in force for the state's popup.
@@ -207,6 +216,7 @@ pub(crate) fn table_for(state: &State) -> &'static [Binding] {
         None => MAIN,
         Some(Popup::Help { .. }) => HELP,
         Some(Popup::Diagnostics { .. }) => DIAGNOSTICS,
+        Some(Popup::Legend { .. }) => LEGEND,
         Some(Popup::Prompt(_)) => PROMPT,
         Some(Popup::ChooseSpectrum { .. }) => CHOOSE,
         Some(Popup::Pick { .. }) => PICK,
@@ -244,7 +254,7 @@ pub(crate) fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
             Some(Action::Edit(tui_input::InputRequest::InsertChar(c)))
         }
         // Help and diagnostics only read: any other key closes them and acts on the main screen.
-        (Some(Popup::Help { .. } | Popup::Diagnostics { .. }), _) => {
+        (Some(Popup::Help { .. } | Popup::Diagnostics { .. } | Popup::Legend { .. }), _) => {
             MAIN.iter().find(|b| b.keys.contains(&key)).map(|b| b.action)
         }
         _ => None,

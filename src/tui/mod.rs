@@ -21,6 +21,7 @@ pub mod event_loop;
 pub mod graphics;
 pub mod keyframes;
 pub mod keymap;
+pub mod legend;
 pub mod model;
 pub mod msg;
 pub mod preview;

@@ -69,3 +69,46 @@ fn rename_a_light_a_reflectance_and_a_group() {
     assert_eq!(saved.free[0].name, "warm");
     assert_eq!(saved.entries(Kind::Light).len(), 3);
 }
+
+/// `i` opens the legend: every mark the matrix draws, in the matrix's own style (checked on cell styles
+/// against the marks on the matrix), wrapped at 80 columns; `q` and `i` close it without quitting.
+#[test]
+fn the_legend_names_every_mark_in_its_style() {
+    use ratatui::style::Color;
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (main, main_buf) = replay(&mut s, "", 80, 24);
+    let (text, buf) = replay(&mut s, "i", 80, 24);
+    snap!("legend_80x24", text);
+    for (symbol, meaning) in [
+        ("D", "open to design"),
+        ("•", "in use"),
+        ("○", "not in use"),
+        ("A", "free-colour group"),
+        ("[ ]", "the selection"),
+        ("▀", "subspace-model"),
+        ("●", "unsaved changes"),
+        ("⚠N", "diagnostics"),
+    ] {
+        let line = text.lines().find(|l| l.contains(meaning)).unwrap_or_else(|| panic!("no '{meaning}' in\n{text}"));
+        assert!(line.contains(symbol), "{line}");
+    }
+    // The legend's `D` and `A` have the colours the matrix draws them in.
+    let style_of = |buf: &ratatui::buffer::Buffer, text: &str, line_has: &str, symbol: char, from: usize| {
+        let y = text.lines().position(|l| l.contains(line_has)).expect("line");
+        let x = text.lines().nth(y).unwrap().chars().skip(from).position(|c| c == symbol).expect("symbol") + from;
+        buf[(x as u16, y as u16)].fg
+    };
+    assert_eq!(style_of(&buf, &text, "open to design", 'D', 0), Color::LightRed);
+    assert_eq!(style_of(&main_buf, &main, "block", 'D', 0), Color::LightRed);
+    assert_eq!(style_of(&buf, &text, "free-colour group (its", 'A', 0), Color::LightMagenta);
+    assert_eq!(style_of(&main_buf, &main, "block", 'A', 20), Color::LightMagenta);
+    // Nothing cut: every meaning's words are on screen.
+    let flat = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    for m in ["the solver picks its colour", "another panel has the keys", "nearest by ΔE*ab"] {
+        assert!(flat.contains(m) || text.contains(m), "'{m}' missing from\n{text}");
+    }
+    let (text, _) = replay(&mut s, "q", 80, 24);
+    assert!(!s.ui.quit && !text.contains("what the marks mean"));
+    replay(&mut s, "i\ni", 80, 24);
+    assert!(s.ui.popup.is_none());
+}

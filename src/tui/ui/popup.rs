@@ -123,6 +123,13 @@ impl Widget for PopupView<'_> {
                     }
                 }
             }
+            Popup::Legend { scroll } => {
+                let width = 76u16.min(area.width);
+                let lines = crate::tui::legend::lines(width.saturating_sub(2)).len() as u16;
+                let r = centred(area, width, lines + 2);
+                let inner = frame(r, buf, "what the marks mean (↑↓ scroll)");
+                crate::tui::legend::draw(inner, buf, *scroll);
+            }
             Popup::Diagnostics { scroll } => {
                 let r = centred(area, area.width.saturating_sub(4), area.height.saturating_sub(4));
                 let inner = frame(r, buf, "diagnostics of the latest solve (↑↓ scroll)");

@@ -64,9 +64,12 @@ pub(super) fn update_main(state: &mut State, action: Action) -> Vec<Effect> {
         | Action::SaveAs
         | Action::Reload
         | Action::Quit => return on_palette(state, action),
-        Action::Help | Action::Diagnostics | Action::Feasibility | Action::DialKeys | Action::TogglePreview => {
-            on_view(state, action)
-        }
+        Action::Help
+        | Action::Legend
+        | Action::Diagnostics
+        | Action::Feasibility
+        | Action::DialKeys
+        | Action::TogglePreview => on_view(state, action),
         // The dial's own keys are the preview's (routed to `PreviewState::update` before this); popup-only
         // actions do nothing on the main screen.
         Action::Dial { .. }
@@ -254,6 +257,7 @@ fn on_palette(state: &mut State, action: Action) -> Vec<Effect> {
 fn on_view(state: &mut State, action: Action) {
     match action {
         Action::Help => state.ui.popup = Some(Popup::Help { scroll: 0 }),
+        Action::Legend => state.ui.popup = Some(Popup::Legend { scroll: 0 }),
         Action::Diagnostics => {
             if state.diagnostics().is_empty() {
                 state.say("no diagnostics: every criterion is met");

@@ -26,6 +26,7 @@ pub(super) fn update_popup(state: &mut State, popup: Popup, action: Action) -> P
     match popup {
         Popup::Help { scroll } => on_scroll(state, action, scroll, 200, |scroll| Popup::Help { scroll }),
         Popup::Diagnostics { scroll } => on_scroll(state, action, scroll, 500, |scroll| Popup::Diagnostics { scroll }),
+        Popup::Legend { scroll } => on_scroll(state, action, scroll, 50, |scroll| Popup::Legend { scroll }),
         Popup::Prompt(prompt) => Done(on_prompt(state, prompt, action)),
         Popup::ChooseSpectrum { op, light, reflectance } => {
             on_choose(state, action, op, light, reflectance);
