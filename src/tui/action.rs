@@ -58,6 +58,10 @@ pub enum Action {
     Help,
     /// The legend of the marks.
     Legend,
+    /// Search the palette and jump (`/`), or run a command by name (`:`).
+    Find {
+        commands: bool,
+    },
     /// List the solver's diagnostics.
     Diagnostics,
     /// Move along the light dial of the scene preview.

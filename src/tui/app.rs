@@ -256,6 +256,8 @@ pub enum Popup {
     Diagnostics {
         scroll: u16,
     },
+    /// `/` search or `:` command palette ([`crate::tui::finder`]).
+    Find(crate::tui::finder::Finder),
     /// What the marks mean (`i`; [`crate::tui::legend`]).
     Legend {
         scroll: u16,

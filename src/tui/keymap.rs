@@ -83,6 +83,8 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('g')], A::DialKeys, "preview: keys to the light dial"),
     bind(&[ch('?'), plain(K::F(1))], A::Help, "this help"),
     bind(&[ch('i')], A::Legend, "legend: what the marks mean"),
+    bind(&[ch('/')], A::Find { commands: false }, "search: jump to a cell or swatch"),
+    bind(&[ch(':')], A::Find { commands: true }, "commands: any action by name"),
     bind(&[ch('q'), ctrl('c')], A::Quit, "quit (asks if unsaved)"),
 ];
 
@@ -187,6 +189,18 @@ pub(crate) const DIAGNOSTICS: &[Binding] = &[
     bind(&[plain(K::Esc), ch('!'), ch('q')], A::Back, "close (other keys act on the main screen)"),
 ];
 
+/// The search and the command palette: printable keys type.
+pub(crate) const FIND: &[Binding] = &[
+    bind(&[plain(K::Up)], A::Move(Direction::Up), "previous match"),
+    bind(&[plain(K::Down)], A::Move(Direction::Down), "next match"),
+    bind(&[plain(K::Enter)], A::Submit, "jump there / run it"),
+    bind(&[plain(K::Esc)], A::Back, "cancel"),
+    bind(&[plain(K::Backspace)], A::Edit(R::DeletePrevChar), "delete back"),
+    bind(&[plain(K::Left)], A::Edit(R::GoToPrevChar), "left"),
+    bind(&[plain(K::Right)], A::Edit(R::GoToNextChar), "right"),
+    bind(&[ctrl('u')], A::Edit(R::DeleteLine), "clear"),
+];
+
 /// The legend of the marks.
 pub(crate) const LEGEND: &[Binding] = &[
     bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
@@ -207,6 +221,7 @@ pub const TABLES: &[(&str, &[Binding])] = &[
     ("help", HELP),
     ("diagnostics", DIAGNOSTICS),
     ("legend (i)", LEGEND),
+    ("search (/) and commands (:)", FIND),
 ];
 
 /// The table in force for the state's popup.
@@ -217,6 +232,7 @@ pub(crate) fn table_for(state: &State) -> &'static [Binding] {
         Some(Popup::Help { .. }) => HELP,
         Some(Popup::Diagnostics { .. }) => DIAGNOSTICS,
         Some(Popup::Legend { .. }) => LEGEND,
+        Some(Popup::Find(_)) => FIND,
         Some(Popup::Prompt(_)) => PROMPT,
         Some(Popup::ChooseSpectrum { .. }) => CHOOSE,
         Some(Popup::Pick { .. }) => PICK,
@@ -250,7 +266,7 @@ pub(crate) fn action_for(state: &State, event: KeyEvent) -> Option<Action> {
         });
     }
     match (&state.ui.popup, key.code) {
-        (Some(Popup::Prompt(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => {
+        (Some(Popup::Prompt(_) | Popup::Find(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => {
             Some(Action::Edit(tui_input::InputRequest::InsertChar(c)))
         }
         // Help and diagnostics only read: any other key closes them and acts on the main screen.

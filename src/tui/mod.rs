@@ -18,6 +18,7 @@ pub mod colour;
 pub mod derived;
 pub mod edits;
 pub mod event_loop;
+pub mod finder;
 pub mod graphics;
 pub mod keyframes;
 pub mod keymap;

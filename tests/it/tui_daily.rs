@@ -112,3 +112,40 @@ fn the_legend_names_every_mark_in_its_style() {
     replay(&mut s, "i\ni", 80, 24);
     assert!(s.ui.popup.is_none());
 }
+
+/// `/` lists the lights, reflectances and cells, filtered by every word typed; Enter jumps there. `:`
+/// lists every main-screen action by its help text; Enter runs it (here: the legend, then rename).
+#[test]
+fn search_jumps_and_the_command_palette_runs_actions() {
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    let (text, _) = replay(&mut s, "/\n\"tiss tung\"", 80, 24);
+    snap!("search_80x24", text);
+    assert!(text.contains("cell tungsten × tissue"), "{text}");
+    assert!(!text.contains("cell daylight × skin"), "{text}");
+    replay(&mut s, "Enter", 80, 24);
+    assert_eq!((s.ui.selection.col, s.ui.selection.row), (2, 3));
+    assert!(s.ui.popup.is_none());
+    // A reflectance: the second match of "block" is its cells; the first is the swatch.
+    replay(&mut s, "/\n\"block\"\nEnter", 80, 24);
+    assert_eq!((s.ui.selection.col, s.ui.selection.row), (0, 2));
+    // Nothing matches: Enter keeps the finder open; Esc closes it where it was.
+    let (text, _) = replay(&mut s, "/\n\"zzz\"\nEnter", 80, 24);
+    assert!(text.contains("nothing matches") && s.ui.popup.is_some(), "{text}");
+    replay(&mut s, "Esc", 80, 24);
+    assert!(s.ui.popup.is_none());
+    assert_eq!((s.ui.selection.col, s.ui.selection.row), (0, 2));
+    // The command palette: every main action is listed by name.
+    let (text, _) = replay(&mut s, ":\n\"legend\"", 80, 24);
+    snap!("commands_80x24", text);
+    assert!(text.contains("legend: what the marks mean  (i)"), "{text}");
+    let (text, _) = replay(&mut s, "Enter", 80, 24);
+    assert!(text.contains("what the marks mean"), "{text}");
+    replay(&mut s, "Esc\n:\n\"rename\"\nEnter\nCtrl-u\n\"stone\"\nEnter", 80, 24);
+    assert_eq!(s.doc.palette.reflectances[1].name, "stone");
+    // Up and Down choose among the matches.
+    // "undo" matches undo and reload ("z undoes it"): Down chooses reload, Up undo again.
+    let (text, _) = replay(&mut s, ":\n\"undo\"\nDown", 80, 24);
+    assert!(text.contains("2 of 2"), "{text}");
+    replay(&mut s, "Up\nEnter", 80, 24);
+    assert_eq!(s.doc.palette.reflectances[1].name, "block", "undone");
+}

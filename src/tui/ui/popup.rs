@@ -123,6 +123,7 @@ impl Widget for PopupView<'_> {
                     }
                 }
             }
+            Popup::Find(finder) => crate::tui::finder::draw(finder, &state.doc.palette, area, buf),
             Popup::Legend { scroll } => {
                 let width = 76u16.min(area.width);
                 let lines = crate::tui::legend::lines(width.saturating_sub(2)).len() as u16;

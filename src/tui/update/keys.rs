@@ -66,6 +66,7 @@ pub(super) fn update_main(state: &mut State, action: Action) -> Vec<Effect> {
         | Action::Quit => return on_palette(state, action),
         Action::Help
         | Action::Legend
+        | Action::Find { .. }
         | Action::Diagnostics
         | Action::Feasibility
         | Action::DialKeys
@@ -258,6 +259,14 @@ fn on_view(state: &mut State, action: Action) {
     match action {
         Action::Help => state.ui.popup = Some(Popup::Help { scroll: 0 }),
         Action::Legend => state.ui.popup = Some(Popup::Legend { scroll: 0 }),
+        Action::Find { commands } => {
+            let kind = if commands {
+                crate::tui::finder::FinderKind::Commands
+            } else {
+                crate::tui::finder::FinderKind::Search
+            };
+            state.ui.popup = Some(Popup::Find(crate::tui::finder::Finder::new(kind)))
+        }
         Action::Diagnostics => {
             if state.diagnostics().is_empty() {
                 state.say("no diagnostics: every criterion is met");

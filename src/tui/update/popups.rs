@@ -26,6 +26,19 @@ pub(super) fn update_popup(state: &mut State, popup: Popup, action: Action) -> P
     match popup {
         Popup::Help { scroll } => on_scroll(state, action, scroll, 200, |scroll| Popup::Help { scroll }),
         Popup::Diagnostics { scroll } => on_scroll(state, action, scroll, 500, |scroll| Popup::Diagnostics { scroll }),
+        Popup::Find(finder) => match crate::tui::finder::on_action(finder, action, &state.doc.palette) {
+            Err(open) => {
+                state.ui.popup = Some(Popup::Find(open));
+                Done(Vec::new())
+            }
+            Ok(Some(crate::tui::finder::Goal::Select(at))) => {
+                state.ui.selection = at;
+                state.ui.focus = crate::tui::app::Focus::Matrix;
+                Done(Vec::new())
+            }
+            Ok(Some(crate::tui::finder::Goal::Run(action))) => Main(action),
+            Ok(None) => Done(Vec::new()),
+        },
         Popup::Legend { scroll } => on_scroll(state, action, scroll, 50, |scroll| Popup::Legend { scroll }),
         Popup::Prompt(prompt) => Done(on_prompt(state, prompt, action)),
         Popup::ChooseSpectrum { op, light, reflectance } => {
