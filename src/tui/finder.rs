@@ -95,11 +95,7 @@ pub(crate) fn on_action(mut finder: Finder, action: Action, palette: &Palette) -
         }
         Action::Move(Direction::Up) => finder.selected = finder.selected.saturating_sub(1),
         Action::Move(Direction::Down) => finder.selected = (finder.selected + 1).min(last),
-        Action::Edit(request) => {
-            if finder.input.edit(request) {
-                finder.selected = 0;
-            }
-        }
+        Action::Edit(request) if finder.input.edit(request) => finder.selected = 0,
         _ => {}
     }
     Err(finder)
