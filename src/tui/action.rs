@@ -44,6 +44,8 @@ pub enum Action {
     AddLight,
     AddReflectance,
     Remove,
+    /// Rename the selected light or reflectance (on a cell: its light, reflectance or free-colour group).
+    Rename,
     ToggleBounds,
     ToggleFitInSubspace,
     Undo,
@@ -54,6 +56,12 @@ pub enum Action {
     /// Read the palette file again (another program changed it), dropping unsaved changes (undo keeps them).
     Reload,
     Help,
+    /// The legend of the marks.
+    Legend,
+    /// Search the palette and jump (`/`), or run a command by name (`:`).
+    Find {
+        commands: bool,
+    },
     /// List the solver's diagnostics.
     Diagnostics,
     /// Move along the light dial of the scene preview.
@@ -97,6 +105,8 @@ pub enum Action {
     /// Choose the light / the reflectance of the selected cell.
     ChooseLight,
     ChooseReflectance,
+    /// Choose the free-colour group of the selected cell (rename).
+    ChooseGroup,
     /// Quit without saving.
     Discard,
     /// Save, then quit.

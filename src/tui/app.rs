@@ -90,6 +90,8 @@ pub enum SpectrumOp {
     Scale,
     Planck,
     Remove,
+    /// Rename the light or the reflectance (or the cell's free-colour group).
+    Rename,
 }
 
 impl SpectrumOp {
@@ -101,6 +103,7 @@ impl SpectrumOp {
             SpectrumOp::Scale => "scale",
             SpectrumOp::Planck => "make Planck",
             SpectrumOp::Remove => "remove",
+            SpectrumOp::Rename => "rename",
         }
     }
 }
@@ -128,6 +131,8 @@ pub(crate) enum PromptPurpose {
     NewPlanck,
     /// The path to save the palette to (save as).
     SaveAs,
+    /// The new name of a light, reflectance or free-colour group.
+    Rename(crate::tui::rename::Renamed),
 }
 
 /// A one-line text prompt.
@@ -247,6 +252,12 @@ pub enum Popup {
     },
     /// The latest solve's diagnostics (`!`).
     Diagnostics {
+        scroll: u16,
+    },
+    /// `/` search or `:` command palette ([`crate::tui::finder`]).
+    Find(crate::tui::finder::Finder),
+    /// What the marks mean (`i`; [`crate::tui::legend`]).
+    Legend {
         scroll: u16,
     },
     Prompt(Prompt),

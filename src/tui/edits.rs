@@ -19,6 +19,8 @@ pub enum EditError {
     Palette(#[from] crate::palette::EditError),
     #[error("'{0}' is not a group name (use letters or digits, no spaces)")]
     GroupName(String),
+    #[error("'{0}' cannot be a name (no quotes or control characters)")]
+    BadName(String),
     #[error("channel {channel}: lower bound {lower} is not ≤ upper bound {upper}")]
     FreeBounds { channel: usize, lower: f64, upper: f64 },
     #[error("there is no free group number {0}")]

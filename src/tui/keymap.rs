@@ -67,6 +67,7 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('L')], A::AddLight, "add light (illuminant/Planck/CSV)"),
     bind(&[ch('R')], A::AddReflectance, "add reflectance (patch/flat/CSV)"),
     bind(&[ch('x'), plain(K::Delete)], A::Remove, "remove light or reflectance"),
+    bind(&[ch('r')], A::Rename, "rename light, reflectance, group"),
     bind(&[ch('B')], A::ToggleBounds, "bounds on/off"),
     bind(&[ch('V')], A::ToggleFitInSubspace, "fit in the subspace model on/off"),
     bind(&[ch('z'), ctrl('z')], A::Undo, "undo"),
@@ -81,6 +82,9 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('v')], A::TogglePreview, "scene preview / spectra plot"),
     bind(&[ch('g')], A::DialKeys, "preview: keys to the light dial"),
     bind(&[ch('?'), plain(K::F(1))], A::Help, "this help"),
+    bind(&[ch('i')], A::Legend, "legend: what the marks mean"),
+    bind(&[ch('/')], A::Find { commands: false }, "search: jump to a cell or swatch"),
+    bind(&[ch(':')], A::Find { commands: true }, "commands: any action by name"),
     bind(&[ch('q'), ctrl('c')], A::Quit, "quit (asks if unsaved)"),
 ];
 
@@ -146,6 +150,7 @@ pub(crate) const PICK: &[Binding] = &[
 pub(crate) const CHOOSE: &[Binding] = &[
     bind(&[ch('l')], A::ChooseLight, "the cell's light"),
     bind(&[ch('r')], A::ChooseReflectance, "the cell's reflectance"),
+    bind(&[ch('g')], A::ChooseGroup, "the cell's free-colour group (rename)"),
     bind(&[plain(K::Esc)], A::Back, "cancel"),
 ];
 
@@ -184,6 +189,25 @@ pub(crate) const DIAGNOSTICS: &[Binding] = &[
     bind(&[plain(K::Esc), ch('!'), ch('q')], A::Back, "close (other keys act on the main screen)"),
 ];
 
+/// The search and the command palette: printable keys type.
+pub(crate) const FIND: &[Binding] = &[
+    bind(&[plain(K::Up)], A::Move(Direction::Up), "previous match"),
+    bind(&[plain(K::Down)], A::Move(Direction::Down), "next match"),
+    bind(&[plain(K::Enter)], A::Submit, "jump there / run it"),
+    bind(&[plain(K::Esc)], A::Back, "cancel"),
+    bind(&[plain(K::Backspace)], A::Edit(R::DeletePrevChar), "delete back"),
+    bind(&[plain(K::Left)], A::Edit(R::GoToPrevChar), "left"),
+    bind(&[plain(K::Right)], A::Edit(R::GoToNextChar), "right"),
+    bind(&[ctrl('u')], A::Edit(R::DeleteLine), "clear"),
+];
+
+/// The legend of the marks.
+pub(crate) const LEGEND: &[Binding] = &[
+    bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "scroll up"),
+    bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "scroll down"),
+    bind(&[plain(K::Esc), ch('i'), ch('q')], A::Back, "close (other keys act on the main screen)"),
+];
+
 /// Every table with its title, in the order the help shows them.
 pub const TABLES: &[(&str, &[Binding])] = &[
     ("main screen", MAIN),
@@ -196,6 +220,8 @@ pub const TABLES: &[(&str, &[Binding])] = &[
     ("recovery copy found", RECOVERY),
     ("help", HELP),
     ("diagnostics", DIAGNOSTICS),
+    ("legend (i)", LEGEND),
+    ("search (/) and commands (:)", FIND),
 ];
 
 /// The table in force for the open popup (`dial_keys`: the light dial has the main screen's keys).
@@ -205,6 +231,8 @@ pub(crate) fn table_for(popup: Option<&Popup>, dial_keys: bool) -> &'static [Bin
         None => MAIN,
         Some(Popup::Help { .. }) => HELP,
         Some(Popup::Diagnostics { .. }) => DIAGNOSTICS,
+        Some(Popup::Legend { .. }) => LEGEND,
+        Some(Popup::Find(_)) => FIND,
         Some(Popup::Prompt(_)) => PROMPT,
         Some(Popup::ChooseSpectrum { .. }) => CHOOSE,
         Some(Popup::Pick { .. }) => PICK,
@@ -238,11 +266,11 @@ pub(crate) fn action_for(popup: Option<&Popup>, dial_keys: bool, event: KeyEvent
         });
     }
     match (popup, key.code) {
-        (Some(Popup::Prompt(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => {
+        (Some(Popup::Prompt(_) | Popup::Find(_)), KeyCode::Char(c)) if key.modifiers.is_empty() => {
             Some(Action::Edit(tui_input::InputRequest::InsertChar(c)))
         }
         // Help and diagnostics only read: any other key closes them and acts on the main screen.
-        (Some(Popup::Help { .. } | Popup::Diagnostics { .. }), _) => {
+        (Some(Popup::Help { .. } | Popup::Diagnostics { .. } | Popup::Legend { .. }), _) => {
             MAIN.iter().find(|b| b.keys.contains(&key)).map(|b| b.action)
         }
         _ => None,

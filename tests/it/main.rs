@@ -30,6 +30,7 @@ mod robustness;
 mod shading_modes;
 mod spec_objective;
 mod stress;
+mod tui_daily;
 mod tui_edits;
 mod tui_live;
 mod tui_loop;

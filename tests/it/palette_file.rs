@@ -664,3 +664,76 @@ fn validation_errors_give_the_line_of_the_key() {
         other => panic!("{other:?}"),
     }
 }
+
+/// Renames reach every table that names the entry: colour cells, free groups and the `[[mixtures]]` and
+/// `[[paths]]` the writer otherwise keeps as written (their `reflectance`, `free`, `mix` keys, `off`,
+/// `through`); comments and key order stay, and the file reads back as the renamed palette.
+#[test]
+fn renames_follow_into_mixtures_and_paths() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/palettes/dial_mixtures.toml")).unwrap();
+    let (_dir, path) = temp_palette(&text);
+    let mut file = PaletteFile::load(&path).unwrap();
+    let mut p = file.palette.clone();
+    let light = |p: &metamer::palette::Palette, n: &str| p.lights.iter().position(|e| e.name == n).unwrap();
+    let (daylight, lamp) = (light(&p, "daylight"), light(&p, "lamp"));
+    p.rename_spectrum(Kind::Light, daylight, "sun").unwrap();
+    p.rename_spectrum(Kind::Light, lamp, "tungsten").unwrap();
+    let leaf = p.reflectance_index("leaf").unwrap();
+    p.rename_spectrum(Kind::Reflectance, leaf, "frond").unwrap();
+    file.save(&p).unwrap();
+    let saved = std::fs::read_to_string(&path).unwrap();
+    assert!(saved.contains("mix = { sun = 0.5, tungsten = 0.5 }"), "{saved}");
+    assert!(
+        saved.contains("reflectance = \"frond\"\nthrough = [\"sun\", \"reveal\"]\noff = [\"tungsten\"]"),
+        "{saved}"
+    );
+    let code = saved.lines().filter(|l| !l.starts_with('#')).collect::<Vec<_>>().join("\n");
+    assert!(!code.contains("\"daylight\"") && !code.contains("\"lamp\"") && !code.contains("\"leaf\""), "{code}");
+    assert!(
+        saved.contains("illuminant = \"D65\"                # the starting point; the solver reshapes it"),
+        "{saved}"
+    );
+    assert!(saved.starts_with("# Designing along the light dial"), "{saved}");
+    // Only the names changed: the text is the original with the names replaced.
+    let expected = text
+        .replace("name = \"daylight\"", "name = \"sun\"")
+        .replace("name = \"lamp\"", "name = \"tungsten\"")
+        .replace("name = \"leaf\"", "name = \"frond\"")
+        .replace("light = \"daylight\"", "light = \"sun\"")
+        .replace("reflectance = \"leaf\"", "reflectance = \"frond\"")
+        .replace("mix = { daylight = 0.5, lamp = 0.5 }", "mix = { sun = 0.5, tungsten = 0.5 }")
+        .replace(
+            "through = [\"daylight\", \"reveal\"]\noff = [\"lamp\"]",
+            "through = [\"sun\", \"reveal\"]\noff = [\"tungsten\"]",
+        );
+    assert_eq!(saved, expected);
+    assert_eq!(PaletteFile::load(&path).unwrap().palette, p);
+}
+
+/// A free group renamed in the model is renamed in its cells and in the mixtures that use it.
+#[test]
+fn a_renamed_free_group_is_renamed_where_it_is_used() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/palettes/dial_mixtures.toml"))
+        .unwrap()
+        .replace(
+            "reflectance = \"petal\"\ndial = [0.45, 0.6]\ntarget = \"#ca5e2c\"",
+            "reflectance = \"petal\"\ndial = [0.45, 0.6]\nfree = \"warm\"",
+        )
+        .replace(
+            "[[colours]]\nlight = \"reveal\"\nreflectance = \"petal\"\ntarget = \"#d88030\"",
+            "[[colours]]\nlight = \"reveal\"\nreflectance = \"petal\"\nfree = \"warm\"",
+        )
+        + "\n[[free]]\nname = \"warm\"\nlower = [0.0, 0.0, 0.0]\nupper = [1.0, 1.0, 1.0]\n";
+    let (_dir, path) = temp_palette(&text);
+    let mut file = PaletteFile::load(&path).unwrap();
+    let mut p = file.palette.clone();
+    assert_eq!(p.free.len(), 1);
+    assert!(p.mixtures.iter().any(|m| m.free == Some(0)));
+    assert!(p.remove_free_group(0).is_err(), "a mixture is in the group");
+    assert!(p.rename_free_group(0, " ").is_err());
+    p.rename_free_group(0, "ember").unwrap();
+    file.save(&p).unwrap();
+    let saved = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(saved, text.replace("\"warm\"", "\"ember\""));
+    assert_eq!(PaletteFile::load(&path).unwrap().palette, p);
+}

@@ -213,9 +213,9 @@ impl Widget for Matrix<'_> {
                 };
                 if !marker.is_empty() {
                     let style = if cell.free.is_some() {
-                        Style::new().fg(Color::LightMagenta).add_modifier(Modifier::BOLD)
+                        crate::tui::legend::group_style()
                     } else {
-                        Style::new().fg(Color::Gray)
+                        crate::tui::legend::criterion_style()
                     };
                     put(buf, area, x + 6, y, &marker, style);
                 }

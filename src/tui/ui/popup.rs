@@ -123,6 +123,14 @@ impl Widget for PopupView<'_> {
                     }
                 }
             }
+            Popup::Find(finder) => crate::tui::finder::draw(finder, &state.doc.palette, area, buf),
+            Popup::Legend { scroll } => {
+                let width = 76u16.min(area.width);
+                let lines = crate::tui::legend::lines(width.saturating_sub(2)).len() as u16;
+                let r = centred(area, width, lines + 2);
+                let inner = frame(r, buf, "what the marks mean (↑↓ scroll)");
+                crate::tui::legend::draw(inner, buf, *scroll);
+            }
             Popup::Diagnostics { scroll } => {
                 let r = centred(area, area.width.saturating_sub(4), area.height.saturating_sub(4));
                 let inner = frame(r, buf, "diagnostics of the latest solve (↑↓ scroll)");
@@ -190,12 +198,20 @@ impl Widget for PopupView<'_> {
                 }
             }
             Popup::ChooseSpectrum { op, light, reflectance } => {
-                let r = centred(area, 60, 5);
+                let p = &state.doc.palette;
+                let group = (*op == crate::tui::app::SpectrumOp::Rename)
+                    .then(|| crate::tui::rename::group_of(p, *light, *reflectance))
+                    .flatten()
+                    .and_then(|g| p.free.get(g));
+                let r = centred(area, 60, 5 + u16::from(group.is_some()));
                 let inner = frame(r, buf, op.label());
-                let l = state.doc.palette.lights.get(*light).map_or("", |e| e.name.as_str());
-                let rf = state.doc.palette.reflectances.get(*reflectance).map_or("", |e| e.name.as_str());
+                let l = p.lights.get(*light).map_or("", |e| e.name.as_str());
+                let rf = p.reflectances.get(*reflectance).map_or("", |e| e.name.as_str());
                 put(buf, inner, 1, 0, &format!("l  the light {l}"), Style::new());
                 put(buf, inner, 1, 1, &format!("r  the reflectance {rf}"), Style::new());
+                if let Some(g) = group {
+                    put(buf, inner, 1, 2, &format!("g  the free-colour group {}", g.name), Style::new());
+                }
             }
             Popup::Pick { kind, items, selected } => {
                 let h = (items.len() as u16 + 2).min(area.height.saturating_sub(2)).max(3);

@@ -141,6 +141,9 @@ pub(super) fn apply_spectrum_op(
             };
             ui.open_prompt(&title, hint, now, PromptPurpose::Scale { kind, index })
         }
+        SpectrumOp::Rename => {
+            crate::tui::rename::open(ui, &doc.palette, crate::tui::rename::Renamed::Spectrum(kind, index))
+        }
         SpectrumOp::Remove => {
             if edit(doc, ui, c, EditKey::Other, |p, _| edits::remove(p, kind, index)) {
                 ui.say(format!("removed {} {name} (z undoes)", kind.as_str()));

@@ -60,6 +60,10 @@ pub(super) fn update_main(
         Action::NormaliseL2 => spectrum_op(doc, ui, c, SpectrumOp::NormaliseL2),
         Action::Scale => spectrum_op(doc, ui, c, SpectrumOp::Scale),
         Action::Remove => spectrum_op(doc, ui, c, SpectrumOp::Remove),
+        Action::Rename => {
+            let target = ui.target(&doc.palette);
+            crate::tui::rename::start(ui, &doc.palette, target)
+        }
         Action::Planck => spectrum_op(doc, ui, c, SpectrumOp::Planck),
         Action::AddLight | Action::AddReflectance => on_add(ui, action),
         Action::ToggleBounds
@@ -70,9 +74,13 @@ pub(super) fn update_main(
         | Action::SaveAs
         | Action::Reload
         | Action::Quit => return on_palette(doc, ui, solve, c, action),
-        Action::Help | Action::Diagnostics | Action::Feasibility | Action::DialKeys | Action::TogglePreview => {
-            on_view(doc, ui, solve, preview, action)
-        }
+        Action::Help
+        | Action::Legend
+        | Action::Find { .. }
+        | Action::Diagnostics
+        | Action::Feasibility
+        | Action::DialKeys
+        | Action::TogglePreview => on_view(doc, ui, solve, preview, action),
         // The dial's own keys are the preview's (routed to `PreviewState::update` before this); popup-only
         // actions do nothing on the main screen.
         Action::Dial { .. }
@@ -88,6 +96,7 @@ pub(super) fn update_main(
         | Action::Submit
         | Action::ChooseLight
         | Action::ChooseReflectance
+        | Action::ChooseGroup
         | Action::Discard
         | Action::SaveAndQuit
         | Action::Restore => {}
@@ -253,6 +262,15 @@ fn on_palette(
 fn on_view(doc: &Document, ui: &mut UiState, solve: &SolveState, preview: &mut PreviewState, action: Action) {
     match action {
         Action::Help => ui.popup = Some(Popup::Help { scroll: 0 }),
+        Action::Legend => ui.popup = Some(Popup::Legend { scroll: 0 }),
+        Action::Find { commands } => {
+            let kind = if commands {
+                crate::tui::finder::FinderKind::Commands
+            } else {
+                crate::tui::finder::FinderKind::Search
+            };
+            ui.popup = Some(Popup::Find(crate::tui::finder::Finder::new(kind)))
+        }
         Action::Diagnostics => {
             if solve.diagnostics().is_empty() {
                 ui.say("no diagnostics: every criterion is met");

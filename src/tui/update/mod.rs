@@ -140,7 +140,7 @@ fn on_action(
 ) -> Vec<Effect> {
     ui.message = None;
     let action = match ui.popup.take() {
-        Some(popup) => match popups::update_popup(doc, ui, solve, colorimetry, popup, action) {
+        Some(popup) => match popups::update_popup(doc, ui, solve, preview, colorimetry, popup, action) {
             PopupOutcome::Done(effects) => return effects,
             PopupOutcome::Main(action) => action,
         },

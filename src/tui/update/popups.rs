@@ -9,7 +9,7 @@ use crate::colorimetry::Colorimetry;
 use crate::palette::{Kind, Source};
 use crate::tui::action::{Action, Direction};
 use crate::tui::app::{PickItem, Popup, Prompt, PromptPurpose, SpectrumOp};
-use crate::tui::model::{Document, SolveState, UiState};
+use crate::tui::model::{Document, PreviewState, SolveState, UiState};
 use crate::tui::msg::Effect;
 
 /// What a popup's handler did with an action.
@@ -28,6 +28,7 @@ pub(super) fn update_popup(
     doc: &mut Document,
     ui: &mut UiState,
     solve: &SolveState,
+    preview: &PreviewState,
     c: &Colorimetry,
     popup: Popup,
     action: Action,
@@ -35,7 +36,21 @@ pub(super) fn update_popup(
     match popup {
         Popup::Help { scroll } => on_scroll(ui, action, scroll, 200, |scroll| Popup::Help { scroll }),
         Popup::Diagnostics { scroll } => on_scroll(ui, action, scroll, 500, |scroll| Popup::Diagnostics { scroll }),
-        Popup::Prompt(prompt) => Done(on_prompt(doc, ui, solve, c, prompt, action)),
+        Popup::Find(finder) => match crate::tui::finder::on_action(finder, action, &doc.palette) {
+            Err(open) => {
+                ui.popup = Some(Popup::Find(open));
+                Done(Vec::new())
+            }
+            Ok(Some(crate::tui::finder::Goal::Select(at))) => {
+                ui.selection = at;
+                ui.focus = crate::tui::app::Focus::Matrix;
+                Done(Vec::new())
+            }
+            Ok(Some(crate::tui::finder::Goal::Run(action))) => Main(action),
+            Ok(None) => Done(Vec::new()),
+        },
+        Popup::Legend { scroll } => on_scroll(ui, action, scroll, 50, |scroll| Popup::Legend { scroll }),
+        Popup::Prompt(prompt) => Done(on_prompt(doc, ui, solve, preview, c, prompt, action)),
         Popup::ChooseSpectrum { op, light, reflectance } => {
             on_choose(doc, ui, c, action, op, light, reflectance);
             Done(Vec::new())
@@ -66,13 +81,14 @@ fn on_prompt(
     doc: &mut Document,
     ui: &mut UiState,
     solve: &SolveState,
+    preview: &PreviewState,
     c: &Colorimetry,
     mut prompt: Prompt,
     action: Action,
 ) -> Vec<Effect> {
     match action {
         Action::Back => return Vec::new(),
-        Action::Submit => return submit_prompt(doc, ui, solve, c, prompt),
+        Action::Submit => return submit_prompt(doc, ui, solve, preview, c, prompt),
         // An edit that changes the text clears the last refusal; a cursor move keeps it.
         Action::Edit(request) if prompt.input.edit(request) => prompt.error = None,
         _ => {}
@@ -94,6 +110,15 @@ fn on_choose(
     match action {
         Action::ChooseLight => apply_spectrum_op(doc, ui, c, op, Kind::Light, light),
         Action::ChooseReflectance => apply_spectrum_op(doc, ui, c, op, Kind::Reflectance, reflectance),
+        Action::ChooseGroup if op == SpectrumOp::Rename => {
+            match crate::tui::rename::group_of(&doc.palette, light, reflectance) {
+                Some(g) => crate::tui::rename::open(ui, &doc.palette, crate::tui::rename::Renamed::Group(g)),
+                None => {
+                    ui.popup = Some(Popup::ChooseSpectrum { op, light, reflectance });
+                    ui.complain("this cell is in no free-colour group: l renames its light, r its reflectance");
+                }
+            }
+        }
         Action::Back => {}
         _ => ui.popup = Some(Popup::ChooseSpectrum { op, light, reflectance }),
     }

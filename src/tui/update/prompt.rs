@@ -5,7 +5,7 @@ use crate::colorimetry::{Colorimetry, hex_to_linear};
 use crate::palette::{Bounds, Kind, Palette, Source};
 use crate::tui::app::{EditKey, Popup, Prompt, PromptPurpose, SettingField};
 use crate::tui::edits::{self, EditError, EditResult, FileError};
-use crate::tui::model::{Document, SolveState, UiState};
+use crate::tui::model::{Document, PreviewState, SolveState, UiState};
 use crate::tui::msg::Effect;
 use nalgebra::Vector3;
 
@@ -23,6 +23,7 @@ pub(super) fn submit_prompt(
     doc: &mut Document,
     ui: &mut UiState,
     solve: &SolveState,
+    preview: &PreviewState,
     c: &Colorimetry,
     mut prompt: Prompt,
 ) -> Vec<Effect> {
@@ -97,6 +98,20 @@ pub(super) fn submit_prompt(
                     Some(EditError::File(FileError::Exists(p))) if *p == path
                 );
                 doc.save_as(solve.current(), path, asked)
+            }
+            PromptPurpose::Rename(what) => {
+                let old = what.name(&doc.palette).unwrap_or_default().to_string();
+                let effects = edit_or_err(doc, c, |p, _| crate::tui::rename::rename(p, what, &input))?;
+                let new = what.name(&doc.palette).unwrap_or_default().to_string();
+                if new != old {
+                    let scene: Vec<String> = preview
+                        .ready
+                        .as_ref()
+                        .map(|p| p.materials.iter().map(|(n, _)| n.clone()).collect())
+                        .unwrap_or_default();
+                    ui.say(crate::tui::rename::done_message(&old, &new, what, &scene));
+                }
+                effects
             }
             PromptPurpose::Setting(field) => {
                 let v = parse_number(&input)?;

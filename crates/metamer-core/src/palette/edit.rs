@@ -44,6 +44,14 @@ pub enum EditError {
     /// A light, reflectance or free group was given an empty (or all-blank) name.
     #[error("a name must not be empty")]
     EmptyName,
+    /// The entry is named by `[[mixtures]]` or `[[paths]]` tables, whose meaning a removal would change.
+    #[error("{what} is used by {by}: remove or edit those tables in the file first")]
+    InUse {
+        /// What the removal would take away, for the message (e.g. "reflectance `grey`").
+        what: String,
+        /// The tables that use it, for the message (e.g. "mixtures[0], paths[1]").
+        by: String,
+    },
     /// A number outside what the edit accepts (NaN, infinite, or a negative weight).
     #[error("{what} must be {rule}, got {value}")]
     BadNumber {
@@ -133,12 +141,29 @@ impl Palette {
         Ok(entries.len() - 1)
     }
 
-    /// Remove a light or reflectance with its colour cells; the cells of later entries are re-indexed.
+    /// Remove a light or reflectance with its colour cells; the cells of later entries are re-indexed, and
+    /// so are the `[[mixtures]]` and `[[paths]]` that name later reflectances. Refused (nothing changes)
+    /// for a reflectance a mixture or path uses, and for any light while the palette has mixtures or paths:
+    /// their weights and routes were resolved over all the lights (the dial's Shepard weights move when a
+    /// light goes), so no re-indexing keeps them meaning what the file says.
     pub fn remove_spectrum(&mut self, kind: Kind, index: usize) -> Result<SpectrumEntry, EditError> {
         if index >= self.entries(kind).len() {
             return Err(EditError::NoSuchEntry { kind, index });
         }
+        let name = &self.entries(kind)[index].name;
+        let users = match kind {
+            Kind::Light => self.dial_criteria(),
+            Kind::Reflectance => self.dial_users(|r, _| r == index),
+        };
+        if let Some(by) = users {
+            return Err(EditError::InUse { what: format!("{} `{name}`", kind.as_str()), by });
+        }
         let removed = self.entries_mut(kind).remove(index);
+        if kind == Kind::Reflectance {
+            let shift = |r: &mut usize| *r -= usize::from(*r > index);
+            self.mixtures.iter_mut().for_each(|m| shift(&mut m.reflectance));
+            self.paths.iter_mut().for_each(|q| shift(&mut q.reflectance));
+        }
         fn side(kind: Kind, c: &mut ColourCell) -> &mut usize {
             match kind {
                 Kind::Light => &mut c.light,
@@ -159,6 +184,29 @@ impl Palette {
     pub fn rename_spectrum(&mut self, kind: Kind, index: usize, name: &str) -> Result<(), EditError> {
         self.check_new_name(kind, name, Some(index))?;
         self.entry_mut(kind, index)?.name = name.to_string();
+        Ok(())
+    }
+
+    /// The `[[mixtures]]` and `[[paths]]` whose (reflectance, free group) `uses`, as words
+    /// (`mixtures[0] and paths[2]`), or `None` when none does.
+    fn dial_users(&self, uses: impl Fn(usize, Option<usize>) -> bool) -> Option<String> {
+        let mixtures = self.mixtures.iter().enumerate().filter(|(_, m)| uses(m.reflectance, m.free));
+        let paths = self.paths.iter().enumerate().filter(|(_, q)| uses(q.reflectance, q.free));
+        let named: Vec<String> =
+            mixtures.map(|(k, _)| format!("mixtures[{k}]")).chain(paths.map(|(k, _)| format!("paths[{k}]"))).collect();
+        (!named.is_empty()).then(|| named.join(" and "))
+    }
+
+    /// Rename a free-colour group (names stay unique; cells, mixtures and paths refer by index so they
+    /// follow, and saving writes the new name wherever the file named the old one).
+    pub fn rename_free_group(&mut self, index: usize, name: &str) -> Result<(), EditError> {
+        if name.trim().is_empty() {
+            return Err(EditError::EmptyName);
+        }
+        if self.free.iter().enumerate().any(|(g, f)| f.name == name && g != index) {
+            return Err(EditError::DuplicateFreeGroup(name.to_string()));
+        }
+        self.free.get_mut(index).ok_or(EditError::NoSuchFreeGroup(index))?.name = name.to_string();
         Ok(())
     }
 
@@ -313,19 +361,26 @@ impl Palette {
         Ok(self.free.len() - 1)
     }
 
-    /// Remove a free group: its cells leave it (keeping their targets), later groups are re-indexed.
+    /// Remove a free group: its cells leave it (keeping their targets), later groups are re-indexed (in
+    /// cells, mixtures and paths). Refused while a mixture or path is in the group.
     pub fn remove_free_group(&mut self, index: usize) -> Result<FreeGroup, EditError> {
         if index >= self.free.len() {
             return Err(EditError::NoSuchFreeGroup(index));
         }
+        if let Some(by) = self.dial_users(|_, g| g == Some(index)) {
+            return Err(EditError::InUse { what: format!("free group `{}`", self.free[index].name), by });
+        }
         let removed = self.free.remove(index);
-        for c in &mut self.colours {
-            c.free = match c.free {
+        let follow = |free: &mut Option<usize>| {
+            *free = match *free {
                 Some(g) if g == index => None,
                 Some(g) if g > index => Some(g - 1),
                 other => other,
-            };
-        }
+            }
+        };
+        self.colours.iter_mut().for_each(|c| follow(&mut c.free));
+        self.mixtures.iter_mut().for_each(|m| follow(&mut m.free));
+        self.paths.iter_mut().for_each(|q| follow(&mut q.free));
         Ok(removed)
     }
 
@@ -468,6 +523,42 @@ mod tests {
         p.remove_spectrum(Kind::Reflectance, 0).unwrap();
         assert_eq!(p.colours.len(), 2);
         assert!(p.colours.iter().all(|c| c.reflectance == 0));
+    }
+
+    /// Removals keep the `[[mixtures]]` and `[[paths]]` pointing at what they named: a reflectance they use
+    /// and any light (their weights are resolved over all lights) are refused, later reflectances and free
+    /// groups are re-indexed in them.
+    #[test]
+    fn removals_keep_mixtures_and_paths_consistent() {
+        let (mut p, _) = palette();
+        let g = p.add_free_group("A", Vector3::zeros(), Vector3::repeat(1.0)).unwrap();
+        let h = p.add_free_group("B", Vector3::zeros(), Vector3::repeat(1.0)).unwrap();
+        p.mixtures.push(crate::palette::MixtureCell {
+            reflectance: 1,
+            mix: vec![(0, 0.5), (1, 0.5)],
+            spec: crate::palette::MixSpec::Weights,
+            target: Vector3::zeros(),
+            notation: TargetNotation::Hex,
+            weight: 1.0,
+            free: Some(h),
+            enabled: true,
+        });
+        let before = p.clone();
+        assert!(matches!(p.remove_spectrum(Kind::Light, 2), Err(EditError::InUse { .. })));
+        let e = p.remove_spectrum(Kind::Reflectance, 1).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "reflectance `grey` is used by mixtures[0]: remove or edit those tables in the file first"
+        );
+        assert!(matches!(p.remove_free_group(h), Err(EditError::InUse { .. })));
+        assert_eq!(p, before, "a refused removal changes nothing");
+        p.remove_spectrum(Kind::Reflectance, 0).unwrap();
+        p.remove_free_group(g).unwrap();
+        assert_eq!((p.mixtures[0].reflectance, p.mixtures[0].free), (0, Some(0)));
+        assert_eq!(p.reflectances[0].name, "grey");
+        p.rename_free_group(0, "warm").unwrap();
+        assert_eq!(p.free[0].name, "warm");
+        assert!(matches!(p.rename_free_group(3, "x"), Err(EditError::NoSuchFreeGroup(3))));
     }
 
     #[test]

@@ -6,7 +6,9 @@
 
 use crate::colorimetry::linear_to_hex;
 use crate::palette::source::spectra_agree;
-use crate::palette::{Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation};
+use crate::palette::{
+    Bounds, ColourCell, FreeGroup, Kind, MixSpec, Palette, Route, Settings, Source, SpectrumEntry, TargetNotation,
+};
 use crate::spectrum::{Normalize, Samples, Spectrum};
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -82,7 +84,163 @@ pub(super) fn update_document(doc: &mut DocumentMut, old: &Palette, new: &Palett
     sync_list(root, "free", order(&free_map, old.free.len()), |t, o, n| {
         sync_free(t, o.map(|o| &old.free[o]), &new.free[n]);
     })?;
+    let maps = IndexMaps::new(old, new, [&light_map, &refl_map, &free_map]);
+    for list in ["mixtures", "paths"] {
+        follow_names(root, list, &maps);
+    }
     Ok(())
+}
+
+/// Where each old light, reflectance and free group went in the new palette (`None`: removed), for the
+/// names `[[mixtures]]` and `[[paths]]` write (the writer keeps those tables as written; the model refers
+/// by index). The mixtures and paths themselves pair old with new exactly (edits never add, remove or
+/// reorder them), so what they use is mapped through them; any other entry through the name pairing.
+struct IndexMaps<'a> {
+    old: &'a Palette,
+    new: &'a Palette,
+    lights: Vec<Option<usize>>,
+    reflectances: Vec<Option<usize>>,
+    free: Vec<Option<usize>>,
+}
+
+impl<'a> IndexMaps<'a> {
+    fn new(old: &'a Palette, new: &'a Palette, pairings: [&[Option<usize>]; 3]) -> IndexMaps<'a> {
+        let invert = |pairing: &[Option<usize>], old_len: usize| {
+            let mut back = vec![None; old_len];
+            for (n, o) in pairing.iter().enumerate() {
+                if let Some(slot) = o.and_then(|o| back.get_mut(o)) {
+                    *slot = Some(n);
+                }
+            }
+            back
+        };
+        let mut maps = IndexMaps {
+            old,
+            new,
+            lights: invert(pairings[0], old.lights.len()),
+            reflectances: invert(pairings[1], old.reflectances.len()),
+            free: invert(pairings[2], old.free.len()),
+        };
+        let same = |a: &[usize], b: &[usize]| a.len() == b.len();
+        let mut lights: Vec<(usize, usize)> = Vec::new();
+        let mut pairs: Vec<(usize, usize)> = Vec::new();
+        let mut groups: Vec<(usize, usize)> = Vec::new();
+        if old.mixtures.len() == new.mixtures.len() {
+            for (o, n) in old.mixtures.iter().zip(&new.mixtures) {
+                pairs.push((o.reflectance, n.reflectance));
+                groups.extend(o.free.zip(n.free));
+                let ol: Vec<usize> = o.mix.iter().map(|m| m.0).collect();
+                let nl: Vec<usize> = n.mix.iter().map(|m| m.0).collect();
+                if same(&ol, &nl) && o.spec == MixSpec::Weights {
+                    lights.extend(ol.into_iter().zip(nl));
+                }
+                if let (MixSpec::Dial { off: a, .. }, MixSpec::Dial { off: b, .. }) = (&o.spec, &n.spec)
+                    && same(a, b)
+                {
+                    lights.extend(a.iter().copied().zip(b.iter().copied()));
+                }
+            }
+        }
+        if old.paths.len() == new.paths.len() {
+            for (o, n) in old.paths.iter().zip(&new.paths) {
+                pairs.push((o.reflectance, n.reflectance));
+                groups.extend(o.free.zip(n.free));
+                match (&o.route, &n.route) {
+                    (Route::Lights(a), Route::Lights(b)) | (Route::Dial { off: a, .. }, Route::Dial { off: b, .. })
+                        if same(a, b) =>
+                    {
+                        lights.extend(a.iter().copied().zip(b.iter().copied()))
+                    }
+                    _ => {}
+                }
+            }
+        }
+        for (map, exact) in [(&mut maps.lights, lights), (&mut maps.reflectances, pairs), (&mut maps.free, groups)] {
+            for (o, n) in exact {
+                if let Some(slot) = map.get_mut(o) {
+                    *slot = Some(n);
+                }
+            }
+        }
+        maps
+    }
+
+    /// The name the new palette gives the entry the old one called `name` on that side, when it differs.
+    fn renamed(&self, side: Side, name: &str) -> Option<String> {
+        let (old, new, map): (Vec<&String>, Vec<&String>, &[Option<usize>]) = match side {
+            Side::Light => (names(&self.old.lights), names(&self.new.lights), &self.lights),
+            Side::Reflectance => (names(&self.old.reflectances), names(&self.new.reflectances), &self.reflectances),
+            Side::Free => (
+                self.old.free.iter().map(|g| &g.name).collect(),
+                self.new.free.iter().map(|g| &g.name).collect(),
+                &self.free,
+            ),
+        };
+        let o = old.iter().position(|n| *n == name)?;
+        let now = new.get((*map.get(o)?)?)?;
+        (*now != name).then(|| now.to_string())
+    }
+}
+
+fn names(entries: &[SpectrumEntry]) -> Vec<&String> {
+    entries.iter().map(|e| &e.name).collect()
+}
+
+#[derive(Clone, Copy)]
+enum Side {
+    Light,
+    Reflectance,
+    Free,
+}
+
+/// Rewrite the names a `[[mixtures]]` or `[[paths]]` list uses that were renamed (`reflectance`, `free`,
+/// the lights of `off`, `lights`, `through` and the keys of `mix`), each in place with its formatting.
+fn follow_names(root: &mut Table, list: &str, maps: &IndexMaps) {
+    let rename_value = |v: &mut Value, side: Side| {
+        if let Some(now) = v.as_str().and_then(|name| maps.renamed(side, name)) {
+            let decor = v.decor().clone();
+            *v = Value::from(now);
+            *v.decor_mut() = decor;
+        }
+    };
+    let follow = |t: &mut dyn TableLike| {
+        for (key, side) in [("reflectance", Side::Reflectance), ("free", Side::Free)] {
+            if let Some(v) = t.get_mut(key).and_then(Item::as_value_mut) {
+                rename_value(v, side);
+            }
+        }
+        for key in ["off", "lights", "through"] {
+            if let Some(arr) = t.get_mut(key).and_then(Item::as_value_mut).and_then(Value::as_array_mut) {
+                arr.iter_mut().for_each(|v| rename_value(v, Side::Light));
+            }
+        }
+        if let Some(mix) = t.get_mut("mix").and_then(Item::as_table_like_mut)
+            && mix.iter().any(|(k, _)| maps.renamed(Side::Light, k).is_some())
+        {
+            let entries: Vec<(toml_edit::Key, Item)> = mix
+                .iter()
+                .map(|(k, item)| {
+                    let key = mix.key(k).cloned().unwrap_or_else(|| toml_edit::Key::new(k));
+                    let key = match maps.renamed(Side::Light, k) {
+                        Some(now) => toml_edit::Key::new(now).with_leaf_decor(key.leaf_decor().clone()),
+                        None => key,
+                    };
+                    (key, item.clone())
+                })
+                .collect();
+            mix.clear();
+            for (key, item) in entries {
+                mix.entry_format(&key).or_insert(item);
+            }
+        }
+    };
+    match root.get_mut(list) {
+        Some(Item::ArrayOfTables(aot)) => aot.iter_mut().for_each(|t| follow(t)),
+        Some(Item::Value(Value::Array(arr))) => {
+            arr.iter_mut().filter_map(Value::as_inline_table_mut).for_each(|t| follow(t))
+        }
+        _ => {}
+    }
 }
 
 /// For each new item the old item it continues: same name first, else the unpaired old item at its index.
