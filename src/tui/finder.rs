@@ -1,17 +1,12 @@
 //! `/` search and `:` command palette: a line to type in over a list filtered as you type (every word
 //! typed must appear in an entry, case ignored), ↑/↓ to choose, Enter to jump to the light, reflectance
 //! or cell (search) or to run the action (commands: every action of the main keymap, by what the help
-//! calls it). A popup component: state ([`Finder`]), update ([`on_action`], taking the sub-models it
-//! needs) and view ([`draw`]).
+//! calls it). A popup component: state ([`Finder`]) and update ([`on_action`], taking what it needs); its
+//! view is `ui/finder.rs`. It imports nothing of the keymap or the view: the caller hands it the commands.
 
 use crate::palette::Palette;
 use crate::tui::action::{Action, Direction};
-use crate::tui::app::{PromptText, Selection};
-use crate::tui::keymap;
-use crate::tui::ui::{fit, put};
-use ratatui::buffer::Buffer;
-use ratatui::layout::Rect;
-use ratatui::style::{Color, Modifier, Style};
+use crate::tui::basics::{PromptText, Selection};
 
 /// Search the palette or the commands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -26,6 +21,8 @@ pub struct Finder {
     pub kind: FinderKind,
     pub(crate) input: PromptText,
     pub(crate) selected: usize,
+    /// The commands a `:` palette offers (label, action), from the keymap; empty for a search.
+    commands: Vec<(String, Action)>,
 }
 
 /// Where an entry leads.
@@ -36,8 +33,14 @@ pub(crate) enum Goal {
 }
 
 impl Finder {
-    pub(crate) fn new(kind: FinderKind) -> Finder {
-        Finder { kind, input: PromptText::default(), selected: 0 }
+    /// A search over the palette.
+    pub(crate) fn search() -> Finder {
+        Finder { kind: FinderKind::Search, input: PromptText::default(), selected: 0, commands: Vec::new() }
+    }
+
+    /// A command palette over `commands` (label, action).
+    pub(crate) fn commands(commands: Vec<(String, Action)>) -> Finder {
+        Finder { kind: FinderKind::Commands, input: PromptText::default(), selected: 0, commands }
     }
 
     /// Every entry (label, goal) before filtering.
@@ -59,10 +62,7 @@ impl Finder {
                 }
                 out
             }
-            FinderKind::Commands => keymap::MAIN
-                .iter()
-                .map(|b| (format!("{}  ({})", b.help, keymap::keys_label(b)), Goal::Run(b.action)))
-                .collect(),
+            FinderKind::Commands => self.commands.iter().map(|(label, a)| (label.clone(), Goal::Run(*a))).collect(),
         }
     }
 
@@ -99,53 +99,4 @@ pub(crate) fn on_action(mut finder: Finder, action: Action, palette: &Palette) -
         _ => {}
     }
     Err(finder)
-}
-
-/// Draw the finder over `area`: the line typed, then the matches (the chosen one highlighted).
-pub(crate) fn draw(finder: &Finder, palette: &Palette, area: Rect, buf: &mut Buffer) {
-    let matches = finder.matches(palette);
-    let width = 70u16.min(area.width);
-    let height = (matches.len() as u16 + 4).clamp(5, area.height.saturating_sub(2).max(5)).min(area.height);
-    let r = Rect { x: area.x + (area.width - width) / 2, y: area.y + (area.height - height) / 2, width, height };
-    ratatui::widgets::Widget::render(ratatui::widgets::Clear, r, buf);
-    let title = match finder.kind {
-        FinderKind::Search => " / jump to a light, reflectance or cell ",
-        FinderKind::Commands => " : run a command ",
-    };
-    let block = ratatui::widgets::Block::bordered()
-        .title(title)
-        .title_bottom(format!(
-            " {} of {} · ↑↓ choose · Enter · Esc ",
-            matches.len().min(finder.selected + 1),
-            matches.len()
-        ))
-        .border_style(Style::new().fg(Color::LightCyan));
-    let inner = block.inner(r);
-    ratatui::widgets::Widget::render(block, r, buf);
-    let typed = finder.input.visible(usize::from(inner.width.saturating_sub(4)));
-    let x = put(buf, inner, 1, 0, "› ", Style::new().add_modifier(Modifier::BOLD));
-    let x = put(buf, inner, x, 0, &typed.before, Style::new().fg(Color::White));
-    let x = match typed.under {
-        Some(c) => put(buf, inner, x, 0, &c.to_string(), Style::new().fg(Color::Black).bg(Color::LightGreen)),
-        None => put(buf, inner, x, 0, "▏", Style::new().fg(Color::LightGreen)),
-    };
-    put(buf, inner, x, 0, &typed.after, Style::new().fg(Color::White));
-    let rows = usize::from(inner.height.saturating_sub(1)).max(1);
-    let first = (finder.selected + 1).saturating_sub(rows);
-    if matches.is_empty() {
-        put(buf, inner, 1, 1, "nothing matches", Style::new().fg(Color::Gray));
-    }
-    for (y, (k, (label, _))) in matches.iter().enumerate().skip(first).take(rows).enumerate() {
-        let style =
-            if k == finder.selected { Style::new().fg(Color::Black).bg(Color::LightGreen) } else { Style::new() };
-        let text = fit(label, usize::from(inner.width.saturating_sub(2)));
-        put(
-            buf,
-            inner,
-            0,
-            1 + y as u16,
-            &format!(" {text:<w$}", w = usize::from(inner.width.saturating_sub(1))),
-            style,
-        );
-    }
 }

@@ -306,6 +306,11 @@ pub(crate) fn key_label(key: &Key) -> String {
     }
 }
 
+/// The main screen's actions as the `:` command palette offers them: what the help calls each, with its keys.
+pub(crate) fn commands() -> Vec<(String, Action)> {
+    MAIN.iter().map(|b| (format!("{}  ({})", b.help, keys_label(b)), b.action)).collect()
+}
+
 /// All keys of a binding, as the help shows them.
 pub fn keys_label(binding: &Binding) -> String {
     if let Action::DialToggle(_) = binding.action {

@@ -14,6 +14,7 @@
 
 pub mod action;
 pub mod app;
+pub mod basics;
 pub mod colour;
 pub mod derived;
 pub mod edits;
@@ -22,7 +23,6 @@ pub mod finder;
 pub mod graphics;
 pub mod keyframes;
 pub mod keymap;
-pub mod legend;
 pub mod model;
 pub mod msg;
 pub mod preview;

@@ -6,36 +6,9 @@
 
 use crate::palette::{Kind, Palette};
 use crate::tui::app::{Popup, Prompt, PromptPurpose, PromptText, SpectrumOp, Target};
+pub use crate::tui::basics::Renamed;
 use crate::tui::edits::{EditError, EditResult};
 use crate::tui::model::UiState;
-
-/// What a rename applies to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Renamed {
-    /// A light or a reflectance by index.
-    Spectrum(Kind, usize),
-    /// A free-colour group by index.
-    Group(usize),
-}
-
-impl Renamed {
-    /// Its name now (`None` when it no longer exists).
-    pub(crate) fn name(self, palette: &Palette) -> Option<&str> {
-        match self {
-            Renamed::Spectrum(kind, i) => palette.entries(kind).get(i).map(|e| e.name.as_str()),
-            Renamed::Group(g) => palette.free.get(g).map(|g| g.name.as_str()),
-        }
-    }
-
-    /// `light daylight`, `free-colour group A`.
-    pub(crate) fn describe(self, palette: &Palette) -> String {
-        let what = match self {
-            Renamed::Spectrum(kind, _) => kind.as_str(),
-            Renamed::Group(_) => "free-colour group",
-        };
-        format!("{what} {}", self.name(palette).unwrap_or("?"))
-    }
-}
 
 /// `r` on the main screen: a swatch is renamed at once (the prompt opens); a cell asks which of its light,
 /// reflectance (or free-colour group, when it has one) to rename.

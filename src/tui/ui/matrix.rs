@@ -213,9 +213,9 @@ impl Widget for Matrix<'_> {
                 };
                 if !marker.is_empty() {
                     let style = if cell.free.is_some() {
-                        crate::tui::legend::group_style()
+                        super::legend::group_style()
                     } else {
-                        crate::tui::legend::criterion_style()
+                        super::legend::criterion_style()
                     };
                     put(buf, area, x + 6, y, &marker, style);
                 }

@@ -3,6 +3,8 @@
 //! and hands each panel a borrowed view of the state.
 
 pub mod feasibility;
+pub(crate) mod finder;
+pub mod legend;
 pub mod matrix;
 pub mod popup;
 pub mod preview;

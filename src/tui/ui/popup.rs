@@ -123,13 +123,13 @@ impl Widget for PopupView<'_> {
                     }
                 }
             }
-            Popup::Find(finder) => crate::tui::finder::draw(finder, &state.doc.palette, area, buf),
+            Popup::Find(finder) => super::finder::draw(finder, &state.doc.palette, area, buf),
             Popup::Legend { scroll } => {
                 let width = 76u16.min(area.width);
-                let lines = crate::tui::legend::lines(width.saturating_sub(2)).len() as u16;
+                let lines = super::legend::lines(width.saturating_sub(2)).len() as u16;
                 let r = centred(area, width, lines + 2);
                 let inner = frame(r, buf, "what the marks mean (↑↓ scroll)");
-                crate::tui::legend::draw(inner, buf, *scroll);
+                super::legend::draw(inner, buf, *scroll);
             }
             Popup::Diagnostics { scroll } => {
                 let r = centred(area, area.width.saturating_sub(4), area.height.saturating_sub(4));

@@ -264,12 +264,12 @@ fn on_view(doc: &Document, ui: &mut UiState, solve: &SolveState, preview: &mut P
         Action::Help => ui.popup = Some(Popup::Help { scroll: 0 }),
         Action::Legend => ui.popup = Some(Popup::Legend { scroll: 0 }),
         Action::Find { commands } => {
-            let kind = if commands {
-                crate::tui::finder::FinderKind::Commands
+            let finder = if commands {
+                crate::tui::finder::Finder::commands(crate::tui::keymap::commands())
             } else {
-                crate::tui::finder::FinderKind::Search
+                crate::tui::finder::Finder::search()
             };
-            ui.popup = Some(Popup::Find(crate::tui::finder::Finder::new(kind)))
+            ui.popup = Some(Popup::Find(finder))
         }
         Action::Diagnostics => {
             if solve.diagnostics().is_empty() {

@@ -2,7 +2,7 @@
 //! matrix draws it in, with what it means. A popup component: its rows here, its keys in
 //! [`crate::tui::keymap::LEGEND`], its update the scrolling the help shares, its view [`draw`].
 
-use crate::tui::ui::{design_style, put, selected_style, wrap};
+use super::{design_style, put, selected_style, wrap};
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style};
