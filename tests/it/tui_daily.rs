@@ -149,3 +149,44 @@ fn search_jumps_and_the_command_palette_runs_actions() {
     replay(&mut s, "Up\nEnter", 80, 24);
     assert_eq!(s.doc.palette.reflectances[1].name, "block", "undone");
 }
+
+/// A free cell has no target of its own: at 80×24 its detail line names its group and shows the
+/// group's solved colour (the colour its `▌` has in the matrix), not the stale R, G, B it kept.
+#[test]
+fn a_free_cell_shows_its_groups_colour_labelled_not_its_old_target() {
+    use ratatui::style::Color;
+    let mut s = state(demo_palette(), ColourMode::TrueColor);
+    // tungsten × tissue, in group A.
+    let (text, buf) = replay(&mut s, "Right\nDown *2", 80, 24);
+    snap!("free_cell_80x24", text);
+    let p = &s.doc.palette;
+    let light = p.lights.iter().position(|l| l.name == "tungsten").expect("tungsten");
+    let reflectance = p.reflectances.iter().position(|r| r.name == "tissue").expect("tissue");
+    let rgb = |c: &nalgebra::Vector3<f64>| {
+        let [r, g, b] = metamer::colorimetry::linear_to_srgb8(c);
+        Color::Rgb(r, g, b)
+    };
+    let cell = s.doc.palette.cell(light, reflectance).expect("a cell");
+    assert_eq!(cell.free.map(|g| s.doc.palette.free[g].name.as_str()), Some("A"));
+    let y = text.lines().position(|l| l.contains("free (group A)")).unwrap_or_else(|| panic!("no label in\n{text}"));
+    let line = text.lines().nth(y).unwrap();
+    assert!(!line.contains("R 0.") && !line.contains("G 0."), "stale target sliders: {line}");
+    let label = line.find("free (group A)").map_or(0, |b| line[..b].chars().count());
+    let x = line.chars().skip(label).position(|c| c == '█').expect("a swatch") + label;
+    let x = x as u16;
+    let swatch = buf[(x, y as u16)].fg;
+    let view = s.solve.derived.cell(light, reflectance).expect("a view");
+    let desired = view.desired.expect("the group's solved colour");
+    assert_eq!(swatch, rgb(&desired));
+    assert_ne!(swatch, rgb(&cell.target), "the stale target");
+    // The stale target's R, G, B bars are greyed, not in the channels' colours.
+    let ry = text.lines().position(|l| l.contains("│ R ")).expect("R slider");
+    let rline = text.lines().nth(ry).unwrap();
+    let rfrom = rline.find("│ R ").map_or(0, |b| rline[..b].chars().count());
+    let rx = (rline.chars().skip(rfrom).position(|c| c == '█').expect("R bar") + rfrom) as u16;
+    assert_eq!(buf[(rx, ry as u16)].fg, Color::DarkGray);
+    // The matrix's `▌` of that (selected) cell has the same colour.
+    let (my, mline) = text.lines().enumerate().find(|(_, l)| l.contains("[▌▀▀▀]A")).expect("the cell's row");
+    let mx = mline.find("[▌▀▀▀]A").map(|b| mline[..b].chars().count() + 1).expect("the cell") as u16;
+    assert_eq!(buf[(mx, my as u16)].fg, swatch);
+}

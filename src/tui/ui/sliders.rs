@@ -75,6 +75,9 @@ impl Widget for Sliders<'_> {
                 }
                 let values = slider_values(state, light, reflectance);
                 let bar_width = w.saturating_sub(12).max(4);
+                // A free cell's R, G, B are the target it keeps for leaving its group, not one in use:
+                // greyed (its colour is the group's, on the line below).
+                let in_group = cell.is_some_and(|c| c.free.is_some());
                 for (k, slider) in Slider::ALL.iter().enumerate() {
                     let y = 1 + k as u16;
                     let focused = state.ui.focus == Focus::Sliders && state.ui.slider == k;
@@ -88,6 +91,7 @@ impl Widget for Sliders<'_> {
                     put(buf, area, 0, y, if focused { "›" } else { " " }, selected_style());
                     put(buf, area, x0, y, label, label_style);
                     let (filled, rest) = bar(bar_width, fraction);
+                    let colour = if in_group && k < 3 { Color::DarkGray } else { colour };
                     let x = put(buf, area, x0 + 2, y, &filled, Style::new().fg(colour));
                     put(buf, area, x, y, &rest, Style::new().fg(Color::DarkGray));
                     put(buf, area, x0 + 3 + bar_width as u16, y, &value, label_style);
@@ -115,7 +119,11 @@ impl Widget for Sliders<'_> {
                 }
                 if let Some(v) = view {
                     let mode = state.ui.colour_mode;
-                    let mut x = put(buf, area, x0, 6, "target ", Style::new().fg(Color::Gray));
+                    let free = cell.and_then(|c| c.free).and_then(|g| p.free.get(g));
+                    let mut x = match free {
+                        Some(g) => put(buf, area, x0, 6, &format!("free (group {}) ", g.name), free_style()),
+                        None => put(buf, area, x0, 6, "target ", Style::new().fg(Color::Gray)),
+                    };
                     x = match &v.desired {
                         Some(d) => put(buf, area, x, 6, "██", swatch(mode, d)),
                         None => put(buf, area, x, 6, "··", Style::new().fg(Color::DarkGray)),
@@ -187,6 +195,26 @@ impl Widget for CompactSliders<'_> {
             put(buf, area, 0, 0, &text, Style::new().add_modifier(Modifier::BOLD));
             return;
         };
+        let view = state.solve.derived.cell(light, reflectance);
+        let p = &state.doc.palette;
+        // A free cell has no target of its own (its R, G, B would be the stale one it had before): its
+        // group's solved colour, labelled.
+        if let Some(g) = p.cell(light, reflectance).and_then(|c| c.free).and_then(|g| p.free.get(g)) {
+            let mut x = put(buf, area, 0, 0, &format!("free (group {}) ", g.name), free_style());
+            x = match view.and_then(|c| c.desired) {
+                Some(d) => {
+                    let x = put(buf, area, x, 0, "██", swatch(state.ui.colour_mode, &d));
+                    put(buf, area, x, 0, &format!(" {}", linear_to_hex(&d)), Style::new())
+                }
+                None => put(buf, area, x, 0, "not solved yet", Style::new().fg(Color::DarkGray)),
+            };
+            let de = view.and_then(|c| c.delta_e_full).map_or("–".to_string(), |d| format!("{d:.1}"));
+            x = put(buf, area, x, 0, &format!("  ΔE {de}  "), Style::new());
+            let name = crate::design::cell_name(&p.lights[light].name, &p.reflectances[reflectance].name);
+            let room = usize::from(area.width.saturating_sub(x));
+            put(buf, area, x, 0, &fit(&name, room), Style::new().fg(Color::Gray));
+            return;
+        }
         let v = slider_values(state, light, reflectance);
         let mut x = 0;
         for (k, (label, value)) in [
@@ -203,7 +231,6 @@ impl Widget for CompactSliders<'_> {
             x = put(buf, area, x, 0, &format!("{label} {value}"), style);
             x = put(buf, area, x, 0, "  ", Style::new());
         }
-        let view = state.solve.derived.cell(light, reflectance);
         let hex = view.and_then(|c| c.desired).map_or("—".to_string(), |d| linear_to_hex(&d));
         let de = view.and_then(|c| c.delta_e_full).map_or("–".to_string(), |d| format!("{d:.1}"));
         x = put(buf, area, x, 0, &format!("{hex}  ΔE {de}  "), Style::new());
@@ -214,4 +241,9 @@ impl Widget for CompactSliders<'_> {
         let room = usize::from(area.width.saturating_sub(x));
         put(buf, area, x, 0, &fit(&name, room), Style::new().fg(Color::Gray));
     }
+}
+
+/// How a free cell's group is named beside its colour.
+fn free_style() -> Style {
+    Style::new().fg(Color::LightMagenta).add_modifier(Modifier::BOLD)
 }
