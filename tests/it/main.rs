@@ -2,6 +2,16 @@
 //! tests, which are `tests/figures/` (their own harness reports missing data as ignored): each former `tests/NAME.rs` is
 //! the module `NAME` here, run one with `cargo test --test it NAME::`.
 
+/// An insta snapshot under the top-level `snapshots/` folder, named without its module: the designer's screens
+/// (`tui_screens`, `tui_live`, `tui_loop`, `tui_daily`). Defined before the modules, so it is in scope in each.
+macro_rules! snap {
+    ($name:expr, $text:expr) => {
+        insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
+            insta::assert_snapshot!($name, $text);
+        })
+    };
+}
+
 #[allow(dead_code)]
 mod common;
 #[allow(dead_code)]

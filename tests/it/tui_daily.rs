@@ -1,5 +1,5 @@
 //! The designer as a daily tool (issue 30): rename, the legend of the marks, search and the command
-//! palette, keyframes listed and deleted. Screens at 80×24 (insta snapshots under `snapshots/`), updates
+//! palette, a free cell's colour. Screens at 80×24 (insta snapshots under `snapshots/`), updates
 //! checked on the state, colours on cell styles where they matter.
 
 use crate::tui_support;
@@ -8,14 +8,6 @@ use metamer::palette::Kind;
 use metamer::tui::colour::ColourMode;
 use metamer::tui::replay::MemorySaver;
 use tui_support::{demo_palette, replay, state};
-
-macro_rules! snap {
-    ($name:expr, $text:expr) => {
-        insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
-            insta::assert_snapshot!($name, $text);
-        })
-    };
-}
 
 /// `r` on a cell asks light / reflectance / group; the prompt has the old name typed; the new name shows
 /// in the matrix, the message says what happened, a taken name is refused in the prompt, undo restores it

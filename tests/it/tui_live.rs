@@ -116,14 +116,6 @@ fn demo_live() -> metamer::tui::State {
     s
 }
 
-macro_rules! snap {
-    ($name:expr, $text:expr) => {
-        insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
-            insta::assert_snapshot!($name, $text);
-        })
-    };
-}
-
 #[test]
 fn dial_widget_states() {
     let mut s = demo_live();

@@ -21,14 +21,6 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-macro_rules! snap {
-    ($name:expr, $text:expr) => {
-        insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
-            insta::assert_snapshot!($name, $text);
-        })
-    };
-}
-
 fn solved(ticket: u64, generation: u64, state: &State) -> Msg {
     let solution = design::solve(&state.doc.palette, None, &Colorimetry::default(), &SolveOptions::default());
     let result = solution.map(Arc::new);

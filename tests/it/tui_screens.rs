@@ -6,14 +6,6 @@ use crate::tui_support;
 use metamer::tui::colour::ColourMode;
 use tui_support::{demo_palette, replay, square_palette, state};
 
-macro_rules! snap {
-    ($name:expr, $text:expr) => {
-        insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
-            insta::assert_snapshot!($name, $text);
-        })
-    };
-}
-
 #[test]
 fn main_screen_100x30() {
     let mut s = state(demo_palette(), ColourMode::TrueColor);
