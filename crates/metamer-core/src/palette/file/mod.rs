@@ -12,6 +12,7 @@
 //! file ([`tables`]); it is the same writer, applied to less text.
 
 mod budget;
+mod float_text;
 mod numbers;
 mod pieces;
 mod read;

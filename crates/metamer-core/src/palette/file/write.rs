@@ -370,25 +370,24 @@ fn float_array(values: &[f64]) -> Value {
 }
 
 /// Samples written eight to a line, like a table: `[`, each line of eight indented by four spaces, a
-/// trailing comma and `]` on its own line. The numbers are written by `toml_writer` (the formatter
-/// `toml_edit` itself prints floats with), straight into one string.
+/// trailing comma and `]` on its own line. The numbers are written as `toml_writer` (the formatter
+/// `toml_edit` itself prints floats with) writes them ([`super::float_text::push_f64`]), straight into
+/// one string.
 pub(super) fn samples_text(values: &[f64]) -> String {
-    use toml_writer::TomlWrite;
-    let mut w = String::with_capacity(16 * values.len() + 4);
-    // Writing to a `String` cannot fail.
-    let _ = w.open_array();
+    let mut w = String::with_capacity(24 * values.len() + 4);
+    w.push('[');
     for (i, &x) in values.iter().enumerate() {
-        if i > 0 {
-            let _ = w.val_sep();
-        }
-        w.push_str(if i % 8 == 0 { "\n    " } else { " " });
-        let _ = w.value(x);
+        w.push_str(match (i > 0, i % 8 == 0) {
+            (false, _) => "\n    ",
+            (true, true) => ",\n    ",
+            (true, false) => ", ",
+        });
+        super::float_text::push_f64(&mut w, x);
     }
     if !values.is_empty() {
-        let _ = w.val_sep();
+        w.push(',');
     }
-    w.push('\n');
-    let _ = w.close_array();
+    w.push_str("\n]");
     w
 }
 
