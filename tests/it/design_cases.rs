@@ -273,7 +273,7 @@ fn linear_assembly_matches_the_objective() {
     let terms: Vec<usize> = (0..design.terms.len()).collect();
     let sys = design.linear_system(&layout, &terms, &v);
     let x: DVector<f64> = layout.gather(&v);
-    let f = (&sys.a * &x - &sys.b).norm_squared();
+    let f = (&*sys.a * &x - &sys.b).norm_squared();
     assert!((f - design.objective(&v)).abs() <= 1e-12 * (1.0 + f), "{f} vs {}", design.objective(&v));
     // And the solve with a basis reports subspace colours.
     let sol = design::solve(&p, Some(&basis), &c, &SolveOptions::default()).unwrap();

@@ -145,7 +145,8 @@ impl Layout {
 /// `min ‖A x − b‖²` subject to `lower ≤ x ≤ upper`.
 #[derive(Clone, Debug)]
 pub struct LinearSystem {
-    pub a: DMatrix<f64>,
+    /// Shared between the systems of a batch that have the same A (no copy per design).
+    pub a: std::sync::Arc<DMatrix<f64>>,
     pub b: DVector<f64>,
     pub(crate) lower: DVector<f64>,
     pub(crate) upper: DVector<f64>,

@@ -140,7 +140,7 @@ impl CostFunction for Objective<'_> {
     type Output = f64;
     fn cost(&self, x: &DVector<f64>) -> Result<f64, Error> {
         if self.from_residual {
-            return Ok((&self.sys.a * x - &self.sys.b).norm_squared());
+            return Ok((&*self.sys.a * x - &self.sys.b).norm_squared());
         }
         Ok((x.dot(&self.hx(x)) - 2.0 * self.atb.dot(x) + self.bb).max(0.0))
     }
@@ -151,7 +151,7 @@ impl Gradient for Objective<'_> {
     type Gradient = DVector<f64>;
     fn gradient(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
         if self.from_residual {
-            return Ok(self.sys.a.tr_mul(&(&self.sys.a * x - &self.sys.b)) * 2.0);
+            return Ok(self.sys.a.tr_mul(&(&*self.sys.a * x - &self.sys.b)) * 2.0);
         }
         let mut g = self.hx(x);
         g -= self.atb;
@@ -191,7 +191,7 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
     let n = sys.a.ncols();
     let atb = sys.a.tr_mul(&sys.b);
     let grad_scale = 1.0 + 2.0 * atb.amax();
-    let residual_of = |x: &DVector<f64>| &sys.a * x - &sys.b;
+    let residual_of = |x: &DVector<f64>| &*sys.a * x - &sys.b;
     let residual = |x: &DVector<f64>| residual_of(x).norm_squared();
     let use_qr = work.use_qr;
     let mut x_svd = &factor.pinv * &sys.b;
@@ -292,7 +292,7 @@ pub(crate) fn solve_from(sys: &LinearSystem, h: &DMatrix<f64>, x0: &DVector<f64>
         let steps = work.finish(sys, h, &atb, x0);
         (steps, DVector::from_column_slice(&work.x))
     });
-    let r = &sys.a * &x - &sys.b;
+    let r = &*sys.a * &x - &sys.b;
     let kkt = kkt_of(sys, &x, &r, 1.0 + 2.0 * atb.amax());
     let objective = r.norm_squared();
     LsqOutcome { x, objective, kkt, bounds_active: true, lbfgsb_iterations: 0, active_set_steps: steps }

@@ -206,7 +206,7 @@ impl Reach {
         let mut b = DVector::zeros(3 + SAMPLES);
         b.rows_mut(0, 3).copy_from(target);
         let sys = LinearSystem {
-            a,
+            a: a.into(),
             b,
             lower: DVector::from_element(SAMPLES, bounds.lower),
             upper: DVector::from_element(SAMPLES, bounds.upper),

@@ -26,15 +26,15 @@ type Slot = Arc<OnceLock<Arc<Shared>>>;
 
 /// A matrix A shared by the blocks of one key, and its factorisation.
 pub(crate) struct Shared {
-    pub(crate) a: DMatrix<f64>,
+    pub(crate) a: Arc<DMatrix<f64>>,
     pub(crate) factor: Factor,
 }
 
 impl FactorCache {
     /// The shared A and its factorisation for `key`, `assemble`d and factored once per key, also when
     /// several threads ask for it at once (the others wait for the first).
-    pub fn get(&self, key: Vec<u64>, assemble: impl FnOnce() -> DMatrix<f64>) -> Arc<Shared> {
-        let build = |a: DMatrix<f64>| Arc::new(Shared { factor: Factor::new(&a), a });
+    pub fn get(&self, key: Vec<u64>, assemble: impl FnOnce() -> Arc<DMatrix<f64>>) -> Arc<Shared> {
+        let build = |a: Arc<DMatrix<f64>>| Arc::new(Shared { factor: Factor::new(&a), a });
         let slot = match self.map.lock() {
             Ok(mut map) => map.entry(key).or_default().clone(),
             // A panic elsewhere poisoned the lock: factor without sharing.
@@ -105,7 +105,7 @@ pub(crate) fn solve_block(
             report.objective = out.objective;
             x = out.x;
         } else {
-            report.objective = (&sys.a * &x - &sys.b).norm_squared();
+            report.objective = (&*sys.a * &x - &sys.b).norm_squared();
         }
     }
     report.values = layout.units.iter().map(|(u, o)| (*u, x.rows(*o, u.len()).iter().copied().collect())).collect();

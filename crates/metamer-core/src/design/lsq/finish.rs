@@ -193,8 +193,8 @@ impl Work {
             self.qr.prepare(&sys.a);
             let x = nalgebra::DVectorView::from_slice(&self.x, self.n);
             self.r.copy_from(&sys.b);
-            self.r.gemv(1.0, &sys.a, &x, -1.0);
-            self.g.gemv_tr(1.0, &sys.a, &self.r, 0.0);
+            self.r.gemv(1.0, &*sys.a, &x, -1.0);
+            self.g.gemv_tr(1.0, &*sys.a, &self.r, 0.0);
             let xabs = x.abs();
             self.mag.copy_from(&sys.b.abs());
             self.mag.gemv(1.0, &self.qr.abs_a, &xabs, 1.0);

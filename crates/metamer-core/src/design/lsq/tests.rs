@@ -26,14 +26,14 @@ fn brute_force(sys: &LinearSystem) -> f64 {
         if !free.is_empty() {
             // The free columns' least squares by nalgebra's SVD, independently of the engine.
             let af = DMatrix::from_fn(sys.a.nrows(), free.len(), |r, c| sys.a[(r, free[c])]);
-            let rb = &sys.b - &sys.a * &x;
+            let rb = &sys.b - &*sys.a * &x;
             let z = af.svd(true, true).solve(&rb, 1e-14).expect("svd solve");
             for (k, &i) in free.iter().enumerate() {
                 x[i] = z[k];
             }
         }
         if (0..n).all(|i| x[i] >= sys.lower[i] - 1e-12 && x[i] <= sys.upper[i] + 1e-12) {
-            best = best.min((&sys.a * &x - &sys.b).norm_squared());
+            best = best.min((&*sys.a * &x - &sys.b).norm_squared());
         }
     }
     best
@@ -48,7 +48,7 @@ fn matches_brute_force_on_small_random_systems() {
         let b = DVector::from_fn(m, |_, _| lcg(&mut seed) * 4.0 - 2.0);
         let lower = DVector::from_fn(n, |_, _| -lcg(&mut seed) * 0.5);
         let upper = DVector::from_fn(n, |_, _| lcg(&mut seed) * 0.5);
-        let sys = LinearSystem { a, b, lower, upper };
+        let sys = LinearSystem { a: a.into(), b, lower, upper };
         let out = solve_system(&sys);
         let best = brute_force(&sys);
         assert!(out.objective <= best * (1.0 + 1e-9) + 1e-14, "{} vs {best}", out.objective);
@@ -82,7 +82,7 @@ fn qr_path_matches_brute_force_on_wide_and_graded_systems() {
         let b = DVector::from_fn(m, |r, _| w[r] * (lcg(&mut seed) * 4.0 - 2.0));
         let lower = DVector::from_fn(n, |_, _| -lcg(&mut seed) * 0.5);
         let upper = DVector::from_fn(n, |_, _| lcg(&mut seed) * 0.5);
-        let sys = LinearSystem { a, b, lower, upper };
+        let sys = LinearSystem { a: a.into(), b, lower, upper };
         assert!(Factor::new(&sys.a).needs_qr(), "case {case} should take the QR path");
         let out = solve_system(&sys);
         let best = brute_force(&sys);
@@ -96,7 +96,8 @@ fn qr_path_matches_brute_force_on_wide_and_graded_systems() {
 fn feasible_unconstrained_solution_is_returned_directly() {
     let a = DMatrix::identity(3, 3);
     let b = DVector::from_vec(vec![0.1, 0.2, 0.3]);
-    let sys = LinearSystem { a, b: b.clone(), lower: DVector::zeros(3), upper: DVector::from_element(3, 1.0) };
+    let sys =
+        LinearSystem { a: a.into(), b: b.clone(), lower: DVector::zeros(3), upper: DVector::from_element(3, 1.0) };
     let out = solve_system(&sys);
     assert!(!out.bounds_active);
     assert!((out.x - b).amax() < 1e-15);
@@ -108,7 +109,8 @@ fn rank_deficient_gives_minimum_norm() {
     let a = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
     let b = DVector::from_vec(vec![2.0, 2.0]);
     let inf = f64::INFINITY;
-    let sys = LinearSystem { a, b, lower: DVector::from_element(2, -inf), upper: DVector::from_element(2, inf) };
+    let sys =
+        LinearSystem { a: a.into(), b, lower: DVector::from_element(2, -inf), upper: DVector::from_element(2, inf) };
     let out = solve_system(&sys);
     assert!((out.x[0] - 1.0).abs() < 1e-12 && (out.x[1] - 1.0).abs() < 1e-12);
 }
@@ -152,7 +154,7 @@ fn clamped_start_matches_brute_force_on_small_random_systems() {
         let b = DVector::from_fn(m, |_, _| lcg(&mut seed) * 4.0 - 2.0);
         let lower = DVector::from_fn(n, |_, _| -lcg(&mut seed) * 0.3);
         let upper = DVector::from_fn(n, |_, _| lcg(&mut seed) * 0.3);
-        let sys = LinearSystem { a, b, lower, upper };
+        let sys = LinearSystem { a: a.into(), b, lower, upper };
         let factor = Factor::new(&sys.a);
         if factor.needs_qr() {
             continue;

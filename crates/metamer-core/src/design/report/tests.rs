@@ -35,7 +35,7 @@ fn closest_reachable_colours() {
                 hits += 1;
             } else {
                 let sys = LinearSystem {
-                    a: DMatrix::from_fn(3, SAMPLES, |r, c| reach.op[(r, c)]),
+                    a: DMatrix::from_fn(3, SAMPLES, |r, c| reach.op[(r, c)]).into(),
                     b: DVector::from_column_slice(target.as_slice()),
                     lower: DVector::zeros(SAMPLES),
                     upper: DVector::from_element(SAMPLES, 1.0),
