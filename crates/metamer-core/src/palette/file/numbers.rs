@@ -1,4 +1,5 @@
-//! The numeric `samples = [ ... ]` arrays of a palette, read by hand before the TOML parse.
+//! The numeric `samples = [ ... ]` arrays of a palette (and the cells' `target = [r, g, b]`, [`KEYS`]),
+//! read by hand before the TOML parse.
 //!
 //! Why this exists: measured on a palette of 1200 designed reflectances (`metamer solve`, whole process),
 //! `toml`'s generic parse of the spectra's sample arrays was the largest single cost: every sample becomes a
@@ -16,8 +17,14 @@
 //! results are those of the parser alone. Tests compare both paths (a property test and every shipped
 //! palette).
 
+use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
+
+/// The keys whose arrays are read: a spectrum's `samples` and a colour cell's `target` (`[r, g, b]`; a
+/// batch of designs has three cells per spectrum, and their targets were half of the numbers the parser
+/// read and checked).
+const KEYS: [&str; 2] = ["samples", "target"];
 
 /// Files with fewer read arrays than this are parsed as they are (nothing to gain).
 pub(super) const MIN_ARRAYS: usize = 8;
@@ -46,29 +53,19 @@ impl Read {
     }
 }
 
-/// The text with every `samples` array this module reads blanked, and the arrays read; `None` when there
-/// are fewer than `min_arrays`.
-pub(super) fn blank_samples(text: &str, min_arrays: usize) -> Option<(String, Read)> {
+/// The text with every array this module reads blanked, and the arrays read; `None` when there are fewer
+/// than `min_arrays`. The text is read in the pieces the parse cuts it into ([`super::pieces::starts`], at
+/// `[[name]]` header lines, which no array crosses), on several threads.
+pub(super) fn blank_samples(text: &str, min_arrays: usize, headers: &[usize]) -> Option<(String, Read)> {
     let b = text.as_bytes();
-    let mut arrays = Vec::new();
-    let mut at = 0;
-    while let Some(found) = text.get(at..).and_then(|t| t.find("samples")) {
-        let key = at + found;
-        at = key + "samples".len();
-        let line_start = b[..key].iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
-        if !b[line_start..key].iter().all(|&c| c == b' ' || c == b'\t') {
-            continue;
-        }
-        let mut i = skip_blanks(b, at);
-        if b.get(i) != Some(&b'=') {
-            continue;
-        }
-        i = skip_blanks(b, i + 1);
-        if let Some((end, values)) = array(b, i) {
-            arrays.push((i..end, values));
-            at = end;
-        }
-    }
+    let starts = super::pieces::starts(text, headers);
+    let bounds: Vec<Range<usize>> =
+        starts.iter().enumerate().map(|(i, &a)| a..starts.get(i + 1).copied().unwrap_or(text.len())).collect();
+    let found: Vec<Vec<(Range<usize>, Vec<f64>)>> = bounds.par_iter().map(|r| arrays_in(text, r.clone())).collect();
+    let mut arrays: Vec<(Range<usize>, Vec<f64>)> = found.into_iter().flatten().collect();
+    // In text order ([`Read::take`] searches by start); arrays of different keys never overlap (an array
+    // read holds only numbers, commas and blanks).
+    arrays.sort_unstable_by_key(|(range, _)| range.start);
     if arrays.is_empty() || arrays.len() < min_arrays {
         return None;
     }
@@ -84,6 +81,33 @@ pub(super) fn blank_samples(text: &str, min_arrays: usize) -> Option<(String, Re
     let blanked = String::from_utf8(blanked).ok()?;
     let taken = arrays.iter().map(|_| AtomicBool::new(false)).collect();
     Some((blanked, Read { arrays, taken }))
+}
+
+/// The arrays of [`KEYS`] whose key starts in `text[piece]`, in no particular order.
+fn arrays_in(text: &str, piece: Range<usize>) -> Vec<(Range<usize>, Vec<f64>)> {
+    let b = text.as_bytes();
+    let mut arrays = Vec::new();
+    for name in KEYS {
+        let mut at = piece.start;
+        while let Some(found) = text.get(at..piece.end).and_then(|t| t.find(name)) {
+            let key = at + found;
+            at = key + name.len();
+            let line_start = b[..key].iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
+            if !b[line_start..key].iter().all(|&c| c == b' ' || c == b'\t') {
+                continue;
+            }
+            let mut i = skip_blanks(b, at);
+            if b.get(i) != Some(&b'=') {
+                continue;
+            }
+            i = skip_blanks(b, i + 1);
+            if let Some((end, values)) = array(b, i) {
+                arrays.push((i..end, values));
+                at = end;
+            }
+        }
+    }
+    arrays
 }
 
 fn skip_blanks(b: &[u8], mut i: usize) -> usize {
@@ -217,7 +241,7 @@ mod tests {
         for i in 0..MIN_ARRAYS {
             text += &format!("[[reflectances]]\nname = \"r{i}\"\n  samples = {arr}\n# samples = [5, 6]\n");
         }
-        let (blanked, read) = blank_samples(&text, MIN_ARRAYS).unwrap();
+        let (blanked, read) = blank_samples(&text, MIN_ARRAYS, &[]).unwrap();
         assert_eq!(blanked.len(), text.len());
         assert_eq!(blanked.matches('\n').count(), text.matches('\n').count());
         assert_eq!(read.arrays.len(), MIN_ARRAYS, "only the keys at a line's start");
@@ -275,6 +299,60 @@ mod tests {
             assert!(!read.starts_with("error"), "{}: {read}", path.display());
             assert!(used, "{}: the sample arrays as written are read by hand", path.display());
         }
+    }
+
+    /// A colour cell's `target = [r, g, b]` is read by hand too, and reads (or is refused) as the parser
+    /// reads it: the same palette or the same error, whatever its spelling.
+    #[test]
+    fn cell_targets_read_the_same_both_ways() {
+        let cases = [
+            ("[0.1, 0.2, 0.3]", true),
+            ("[\n  1e-3 ,\n  2,\t3 ,\n]", true),
+            ("[-0.0, 0, 1]", true),
+            ("[1, 2]", true),
+            ("[0.1, 0.2, 0.3, 0.4]", true),
+            ("[inf, 0, 0]", false),
+            ("[0.1, 0.2, nan]", false),
+            ("[1_0, 2, 3]", false),
+            ("[0.1, \"a\", 0.3]", false),
+            ("[]", false),
+            ("\"#808080\"", false),
+        ];
+        for (target, by_hand) in cases {
+            let mut text = String::from("name = \"p\"\n[[lights]]\nname = \"L\"\nilluminant = \"D65\"\n");
+            let samples = vec!["0.5"; crate::spectrum::SAMPLES].join(", ");
+            text += &format!("[[reflectances]]\nname = \"r0\"\nsamples = [{samples}]\ndesign = true\n");
+            for light in 0..2 {
+                text += &format!(
+                    "[[colours]]\nlight = \"L\"\nreflectance = \"r0\"\n  target = {target}\nweight = {}\n",
+                    light + 1
+                );
+            }
+            let (read, used) = both(&text, std::path::Path::new("p.toml"));
+            let valid = !read.starts_with("error");
+            assert_eq!(used, by_hand && valid, "{target}: {read}");
+            if target.contains("1, 2]") || target.contains("0.4]") {
+                assert!(read.contains("expected 3 numbers"), "{target}: {read}");
+            }
+        }
+    }
+
+    /// A batch long enough to be read in pieces on several threads reads as the parser reads it, by hand.
+    #[test]
+    fn a_long_batch_is_read_by_hand_in_pieces_as_the_parser_reads_it() {
+        use crate::palette::Source;
+        let col = crate::colorimetry::Colorimetry::default();
+        let p = crate::palette::random::reachable_batch_palette(600, 3, &col);
+        let text = super::super::PaletteFile::from_palette(&p).text();
+        let scan = super::super::budget::scan(&text);
+        assert!(super::super::pieces::starts(&text, &scan.headers).len() > 1, "{} bytes", text.len());
+        let (_, read) = blank_samples(&text, MIN_ARRAYS, &scan.headers).unwrap();
+        let sampled = p.lights.iter().chain(&p.reflectances).filter(|e| matches!(e.source, Source::Samples(_))).count();
+        assert_eq!(read.arrays.len(), sampled + p.colours.len(), "every spectrum's samples and every cell's target");
+        assert_eq!(p.colours.len(), 1800);
+        assert!(read.arrays.windows(2).all(|w| w[0].0.end <= w[1].0.start), "in text order");
+        let (outcome, used) = both(&text, std::path::Path::new("batch.toml"));
+        assert!(used && !outcome.starts_with("error"), "{outcome}");
     }
 
     mod prop {

@@ -30,14 +30,20 @@ pub(super) enum Failure {
 /// Parse `text` (in pieces when it is long, cut at some of its `[[name]]` header lines `headers`, see
 /// [`super::budget::Scan`]) and check its numbers ([`read::check_numbers`]).
 pub(super) fn parse<'i>(text: &'i str, headers: &[usize]) -> Result<Spanned<DeTable<'i>>, Failure> {
-    let pieces = (text.len() / MIN_PIECE).min(4 * rayon::current_num_threads());
-    let starts = cuts(text, pieces, headers);
+    let starts = starts(text, headers);
     if starts.len() > 1
         && let Some(root) = parse_pieces(text, &starts)
     {
         return Ok(root);
     }
     parse_one(text)
+}
+
+/// Where the pieces of `text` start (the first at 0), at some of its `[[name]]` header lines `headers`: one
+/// piece for a short text, else about one per [`MIN_PIECE`] bytes, at most four per thread.
+pub(super) fn starts(text: &str, headers: &[usize]) -> Vec<usize> {
+    let pieces = (text.len() / MIN_PIECE).min(4 * rayon::current_num_threads());
+    cuts(text, pieces, headers)
 }
 
 /// The whole text as one piece.

@@ -139,7 +139,11 @@ impl<'a> Reader<'a> {
     /// The numbers of `t`'s `samples` array when they were read before the parse (the parser then saw an
     /// empty array at its span).
     fn read_samples(&self, t: &Table) -> Option<Vec<f64>> {
-        let v = t.get("samples")?;
+        self.hand_read_array(t.get("samples")?)
+    }
+
+    /// The numbers of the array `v` when they were read before the parse ([`super::numbers`]).
+    fn hand_read_array(&self, v: &Spanned<Value>) -> Option<Vec<f64>> {
         match v.get_ref() {
             Value::Array(items) if items.is_empty() => self.hand_read?.take(&v.span()),
             _ => None,
@@ -548,8 +552,16 @@ impl<'a> Reader<'a> {
             }
             None => None,
         };
-        let (target, notation) = match t.value("target") {
-            Some(v) => self.target(v, &format!("{at}.target"))?,
+        let (target, notation) = match t.get("target") {
+            // Read before the parse: finite numbers, checked for their count as `numbers` checks it.
+            Some(v) => match self.hand_read_array(v) {
+                Some(x) if x.len() == 3 => (Vector3::new(x[0], x[1], x[2]), TargetNotation::Linear),
+                Some(x) => {
+                    let reason = format!("expected 3 numbers, found {}", x.len());
+                    return Err(self.invalid(format!("{at}.target"), reason));
+                }
+                None => self.target(v.get_ref(), &format!("{at}.target"))?,
+            },
             None if free_group.is_some() => (Vector3::zeros(), TargetNotation::Hex),
             None => {
                 return Err(self.invalid(
