@@ -56,12 +56,14 @@ pub struct Factor {
     pub(crate) h: DMatrix<f64>,
     /// `σ_max/σ_min` of A; infinite when A has fewer rows than columns or a zero singular value.
     pub(crate) cond: f64,
+    /// Cholesky factors of `H_FF` by free set F, shared by the systems that share this factorisation.
+    pub(crate) free_sets: FreeSets,
 }
 
 impl Factor {
     pub fn new(a: &DMatrix<f64>) -> Factor {
         let (pinv, cond) = svd_pseudo_inverse(a);
-        Factor { pinv, h: a.tr_mul(a), cond }
+        Factor { pinv, h: a.tr_mul(a), cond, free_sets: FreeSets::default() }
     }
 
     /// Whether the bounded solve must work on A rather than on `AᵀA` (see [`NORMAL_EQUATIONS_MAX_COND`]).
@@ -251,14 +253,14 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
         // from there, which then needs only a step or two.
         work.set_path(false);
         work.rough = true;
-        let rough = work.finish(sys, &factor.h, &atb, &x1);
+        let rough = work.finish(sys, &factor.h, &atb, &x1, Some(&factor.free_sets));
         let x_rough = DVector::from_column_slice(&work.x);
         work.rough = false;
         work.set_path(true);
-        rough + work.finish(sys, &factor.h, &atb, &x_rough)
+        rough + work.finish(sys, &factor.h, &atb, &x_rough, Some(&factor.free_sets))
     } else {
-        let steps = work.finish(sys, &factor.h, &atb, &x1);
-        work.polish(sys, &factor.h, &atb);
+        let steps = work.finish(sys, &factor.h, &atb, &x1, Some(&factor.free_sets));
+        work.polish(sys, &factor.h, &atb, Some(&factor.free_sets));
         steps
     };
     let x2 = DVector::from_column_slice(&work.x);
@@ -280,6 +282,7 @@ fn run_lbfgsb(problem: Objective, solver: LBfgsB, x0: DVector<f64>, max_iters: u
 mod kernels;
 
 mod finish;
+pub(crate) use finish::FreeSets;
 use finish::{Work, with_work};
 
 /// Warm-started bounded solve for repeated problems (alternating joint design): the exact active-set
@@ -289,7 +292,7 @@ use finish::{Work, with_work};
 pub(crate) fn solve_from(sys: &LinearSystem, h: &DMatrix<f64>, x0: &DVector<f64>) -> LsqOutcome {
     let atb = sys.a.tr_mul(&sys.b);
     let (steps, x) = with_work(sys, false, |work| {
-        let steps = work.finish(sys, h, &atb, x0);
+        let steps = work.finish(sys, h, &atb, x0, None);
         (steps, DVector::from_column_slice(&work.x))
     });
     let r = &*sys.a * &x - &sys.b;

@@ -36,6 +36,43 @@ pub(super) struct Work {
     /// `‖H‖max` and `‖Aᵀb‖∞` (NaN until first needed).
     pub(super) h_max: f64,
     pub(super) atb_max: f64,
+    /// The free set as a bit mask (the key of [`FreeSets`]).
+    pub(super) key: Vec<u64>,
+}
+
+/// The Cholesky factors of `H_FF` built from scratch (free variables added in ascending order), by free
+/// set F, for one H: the factor depends on H and F alone, so designs of a batch that share H and start from
+/// (or end on) the same free set copy it instead of building it again. At most [`Sets::CAPACITY`] sets are
+/// kept (about 4 KB each for 31 unknowns), and the sets are no longer looked up once fewer than a quarter
+/// of the first [`Sets::TRIAL`] lookups found theirs (designs that share few free sets, such as targets
+/// far outside the reachable colours, would pay for the lookups and the memory for nothing). Whether a
+/// factor is copied or built changes no bit of it.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct FreeSets(std::sync::Arc<std::sync::Mutex<Sets>>);
+
+impl FreeSets {
+    /// How many lookups found their free set's factor.
+    #[cfg(test)]
+    pub(crate) fn hits(&self) -> usize {
+        self.0.lock().map_or(0, |s| s.hits)
+    }
+}
+
+/// The factors held, and how often a lookup found one.
+#[derive(Debug, Default)]
+pub(crate) struct Sets {
+    factors: std::collections::HashMap<Vec<u64>, Vec<f64>>,
+    lookups: usize,
+    hits: usize,
+}
+
+impl Sets {
+    const CAPACITY: usize = 2048;
+    const TRIAL: usize = 256;
+
+    fn worth_it(&self) -> bool {
+        self.lookups < Self::TRIAL || 4 * self.hits >= self.lookups
+    }
 }
 
 thread_local! {
@@ -79,6 +116,7 @@ impl Work {
             rough: false,
             h_max: f64::NAN,
             atb_max: f64::NAN,
+            key: Vec::new(),
         }
     }
 
@@ -127,6 +165,64 @@ impl Work {
     }
 
     /// QR solve of the free set with the other variables at `x`, into `self.z`.
+    /// The free list of the variables marked free (ascending) and, on the normal-equations path, the
+    /// Cholesky factor of their block of H built from scratch: copied from `sets` when that free set was
+    /// factored before (the same bits: the additions depend on H and the set alone), else built by adding
+    /// the variables in ascending order (and kept in `sets` when it succeeds).
+    fn factor_free_set(&mut self, h: &DMatrix<f64>, sets: Option<&FreeSets>) {
+        self.free.clear();
+        self.free.extend((0..self.n).filter(|&i| self.is_free[i]));
+        if !self.chol.ok {
+            return;
+        }
+        let n = self.n;
+        if let Some(sets) = sets {
+            self.key.clear();
+            self.key.resize(n.div_ceil(64), 0);
+            for &i in &self.free {
+                self.key[i / 64] |= 1 << (i % 64);
+            }
+            let found = match sets.0.lock() {
+                Ok(mut held) if held.worth_it() => {
+                    held.lookups += 1;
+                    let rows = held.factors.get(&self.key);
+                    if let Some(rows) = rows {
+                        // Row k of L holds k + 1 entries (its part left of and on the diagonal).
+                        let mut at = 0;
+                        for k in 0..self.free.len() {
+                            self.chol.l[k * n..k * n + k + 1].copy_from_slice(&rows[at..at + k + 1]);
+                            at += k + 1;
+                        }
+                    }
+                    let hit = rows.is_some();
+                    held.hits += usize::from(hit);
+                    hit
+                }
+                _ => false,
+            };
+            if found {
+                return;
+            }
+        }
+        // Not held: built without the lock (which other threads may want meanwhile).
+        for k in 0..self.free.len() {
+            self.chol.add(h, &self.free[..k], self.free[k]);
+        }
+        if let Some(sets) = sets
+            && self.chol.ok
+            && let Ok(mut held) = sets.0.lock()
+            && held.worth_it()
+            && held.factors.len() < Sets::CAPACITY
+        {
+            let nf = self.free.len();
+            let mut rows = Vec::with_capacity(nf * (nf + 1) / 2);
+            for k in 0..nf {
+                rows.extend_from_slice(&self.chol.l[k * n..k * n + k + 1]);
+            }
+            held.factors.insert(self.key.clone(), rows);
+        }
+    }
+
     pub(super) fn qr_solve(&mut self, sys: &LinearSystem, x: &[f64]) -> bool {
         self.qr.solve(sys, x, &self.free, &self.is_free, &mut self.z)
     }
@@ -225,21 +321,21 @@ impl Work {
     /// step), so that the result depends on the active set alone, not on the binds and releases (Givens
     /// deletions, appended rows) that led to it. Kept only when it is finite and inside the box (else the
     /// finish's own point stays); normal-equations path only. Returns whether it was kept.
-    pub(super) fn polish(&mut self, sys: &LinearSystem, h: &DMatrix<f64>, atb: &DVector<f64>) -> bool {
+    pub(super) fn polish(
+        &mut self,
+        sys: &LinearSystem,
+        h: &DMatrix<f64>,
+        atb: &DVector<f64>,
+        sets: Option<&FreeSets>,
+    ) -> bool {
         if self.use_qr {
             return false;
         }
         let (lo, hi) = (sys.lower.as_slice(), sys.upper.as_slice());
-        self.free.clear();
         self.chol.ok = true;
         self.chol.l.resize(self.n * self.n, 0.0);
         self.hb.iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..self.n {
-            if self.is_free[i] {
-                self.chol.add(h, &self.free, i);
-                self.free.push(i);
-            }
-        }
+        self.factor_free_set(h, sets);
         for j in 0..self.n {
             if !self.is_free[j] && self.x[j] != 0.0 {
                 axpy(self.x[j], column(h, j), &mut self.hb);
@@ -271,10 +367,10 @@ impl Work {
         h: &DMatrix<f64>,
         atb: &DVector<f64>,
         x0: &DVector<f64>,
+        sets: Option<&FreeSets>,
     ) -> usize {
         let n = self.n;
         let (lo, hi) = (sys.lower.as_slice(), sys.upper.as_slice());
-        self.free.clear();
         self.hb.iter_mut().for_each(|v| *v = 0.0);
         self.stuck.iter_mut().for_each(|v| *v = false);
         for i in 0..n {
@@ -291,10 +387,10 @@ impl Work {
                 self.x[i] = v;
                 self.status[i] = Status::Free;
                 self.is_free[i] = true;
-                self.chol.add(h, &self.free, i);
-                self.free.push(i);
             }
         }
+        // The free variables in ascending order, and their factor (from `sets` when that set was seen).
+        self.factor_free_set(h, sets);
         if !self.use_qr {
             for j in 0..n {
                 if !self.is_free[j] && self.x[j] != 0.0 {

@@ -165,3 +165,23 @@ fn clamped_start_matches_brute_force_on_small_random_systems() {
         assert!(out.kkt < 1e-9, "kkt {}", out.kkt);
     }
 }
+
+#[test]
+fn a_factor_copied_from_the_free_sets_gives_the_bits_of_one_built_afresh() {
+    // Every design is solved twice with one shared factorisation (whose factors by free set fill as the
+    // designs go: the second solve finds its sets) and once with a fresh one holding nothing: the same bits.
+    let systems = batch_systems(200, 11);
+    let shared = Factor::new(&systems[0].a);
+    let bits = |x: &DVector<f64>| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    for sys in &systems {
+        assert_eq!(sys.a.shape(), systems[0].a.shape());
+        assert!(sys.a.iter().zip(systems[0].a.iter()).all(|(x, y)| x.to_bits() == y.to_bits()), "one A");
+        let once = solve(sys, &shared);
+        let again = solve(sys, &shared);
+        let fresh = solve(sys, &Factor::new(&sys.a));
+        assert_eq!(bits(&once.x), bits(&fresh.x));
+        assert_eq!(bits(&again.x), bits(&fresh.x));
+        assert_eq!(once.kkt.to_bits(), fresh.kkt.to_bits());
+    }
+    assert!(shared.free_sets.hits() >= 100, "{} lookups found their set", shared.free_sets.hits());
+}
