@@ -236,16 +236,3 @@ pub(crate) fn unique_name(palette: &Palette, kind: Kind, base: &str) -> String {
     }
     (2..).map(|k| format!("{base}_{k}")).find(|n| !taken(n)).unwrap_or_else(|| base.to_string())
 }
-
-/// Why the designer does not open a palette: it has criteria along the light dial (`[[mixtures]]`,
-/// `[[paths]]`), which it neither shows nor keeps in step when lights or reflectances are renamed, added
-/// or removed — so it refuses the file rather than design it with rows it does not show.
-pub fn designer_refusal(palette: &crate::palette::Palette, path: &std::path::Path) -> Option<String> {
-    palette.dial_criteria().map(|what| {
-        format!(
-            "{}: the designer does not show or edit criteria along the light dial yet, and this palette has {what}: \
-             design it with `metamer solve` (the table and the JSON report show them), or open a copy without those tables",
-            crate::fsio::show(path)
-        )
-    })
-}

@@ -2,6 +2,7 @@
 //! the seed's Fig. 1 (matrix top left, sliders top right, settings in the middle, spectra at the bottom)
 //! and hands each panel a borrowed view of the state.
 
+pub(crate) mod dial_list;
 pub mod feasibility;
 pub(crate) mod finder;
 pub mod legend;

@@ -248,6 +248,11 @@ pub struct PathConstancy {
 }
 
 impl PathConstancy {
+    /// The way the path moves over the dial.
+    pub fn route(&self) -> &Route {
+        &self.route
+    }
+
     /// True when this path contributes rows to the objective.
     pub fn is_active(&self) -> bool {
         self.enabled && self.weight > 0.0
