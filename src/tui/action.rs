@@ -104,6 +104,8 @@ pub enum Action {
     DialSamples,
     /// The list: the selected path's tolerance.
     DialTolerance,
+    /// The relit preview over the whole terminal, or back to the panels.
+    PreviewFull,
     Quit,
     // Inside popups.
     /// Edit the prompt's line: type a character, move the cursor, delete (the line editing is tui-input's).

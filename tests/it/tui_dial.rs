@@ -255,3 +255,42 @@ fn the_lists_numbers_are_metamer_solves() {
     let status = text.lines().nth(usize::from(row)).unwrap().trim_end_matches(['│', ' ']).to_string();
     assert!(status.ends_with("met"), "{status}");
 }
+
+/// `P` shows the relit preview over the whole terminal (half blocks here), raycast again at that size,
+/// with one caption line; every drawn pixel is a pixel of the relit frame; Esc returns to the panels.
+#[test]
+fn the_preview_fills_the_terminal_and_esc_returns() {
+    let palette = tui_support::demo_palette();
+    let mut s = tui_support::state(palette.clone(), ColourMode::TrueColor);
+    s.set_preview_scene(Scene::builtin(palette, 32).expect("a built-in scene"));
+    let (panels, _) = tui_support::replay(&mut s, "", 80, 24);
+    let small = s.preview.ready.as_ref().expect("raycast").size();
+    let (text, buf) = tui_support::replay(&mut s, "P", 80, 24);
+    assert!(s.preview.full);
+    let big = s.preview.ready.as_ref().expect("raycast").size();
+    assert!(big.0 > small.0 && big.1 > small.1, "raycast again at the terminal's size: {small:?} → {big:?}");
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 24);
+    assert!(lines[23].starts_with("light dial: ") && lines[23].contains("P or Esc returns"), "{}", lines[23]);
+    assert!(!text.contains('│') && !text.contains("matrix"), "no panels:\n{text}");
+    // Every half block is two pixels of the frame.
+    let frame = &s.preview.frame;
+    let pixels: std::collections::HashSet<[u8; 3]> = frame.chunks(3).map(|p| [p[0], p[1], p[2]]).collect();
+    let mut blocks = 0;
+    for y in 0..23u16 {
+        for x in 0..80u16 {
+            let cell = &buf[(x, y)];
+            if cell.symbol() == "▀" {
+                blocks += 1;
+                for c in [cell.fg, cell.bg] {
+                    let ratatui::style::Color::Rgb(r, g, b) = c else { panic!("a truecolor pixel: {c:?}") };
+                    assert!(pixels.contains(&[r, g, b]), "({x}, {y}) is not a pixel of the frame");
+                }
+            }
+        }
+    }
+    assert!(blocks >= 23 * 40, "the image fills the terminal's height: {blocks} half blocks");
+    let (back, _) = tui_support::replay(&mut s, "Esc", 80, 24);
+    assert!(!s.preview.full);
+    assert_eq!(back, panels, "Esc returns to the panels as they were");
+}

@@ -93,6 +93,7 @@ pub(super) fn update_main(
         | Action::DialSaveScene
         | Action::DialLeave
         | Action::DialAddMixture
+        | Action::PreviewFull
         | Action::DialSamples
         | Action::DialTolerance
         | Action::ListEnd { .. }
