@@ -294,3 +294,20 @@ fn the_preview_fills_the_terminal_and_esc_returns() {
     assert!(!s.preview.full);
     assert_eq!(back, panels, "Esc returns to the panels as they were");
 }
+
+/// The per-light intensity sliders beside the dial are the preview's: `+` on a selected light relights
+/// the frame, says it is view only, and leaves the palette (and its solve) as it was.
+#[test]
+fn intensity_sliders_are_view_only() {
+    let palette = tui_support::demo_palette();
+    let mut s = tui_support::state(palette.clone(), ColourMode::TrueColor);
+    s.set_preview_scene(Scene::builtin(palette.clone(), 32).expect("a built-in scene"));
+    tui_support::replay(&mut s, "g\nTab", 80, 24);
+    let frame = s.preview.frame.clone();
+    let (text, _) = tui_support::replay(&mut s, "+", 80, 24);
+    assert!((s.preview.dial_state().expect("dial").lights[0].intensity - 1.1).abs() < 1e-12);
+    assert_ne!(s.preview.frame, frame, "the preview relights");
+    assert_eq!(s.doc.palette, palette, "the palette is unchanged");
+    assert!(!s.is_dirty());
+    assert!(text.contains("daylight ×1.1: view only, the palette is unchanged"), "{text}");
+}

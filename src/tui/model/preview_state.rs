@@ -276,7 +276,16 @@ impl PreviewState {
                     let v = dial.lights.get(i).map_or(1.0, |l| l.intensity);
                     let step = if up { INTENSITY_STEP } else { -INTENSITY_STEP };
                     let next = ((v + step) * 10.0).round() / 10.0;
-                    dial.set_intensity(i, next.clamp(0.0, MAX_INTENSITY)).map_err(|e| e.to_string())
+                    let set = dial.set_intensity(i, next.clamp(0.0, MAX_INTENSITY)).map_err(|e| e.to_string());
+                    if set.is_ok() {
+                        // The intensity slider is the preview's: it relights the frame, the palette stays.
+                        let l = &dial.lights[i];
+                        update.message = Some(Message::info(format!(
+                            "{} ×{:.1}: view only, the palette is unchanged",
+                            l.name, l.intensity
+                        )));
+                    }
+                    set
                 }
             },
             Action::DialKeyframe => {
