@@ -311,3 +311,34 @@ fn intensity_sliders_are_view_only() {
     assert!(!s.is_dirty());
     assert!(text.contains("daylight ×1.1: view only, the palette is unchanged"), "{text}");
 }
+
+/// End to end through the binary: `metamer design --replay` edits a mixture's target and a path's
+/// samples in the list and saves (Ctrl-s saves for real in a script); the file keeps its comments and
+/// reads back with the edits.
+#[test]
+fn the_designer_saves_list_edits_into_the_file() {
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let palette = dir.path().join("dial_mixtures.toml");
+    std::fs::copy(example(), &palette).expect("copy");
+    let keys = dir.path().join("keys.txt");
+    std::fs::write(&keys, "M\nDown\n#\nCtrl-u\n\"#102030\"\nEnter\nDown\nn\nCtrl-u\n\"5\"\nEnter\nCtrl-s\n")
+        .expect("write keys");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_metamer"))
+        .args(["design", "--no-basis", "--size", "80x24", "--replay"])
+        .arg(&keys)
+        .arg(&palette)
+        .output()
+        .expect("metamer runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let saved = PaletteFile::load(&palette).expect("the saved file loads");
+    let mut expected = PaletteFile::load(&example()).expect("the example").palette;
+    expected.set_dial_target(DialEntry::Mixture(1), hex_to_linear("#102030").unwrap()).unwrap();
+    expected.set_path_samples(0, 5).unwrap();
+    // The designed spectra are the solve's; the criteria are the edited ones.
+    assert_eq!(saved.palette.mixtures, expected.mixtures);
+    assert_eq!(saved.palette.paths, expected.paths);
+    let text = std::fs::read_to_string(&palette).expect("read");
+    assert!(text.starts_with("# Designing along the light dial"), "{text}");
+    assert!(text.contains("dial = [0.45, 0.6]\ntarget = \"#102030\""), "{text}");
+    assert!(text.contains("samples = 5\n"), "{text}");
+}
