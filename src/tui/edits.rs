@@ -17,6 +17,9 @@ pub enum EditError {
     /// The palette model refused the edit.
     #[error(transparent)]
     Palette(#[from] crate::palette::EditError),
+    /// A removal refused because mixtures or paths use the entry (the designer can delete those: `M`).
+    #[error("{what} is used by {by}: M lists them and x there deletes one")]
+    DialInUse { what: String, by: String },
     #[error("'{0}' is not a group name (use letters or digits, no spaces)")]
     GroupName(String),
     #[error("'{0}' cannot be a name (no quotes or control characters)")]
@@ -225,7 +228,10 @@ pub(crate) fn add(
 
 /// Remove a light or reflectance with its cells.
 pub(crate) fn remove(palette: &mut Palette, kind: Kind, index: usize) -> EditResult {
-    palette.remove_spectrum(kind, index).map(|_| ()).map_err(text)
+    palette.remove_spectrum(kind, index).map(|_| ()).map_err(|e| match e {
+        crate::palette::EditError::InUse { what, by } => EditError::DialInUse { what, by },
+        other => text(other),
+    })
 }
 
 /// A name not yet used on that side of the palette: `base`, else `base_2`, `base_3`…

@@ -342,3 +342,25 @@ fn the_designer_saves_list_edits_into_the_file() {
     assert!(text.contains("dial = [0.45, 0.6]\ntarget = \"#102030\""), "{text}");
     assert!(text.contains("samples = 5\n"), "{text}");
 }
+
+/// A light or reflectance that mixtures or paths use is not removed (their weights and routes would
+/// change meaning); the refusal says where to delete those criteria in the designer.
+#[test]
+fn removing_what_a_mixture_uses_points_to_the_list() {
+    let file = PaletteFile::load(&example()).expect("the example loads");
+    let opened = file.palette.clone();
+    let mut s = State::with_file(file, ColourMode::TrueColor);
+    update(&mut s, Msg::Start { width: 80, height: 24, trains_bases: false });
+    s.ui.selection = Selection { col: 0, row: 2 };
+    act(&mut s, Action::Remove);
+    assert_eq!(message(&s), "reflectance `leaf` is used by paths[0]: M lists them and x there deletes one");
+    assert_eq!(s.doc.palette, opened);
+    // Deleted in the list, the reflectance goes.
+    act(&mut s, Action::DialList);
+    act(&mut s, Action::Move(Direction::Down));
+    act(&mut s, Action::Move(Direction::Down));
+    act(&mut s, Action::Remove);
+    act(&mut s, Action::Back);
+    act(&mut s, Action::Remove);
+    assert!(s.doc.palette.reflectance_index("leaf").is_none(), "{}", message(&s));
+}
