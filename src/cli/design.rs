@@ -104,9 +104,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!("--time-limit must be a positive number of seconds, not {}", args.time_limit);
     }
     let file = PaletteFile::load(&args.input)?;
-    if let Some(why) = crate::tui::edits::designer_refusal(&file.palette, &args.input) {
-        bail!("{why}");
-    }
     let colours = args.colours.unwrap_or_else(ColourMode::detect);
     let warnings = file.warnings.join("; ");
     let mut state = State::with_file(file, colours);

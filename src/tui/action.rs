@@ -96,6 +96,16 @@ pub enum Action {
     DialSaveScene,
     /// Leave the dial keys.
     DialLeave,
+    /// Dial keys: add a target for the selected reflectance at the slider ([`crate::tui::dial_list`]).
+    DialAddMixture,
+    /// The list of the criteria along the dial (`[[mixtures]]`, `[[paths]]`).
+    DialList,
+    /// The list: the selected path's design samples.
+    DialSamples,
+    /// The list: the selected path's tolerance.
+    DialTolerance,
+    /// The relit preview over the whole terminal, or back to the panels.
+    PreviewFull,
     Quit,
     // Inside popups.
     /// Edit the prompt's line: type a character, move the cursor, delete (the line editing is tui-input's).

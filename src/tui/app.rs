@@ -127,6 +127,8 @@ pub(crate) enum PromptPurpose {
     SaveAs,
     /// The new name of a light, reflectance or free-colour group.
     Rename(Renamed),
+    /// A value of a mixture or path of the dial list.
+    Dial(crate::tui::dial_list::DialPrompt),
 }
 
 /// A one-line text prompt.
@@ -175,6 +177,8 @@ pub enum Popup {
     },
     /// `/` search or `:` command palette ([`crate::tui::finder`]).
     Find(crate::tui::finder::Finder),
+    /// The criteria along the light dial (`M`; [`crate::tui::dial_list`]).
+    DialList(crate::tui::dial_list::DialList),
     /// What the marks mean (`i`; [`crate::tui::legend`]).
     Legend {
         scroll: u16,

@@ -17,6 +17,9 @@ pub enum EditError {
     /// The palette model refused the edit.
     #[error(transparent)]
     Palette(#[from] crate::palette::EditError),
+    /// A removal refused because mixtures or paths use the entry (the designer can delete those: `M`).
+    #[error("{what} is used by {by}: M lists them and x there deletes one")]
+    DialInUse { what: String, by: String },
     #[error("'{0}' is not a group name (use letters or digits, no spaces)")]
     GroupName(String),
     #[error("'{0}' cannot be a name (no quotes or control characters)")]
@@ -225,7 +228,10 @@ pub(crate) fn add(
 
 /// Remove a light or reflectance with its cells.
 pub(crate) fn remove(palette: &mut Palette, kind: Kind, index: usize) -> EditResult {
-    palette.remove_spectrum(kind, index).map(|_| ()).map_err(text)
+    palette.remove_spectrum(kind, index).map(|_| ()).map_err(|e| match e {
+        crate::palette::EditError::InUse { what, by } => EditError::DialInUse { what, by },
+        other => text(other),
+    })
 }
 
 /// A name not yet used on that side of the palette: `base`, else `base_2`, `base_3`…
@@ -235,17 +241,4 @@ pub(crate) fn unique_name(palette: &Palette, kind: Kind, base: &str) -> String {
         return base.to_string();
     }
     (2..).map(|k| format!("{base}_{k}")).find(|n| !taken(n)).unwrap_or_else(|| base.to_string())
-}
-
-/// Why the designer does not open a palette: it has criteria along the light dial (`[[mixtures]]`,
-/// `[[paths]]`), which it neither shows nor keeps in step when lights or reflectances are renamed, added
-/// or removed — so it refuses the file rather than design it with rows it does not show.
-pub fn designer_refusal(palette: &crate::palette::Palette, path: &std::path::Path) -> Option<String> {
-    palette.dial_criteria().map(|what| {
-        format!(
-            "{}: the designer does not show or edit criteria along the light dial yet, and this palette has {what}: \
-             design it with `metamer solve` (the table and the JSON report show them), or open a copy without those tables",
-            crate::fsio::show(path)
-        )
-    })
 }

@@ -180,11 +180,7 @@ impl Saver for FileSaver {
 
     fn reload(&mut self, file: &PaletteFile) -> Result<PaletteFile, FileError> {
         let path = file.path.clone().ok_or(FileError::NoFile)?;
-        let loaded = PaletteFile::load(&path).map_err(failed)?;
-        match crate::tui::edits::designer_refusal(&loaded.palette, &path) {
-            Some(why) => Err(FileError::Failed(why)),
-            None => Ok(loaded),
-        }
+        PaletteFile::load(&path).map_err(failed)
     }
 
     fn restore(&mut self, path: &Path) -> Result<Palette, FileError> {

@@ -81,6 +81,8 @@ pub const MAIN: &[Binding] = &[
     bind(&[ch('[')], A::Dial { forward: false }, "scene preview: light dial back"),
     bind(&[ch('v')], A::TogglePreview, "scene preview / spectra plot"),
     bind(&[ch('g')], A::DialKeys, "preview: keys to the light dial"),
+    bind(&[ch('M')], A::DialList, "mixtures and paths along the dial"),
+    bind(&[ch('P')], A::PreviewFull, "preview over the whole terminal"),
     bind(&[ch('?'), plain(K::F(1))], A::Help, "this help"),
     bind(&[ch('i')], A::Legend, "legend: what the marks mean"),
     bind(&[ch('/')], A::Find { commands: false }, "search: jump to a cell or swatch"),
@@ -109,9 +111,11 @@ pub const DIAL: &[Binding] = &[
     ),
     bind(&[plain(K::Tab)], A::DialSelect { forward: true }, "select: slider, vertex 1, 2, …"),
     bind(&[plain(K::BackTab)], A::DialSelect { forward: false }, "select the previous"),
-    bind(&[ch('+'), plain(K::PageUp)], A::DialIntensity { up: true }, "selected light brighter"),
-    bind(&[ch('-'), plain(K::PageDown)], A::DialIntensity { up: false }, "selected light dimmer"),
+    bind(&[ch('+'), plain(K::PageUp)], A::DialIntensity { up: true }, "selected light brighter (view only)"),
+    bind(&[ch('-'), plain(K::PageDown)], A::DialIntensity { up: false }, "selected light dimmer (view only)"),
     bind(&[ch('a')], A::DialKeyframe, "add the dial as a keyframe"),
+    bind(&[ch('m')], A::DialAddMixture, "target for the reflectance here"),
+    bind(&[ch('P')], A::PreviewFull, "preview over the whole terminal"),
     bind(&[ctrl('s')], A::DialSaveScene, "write the keyframes into the scene"),
     bind(&[ch(']')], A::Dial { forward: true }, "along the scene's sweep forward"),
     bind(&[ch('[')], A::Dial { forward: false }, "along the scene's sweep back"),
@@ -208,6 +212,24 @@ pub(crate) const LEGEND: &[Binding] = &[
     bind(&[plain(K::Esc), ch('i'), ch('q')], A::Back, "close (other keys act on the main screen)"),
 ];
 
+/// The mixtures and paths along the dial (`M`).
+pub(crate) const DIAL_LIST: &[Binding] = &[
+    bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "previous"),
+    bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "next"),
+    bind(&[ch('#'), plain(K::Enter)], A::HexEntry, "type the target as #rrggbb"),
+    bind(&[ch('F')], A::FitColour, "target := its solved colour now"),
+    bind(&[ch('w')], A::EditWeight, "weight"),
+    bind(&[ch('u'), plain(K::Char(' '))], A::ToggleUse, "use on/off"),
+    bind(&[ch('f')], A::AssignFree, "free-colour group (empty: none)"),
+    bind(&[ch('n')], A::DialSamples, "a path's design samples"),
+    bind(&[ch('t')], A::DialTolerance, "a path's tolerance (ΔE00)"),
+    bind(&[ch('x'), plain(K::Delete)], A::Remove, "delete it"),
+    bind(&[ch('z'), ctrl('z')], A::Undo, "undo"),
+    bind(&[ch('Z'), ctrl('y')], A::Redo, "redo"),
+    bind(&[ctrl('s')], A::Save, "save"),
+    bind(&[plain(K::Esc), ch('M'), ch('q')], A::Back, "close"),
+];
+
 /// Every table with its title, in the order the help shows them.
 pub const TABLES: &[(&str, &[Binding])] = &[
     ("main screen", MAIN),
@@ -221,6 +243,7 @@ pub const TABLES: &[(&str, &[Binding])] = &[
     ("help", HELP),
     ("diagnostics", DIAGNOSTICS),
     ("legend (i)", LEGEND),
+    ("mixtures and paths (M)", DIAL_LIST),
     ("search (/) and commands (:)", FIND),
 ];
 
@@ -232,6 +255,7 @@ pub(crate) fn table_for(popup: Option<&Popup>, dial_keys: bool) -> &'static [Bin
         Some(Popup::Help { .. }) => HELP,
         Some(Popup::Diagnostics { .. }) => DIAGNOSTICS,
         Some(Popup::Legend { .. }) => LEGEND,
+        Some(Popup::DialList(_)) => DIAL_LIST,
         Some(Popup::Find(_)) => FIND,
         Some(Popup::Prompt(_)) => PROMPT,
         Some(Popup::ChooseSpectrum { .. }) => CHOOSE,

@@ -17,6 +17,8 @@ pub mod app;
 pub mod basics;
 pub mod colour;
 pub mod derived;
+pub mod dial_list;
+pub mod dial_results;
 pub mod edits;
 pub mod event_loop;
 pub mod finder;

@@ -492,24 +492,32 @@ fn solve_shows_mixture_cells_and_paths_in_the_table_and_the_report() {
     assert!(paths[0]["worst_delta_e"].as_f64().expect("worst") <= 1.0);
 }
 
+/// `metamer design` opens a palette with mixtures and paths (it refused them before the designer showed
+/// them) and `M` lists them; a reload that finds such tables added on disk reads them.
 #[test]
-fn the_designer_refuses_palettes_with_dial_criteria_with_a_clear_message() {
+fn the_designer_opens_palettes_with_dial_criteria() {
     use metamer::tui::event_loop::{FileSaver, Saver};
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let palette = dir.path().join("dial_mixtures.toml");
+    std::fs::copy(example_path(), &palette).expect("copy");
+    let keys = dir.path().join("keys.txt");
+    std::fs::write(&keys, "M\n").expect("write keys");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_metamer"))
-        .args(["design", "--no-basis"])
-        .arg(example_path())
+        .args(["design", "--no-basis", "--size", "80x24", "--replay"])
+        .arg(&keys)
+        .arg(&palette)
         .output()
         .expect("metamer runs");
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("dial_mixtures.toml") && err.contains("2 [[mixtures]] and 1 [[paths]]"), "{err}");
-    assert!(err.contains("metamer solve"), "{err}");
-    // A reload that finds the tables added on disk is refused the same way (the open palette stays).
-    let dir = tempfile::tempdir().expect("temporary folder");
+    let screen = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for entry in ["petal × mix {daylight 0.5, lamp 0.5}", "petal × dial [0.45, 0.6]", "leaf along daylight → reveal"]
+    {
+        assert!(screen.contains(entry), "{entry}:\n{screen}");
+    }
     let file = dir.path().join("p.toml");
     std::fs::write(&file, LIGHTS).expect("write");
     let opened = PaletteFile::load(&file).expect("plain palette");
     std::fs::write(&file, format!("{LIGHTS}{MIXTURES}")).expect("write");
-    let Err(e) = FileSaver.reload(&opened) else { panic!("the reload is refused") };
-    assert!(e.to_string().contains("3 [[mixtures]]"), "{e}");
+    let reloaded = FileSaver.reload(&opened).expect("the reload reads the new tables");
+    assert_eq!(reloaded.palette.mixtures.len(), 3);
 }

@@ -41,6 +41,7 @@ mod shading_modes;
 mod spec_objective;
 mod stress;
 mod tui_daily;
+mod tui_dial;
 mod tui_edits;
 mod tui_live;
 mod tui_loop;

@@ -75,6 +75,8 @@ pub struct PreviewState {
     /// The terminal is being asked for its graphics ([`crate::tui::msg::Msg::Graphics`] answers): the
     /// first raycast waits for the panel's pixel size.
     pub probing: bool,
+    /// The relit image is shown over the whole terminal (`P`; Esc returns), raycast at its size.
+    pub full: bool,
     /// `frame` no longer shows the current spectra, dial or scene: the update step relights once the
     /// message is handled ([`PreviewState::relight`]), however many changes the message made.
     pub(crate) stale: bool,
@@ -218,6 +220,11 @@ impl PreviewState {
         let Some(live) = self.dial.as_mut() else {
             return (update, false);
         };
+        if action == Action::PreviewFull {
+            self.full = !self.full;
+            self.shown = true;
+            return (update, false);
+        }
         if let Action::Dial { forward } = action {
             self.shown = true;
             live.step_along(&scene, forward);
@@ -269,7 +276,16 @@ impl PreviewState {
                     let v = dial.lights.get(i).map_or(1.0, |l| l.intensity);
                     let step = if up { INTENSITY_STEP } else { -INTENSITY_STEP };
                     let next = ((v + step) * 10.0).round() / 10.0;
-                    dial.set_intensity(i, next.clamp(0.0, MAX_INTENSITY)).map_err(|e| e.to_string())
+                    let set = dial.set_intensity(i, next.clamp(0.0, MAX_INTENSITY)).map_err(|e| e.to_string());
+                    if set.is_ok() {
+                        // The intensity slider is the preview's: it relights the frame, the palette stays.
+                        let l = &dial.lights[i];
+                        update.message = Some(Message::info(format!(
+                            "{} ×{:.1}: view only, the palette is unchanged",
+                            l.name, l.intensity
+                        )));
+                    }
+                    set
                 }
             },
             Action::DialKeyframe => {
@@ -320,6 +336,7 @@ pub(crate) fn is_dial_action(action: Action) -> bool {
             | Action::DialKeyframe
             | Action::DialSaveScene
             | Action::DialLeave
+            | Action::PreviewFull
     )
 }
 

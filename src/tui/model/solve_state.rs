@@ -103,6 +103,8 @@ pub struct SolveState {
     pub derived: Derived,
     /// The latest region computed by the worker for the mismatch overlay.
     pub(crate) feasibility: Option<FeasibilityView>,
+    /// The solve's numbers for the palette's mixtures and paths (of the current palette only).
+    pub dial: crate::tui::dial_results::DialResults,
 }
 
 impl SolveState {
@@ -165,6 +167,8 @@ impl SolveState {
     pub(crate) fn derive(&mut self, palette: &Palette, colorimetry: &Colorimetry) {
         self.derived =
             Derived::compute(palette, self.latest(), colorimetry, self.basis.as_ref().map(|b| (&b.key, b.basis())));
+        let basis = self.basis_of_shown().map(ShownBasis::basis);
+        self.dial = crate::tui::dial_results::DialResults::of(self.current(), basis, colorimetry);
     }
 
     /// Solve `palette` (the current generation) as it stands, with the mismatch region of `feasibility`;

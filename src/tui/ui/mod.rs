@@ -2,6 +2,7 @@
 //! the seed's Fig. 1 (matrix top left, sliders top right, settings in the middle, spectra at the bottom)
 //! and hands each panel a borrowed view of the state.
 
+pub(crate) mod dial_list;
 pub mod feasibility;
 pub(crate) mod finder;
 pub mod legend;
@@ -88,6 +89,11 @@ pub fn preview_areas(state: &State, screen: Rect) -> Option<PreviewAreas> {
     if !(state.preview.shown && state.preview.has_scene()) {
         return None;
     }
+    if state.preview.full {
+        // The whole terminal but the caption line.
+        let image = Rect { height: screen.height.saturating_sub(1), ..screen };
+        return Some(PreviewAreas { image, dial: Rect { x: screen.x, y: image.bottom(), width: 0, height: 0 } });
+    }
     let inner = Block::bordered().inner(screen);
     let spectra = areas(state, inner).spectra;
     if spectra.height < 3 {
@@ -101,6 +107,13 @@ pub fn preview_areas(state: &State, screen: Rect) -> Option<PreviewAreas> {
 
 impl Widget for &State {
     fn render(self, area: Rect, buf: &mut Buffer) {
+        if let Some(p) = preview_areas(self, area).filter(|_| self.preview.full) {
+            preview::full_screen(self, p.image, area, buf);
+            if self.ui.popup.is_some() {
+                popup::PopupView(self).render(area, buf);
+            }
+            return;
+        }
         let outer = Block::bordered().title_bottom(status::bottom_line(self, area.width.saturating_sub(4)));
         let inner = outer.inner(area);
         let screen = inner;

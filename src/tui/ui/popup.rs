@@ -124,6 +124,11 @@ impl Widget for PopupView<'_> {
                 }
             }
             Popup::Find(finder) => super::finder::draw(finder, &state.doc.palette, area, buf),
+            Popup::DialList(list) => {
+                let r = centred(area, area.width.saturating_sub(2), area.height.saturating_sub(2));
+                let inner = frame(r, buf, "mixtures and paths along the dial");
+                super::dial_list::draw(state, list, inner, buf);
+            }
             Popup::Legend { scroll } => {
                 let width = 76u16.min(area.width);
                 let lines = super::legend::lines(width.saturating_sub(2)).len() as u16;

@@ -71,6 +71,29 @@ pub(crate) fn palette_note(state: &State) -> Option<String> {
     })
 }
 
+/// The relit preview over the whole terminal (`P`): the image in `image`, under it one caption line with
+/// the dial's position and how to return (and the message of the last key, when there is one).
+pub(crate) fn full_screen(state: &State, image: Rect, area: Rect, buf: &mut Buffer) {
+    PreviewPanel(state).render(image, buf);
+    let caption = state.preview.dial_state().map_or_else(|| "no lights".to_string(), caption);
+    let text = match &state.ui.message {
+        Some(m) => m.text.clone(),
+        None => format!(
+            "light dial: {caption} · {} · {} · P or Esc returns",
+            if state.preview.keys { "dial keys" } else { "[ ] along the sweep" },
+            state.preview.graphics.name()
+        ),
+    };
+    let y = image.bottom().min(area.bottom().saturating_sub(1));
+    buf.set_stringn(
+        area.x,
+        y,
+        crate::tui::ui::fit(&text, usize::from(area.width)),
+        usize::from(area.width),
+        Style::new().fg(Color::Gray),
+    );
+}
+
 /// The preview image of a state (a progress line while it is raycast).
 pub(crate) struct PreviewPanel<'a>(pub &'a State);
 

@@ -81,6 +81,7 @@ pub(super) fn update_main(
         | Action::Feasibility
         | Action::DialKeys
         | Action::TogglePreview => on_view(doc, ui, solve, preview, action),
+        Action::DialList => ui.popup = Some(crate::tui::app::Popup::DialList(Default::default())),
         // The dial's own keys are the preview's (routed to `PreviewState::update` before this); popup-only
         // actions do nothing on the main screen.
         Action::Dial { .. }
@@ -91,6 +92,10 @@ pub(super) fn update_main(
         | Action::DialKeyframe
         | Action::DialSaveScene
         | Action::DialLeave
+        | Action::DialAddMixture
+        | Action::PreviewFull
+        | Action::DialSamples
+        | Action::DialTolerance
         | Action::ListEnd { .. }
         | Action::Edit(_)
         | Action::Submit

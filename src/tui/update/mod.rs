@@ -146,6 +146,17 @@ fn on_action(
         },
         None => action,
     };
+    // Over the whole terminal, Esc (and leaving the dial) returns to the panels first.
+    if preview.full && matches!(action, Action::Back | Action::DialLeave) {
+        preview.full = false;
+        return Vec::new();
+    }
+    // A target at the slider changes the document: the dial list's, not the preview's.
+    if action == Action::DialAddMixture {
+        doc.history.last_edit = None;
+        crate::tui::dial_list::add_at_slider(doc, ui, solve, preview, colorimetry);
+        return Vec::new();
+    }
     // On the main screen the dial's keys are the preview's, the others the main screen's.
     if is_dial_action(action) {
         doc.history.last_edit = None;

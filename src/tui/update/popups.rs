@@ -50,6 +50,10 @@ pub(super) fn update_popup(
             Ok(None) => Done(Vec::new()),
         },
         Popup::Legend { scroll } => on_scroll(ui, action, scroll, 50, |scroll| Popup::Legend { scroll }),
+        Popup::DialList(list) => match crate::tui::dial_list::on_action(doc, ui, solve, c, list, action) {
+            crate::tui::dial_list::Outcome::Done => Done(Vec::new()),
+            crate::tui::dial_list::Outcome::Main(action) => Main(action),
+        },
         Popup::Prompt(prompt) => Done(on_prompt(doc, ui, solve, preview, c, prompt, action)),
         Popup::ChooseSpectrum { op, light, reflectance } => {
             on_choose(doc, ui, c, action, op, light, reflectance);

@@ -113,6 +113,10 @@ pub(super) fn submit_prompt(
                 }
                 effects
             }
+            PromptPurpose::Dial(p) => {
+                crate::tui::dial_list::submit(doc, ui, c, p, &input)?;
+                Vec::new()
+            }
             PromptPurpose::Setting(field) => {
                 let v = parse_number(&input)?;
                 edit_or_err(doc, c, |p, _| set_setting(p, field, v))?

@@ -52,6 +52,35 @@ pub enum EditError {
         /// The tables that use it, for the message (e.g. "mixtures[0], paths[1]").
         by: String,
     },
+    /// There is no `[[mixtures]]` (or `[[paths]]`) entry at that index.
+    #[error("there is no {table}[{index}]")]
+    NoSuchCriterion {
+        /// `mixtures` or `paths`.
+        table: &'static str,
+        /// The index asked for.
+        index: usize,
+    },
+    /// A count outside the range the file format allows (a path's samples).
+    #[error("{what} must be {low} to {high}, got {value}")]
+    BadCount {
+        /// What the count is, for the message.
+        what: &'static str,
+        /// The smallest allowed.
+        low: usize,
+        /// The largest allowed.
+        high: usize,
+        /// The count given.
+        value: usize,
+    },
+    /// A dial position was given but no light of the palette is placed on the dial.
+    #[error("a dial position needs lights placed on the dial: no light of the palette has `dial = [x, y]`")]
+    NotOnDial,
+    /// A mixture would be black: every light off, or every weight 0.
+    #[error("the mixture would be black: switch a light on (or give one a weight > 0)")]
+    AllOff,
+    /// The dial refused the position or the lights (the renderer's reason).
+    #[error("{0}")]
+    Dial(String),
     /// A number outside what the edit accepts (NaN, infinite, or a negative weight).
     #[error("{what} must be {rule}, got {value}")]
     BadNumber {
@@ -138,7 +167,14 @@ impl Palette {
         let spectrum = finish(&raw, kind, normalize, 1.0, &colorimetry.luminance())?;
         let entries = self.entries_mut(kind);
         entries.push(SpectrumEntry::resolved(name, kind, source, normalize, spectrum));
-        Ok(entries.len() - 1)
+        let index = entries.len() - 1;
+        if kind == Kind::Light
+            && let Err(e) = self.re_resolve_dial_mixtures()
+        {
+            self.lights.pop();
+            return Err(e);
+        }
+        Ok(index)
     }
 
     /// Remove a light or reflectance with its colour cells; the cells of later entries are re-indexed, and

@@ -5,6 +5,7 @@
 //! resolved to samples (lights normalised and scaled), every target in linear sRGB, every reference
 //! to a light, reflectance or free group an index. Reading and writing TOML lives in [`file`].
 
+pub(crate) mod dial_edit;
 pub(crate) mod edit;
 pub(crate) mod file;
 pub mod mixing;
@@ -12,6 +13,7 @@ pub mod mixing;
 pub mod random;
 pub(crate) mod source;
 
+pub use dial_edit::DialEntry;
 pub use edit::EditError;
 pub use file::{PaletteError, PaletteFile};
 
@@ -246,6 +248,11 @@ pub struct PathConstancy {
 }
 
 impl PathConstancy {
+    /// The way the path moves over the dial.
+    pub fn route(&self) -> &Route {
+        &self.route
+    }
+
     /// True when this path contributes rows to the objective.
     pub fn is_active(&self) -> bool {
         self.enabled && self.weight > 0.0

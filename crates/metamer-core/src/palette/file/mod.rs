@@ -17,8 +17,10 @@ mod numbers;
 mod pieces;
 mod read;
 mod read_mix;
+pub(crate) use read_mix::MAX_PATH_SAMPLES;
 mod tables;
 mod write;
+mod write_dial;
 
 use crate::colorimetry::Colorimetry;
 use crate::palette::Palette;

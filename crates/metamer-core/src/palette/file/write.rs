@@ -4,6 +4,7 @@
 //! Entries of the model are paired with the document's tables first by name, then (for a renamed entry) by
 //! position; unpaired tables are removed and new entries appended after the last table of their list.
 
+use super::write_dial;
 use crate::colorimetry::linear_to_hex;
 use crate::palette::source::spectra_agree;
 use crate::palette::{
@@ -84,17 +85,27 @@ pub(super) fn update_document(doc: &mut DocumentMut, old: &Palette, new: &Palett
     sync_list(root, "free", order(&free_map, old.free.len()), |t, o, n| {
         sync_free(t, o.map(|o| &old.free[o]), &new.free[n]);
     })?;
-    let maps = IndexMaps::new(old, new, [&light_map, &refl_map, &free_map]);
+    let pairing = write_dial::Pairing { lights: &light_map, reflectances: &refl_map };
+    let mix_map = write_dial::pair_mixtures(&old.mixtures, &new.mixtures, &pairing);
+    let path_map = write_dial::pair_paths(&old.paths, &new.paths, &pairing);
+    let maps = IndexMaps::new(old, new, [&light_map, &refl_map, &free_map], [&mix_map, &path_map]);
+    // Names first, in the tables as read; then the tables follow the model's entries.
     for list in ["mixtures", "paths"] {
         follow_names(root, list, &maps);
     }
+    sync_list(root, "mixtures", order(&mix_map, old.mixtures.len()), |t, o, n| {
+        write_dial::sync_mixture(t, o.map(|o| (&old.mixtures[o], old)), &new.mixtures[n], new);
+    })?;
+    sync_list(root, "paths", order(&path_map, old.paths.len()), |t, o, n| {
+        write_dial::sync_path(t, o.map(|o| (&old.paths[o], old)), &new.paths[n], new);
+    })?;
     Ok(())
 }
 
 /// Where each old light, reflectance and free group went in the new palette (`None`: removed), for the
-/// names `[[mixtures]]` and `[[paths]]` write (the writer keeps those tables as written; the model refers
-/// by index). The mixtures and paths themselves pair old with new exactly (edits never add, remove or
-/// reorder them), so what they use is mapped through them; any other entry through the name pairing.
+/// names `[[mixtures]]` and `[[paths]]` write (the model refers by index). What a paired mixture or path
+/// uses is mapped through that pairing ([`write_dial`]: by reflectance and position, which no edit
+/// changes); any other entry through the name pairing.
 struct IndexMaps<'a> {
     old: &'a Palette,
     new: &'a Palette,
@@ -104,7 +115,12 @@ struct IndexMaps<'a> {
 }
 
 impl<'a> IndexMaps<'a> {
-    fn new(old: &'a Palette, new: &'a Palette, pairings: [&[Option<usize>]; 3]) -> IndexMaps<'a> {
+    fn new(
+        old: &'a Palette,
+        new: &'a Palette,
+        pairings: [&[Option<usize>]; 3],
+        [mix_map, path_map]: [&[Option<usize>]; 2],
+    ) -> IndexMaps<'a> {
         let invert = |pairing: &[Option<usize>], old_len: usize| {
             let mut back = vec![None; old_len];
             for (n, o) in pairing.iter().enumerate() {
@@ -125,8 +141,9 @@ impl<'a> IndexMaps<'a> {
         let mut lights: Vec<(usize, usize)> = Vec::new();
         let mut pairs: Vec<(usize, usize)> = Vec::new();
         let mut groups: Vec<(usize, usize)> = Vec::new();
-        if old.mixtures.len() == new.mixtures.len() {
-            for (o, n) in old.mixtures.iter().zip(&new.mixtures) {
+        {
+            let paired = mix_map.iter().enumerate().filter_map(|(n, o)| Some((&old.mixtures[(*o)?], &new.mixtures[n])));
+            for (o, n) in paired {
                 pairs.push((o.reflectance, n.reflectance));
                 groups.extend(o.free.zip(n.free));
                 let ol: Vec<usize> = o.mix.iter().map(|m| m.0).collect();
@@ -141,8 +158,9 @@ impl<'a> IndexMaps<'a> {
                 }
             }
         }
-        if old.paths.len() == new.paths.len() {
-            for (o, n) in old.paths.iter().zip(&new.paths) {
+        {
+            let paired = path_map.iter().enumerate().filter_map(|(n, o)| Some((&old.paths[(*o)?], &new.paths[n])));
+            for (o, n) in paired {
                 pairs.push((o.reflectance, n.reflectance));
                 groups.extend(o.free.zip(n.free));
                 match (&o.route, &n.route) {
@@ -333,7 +351,7 @@ fn sync_list(
 }
 
 /// Set `key` to `v`, keeping the key's place, its comments and the old value's trailing comment.
-fn put(t: &mut dyn TableLike, key: &str, mut v: Value) {
+pub(super) fn put(t: &mut dyn TableLike, key: &str, mut v: Value) {
     match t.get_mut(key) {
         Some(Item::Value(old)) => {
             *v.decor_mut() = old.decor().clone();
@@ -347,7 +365,7 @@ fn put(t: &mut dyn TableLike, key: &str, mut v: Value) {
 }
 
 /// Write a value when it changed; a value equal to its default is only written where the key already is.
-fn sync_value<T: PartialEq>(
+pub(super) fn sync_value<T: PartialEq>(
     t: &mut dyn TableLike,
     key: &str,
     old: Option<T>,
@@ -361,7 +379,7 @@ fn sync_value<T: PartialEq>(
     put(t, key, v(new));
 }
 
-fn float_array(values: &[f64]) -> Value {
+pub(super) fn float_array(values: &[f64]) -> Value {
     let mut a = Array::new();
     for &x in values {
         a.push(x);
@@ -592,12 +610,13 @@ fn sync_free(t: &mut dyn TableLike, old: Option<&FreeGroup>, new: &FreeGroup) {
 
 /// The target as written: hex when the notation is hex and the colour is inside the display gamut.
 fn target_value(cell: &ColourCell) -> Value {
-    let in_gamut = cell.target.iter().all(|v| (0.0..=1.0).contains(v));
-    if cell.notation == TargetNotation::Hex && in_gamut {
-        Value::from(linear_to_hex(&cell.target))
-    } else {
-        float_array(cell.target.as_slice())
-    }
+    target_text(&cell.target, cell.notation == TargetNotation::Hex)
+}
+
+/// A target as written: `"#rrggbb"` when `hex` and the colour is inside the display gamut, else `[r, g, b]`.
+pub(super) fn target_text(target: &Vector3<f64>, hex: bool) -> Value {
+    let in_gamut = target.iter().all(|v| (0.0..=1.0).contains(v));
+    if hex && in_gamut { Value::from(linear_to_hex(target)) } else { float_array(target.as_slice()) }
 }
 
 fn sync_colour(t: &mut dyn TableLike, old: Option<(&ColourCell, &Palette)>, new: &ColourCell, palette: &Palette) {
