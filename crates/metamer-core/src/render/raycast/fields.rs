@@ -280,12 +280,8 @@ impl<'a> Fields<'a> {
     /// `i` in it.
     #[inline(always)]
     pub(crate) fn block<'c>(&'a self, i: [usize; 3], cursor: &'c mut Cursor<'a>) -> (&'c BlockRef<'a>, usize) {
-        // A cell start is at most dims − 2 (or 0) along each axis, so its brick `i >> SHIFT` is within the
-        // counts without the clamp of `brick_of`, and its place in the brick is `i`'s low bits.
-        debug_assert_eq!(self.brick_of(i), [i[0] >> SHIFT, i[1] >> SHIFT, i[2] >> SHIFT]);
-        let b = [i[0] >> SHIFT, i[1] >> SHIFT, i[2] >> SHIFT];
-        let mask = (1 << SHIFT) - 1;
-        let l = [i[0] & mask, i[1] & mask, i[2] & mask];
+        let b = self.brick_of(i);
+        let l = [i[0] - (b[0] << SHIFT), i[1] - (b[1] << SHIFT), i[2] - (b[2] << SHIFT)];
         let bi = b[0] + self.counts[0] * (b[1] + self.counts[1] * b[2]);
         let local = l[0] + S * (l[1] + S * l[2]);
         if cursor.brick != bi || cursor.block.is_none() {

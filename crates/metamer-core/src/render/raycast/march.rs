@@ -88,9 +88,7 @@ struct Located {
     f: [f32; 3],
 }
 
-/// A value-classified sample before compositing. Its trilinear cell is not kept: only a cell gradient
-/// (`Gradient::Cell`, or a material whose opacity depends on the gradient) reads it again, and fetching
-/// it again there costs less than moving it with every sample.
+/// A value-classified sample before compositing.
 struct ValueSample {
     /// Material index + 1 (0 = none).
     material: u8,
@@ -98,6 +96,7 @@ struct ValueSample {
     /// The bin's step opacity.
     alpha: f32,
     at: Located,
+    cell: Option<Cell>,
 }
 
 /// A label sample before compositing.
@@ -379,14 +378,15 @@ impl<'a> RayContext<'a> {
     /// Value-classified sample (trilinear or nearest): its material and where it sits.
     #[inline(always)]
     fn value_sample(&self, p: [f64; 3], at: Located) -> ValueSample {
-        let v = if self.options.interpolation == Interpolation::Trilinear {
-            self.cell_at(at).value()
-        } else {
-            self.nearest(p)
+        let trilinear = self.options.interpolation == Interpolation::Trilinear;
+        let cell = trilinear.then(|| self.cell_at(at));
+        let v = match &cell {
+            Some(c) => c.value(),
+            None => self.nearest(p),
         };
         let bin = self.classifier.bin(v);
         let material = self.classifier.material[bin];
-        ValueSample { material, bin, alpha: self.classifier.alpha[bin], at }
+        ValueSample { material, bin, alpha: self.classifier.alpha[bin], at, cell }
     }
 
     /// A sample in a brick whose values all map to material `m` (index + 1): located, not
@@ -394,7 +394,7 @@ impl<'a> RayContext<'a> {
     #[inline(always)]
     fn uniform_sample(&self, at: Located, m: u8) -> ValueSample {
         let bin = usize::from(self.classifier.material_bin[usize::from(m) - 1]);
-        ValueSample { material: m, bin, alpha: self.classifier.alpha[bin], at }
+        ValueSample { material: m, bin, alpha: self.classifier.alpha[bin], at, cell: None }
     }
 
     /// Composite a value sample with opacities `alpha` (per bin, for the step it stands for): adds its
@@ -412,7 +412,7 @@ impl<'a> RayContext<'a> {
             return 0.0;
         }
         let mat = self.classifier.per_code[usize::from(s.material)];
-        let cell_gradient = || self.cell_at(s.at).gradient();
+        let cell_gradient = || s.cell.as_ref().map_or_else(|| self.cell_at(s.at).gradient(), Cell::gradient);
         let mut alpha = alpha[s.bin];
         // The trilinear gradient, taken once per sample for the opacity and the shading alike.
         let mut cell_g = None;
