@@ -13,6 +13,14 @@ $METAMER_DATA/volumes/engine.nhdr, or pass the .nhdr path). Run from the crate r
 `shading = "headlight"`) and renders frame 1 of 3 (the dial's "split" light, where the block, the inner
 parts and the smoke differ) with `--no-dial`; `--metamer FRAME.png` compares a frame made otherwise.
 
+Sweep: `--sweep 48` (with `--run-metamer`) also times a dial sweep of 48 frames both ways: VTK re-renders
+the view 48 times, the materials' colours moved between two sets from frame to frame (VTK has no relight,
+so every frame is a raycast), each frame grabbed and written as PNG; metamer is timed as whole
+`metamer render --frames 48` processes (volume read, one raycast, 48 relit PNG frames; median of
+`--repeat` after one warm-up). The ratio is printed without and with VTK's own set-up (reading the volume,
+building the pipeline). Beside wall times, both sides' CPU time (user + system, all threads: VTK's renders
+in this process, metamer's whole processes) is printed, which the machine's other load does not inflate.
+
 Mapper: `--mapper gpu` (the default) is vtkGPUVolumeRayCastMapper, VTK's best: it runs on software GL
 (Mesa llvmpipe through EGL offscreen) where no GPU is present; `smart` is vtkSmartVolumeMapper, `fixed`
 the CPU vtkFixedPointVolumeRayCastMapper. Both sides sample every 0.5 voxel with per-ray jittering
@@ -40,6 +48,7 @@ metameric blacks come out of the palette's design, not of per-frame colour table
 import argparse
 import gzip
 import os
+import resource
 import statistics
 import time
 
@@ -54,6 +63,13 @@ MATERIALS = [
     ((185, 255), 0.7, (0.95, 0.7, 0.25)),
 ]
 AZIMUTH, ELEVATION = 30.0, 20.0
+
+
+def cpu_seconds(who=resource.RUSAGE_SELF):
+    """User + system CPU seconds used so far by this process (or by its finished children): on a machine
+    shared with other work, CPU time is what the other load does not inflate."""
+    r = resource.getrusage(who)
+    return r.ru_utime + r.ru_stime
 
 
 def read_nhdr(path):
@@ -157,12 +173,9 @@ def match_exposure(ours, theirs, threshold=10):
     return srgb_encode(lin_t * gain), gain
 
 
-def run_metamer(binary, here, size):
-    """Render frame 1 of 3 of volumes/engine.toml at step 0.5 with a headlight; returns (frame path,
-    metamer's raycast ms, relight + PNG ms per frame)."""
-    import re
-    import subprocess
-
+def write_scene(here):
+    """target/vtk_compare/engine_step05.toml: volumes/engine.toml at step 0.5 with a headlight (the
+    settings VTK is given); returns (its path, the output folder)."""
     root = os.path.normpath(os.path.join(here, ".."))
     out = os.path.join(root, "target", "vtk_compare")
     os.makedirs(out, exist_ok=True)
@@ -177,12 +190,70 @@ def run_metamer(binary, here, size):
     scene = os.path.join(out, "engine_step05.toml")
     with open(scene, "w") as f:
         f.write("\n".join(lines) + '\n\n[render]\nstep = 0.5\nshading = "headlight"\n')
+    return scene, out
+
+
+def run_metamer(binary, here, size):
+    """Render frame 1 of 3 of volumes/engine.toml at step 0.5 with a headlight; returns (frame path,
+    metamer's raycast ms, relight + PNG ms per frame)."""
+    import re
+    import subprocess
+
+    scene, out = write_scene(here)
     frames = os.path.join(out, "metamer")
     cmd = [binary, "render", scene, "--frames", "3", "--frame-range", "1..2", "--size", str(size), "--no-dial", "-o", frames]
+    cpu = cpu_seconds(resource.RUSAGE_CHILDREN)
     run = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    cpu = cpu_seconds(resource.RUSAGE_CHILDREN) - cpu
     print(run.stdout.strip().splitlines()[1])
+    print(f"metamer's whole process (volume read, raycast, one frame): {cpu:.2f} s CPU")
     m = re.search(r"raycast ([0-9.]+) ms.*\(([0-9.]+) ms/frame\)", run.stdout)
-    return os.path.join(frames, "frame_0001.png"), float(m.group(1)), float(m.group(2))
+    return os.path.join(frames, "frame_0001.png"), float(m.group(1)), float(m.group(2)), cpu
+
+
+def metamer_sweep(binary, here, size, frames, repeat):
+    """Wall seconds of whole `metamer render` processes writing a sweep of `frames` frames of the
+    step-0.5 headlight scene (`repeat` runs after one warm-up; the median): reading the volume, the one
+    raycast, every relit frame and its PNG."""
+    import subprocess
+
+    scene, out = write_scene(here)
+    cmd = [binary, "render", scene, "--frames", str(frames), "--size", str(size), "--no-dial", "--force",
+           "-o", os.path.join(out, "metamer_sweep")]
+    times, cpus = [], []
+    for i in range(max(1, repeat) + 1):
+        t, c = time.perf_counter(), cpu_seconds(resource.RUSAGE_CHILDREN)
+        run = subprocess.run(cmd, capture_output=True, text=True, check=True)
+        if i > 0:
+            times.append(time.perf_counter() - t)
+            cpus.append(cpu_seconds(resource.RUSAGE_CHILDREN) - c)
+    print(run.stdout.strip().splitlines()[1])
+    return statistics.median(times), times, statistics.median(cpus)
+
+
+def vtk_sweep(win, colour, frames, out_dir):
+    """VTK's sweep: `frames` re-renders, each with the materials' colours of its own light (the colour
+    table moved between two sets of colours, as a light dial would), grabbed and written as PNG like
+    metamer's frames. Returns the seconds."""
+    os.makedirs(out_dir, exist_ok=True)
+    other = [(0.95, 0.85, 0.6), (0.2, 0.45, 0.7), (0.9, 0.3, 0.2)]
+    t, cpu = time.perf_counter(), cpu_seconds()
+    for k in range(frames):
+        w = k / max(1, frames - 1)
+        colour.RemoveAllPoints()
+        for ((lo_v, hi_v), _, rgb), rgb2 in zip(MATERIALS, other):
+            c = [(1 - w) * a + w * b for a, b in zip(rgb, rgb2)]
+            colour.AddRGBPoint(lo_v, *c)
+            colour.AddRGBPoint(hi_v, *c)
+        win.Render()
+        grab = vtk.vtkWindowToImageFilter()
+        grab.SetInput(win)
+        grab.Update()
+        writer = vtk.vtkPNGWriter()
+        writer.SetFileName(os.path.join(out_dir, f"frame_{k:04}.png"))
+        writer.SetInputConnection(grab.GetOutputPort())
+        writer.Write()
+    return time.perf_counter() - t, cpu_seconds() - cpu
 
 
 def write_pair(ours, theirs, box, path):
@@ -216,11 +287,15 @@ def main():
     ap.add_argument("--step", type=float, default=0.5, help="sample distance in voxels (both renderers)")
     ap.add_argument("--pair", help="write a side-by-side 1:1 crop of both frames here (needs --metamer)")
     ap.add_argument("--crop", default="0.80,0.45,256", help="crop centre (fractions of the frame) and side")
+    ap.add_argument("--sweep", type=int, metavar="FRAMES",
+                    help="also time a sweep of FRAMES frames: VTK re-rendering (and writing) each frame against "
+                         "whole `metamer render --frames FRAMES` processes (needs --run-metamer)")
     args = ap.parse_args()
     metamer_ms = None
     if args.run_metamer:
-        args.metamer, raycast_ms, relight_ms = run_metamer(args.run_metamer, here, args.size)
+        args.metamer, raycast_ms, relight_ms, metamer_cpu = run_metamer(args.run_metamer, here, args.size)
         metamer_ms = (raycast_ms, relight_ms)
+    setup_start = time.perf_counter()
     data, dims, spacing = read_nhdr(args.nhdr)
     centre, eye, up, scale, (lo, hi) = metamer_view(dims, spacing, material_mask(data, dims))
     print(f"material bounds {lo}..{hi}; focal point {np.round(centre, 2).tolist()}, parallel scale {scale:.2f}")
@@ -281,12 +356,15 @@ def main():
     cam.SetViewUp(*up)
     cam.SetParallelScale(scale)
     ren.ResetCameraClippingRange()
+    setup = time.perf_counter() - setup_start
     win.Render()  # warm-up (builds the mapper's gradient tables)
     times = []
+    cpu = cpu_seconds()
     for _ in range(max(1, args.repeat)):
         t = time.perf_counter()
         win.Render()
         times.append(time.perf_counter() - t)
+    vtk_cpu = (cpu_seconds() - cpu) / len(times)
     grab = vtk.vtkWindowToImageFilter()
     grab.SetInput(win)
     grab.Update()
@@ -296,8 +374,31 @@ def main():
     writer.Write()
     print(
         f"VTK {vtk.vtkVersion.GetVTKVersion()} {MAPPER_NAME} {args.size}², step {args.step}: median {statistics.median(times) * 1e3:.1f} ms"
-        f" of {len(times)} (min {min(times) * 1e3:.1f}), load {os.getloadavg()[0]:.1f} -> {args.output}"
+        f" of {len(times)} (min {min(times) * 1e3:.1f}), {vtk_cpu * 1e3:.0f} ms CPU per render (mean), load "
+        f"{os.getloadavg()[0]:.1f} -> {args.output}"
     )
+    if args.run_metamer:
+        print(
+            f"CPU time: metamer's whole process {metamer_cpu * 1e3:.0f} ms (volume read, raycast, one frame) against "
+            f"VTK's {vtk_cpu * 1e3:.0f} ms per render: metamer / VTK {metamer_cpu / vtk_cpu:.2f}×"
+        )
+
+    if args.sweep:
+        if not args.run_metamer:
+            raise SystemExit("--sweep needs --run-metamer BINARY")
+        vtk_s, vtk_cpu = vtk_sweep(win, colour, args.sweep, os.path.join("target", "vtk_compare", "vtk_sweep"))
+        m_s, m_all, m_cpu = metamer_sweep(args.run_metamer, here, args.size, args.sweep, args.repeat)
+        print(
+            f"sweep of {args.sweep} frames at {args.size}², step {args.step}: VTK {vtk_s:.2f} s for the re-renders "
+            f"(+ {setup:.2f} s reading the volume and setting up the pipeline) = "
+            f"{(vtk_s + setup):.2f} s; metamer whole process median {m_s:.2f} s of {len(m_all)} "
+            f"({', '.join(f'{t:.2f}' for t in m_all)}): VTK / metamer {vtk_s / m_s:.1f}× "
+            f"(re-renders only), {(vtk_s + setup) / m_s:.1f}× (with VTK's set-up); load {os.getloadavg()[0]:.1f}"
+        )
+        print(
+            f"sweep CPU time (user + system, all threads): VTK {vtk_cpu:.2f} s for the re-renders, metamer's whole "
+            f"process median {m_cpu:.2f} s: VTK / metamer {vtk_cpu / m_cpu:.1f}×"
+        )
 
     if args.metamer:
         from PIL import Image

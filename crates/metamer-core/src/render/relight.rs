@@ -128,7 +128,8 @@ impl ColourModel {
 /// Linear → 8-bit sRGB through a table of 2¹⁶ entries over [0, 1] (values outside are clamped). The
 /// table's quantisation (1/65535 in linear) is below half an 8-bit code everywhere.
 pub struct SrgbLut {
-    table: Vec<u8>,
+    /// Exactly [`SrgbLut::N`] entries: an index masked to `N − 1` needs no bounds check.
+    table: Box<[u8; SrgbLut::N]>,
 }
 
 impl Default for SrgbLut {
@@ -149,12 +150,11 @@ impl SrgbLut {
     /// dark values; 1, or anything not positive and finite, is plain sRGB).
     pub(crate) fn with_gamma(gamma: f64) -> SrgbLut {
         let g = if gamma.is_finite() && gamma > 0.0 { gamma } else { 1.0 };
-        let table = (0..Self::N)
-            .map(|i| {
-                let x = (i as f64 / (Self::N - 1) as f64).powf(1.0 / g);
-                (srgb_encode(x) * 255.0).round().clamp(0.0, 255.0) as u8
-            })
-            .collect();
+        let mut table = Box::new([0u8; Self::N]);
+        for (i, t) in table.iter_mut().enumerate() {
+            let x = (i as f64 / (Self::N - 1) as f64).powf(1.0 / g);
+            *t = (srgb_encode(x) * 255.0).round().clamp(0.0, 255.0) as u8;
+        }
         SrgbLut { table }
     }
 
@@ -168,9 +168,21 @@ impl SrgbLut {
 
     #[inline(always)]
     pub(crate) fn encode(&self, v: f32) -> u8 {
-        // NaN maps to 0 through the saturating cast.
-        let i = (v.clamp(0.0, 1.0) * (Self::N - 1) as f32 + 0.5) as usize;
-        self.table[i.min(Self::N - 1)]
+        self.table[Self::index(v)]
+    }
+
+    /// The table entry of linear `v`: `((v.clamp(0, 1) · (N − 1) + 0.5) as usize).min(N − 1)` for every v,
+    /// NaN included (0). Written as compare-and-select (what `maxps`/`minps` do, NaN going to 0 in the
+    /// first), then the plain conversion instruction on [0.5, 65535.5] (the saturating `as usize` costs a
+    /// dozen instructions, three times per pixel and frame) and a mask that keeps the index in the table
+    /// without a bounds check.
+    #[inline(always)]
+    fn index(v: f32) -> usize {
+        let x = if v > 0.0 { v } else { 0.0 };
+        let x = if x < 1.0 { x } else { 1.0 };
+        let x = x * (Self::N - 1) as f32 + 0.5;
+        // SAFETY: x is finite and in [0.5, 65535.5], in range for u32.
+        (unsafe { x.to_int_unchecked::<u32>() }) as usize & (Self::N - 1)
     }
 }
 
@@ -210,38 +222,46 @@ pub fn relight_srgb8(image: &ChannelImage, frame: &FrameMatrix, lut: &SrgbLut, o
 
 /// The relight + encode loop for K channels, free of per-pixel bounds checks.
 fn encode_kernel<const K: usize>(image: &ChannelImage, frame: &FrameMatrix, lut: &SrgbLut, out: &mut [u8]) {
-    let mut m = [[0f32; K]; 3];
-    for (r, row) in m.iter_mut().enumerate() {
-        row.copy_from_slice(&frame.m[r * K..(r + 1) * K]);
+    // The frame matrix by columns, its three rows in four lanes (the fourth 0): a pixel's colour is K
+    // multiply-adds of a column by one channel on four lanes at once (the compiler's vector
+    // instructions), each lane added up in the order of its row's dot product, so the colour is the
+    // same to the bit.
+    let mut col = [[0f32; 4]; K];
+    for (c, lanes) in col.iter_mut().enumerate() {
+        for (r, lane) in lanes[..3].iter_mut().enumerate() {
+            *lane = frame.m[r * K + c];
+        }
     }
     let relit = |px: &[f32]| {
         let px: &[f32; K] = px.try_into().unwrap_or(&[0.0; K]);
-        let mut rgb = [0f32; 3];
-        for (v, row) in rgb.iter_mut().zip(&m) {
-            let mut acc = 0f32;
-            for c in 0..K {
-                acc += row[c] * px[c];
+        let mut acc = [0f32; 4];
+        for (c, lanes) in col.iter().enumerate() {
+            for (a, m) in acc.iter_mut().zip(lanes) {
+                *a += m * px[c];
             }
-            *v = acc;
         }
-        rgb
+        acc
     };
     // Runs of pixels are encoded channel by channel while their brightest channel is tracked; the rare
     // run holding a pixel brighter than white is encoded again with its hue kept (`encode_rgb`). The
     // common pixel so pays three maxima, not a per-pixel test and reciprocal.
     const RUN: usize = 64;
     for (run, o_run) in image.data.chunks(K * RUN).zip(out.chunks_mut(3 * RUN)) {
-        let mut hi = 0f32;
+        // Per lane the brightest value of the run (a NaN never replaces it, as with `f32::max`).
+        let mut hi = [0f32; 4];
         for (px, o) in run.chunks_exact(K).zip(o_run.chunks_exact_mut(3)) {
             let rgb = relit(px);
-            hi = hi.max(rgb[0]).max(rgb[1]).max(rgb[2]);
+            for (h, v) in hi.iter_mut().zip(rgb) {
+                *h = if v > *h { v } else { *h };
+            }
             o[0] = lut.encode(rgb[0]);
             o[1] = lut.encode(rgb[1]);
             o[2] = lut.encode(rgb[2]);
         }
-        if hi > 1.0 {
+        if hi[0].max(hi[1]).max(hi[2]) > 1.0 {
             for (px, o) in run.chunks_exact(K).zip(o_run.chunks_exact_mut(3)) {
-                o.copy_from_slice(&lut.encode_rgb(relit(px)));
+                let c = relit(px);
+                o.copy_from_slice(&lut.encode_rgb([c[0], c[1], c[2]]));
             }
         }
     }
@@ -295,6 +315,19 @@ mod tests {
     use super::*;
     use crate::render::raycast::MaterialWeights;
     use nalgebra::DMatrix;
+
+    #[test]
+    fn the_lut_index_is_the_clamped_saturating_one() {
+        let lut = SrgbLut::with_gamma(2.2);
+        let n = SrgbLut::N;
+        let reference = |v: f32| lut.table[((v.clamp(0.0, 1.0) * (n - 1) as f32 + 0.5) as usize).min(n - 1)];
+        let mut values = vec![f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0, -1e-30, 1.0, 1.0 + f32::EPSILON, 7.5];
+        values.extend((0..=4 * n as u32).map(|i| i as f32 / (4 * (n - 1)) as f32));
+        values.extend((0..1000).map(|i| -1.0 + i as f32 * 0.003));
+        for v in values {
+            assert_eq!(lut.encode(v), reference(v), "{v}");
+        }
+    }
 
     #[test]
     fn full_and_rgb_models_match_their_definitions() {
