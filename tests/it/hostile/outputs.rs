@@ -60,7 +60,7 @@ fn solve_in_place_never_loses_an_edit_made_while_it_ran() {
     // A palette that takes about a second to solve, so the edit lands while it runs.
     let palette = random::batch_palette(6000, 3, &Colorimetry::default());
     PaletteFile::from_palette(&palette).save_as(&palette, &d.join("p.toml")).unwrap();
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_metamer"))
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_metamer"))
         .current_dir(d)
         .args(["solve", "p.toml", "-o", "p.toml", "-q", "--no-subspace"])
         .stdout(std::process::Stdio::null())
