@@ -126,7 +126,7 @@ pub enum FeasibilityError {
         cell: String,
     },
     /// The LP or QP solver failed to set up or stopped without an answer (iteration limit, numerical trouble).
-    #[error("cell {cell}: the LP solver stopped ({status})")]
+    #[error("cell {cell}: the LP or QP solver (clarabel) stopped ({status})")]
     Solver {
         /// The cell as `light × reflectance` (names escaped), or `colours[k]`.
         cell: String,
