@@ -4,6 +4,8 @@
 
 pub mod feasibility;
 pub(crate) mod finder;
+pub mod hit;
+pub(crate) mod keyframe_list;
 pub mod legend;
 pub mod matrix;
 pub mod popup;

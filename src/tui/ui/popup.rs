@@ -124,6 +124,7 @@ impl Widget for PopupView<'_> {
                 }
             }
             Popup::Find(finder) => super::finder::draw(finder, &state.doc.palette, area, buf),
+            Popup::Keyframes(list) => super::keyframe_list::draw(list, &state.preview, area, buf),
             Popup::Legend { scroll } => {
                 let width = 76u16.min(area.width);
                 let lines = super::legend::lines(width.saturating_sub(2)).len() as u16;
