@@ -1,5 +1,6 @@
 //! The mouse: a click selects a matrix cell or swatch, a click or drag on a slider's bar sets the
-//! selected cell's R, G, B or weight, a click or drag on the light dial moves its slider. The terminal's
+//! selected cell's R, G, B or weight (on the one-line sliders of a narrow screen, a click on one focuses
+//! it for the arrow keys), a click or drag on the light dial moves its slider. The terminal's
 //! mouse events come as [`crate::tui::msg::Msg::Mouse`]; [`locate`] reads what is under the pointer with
 //! the view's own layout functions (`ui/hit.rs`), before the update step takes the state apart, and
 //! [`on_mouse`] acts on it with the sub-models it needs. Pure, like every handler: a drag is remembered
@@ -77,6 +78,11 @@ pub(crate) fn on_mouse(
                     ui.drag = Some(Drag::Slider(slider));
                 }
                 Some(Hit::Dial(point)) if move_dial(preview, ui, point) => ui.drag = Some(Drag::Dial),
+                Some(Hit::SliderName(k)) => {
+                    ui.focus = Focus::Sliders;
+                    ui.slider = k.min(Slider::ALL.len() - 1);
+                    ui.say("←/→ change the slider, PgUp/PgDn in large steps (a wider screen has bars to drag)");
+                }
                 Some(Hit::Slider { .. } | Hit::Dial(_)) | None => {}
             }
         }

@@ -144,6 +144,30 @@ fn a_click_on_the_dial_moves_its_slider() {
     assert_eq!(s.ui.selection, sel);
 }
 
+/// On a screen too narrow for the sliders beside the matrix (one line under it), a click on `G 0.36`
+/// focuses that slider for the arrow keys.
+#[test]
+fn a_click_on_a_one_line_slider_focuses_it() {
+    let palette = metamer::palette::PaletteFile::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/palettes/metamers.toml"
+    )))
+    .expect("palette")
+    .palette;
+    let mut s = state(palette, ColourMode::TrueColor);
+    // tungsten × petal (a cell with a target of its own, not in a free group).
+    let (text, _) = replay(&mut s, "Down\nRight", 80, 24);
+    let (gx, gy) = find(&text, "G 0.");
+    assert!(!text.contains("│ G "), "one-line sliders at 80×24:\n{text}");
+    let (text, buf) = replay(&mut s, &format!("click {} {gy}", gx + 2), 80, 24);
+    assert_eq!((s.ui.focus, s.ui.slider), (Focus::Sliders, 1));
+    assert!(text.contains("←/→ change the slider"), "{text}");
+    assert!(buf[(gx, gy)].modifier.contains(ratatui::style::Modifier::REVERSED));
+    let before = s.doc.palette.colours.clone();
+    replay(&mut s, "Right", 80, 24);
+    assert_ne!(s.doc.palette.colours, before, "the arrow keys change the clicked slider");
+}
+
 #[test]
 fn mouse_steps_are_read_from_scripts() {
     use metamer::tui::replay::parse_script;

@@ -14,6 +14,8 @@ pub enum Hit {
     Matrix(Selection),
     /// Slider `slider` (R, G, B, weight) of the selected cell at `fraction` (0–1) of its bar.
     Slider { slider: usize, fraction: f64 },
+    /// Slider `slider` of the one-line sliders (no bar: the keys change it).
+    SliderName(usize),
     /// The light dial's canvas at this dial point.
     Dial([f64; 2]),
 }
@@ -32,6 +34,9 @@ pub fn hit(state: &State, x: u16, y: u16) -> Option<Hit> {
     }
     if !a.sliders_compact && a.sliders.contains(at) {
         return slider_hit(Block::new().borders(Borders::LEFT).inner(a.sliders), at);
+    }
+    if a.sliders_compact && a.sliders.contains(at) {
+        return compact_hit(state, x - a.sliders.x);
     }
     let p = preview_areas(state, screen)?;
     let dial = state.preview.dial_state()?;
@@ -60,6 +65,23 @@ fn matrix_hit(state: &State, area: Rect, dx: u16, dy: u16) -> Option<Selection> 
     };
     let inside = (col, row) != (0, 0) && col <= p.lights.len() && row <= p.reflectances.len();
     inside.then_some(Selection { col, row })
+}
+
+/// The one-line slider whose text is at column `dx` of the line (a free cell's line has none).
+fn compact_hit(state: &State, dx: u16) -> Option<Hit> {
+    let crate::tui::app::Target::Cell { light, reflectance } = state.target() else { return None };
+    if state.doc.palette.cell(light, reflectance).is_some_and(|c| c.free.is_some()) {
+        return None;
+    }
+    let mut x = 0usize;
+    for (k, text) in super::sliders::compact_texts(state, light, reflectance).iter().enumerate() {
+        let width = text.chars().count();
+        if (x..x + width).contains(&usize::from(dx)) {
+            return Some(Hit::SliderName(k));
+        }
+        x += width + 2;
+    }
+    None
 }
 
 /// The slider bar at `at` inside the full sliders panel `inner` (rows 1–4, as `ui/sliders.rs` draws
