@@ -27,6 +27,8 @@ Replay scripts (--replay KEYS.txt), one step per line:
   q                            a single character is that key
   \"#ff8800\"                    text in double quotes types each character (\\\" and \\\\ escape)
   wait-solve                   wait for the running solve
+  click 12 5 / drag 20 5       the left mouse button pressed / moved held / released at column, row
+  release 20 5                 (0-based screen cells)
 Every solve is waited for after each key, and times are hidden, so screens are reproducible.
 A script runs at most 1000000 steps (repeats and typed texts counted); a longer one is refused before it runs.
 Ctrl-s in a script saves the palette file for real.";

@@ -9,6 +9,7 @@ use std::time::Instant;
 use crate::colorimetry::Colorimetry;
 use crate::render::Mode;
 use crate::render::Scene;
+use crate::render::Sweep;
 use crate::render::Timing;
 use crate::render::{Acceleration, colour_model, render_views};
 use crate::render::{Corner, DialOverlay};
@@ -365,8 +366,14 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     let report = write_sweep(&view.image, &view.model, &scene.dial, &options, &|| bar.inc(1))?;
     bar.finish_and_clear();
     let path: Vec<String> = scene.dial.stages().iter().map(|l| crate::fsio::escape(l).into_owned()).collect();
+    // What the slider sweeps: the scene's keyframes (each named by its light, or its point and the
+    // lights off) or its path of lights.
+    let sweep = match scene.dial.sweep {
+        Sweep::Keyframes(_) => "keyframes",
+        Sweep::Path(_) => "dial path",
+    };
     let mut summary = format!(
-        "{} frames {}..{} of {} ({} mode, {} channels, dial {}) in {}\n",
+        "{} frames {}..{} of {} ({} mode, {} channels, {sweep}: {}) in {}\n",
         report.written.len(),
         range.start,
         range.end,

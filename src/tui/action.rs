@@ -92,6 +92,8 @@ pub enum Action {
     },
     /// Dial keys: add the dial as it stands as a keyframe.
     DialKeyframe,
+    /// Dial keys: list the keyframes (show or delete one).
+    DialKeyframes,
     /// Dial keys: write the keyframes into the scene file.
     DialSaveScene,
     /// Leave the dial keys.
@@ -110,6 +112,8 @@ pub enum Action {
     // Inside popups.
     /// Edit the prompt's line: type a character, move the cursor, delete (the line editing is tui-input's).
     Edit(tui_input::InputRequest),
+    /// Complete the path typed in a path prompt (Tab).
+    Complete,
     /// Accept the prompt or the highlighted list entry.
     Submit,
     /// Choose the light / the reflectance of the selected cell.

@@ -140,6 +140,8 @@ pub struct Prompt {
     pub(crate) purpose: PromptPurpose,
     /// Why the last answer was refused (rendered by the view).
     pub error: Option<crate::tui::edits::Refusal>,
+    /// Where ↑/↓ stand in the answers given to this kind of prompt ([`crate::tui::prompt_memory`]).
+    pub(crate) recall: Option<crate::tui::prompt_memory::Recall>,
 }
 
 /// One entry of an "add" list.
@@ -184,6 +186,8 @@ pub enum Popup {
         scroll: u16,
     },
     Prompt(Prompt),
+    /// The dial's keyframes (`f` with the dial keys; [`crate::tui::keyframe_list`]).
+    Keyframes(crate::tui::keyframe_list::KeyframeList),
     /// Choose the light or the reflectance of the selected cell for a spectrum operation.
     ChooseSpectrum {
         op: SpectrumOp,
@@ -276,6 +280,7 @@ impl State {
             || self.preview.probing
             || self.doc.import.is_some()
             || self.doc.file_busy
+            || self.ui.completing
     }
 
     /// The palette file's path.

@@ -321,6 +321,10 @@ impl Runner<'_> {
                 let result = self.saver.recover(&file, &palette);
                 self.send(Msg::File(FileOutcome::Recovered(result)));
             }
+            Effect::Complete { folder, typed } => {
+                let entries = crate::tui::prompt_memory::list_folder(&folder, 5000);
+                self.send(Msg::Completed { typed, entries });
+            }
             Effect::SaveKeyframes { path, keyframes } => {
                 let result = crate::tui::keyframes::save_keyframes(&path, &keyframes).map(|text| SavedScene {
                     text,

@@ -116,6 +116,7 @@ pub const DIAL: &[Binding] = &[
     bind(&[ch('a')], A::DialKeyframe, "add the dial as a keyframe"),
     bind(&[ch('m')], A::DialAddMixture, "target for the reflectance here"),
     bind(&[ch('P')], A::PreviewFull, "preview over the whole terminal"),
+    bind(&[ch('f')], A::DialKeyframes, "keyframes: list, show, delete"),
     bind(&[ctrl('s')], A::DialSaveScene, "write the keyframes into the scene"),
     bind(&[ch(']')], A::Dial { forward: true }, "along the scene's sweep forward"),
     bind(&[ch('[')], A::Dial { forward: false }, "along the scene's sweep back"),
@@ -128,6 +129,9 @@ pub const DIAL: &[Binding] = &[
 pub(crate) const PROMPT: &[Binding] = &[
     bind(&[plain(K::Enter)], A::Submit, "accept"),
     bind(&[plain(K::Esc)], A::Back, "cancel"),
+    bind(&[plain(K::Up)], A::Move(Direction::Up), "an earlier answer to this prompt"),
+    bind(&[plain(K::Down)], A::Move(Direction::Down), "a later answer (then what you typed)"),
+    bind(&[plain(K::Tab)], A::Complete, "complete the path (CSV, save as)"),
     bind(&[plain(K::Backspace)], A::Edit(R::DeletePrevChar), "delete back"),
     bind(&[plain(K::Delete)], A::Edit(R::DeleteNextChar), "delete forward"),
     bind(&[plain(K::Left)], A::Edit(R::GoToPrevChar), "left"),
@@ -230,6 +234,17 @@ pub(crate) const DIAL_LIST: &[Binding] = &[
     bind(&[plain(K::Esc), ch('M'), ch('q')], A::Back, "close"),
 ];
 
+/// The dial's keyframes listed.
+pub(crate) const KEYFRAMES: &[Binding] = &[
+    bind(&[plain(K::Up), ch('k')], A::Move(Direction::Up), "previous"),
+    bind(&[plain(K::Down), ch('j')], A::Move(Direction::Down), "next"),
+    bind(&[plain(K::Home)], A::ListEnd { last: false }, "first"),
+    bind(&[plain(K::End)], A::ListEnd { last: true }, "last"),
+    bind(&[plain(K::Enter)], A::Submit, "set the dial to it"),
+    bind(&[ch('d'), plain(K::Delete)], A::Remove, "delete it (not undoable)"),
+    bind(&[plain(K::Esc), ch('f'), ch('q')], A::Back, "close"),
+];
+
 /// Every table with its title, in the order the help shows them.
 pub const TABLES: &[(&str, &[Binding])] = &[
     ("main screen", MAIN),
@@ -245,6 +260,7 @@ pub const TABLES: &[(&str, &[Binding])] = &[
     ("legend (i)", LEGEND),
     ("mixtures and paths (M)", DIAL_LIST),
     ("search (/) and commands (:)", FIND),
+    ("keyframes (f on the dial)", KEYFRAMES),
 ];
 
 /// The table in force for the open popup (`dial_keys`: the light dial has the main screen's keys).
@@ -258,6 +274,7 @@ pub(crate) fn table_for(popup: Option<&Popup>, dial_keys: bool) -> &'static [Bin
         Some(Popup::DialList(_)) => DIAL_LIST,
         Some(Popup::Find(_)) => FIND,
         Some(Popup::Prompt(_)) => PROMPT,
+        Some(Popup::Keyframes(_)) => KEYFRAMES,
         Some(Popup::ChooseSpectrum { .. }) => CHOOSE,
         Some(Popup::Pick { .. }) => PICK,
         Some(Popup::ConfirmQuit) => CONFIRM_QUIT,

@@ -73,6 +73,8 @@ pub enum Msg {
     Start { width: u16, height: u16, trains_bases: bool },
     /// A key from the terminal or a script (turned into an [`Action`] by the keymap).
     Key(KeyEvent),
+    /// A mouse event from the terminal (a click or drag; [`crate::tui::mouse`]).
+    Mouse(ratatui::crossterm::event::MouseEvent),
     /// A user action as such (tests; the keymap's output).
     Action(Action),
     /// The terminal answered the graphics probe (or its deadline passed): how the preview is drawn, and a
@@ -92,6 +94,8 @@ pub enum Msg {
     SceneSaved(Result<SavedScene, String>),
     /// The loop's clock when it handed solve `ticket` to the worker (the progress line counts from it).
     SolveStarted { ticket: u64, at: Instant },
+    /// The names in the folder a path prompt's `typed` text names (Tab completion).
+    Completed { typed: String, entries: Vec<String> },
     /// The spinner's clock (sent only while something is under way).
     Tick(Instant),
     /// A script asks to wait for the running solve (every step waits anyway; kept for old scripts).
@@ -109,6 +113,7 @@ impl Msg {
             Msg::Start { .. } => "start".into(),
             Msg::Key(k) => format!("key {:?}", k.code),
             Msg::Action(a) => format!("action {a:?}"),
+            Msg::Mouse(m) => format!("mouse {:?} {},{}", m.kind, m.column, m.row),
             Msg::Resize { .. } => "resize".into(),
             Msg::Graphics { graphics, .. } => format!("graphics {}", graphics.name()),
             Msg::Worker(Reply::Solved(s)) => format!("solved {}", s.generation),
@@ -118,6 +123,7 @@ impl Msg {
             Msg::File(_) => "file".into(),
             Msg::SceneSaved(_) => "scene saved".into(),
             Msg::SolveStarted { ticket, .. } => format!("solve started {ticket}"),
+            Msg::Completed { .. } => "completed".into(),
             Msg::Tick(_) => "tick".into(),
             Msg::WaitSolve => "wait-solve".into(),
             Msg::Terminated => "terminated".into(),
@@ -158,6 +164,8 @@ pub enum Effect {
     Restore { path: PathBuf },
     /// Write a recovery copy of `palette` beside `file`.
     Recover { file: PaletteFile, palette: Palette },
+    /// List `folder` for the path prompt's Tab completion of `typed`; the reply is a [`Msg::Completed`].
+    Complete { folder: PathBuf, typed: String },
     /// Append `keyframes` to the scene file at `path` and read the scene back; the reply is a
     /// [`Msg::SceneSaved`].
     SaveKeyframes { path: PathBuf, keyframes: Vec<DialState> },

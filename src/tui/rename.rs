@@ -37,6 +37,7 @@ pub(crate) fn open(ui: &mut UiState, palette: &Palette, what: Renamed) {
         input: PromptText::new(name.to_string()),
         purpose: PromptPurpose::Rename(what),
         error: None,
+        recall: None,
     }));
 }
 

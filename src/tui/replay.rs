@@ -12,6 +12,9 @@
 //! q                    a single character is that key
 //! "#ff8800"            text in double quotes types each character (\" and \\ escape)
 //! wait-solve           wait for the running solve (done after every key anyway)
+//! click 12 5           the left mouse button pressed at column 12, row 5 (0-based)
+//! drag 20 5            moved to column 20, row 5 with the button held
+//! release 20 5         released there
 //! ```
 
 use crate::palette::Palette;
@@ -24,7 +27,7 @@ use crate::tui::ui;
 use crate::tui::worker::WorkerConfig;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
-use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers, MouseButton, MouseEvent, MouseEventKind};
 use std::io;
 
 /// Why a script line cannot be read.
@@ -40,6 +43,26 @@ pub struct ScriptError {
 pub enum Step {
     Key(KeyEvent),
     WaitSolve,
+    Mouse(MouseEvent),
+}
+
+/// A mouse step such as `click 12 5`, `drag 20 5` or `release 20 5` (left button, column and row from 0).
+fn parse_mouse(body: &str) -> Option<Result<MouseEvent, String>> {
+    let mut words = body.split_whitespace();
+    let kind = match words.next()?.to_ascii_lowercase().as_str() {
+        "click" => MouseEventKind::Down(MouseButton::Left),
+        "drag" => MouseEventKind::Drag(MouseButton::Left),
+        "release" => MouseEventKind::Up(MouseButton::Left),
+        _ => return None,
+    };
+    let mut number = || words.next().and_then(|w| w.parse::<u16>().ok());
+    let (Some(column), Some(row)) = (number(), number()) else {
+        return Some(Err(format!("'{body}': a mouse step is `click|drag|release COLUMN ROW`")));
+    };
+    if words.next().is_some() {
+        return Some(Err(format!("'{body}': a mouse step is `click|drag|release COLUMN ROW`")));
+    }
+    Some(Ok(MouseEvent { kind, column, row, modifiers: KeyModifiers::NONE }))
 }
 
 fn named_key(name: &str) -> Option<KeyCode> {
@@ -204,6 +227,8 @@ pub fn parse_script(text: &str) -> Result<Script, ScriptError> {
             Line::Text(parse_text(&body[1..body.len() - 1], line)?)
         } else if body.eq_ignore_ascii_case("wait-solve") {
             Line::Step(Step::WaitSolve)
+        } else if let Some(mouse) = parse_mouse(body) {
+            Line::Step(Step::Mouse(mouse.map_err(|reason| ScriptError { line, reason })?))
         } else {
             Line::Step(Step::Key(
                 parse_key(body)
@@ -244,6 +269,7 @@ impl Events for ScriptEvents<'_> {
         match self.steps.next() {
             Some(Step::Key(k)) => Msg::Key(k),
             Some(Step::WaitSolve) => Msg::WaitSolve,
+            Some(Step::Mouse(m)) => Msg::Mouse(m),
             None => Msg::End,
         }
     }

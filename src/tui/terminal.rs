@@ -28,7 +28,20 @@ impl TerminalGuard {
             return Err(io::Error::other("standard input and output are not both a terminal"));
         }
         match ratatui::try_init() {
-            Ok(terminal) => Ok(TerminalGuard { terminal }),
+            Ok(terminal) => {
+                // Mouse capture (clicks and drags; the terminal's own text selection then needs Shift in
+                // most terminals), switched off again on every way out, a panic included.
+                let hook = std::panic::take_hook();
+                std::panic::set_hook(Box::new(move |info| {
+                    let _ = ratatui::crossterm::execute!(io::stdout(), event::DisableMouseCapture);
+                    hook(info);
+                }));
+                if let Err(e) = ratatui::crossterm::execute!(io::stdout(), event::EnableMouseCapture) {
+                    let _ = ratatui::try_restore();
+                    return Err(e);
+                }
+                Ok(TerminalGuard { terminal })
+            }
             Err(e) => {
                 // Undo whatever part of the set-up succeeded (raw mode without the alternate screen…).
                 let _ = ratatui::try_restore();
@@ -40,6 +53,15 @@ impl TerminalGuard {
 
 impl Drop for TerminalGuard {
     fn drop(&mut self) {
+        // The alternate screen is cleared before it is left: a terminal whose size changed since the
+        // designer started (tmux) may carry rows of it over into the shell's screen when it resizes that
+        // back on leaving (issue 30, defect 15: rows of the designer left under the prompt).
+        let _ = ratatui::crossterm::execute!(
+            io::stdout(),
+            event::DisableMouseCapture,
+            ratatui::crossterm::terminal::Clear(ratatui::crossterm::terminal::ClearType::All),
+            ratatui::crossterm::cursor::MoveTo(0, 0)
+        );
         ratatui::restore();
     }
 }
@@ -122,6 +144,7 @@ impl Events for TerminalEvents {
                     Ok(false) => continue,
                     Ok(true) => match event::read() {
                         Ok(Event::Key(k)) => Msg::Key(k),
+                        Ok(Event::Mouse(m)) if wanted(&m) => Msg::Mouse(m),
                         Ok(Event::Resize(width, height)) => Msg::Resize { width, height },
                         Ok(_) => continue,
                         Err(_) => Msg::End,
@@ -136,6 +159,13 @@ impl Events for TerminalEvents {
         })?;
         Ok(())
     }
+}
+
+/// The mouse events the designer acts on (presses, drags and releases of the buttons); moves and the
+/// wheel are not sent to the loop.
+fn wanted(m: &event::MouseEvent) -> bool {
+    use event::MouseEventKind as M;
+    matches!(m.kind, M::Down(_) | M::Drag(_) | M::Up(_))
 }
 
 /// How long the probe waits for the terminal's answers (over SSH: a round trip). Keys typed meanwhile

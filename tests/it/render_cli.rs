@@ -206,9 +206,26 @@ fn scene_file_renders_in_every_mode() {
             mode,
         ]);
         ok(&o);
-        assert!(String::from_utf8_lossy(&o.stdout).contains("hide → split"));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("dial path: hide → split)"), "{o:?}");
         assert!(frame(&out, 1).exists());
     }
+    // A keyframe sweep: the summary names the keyframes in order (each by its light, or its point and
+    // the lights off), one frame each.
+    let keyframed = GOOD.replace(
+        "[dial]\npath = [\"hide\", \"split\"]\n",
+        "[[dial.keyframes]]\nat = \"hide\"\n[[dial.keyframes]]\nat = \"glow\"\n\
+         [[dial.keyframes]]\nat = [0.25, 0.5]\noff = [\"split\"]\n",
+    );
+    assert_ne!(keyframed, GOOD);
+    let scene = write_scene(dir.path(), &keyframed);
+    let out = dir.path().join("keyframes");
+    let o = metamer(&["render", scene.to_str().unwrap(), "--keyframes", "--size", "24", "-o", out.to_str().unwrap()]);
+    ok(&o);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let line = stdout.lines().next().unwrap_or_default();
+    assert!(line.starts_with("3 frames 0..3 of 3 "), "{line}");
+    assert!(line.contains("keyframes: hide → glow → [0.25, 0.50] (split off))"), "{line}");
+    assert!(frame(&out, 2).exists() && !frame(&out, 3).exists());
     // Under "hide" block and inner parts are metamers: the full and factor frames agree closely.
     let full = image::open(frame(&dir.path().join("full"), 0)).unwrap().to_rgb8();
     let factor = image::open(frame(&dir.path().join("factor"), 0)).unwrap().to_rgb8();

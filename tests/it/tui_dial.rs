@@ -290,9 +290,23 @@ fn the_preview_fills_the_terminal_and_esc_returns() {
         }
     }
     assert!(blocks >= 23 * 40, "the image fills the terminal's height: {blocks} half blocks");
+    // The pointer hits nothing the full preview hides: a click where a matrix cell is drawn in the panels
+    // selects nothing while the preview covers it, and selects the cell once the panels are back.
+    let at = |needle: &str| {
+        let (y, line) = panels.lines().enumerate().find(|(_, l)| l.contains(needle)).expect(needle);
+        (line[..line.find(needle).unwrap()].chars().count() as u16 + 2, y as u16)
+    };
+    let (cx, _) = at("tungsten");
+    let (_, cy) = at("tissue");
+    let click = format!("click {cx} {cy}\nrelease {cx} {cy}");
+    let before = s.ui.selection;
+    tui_support::replay(&mut s, &click, 80, 24);
+    assert_eq!(s.ui.selection, before, "a click on the full preview selected a hidden cell");
     let (back, _) = tui_support::replay(&mut s, "Esc", 80, 24);
     assert!(!s.preview.full);
     assert_eq!(back, panels, "Esc returns to the panels as they were");
+    tui_support::replay(&mut s, &click, 80, 24);
+    assert_ne!(s.ui.selection, before, "the same click on the panels selects the cell");
 }
 
 /// The per-light intensity sliders beside the dial are the preview's: `+` on a selected light relights

@@ -264,6 +264,7 @@ fn kinds(effects: &[Effect]) -> Vec<&'static str> {
             Effect::Restore { .. } => "restore",
             Effect::Recover { .. } => "recover",
             Effect::SaveKeyframes { .. } => "save keyframes",
+            Effect::Complete { .. } => "complete",
         })
         .collect()
 }

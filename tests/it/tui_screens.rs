@@ -305,9 +305,9 @@ fn at_80x24_a_refusal_in_a_prompt_wraps_and_is_read_whole() {
     std::fs::create_dir(rel.join("a_folder_not_a_file")).expect("folder");
     let file = metamer::palette::PaletteFile::load(&path).expect("loads");
     let mut s = metamer::tui::State::with_file(file, ColourMode::TrueColor);
-    let target = rel.join("a_folder_not_a_file");
-    let script = format!("Ctrl-w\nCtrl-u\n\"{}\"\nEnter", target.display());
-    let steps = metamer::tui::replay::parse_script(&script).expect("script");
+    // Typed relative to the palette's folder, as the prompt says.
+    let script = "Ctrl-w\nCtrl-u\n\"a_folder_not_a_file\"\nEnter";
+    let steps = metamer::tui::replay::parse_script(script).expect("script");
     let worker = metamer::tui::worker::WorkerConfig {
         time_limit: std::time::Duration::from_secs(30),
         basis: metamer::tui::worker::BasisMode::Off,

@@ -36,6 +36,12 @@ pub struct UiState {
     /// Frames drawn so far (spinner phase).
     pub ticks: u64,
     pub quit: bool,
+    /// The answers given to each kind of prompt this session (↑/↓ in a prompt recall them).
+    pub history: crate::tui::prompt_memory::PromptHistory,
+    /// A path prompt's Tab completion is being read (the folder listing comes back as a message).
+    pub(crate) completing: bool,
+    /// What the held mouse button went down on (a drag acts on it).
+    pub drag: Option<crate::tui::mouse::Drag>,
     /// The designer was ended by SIGTERM/SIGHUP: where unsaved work was written (`Some(None)` when there was
     /// none to write, or it could not be written).
     pub(crate) terminated: Option<Option<std::path::PathBuf>>,
@@ -56,6 +62,9 @@ impl UiState {
             hide_times: false,
             ticks: 0,
             quit: false,
+            drag: None,
+            history: Default::default(),
+            completing: false,
             terminated: None,
         }
     }
@@ -111,6 +120,7 @@ impl UiState {
             input: PromptText::new(input),
             purpose,
             error: None,
+            recall: None,
         }));
     }
 

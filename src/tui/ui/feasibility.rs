@@ -18,7 +18,8 @@ use ratatui::widgets::{Block, Clear, Widget};
 pub(crate) const WIDTH: u16 = 46;
 pub(crate) const HEIGHT: u16 = 18;
 
-/// The overlay, drawn in the bottom-right corner of `area` (over the spectra panel).
+/// The overlay, drawn in the bottom-right corner of `area` (over the spectra panel), or in the bottom-left
+/// one when the right would cover the selected cell's column.
 pub(crate) struct FeasibilityOverlay<'a>(pub &'a State);
 
 impl Widget for FeasibilityOverlay<'_> {
@@ -29,7 +30,7 @@ impl Widget for FeasibilityOverlay<'_> {
         if w < 20 || h < 6 {
             return;
         }
-        let rect = Rect::new(area.x + area.width - w, area.y + area.height - h, w, h);
+        let rect = Rect::new(place_x(state, area, w), area.y + area.height - h, w, h);
         Clear.render(rect, buf);
         let cell = state.feasibility_cell();
         let view = state.solve.feasibility.as_ref().filter(|v| Some(v.cell) == cell);
@@ -70,6 +71,19 @@ impl Widget for FeasibilityOverlay<'_> {
     }
 }
 
+/// The overlay's left edge in `area` for a width `w`: the right side, unless that covers the columns of
+/// the selected cell (or light) in the matrix and the left side covers less of them.
+fn place_x(state: &State, area: Rect, w: u16) -> u16 {
+    let right = area.x + area.width - w;
+    let crate::tui::app::Target::Cell { light, .. } = state.target() else { return right };
+    let matrix = super::areas(state, area).matrix;
+    let g = super::matrix::geometry(state, matrix);
+    let Some(&(_, x, width)) = g.columns.iter().find(|c| c.0 == light) else { return right };
+    let (c0, c1) = (matrix.x + x as u16, matrix.x + (x + width) as u16);
+    let covered = |x0: u16| c1.min(x0 + w).saturating_sub(c0.max(x0));
+    if covered(right) > 0 && covered(area.x) < covered(right) { area.x } else { right }
+}
+
 /// The lines under the canvas: the L* range, where the target is, the axes' ranges, what is held.
 pub(crate) fn summary(panel: &Panel, stale: bool) -> Vec<String> {
     let (lo, hi) = panel.l_range;
@@ -90,7 +104,18 @@ pub(crate) fn summary(panel: &Panel, stale: bool) -> Vec<String> {
     // The axes, named with the ranges the canvas spans (issue 30, defect 7: the plot had no a*/b* labels).
     let axes =
         canvas_bounds(panel).map(|([x0, x1], [y0, y1])| format!("a* {x0:.0}…{x1:.0} across · b* {y0:.0}…{y1:.0} up"));
-    [Some(range), Some(format!("{place} · ○ now")), axes, Some(held)].into_iter().flatten().collect()
+    // With no region at the target's L* the canvas holds only the two marks: say why (never over them).
+    let no_slice = panel.slice.as_ref().is_none_or(|s| s.lab.is_empty()).then(|| {
+        let side = if panel.target_lab[0] > hi {
+            "above"
+        } else if panel.target_lab[0] < lo {
+            "below"
+        } else {
+            "at"
+        };
+        format!("no region at the target's L* ({side} the reachable L*): the marks only")
+    });
+    [Some(range), no_slice, Some(format!("{place} · ○ now")), axes, Some(held)].into_iter().flatten().collect()
 }
 
 /// The inner and the outer slice polygons in the a*–b* plane.
@@ -150,7 +175,4 @@ fn draw_slice(panel: &Panel, area: Rect, buf: &mut Buffer) {
         ctx.print(marks[0][0], marks[0][1], ratatui::text::Line::styled("×", bold.fg(Color::LightRed)));
     });
     canvas.render(area, buf);
-    if poly.is_empty() {
-        put(buf, area, 0, 0, "the region does not reach this L*", Style::new().fg(Color::Gray));
-    }
 }

@@ -5,6 +5,8 @@
 pub(crate) mod dial_list;
 pub mod feasibility;
 pub(crate) mod finder;
+pub mod hit;
+pub(crate) mod keyframe_list;
 pub mod legend;
 pub mod matrix;
 pub mod popup;

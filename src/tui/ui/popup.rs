@@ -129,6 +129,7 @@ impl Widget for PopupView<'_> {
                 let inner = frame(r, buf, "mixtures and paths along the dial");
                 super::dial_list::draw(state, list, inner, buf);
             }
+            Popup::Keyframes(list) => super::keyframe_list::draw(list, &state.preview, area, buf),
             Popup::Legend { scroll } => {
                 let width = 76u16.min(area.width);
                 let lines = super::legend::lines(width.saturating_sub(2)).len() as u16;

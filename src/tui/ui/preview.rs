@@ -169,6 +169,53 @@ fn light_colour(state: &State, e: &Spectrum) -> Color {
     state.ui.colour_mode.linear(&rgb)
 }
 
+/// Where the dial panel draws: the canvas (above) and the intensity list (below) in `area`, and the dial
+/// coordinates at the canvas's edges.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct DialCanvas {
+    pub(crate) canvas: Rect,
+    pub(crate) list: Rect,
+    pub(crate) left: f64,
+    pub(crate) right: f64,
+    pub(crate) bottom: f64,
+    pub(crate) top: f64,
+}
+
+/// Lay the dial panel out in `area` for `dial` (the view draws it so, and a mouse click is read so).
+pub(crate) fn dial_canvas(area: Rect, dial: &DialState) -> DialCanvas {
+    let n = dial.lights.len();
+    // The dial keeps at least half the panel (and 3 rows): with many lights on a short panel the
+    // intensity list scrolls to keep the selected light in view.
+    let list_rows = (n as u16 + 1).min(area.height.saturating_sub((area.height / 2).max(3)));
+    let canvas = Rect { height: area.height - list_rows, ..area };
+    let list = Rect { y: area.y + canvas.height, height: list_rows, ..area };
+    let [[x0, y0], [x1, y1]] = dial.bounds();
+    let pad = 0.25 * (x1 - x0).max(y1 - y0).max(0.5);
+    let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    let half = 0.5 * (x1 - x0).max(y1 - y0) + pad;
+    // Cells are about twice as high as wide: widen the x range so the dial is not squashed.
+    let aspect = f64::from(canvas.width.max(1)) / (2.0 * f64::from(canvas.height.max(1)));
+    let (hx, hy) = if aspect >= 1.0 { (half * aspect, half) } else { (half, half / aspect) };
+    DialCanvas { canvas, list, left: cx - hx, right: cx + hx, bottom: cy - hy, top: cy + hy }
+}
+
+impl DialCanvas {
+    /// The dial point at the middle of the canvas's cell (`x`, `y`) (screen cells; a cell outside the
+    /// canvas is taken at its nearest edge), as the canvas maps its braille dots (2 × 4 a cell) onto the
+    /// dial's coordinates.
+    pub(crate) fn point_at(&self, x: u16, y: u16) -> [f64; 2] {
+        let (cw, ch) = (f64::from(self.canvas.width.max(1)), f64::from(self.canvas.height.max(1)));
+        let x = x.clamp(self.canvas.x, self.canvas.right().saturating_sub(1).max(self.canvas.x));
+        let y = y.clamp(self.canvas.y, self.canvas.bottom().saturating_sub(1).max(self.canvas.y));
+        let px = 2.0 * f64::from(x - self.canvas.x) + 0.5;
+        let py = 4.0 * f64::from(y - self.canvas.y) + 1.5;
+        [
+            self.left + px * (self.right - self.left) / (2.0 * cw - 1.0).max(1.0),
+            self.top - py * (self.top - self.bottom) / (4.0 * ch - 1.0).max(1.0),
+        ]
+    }
+}
+
 /// The light dial beside the preview image (seed §5.1's 2D dial): each light's vertex in its colour with
 /// its number and name (hollow when off), the outline through the vertices, the slider point; under it
 /// one intensity slider per light.
@@ -183,20 +230,11 @@ impl Widget for DialPanel<'_> {
         let n = dial.lights.len();
         // The dial keeps at least half the panel (and 3 rows): with many lights on a short panel the
         // intensity list scrolls to keep the selected light in view.
-        let list_rows = (n as u16 + 1).min(area.height.saturating_sub((area.height / 2).max(3)));
-        let canvas_area = Rect { height: area.height - list_rows, ..area };
-        let list_area = Rect { y: area.y + canvas_area.height, height: list_rows, ..area };
-        let [[x0, y0], [x1, y1]] = dial.bounds();
-        let pad = 0.25 * (x1 - x0).max(y1 - y0).max(0.5);
-        let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
-        let half = 0.5 * (x1 - x0).max(y1 - y0) + pad;
-        // Cells are about twice as high as wide: widen the x range so the dial is not squashed.
-        let aspect = f64::from(canvas_area.width.max(1)) / (2.0 * f64::from(canvas_area.height.max(1)));
-        let (hx, hy) = if aspect >= 1.0 { (half * aspect, half) } else { (half, half / aspect) };
+        let DialCanvas { canvas: canvas_area, list: list_area, left, right, bottom, top } = dial_canvas(area, &dial);
+        let list_rows = list_area.height;
         let colours: Vec<Color> = dial.lights.iter().map(|l| light_colour(state, &l.spectrum)).collect();
         let selected = if state.preview.keys { state.preview.selected } else { None };
         let keys = state.preview.keys;
-        let (left, right, bottom, top) = (cx - hx, cx + hx, cy - hy, cy + hy);
         let canvas =
             Canvas::default().marker(Marker::Braille).x_bounds([left, right]).y_bounds([bottom, top]).paint(|ctx| {
                 for i in 0..n {
@@ -280,7 +318,8 @@ impl Widget for DialPanel<'_> {
         }
         if usize::from(list_rows) > n {
             let y = list_area.y + n as u16;
-            let text = format!("keyframes {} new", state.preview.keyframes.len());
+            let more = if keys { " · f lists them" } else { "" };
+            let text = format!("keyframes {} new{more}", state.preview.keyframes.len());
             buf.set_stringn(area.x, y, text, usize::from(area.width), Style::new().fg(Color::DarkGray));
         }
     }

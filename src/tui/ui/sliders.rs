@@ -215,20 +215,11 @@ impl Widget for CompactSliders<'_> {
             put(buf, area, x, 0, &fit(&name, room), Style::new().fg(Color::Gray));
             return;
         }
-        let v = slider_values(state, light, reflectance);
         let mut x = 0;
-        for (k, (label, value)) in [
-            ("R", format!("{:.2}", v[0])),
-            ("G", format!("{:.2}", v[1])),
-            ("B", format!("{:.2}", v[2])),
-            ("w", num(v[3])),
-        ]
-        .iter()
-        .enumerate()
-        {
+        for (k, text) in compact_texts(state, light, reflectance).iter().enumerate() {
             let focused = state.ui.focus == Focus::Sliders && state.ui.slider == k;
             let style = if focused { selected_style().add_modifier(Modifier::REVERSED) } else { Style::new() };
-            x = put(buf, area, x, 0, &format!("{label} {value}"), style);
+            x = put(buf, area, x, 0, text, style);
             x = put(buf, area, x, 0, "  ", Style::new());
         }
         let hex = view.and_then(|c| c.desired).map_or("—".to_string(), |d| linear_to_hex(&d));
@@ -241,6 +232,13 @@ impl Widget for CompactSliders<'_> {
         let room = usize::from(area.width.saturating_sub(x));
         put(buf, area, x, 0, &fit(&name, room), Style::new().fg(Color::Gray));
     }
+}
+
+/// The one-line sliders' texts (`R 0.95`, `G 0.95`, `B 0.95`, `w 1`), drawn two columns apart from the
+/// line's start (a click on one focuses that slider: `ui/hit.rs`).
+pub(crate) fn compact_texts(state: &State, light: usize, reflectance: usize) -> [String; 4] {
+    let v = slider_values(state, light, reflectance);
+    [format!("R {:.2}", v[0]), format!("G {:.2}", v[1]), format!("B {:.2}", v[2]), format!("w {}", num(v[3]))]
 }
 
 /// How a free cell's group is named beside its colour.

@@ -131,8 +131,15 @@ const HINTS: &[&str] = &[
 const ALWAYS: &str = "^s save · ? help · q quit";
 
 /// The light dial's keys (after `g`), in the same way.
-const DIAL_HINTS: &[&str] =
-    &["←↑↓→ slider/vertex", "1…9 light on/off", "tab select", "+/- brighter/dimmer", "a keyframe", "^s save scene"];
+const DIAL_HINTS: &[&str] = &[
+    "←↑↓→ slider/vertex",
+    "1…9 light on/off",
+    "tab select",
+    "+/- brighter/dimmer",
+    "a keyframe",
+    "f keyframes",
+    "^s save scene",
+];
 const DIAL_ALWAYS: &str = "Esc leave · ? help · q quit";
 
 /// A message's colour: red for errors, green otherwise.

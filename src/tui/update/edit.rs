@@ -36,15 +36,23 @@ pub(super) fn num_text(v: f64) -> String {
     format!("{v}")
 }
 
-/// The save-as prompt, with `input` typed and the reason the last answer was refused.
-pub(super) fn save_as_prompt(input: String, error: Option<EditError>) -> Prompt {
+/// The save-as prompt, with `input` typed and the reason the last answer was refused; paths are relative
+/// to `folder` (the palette's, as the CSV import's are).
+pub(super) fn save_as_prompt(input: String, error: Option<EditError>, folder: &std::path::Path) -> Prompt {
     Prompt {
         title: "save as".into(),
-        hint: "a path, relative to the folder the designer started in".into(),
+        hint: format!("a path relative to the palette's folder {} · Tab completes · ↑ earlier", show_folder(folder)),
         input: PromptText::new(input),
         purpose: PromptPurpose::SaveAs,
         error: error.map(Into::into),
+        recall: None,
     }
+}
+
+/// A folder as the prompts name it (`./` for the folder the designer started in).
+pub(super) fn show_folder(folder: &std::path::Path) -> String {
+    let shown = crate::fsio::show(folder);
+    if shown.is_empty() || shown == "." { "./".to_string() } else { format!("{}/", shown.trim_end_matches('/')) }
 }
 
 /// Add a built-in spectrum of `kind` named after `base` and select it.

@@ -69,8 +69,10 @@ pub(super) fn file(doc: &mut Document, ui: &mut UiState, solve: &SolveState, c: 
             Err(e) => match save_as {
                 // The save-as prompt comes back with the reason; nothing was written.
                 Some(path) => {
-                    ui.popup =
-                        Some(Popup::Prompt(save_as_prompt(path.display().to_string(), Some(EditError::File(e)))));
+                    // Typed relative to the palette's folder: shown so again.
+                    let folder = doc.base_dir();
+                    let typed = path.strip_prefix(&folder).unwrap_or(&path).display().to_string();
+                    ui.popup = Some(Popup::Prompt(save_as_prompt(typed, Some(EditError::File(e)), &folder)));
                 }
                 None => ui.complain(format!("not saved: {e}")),
             },

@@ -65,6 +65,7 @@ pub(super) fn update_main(
             crate::tui::rename::start(ui, &doc.palette, target)
         }
         Action::Planck => spectrum_op(doc, ui, c, SpectrumOp::Planck),
+        Action::DialKeyframes => ui.popup = Some(Popup::Keyframes(Default::default())),
         Action::AddLight | Action::AddReflectance => on_add(ui, action),
         Action::ToggleBounds
         | Action::ToggleFitInSubspace
@@ -98,6 +99,7 @@ pub(super) fn update_main(
         | Action::DialTolerance
         | Action::ListEnd { .. }
         | Action::Edit(_)
+        | Action::Complete
         | Action::Submit
         | Action::ChooseLight
         | Action::ChooseReflectance
@@ -248,8 +250,10 @@ fn on_palette(
         }
         Action::Save => return doc.save(solve.current(), false),
         Action::SaveAs => {
-            let now = doc.path().display().to_string();
-            ui.popup = Some(Popup::Prompt(save_as_prompt(now, None)));
+            // Relative to the palette's folder: the file's own name.
+            let path = doc.path();
+            let now = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+            ui.popup = Some(Popup::Prompt(save_as_prompt(now, None, &doc.base_dir())));
         }
         Action::Reload => return doc.reload(),
         _ => {

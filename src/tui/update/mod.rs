@@ -44,6 +44,11 @@ use ratatui::layout::Rect;
 
 /// Handle one message: change the state, return the effects to run.
 pub fn update(state: &mut State, msg: Msg) -> Vec<Effect> {
+    // What the pointer is on, read with the view's layout before the state is taken apart.
+    let located = match &msg {
+        Msg::Mouse(event) => crate::tui::mouse::locate(state, event),
+        _ => Default::default(),
+    };
     let State { doc, solve, preview, ui, colorimetry } = state;
     let mut effects = match msg {
         Msg::Start { width, height, trains_bases } => {
@@ -73,6 +78,10 @@ pub fn update(state: &mut State, msg: Msg) -> Vec<Effect> {
             effects
         }
         Msg::Action(action) => on_action(doc, ui, solve, preview, colorimetry, action),
+        Msg::Mouse(event) => {
+            crate::tui::mouse::on_mouse(doc, ui, solve, preview, colorimetry, event, located);
+            Vec::new()
+        }
         Msg::Worker(reply) => on_solve(solve, preview, &doc.palette, colorimetry, SolveMsg::Worker(reply)),
         Msg::SolveStarted { ticket, at } => {
             on_solve(solve, preview, &doc.palette, colorimetry, SolveMsg::Started { ticket, at })
@@ -88,6 +97,10 @@ pub fn update(state: &mut State, msg: Msg) -> Vec<Effect> {
             Vec::new()
         }
         Msg::Terminated => files::terminated(doc, ui, solve),
+        Msg::Completed { typed, entries } => {
+            crate::tui::prompt_memory::completed(ui, &typed, &entries);
+            Vec::new()
+        }
         Msg::WaitSolve | Msg::End => Vec::new(),
     };
     settle(state, &mut effects);

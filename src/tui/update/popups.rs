@@ -28,7 +28,7 @@ pub(super) fn update_popup(
     doc: &mut Document,
     ui: &mut UiState,
     solve: &SolveState,
-    preview: &PreviewState,
+    preview: &mut PreviewState,
     c: &Colorimetry,
     popup: Popup,
     action: Action,
@@ -54,6 +54,12 @@ pub(super) fn update_popup(
             crate::tui::dial_list::Outcome::Done => Done(Vec::new()),
             crate::tui::dial_list::Outcome::Main(action) => Main(action),
         },
+        Popup::Keyframes(list) => {
+            let (open, message) = crate::tui::keyframe_list::on_action(list, action, preview);
+            ui.popup = open.map(Popup::Keyframes);
+            ui.message = message.or(ui.message.take());
+            Done(Vec::new())
+        }
         Popup::Prompt(prompt) => Done(on_prompt(doc, ui, solve, preview, c, prompt, action)),
         Popup::ChooseSpectrum { op, light, reflectance } => {
             on_choose(doc, ui, c, action, op, light, reflectance);
@@ -90,9 +96,26 @@ fn on_prompt(
     mut prompt: Prompt,
     action: Action,
 ) -> Vec<Effect> {
+    use crate::tui::prompt_memory::{is_path, kind, split};
     match action {
         Action::Back => return Vec::new(),
-        Action::Submit => return submit_prompt(doc, ui, solve, preview, c, prompt),
+        Action::Submit => {
+            ui.history.record(kind(&prompt.purpose), prompt.input.as_str());
+            return submit_prompt(doc, ui, solve, preview, c, prompt);
+        }
+        Action::Move(crate::tui::action::Direction::Up) if !ui.history.browse(&mut prompt, true) => {
+            ui.say("no earlier answer to this prompt");
+        }
+        Action::Move(crate::tui::action::Direction::Down) => {
+            ui.history.browse(&mut prompt, false);
+        }
+        Action::Complete if is_path(&prompt.purpose) => {
+            let typed = prompt.input.as_str().to_string();
+            let folder = doc.base_dir().join(split(&typed).0);
+            ui.completing = true;
+            ui.popup = Some(Popup::Prompt(prompt));
+            return vec![Effect::Complete { folder, typed }];
+        }
         // An edit that changes the text clears the last refusal; a cursor move keeps it.
         Action::Edit(request) if prompt.input.edit(request) => prompt.error = None,
         _ => {}
@@ -208,12 +231,11 @@ fn pick(doc: &mut Document, ui: &mut UiState, c: &Colorimetry, kind: Kind, item:
         }
         Some(PickItem::Csv) => {
             let title = format!("import a {} from CSV", kind.as_str());
-            return ui.open_prompt(
-                &title,
-                "path relative to the palette: rows of nm,value over 400–700 nm",
-                String::new(),
-                PromptPurpose::CsvPath(kind),
+            let hint = format!(
+                "a path relative to the palette's folder {}: rows of nm,value over 400–700 nm · Tab completes · ↑ earlier",
+                super::edit::show_folder(&doc.base_dir())
             );
+            return ui.open_prompt(&title, &hint, String::new(), PromptPurpose::CsvPath(kind));
         }
     };
     add_spectrum(doc, ui, c, kind, &base, source);

@@ -90,7 +90,8 @@ pub(super) fn submit_prompt(
                 if input.is_empty() {
                     return Err(EditError::NoPath);
                 }
-                let path = std::path::PathBuf::from(&input);
+                // Relative to the palette's folder, as a CSV path is (an absolute path stays as typed).
+                let path = doc.base_dir().join(&input);
                 // Nothing the user made is replaced unasked: the saver refuses another file at the path
                 // once, with the question (`FileError::Exists`); Enter on the same path again replaces it.
                 let asked = matches!(

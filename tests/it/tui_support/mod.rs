@@ -167,6 +167,7 @@ pub fn keys(script: &str) -> Vec<metamer::tui::msg::Msg> {
         .map(|s| match s {
             replay::Step::Key(k) => metamer::tui::msg::Msg::Key(k),
             replay::Step::WaitSolve => metamer::tui::msg::Msg::WaitSolve,
+            replay::Step::Mouse(m) => metamer::tui::msg::Msg::Mouse(m),
         })
         .collect()
 }

@@ -109,9 +109,29 @@ impl Geometry {
         (self.rv * 1.45, self.rv * 2.05)
     }
 
-    /// How far a name keeps from its vertex's centre: clear of the reticle's ticks.
+    /// Width of the reticle's white stroke (its black outline is 2 px wider).
+    fn reticle_stroke(&self) -> f32 {
+        (self.rv * 0.34).max(1.2)
+    }
+
+    /// How far the slider's white strokes reach from its centre (the ticks' ends). A name's halo, in
+    /// the panel's near-black, may cover the black outline beyond, not the white.
+    fn marker_reach(&self) -> f32 {
+        self.reticle().1 + self.reticle_stroke() / 2.0
+    }
+
+    /// The box of the slider's white strokes at `state`'s slider, grown by the names' halo (panel
+    /// pixels).
+    fn marker_box(&self, state: &DialState) -> Rect {
+        let (sx, sy) = self.map(state.slider);
+        let r = self.marker_reach() + self.halo as f32;
+        [sx - r, sy - r, sx + r, sy + r]
+    }
+
+    /// How far a name keeps from its vertex's centre: its halo clear of the reticle's white with the
+    /// slider on the vertex.
     fn clearance(&self) -> f32 {
-        self.reticle().1 + (self.px * 0.15).max(1.0)
+        self.marker_reach() + self.halo as f32
     }
 }
 
@@ -121,7 +141,7 @@ pub struct DialOverlay {
     /// Each light's colour (8-bit sRGB) on a white reflectance, brightest channel at full scale.
     colours: Vec<[u8; 3]>,
     names: Vec<String>,
-    /// The states whose drawings the panel must hold (the dial at rest and every keyframe).
+    /// The states whose drawings the panel must hold (see [`sweep_states`]).
     states: Vec<DialState>,
     /// The dial-coordinate box every state of the sweep fits in (so the drawing does not jump).
     bounds: [[f64; 2]; 2],
@@ -164,15 +184,28 @@ fn overlap(a: Rect, b: Rect) -> f32 {
     w * h
 }
 
+/// Where names must not go: the slider's drawing (a name there would hide it), and, once the panel
+/// is laid out, the outside of the panel.
+#[derive(Clone, Copy, Debug)]
+struct Keep {
+    /// The slider's box (see [`Geometry::marker_box`]).
+    marker: Rect,
+    /// The box names must stay inside (names' halos included), when known.
+    within: Option<Rect>,
+}
+
 /// Top-left corners of the names of vertices at `points` (pixels), each `clearance` from its vertex:
-/// the first of four places (outward from `centre` first) that overlaps least the other vertices'
-/// discs (radius `disc`) and the names already placed.
+/// the first of four places (outward from `centre` first) that overlaps least, in this order of
+/// weight, the outside of `keep.within`, the slider's box, the other vertices' discs (radius `disc`)
+/// and the names already placed. `halo` grows each name's box.
 fn place_labels(
     points: &[(f32, f32)],
     sizes: &[(f32, f32)],
     centre: (f32, f32),
     clearance: f32,
     disc: f32,
+    halo: f32,
+    keep: Keep,
 ) -> Vec<(f32, f32)> {
     let mut placed: Vec<Rect> = Vec::with_capacity(points.len());
     let mut out = Vec::with_capacity(points.len());
@@ -197,7 +230,13 @@ fn place_labels(
                 .filter(|&(j, _)| j != i)
                 .map(|(_, &(px, py))| overlap(r, [px - disc, py - disc, px + disc, py + disc]))
                 .sum();
-            discs + placed.iter().map(|&p| overlap(r, p)).sum::<f32>()
+            let haloed = [lx - halo, ly - halo, lx + w + halo, ly + h + halo];
+            let outside = keep.within.map_or(0.0, |b| {
+                let area = (haloed[2] - haloed[0]) * (haloed[3] - haloed[1]);
+                area - overlap(haloed, b)
+            });
+            let marker = if w > 0.0 { overlap(haloed, keep.marker) } else { 0.0 };
+            outside * 1e6 + marker * 1e3 + discs + placed.iter().map(|&p| overlap(r, p)).sum::<f32>()
         };
         let mut best = candidates[0];
         let mut best_score = score(best);
@@ -214,12 +253,18 @@ fn place_labels(
     out
 }
 
-/// The states whose drawings a sweep's panel must hold: the dial at rest and every keyframe.
+/// Points along a sweep, besides its keyframes, whose drawings the panel holds (so a name that moves
+/// off the slider's way finds room in the panel).
+const SWEEP_SAMPLES: usize = 32;
+
+/// The states whose drawings a sweep's panel must hold: the dial at rest, every keyframe and
+/// [`SWEEP_SAMPLES`] points along the sweep.
 fn sweep_states(dial: &Dial) -> Vec<DialState> {
     let mut states = vec![dial.base.clone()];
     if let Sweep::Keyframes(k) = &dial.sweep {
         states.extend(k.iter().cloned());
     }
+    states.extend((0..=SWEEP_SAMPLES).map(|k| dial.frame_state(k, SWEEP_SAMPLES + 1)));
     states
 }
 
@@ -241,7 +286,9 @@ fn label_positions(g: &Geometry, state: &DialState) -> Vec<(f32, f32)> {
         .enumerate()
         .map(|(i, _)| g.labels.get(i).map_or((0.0, 0.0), |l| (l.width as f32, l.height as f32)))
         .collect();
-    place_labels(&points, &sizes, g.map(centroid(state)), g.clearance(), g.rv * 1.3)
+    let within = (g.panel.0 > 0).then_some([1.0, 1.0, g.panel.0 as f32 - 1.0, g.panel.1 as f32 - 1.0]);
+    let keep = Keep { marker: g.marker_box(state), within };
+    place_labels(&points, &sizes, g.map(centroid(state)), g.clearance(), g.rv * 1.3, g.halo as f32, keep)
 }
 
 /// The layout at text size `px`: the panel is the box of every state's drawing plus a margin.
@@ -269,7 +316,7 @@ fn layout(states: &[DialState], bounds: [[f64; 2]; 2], names: &[String], px: f32
     // The box of everything drawn, with the dial's centre at the origin.
     let mut b: Rect = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
     let mut grow = |r: Rect| b = [b[0].min(r[0]), b[1].min(r[1]), b[2].max(r[2]), b[3].max(r[3])];
-    let reach = g.reticle().1 + g.rv * 0.3;
+    let reach = (g.marker_reach() + 1.0).max(g.reticle().1 + g.rv * 0.3);
     let h = g.halo as f32;
     for state in states {
         let mut centres: Vec<(f32, f32)> = state.lights.iter().map(|l| g.map(l.position)).collect();
@@ -502,7 +549,7 @@ fn draw_panel(pm: &mut Pixmap, g: &Geometry, colours: &[[u8; 3]], state: &DialSt
         pb.line_to(sx + ux * reach, sy + uy * reach);
     }
     if let Some(path) = pb.finish() {
-        let width = (rv * 0.34).max(1.2);
+        let width = g.reticle_stroke();
         paint.set_color(Color::from_rgba8(0, 0, 0, 255));
         pm.stroke_path(&path, &paint, &line(width + 2.0), id, None);
         paint.set_color(Color::from_rgba8(255, 255, 255, 255));

@@ -645,11 +645,17 @@ mod tests {
         let layout = SheetLayout::new(2, w, h);
         let tile = overlay.for_size(layout.tile_w as usize, layout.tile_h as usize);
         let [x, y, pw, ph] = tile.panel_rect().unwrap();
-        // The tile's panel: opaque dark in its middle band, on a mid-grey frame.
-        let dark = (0..pw)
-            .filter(|dx| sheet.get_pixel(layout.gap + (x + dx) as u32, layout.gap + (y + ph / 2) as u32).0[0] < 40)
-            .count();
-        assert!(dark > pw / 3, "{dark} of {pw} panel pixels dark");
+        // The tile's panel: opaque dark over most of its area, on a mid-grey frame. (Not one row: this
+        // dial's two vertices, its outline, slider and names lie on one line, which runs along the
+        // panel's middle row or a pixel beside it as the panel's height rounds.)
+        let tile_px =
+            |dx: usize, dy: usize| sheet.get_pixel(layout.gap + (x + dx) as u32, layout.gap + (y + dy) as u32);
+        let dark = (0..ph).flat_map(|dy| (0..pw).map(move |dx| (dx, dy))).filter(|&(dx, dy)| tile_px(dx, dy).0[0] < 40);
+        let dark = dark.count();
+        assert!(dark > pw * ph * 2 / 3, "{dark} of {} panel pixels dark", pw * ph);
+        // Around the panel, the tile is the frame's grey: the panel is where panel_rect says.
+        assert!(sheet.get_pixel(layout.gap + (x - 2) as u32, layout.gap + (y + ph / 2) as u32).0[0] > 120);
+        assert!(sheet.get_pixel(layout.gap + (x + pw / 2) as u32, layout.gap + (y - 2) as u32).0[0] > 120);
         // The frame itself carries the dial too.
         let frame = image::open(dir.path().join("frames").join(frame_name(0))).unwrap().to_rgb8();
         let [fx, fy, _, _] = overlay.panel_rect().unwrap();

@@ -109,6 +109,69 @@ fn names_stay_inside_the_panel_and_clear_of_their_vertex_and_the_slider() {
     }
 }
 
+/// The Fig. 6 diamond with the slider swept from the middle onto `hide` and on to `glow`.
+fn to_hide() -> Dial {
+    let s = diamond().base;
+    let mut hide = s.clone();
+    hide.set_slider([-1.0, 0.0]).unwrap();
+    let mut glow = s.clone();
+    glow.set_slider([0.0, 1.0]).unwrap();
+    Dial::keyframes(s.clone(), vec![s, hide, glow]).unwrap()
+}
+
+#[test]
+fn no_name_is_drawn_over_the_slider_at_or_near_a_vertex() {
+    let d = to_hide();
+    for w in [1024, 384, 200] {
+        let o = DialOverlay::new(&d, &Colorimetry::default(), w, w);
+        let g = o.geometry.as_ref().unwrap();
+        let [x0, y0, _, _] = o.panel_rect().unwrap();
+        let mut states: Vec<DialState> = (0..13).map(|k| d.frame_state(k, 13)).collect();
+        for p in [[-1.0, 0.0], [-0.95, 0.03], [-0.9, -0.05], [-0.8, 0.1], [-0.05, 0.95]] {
+            let mut s = d.base.clone();
+            s.set_slider(p).unwrap();
+            states.push(s);
+        }
+        for state in &states {
+            // The name's text box with its halo against the box of the reticle's white strokes.
+            let (sx, sy) = g.map(state.slider);
+            let reach = g.reticle().1 + g.reticle_stroke() / 2.0;
+            let marker = [sx - reach, sy - reach, sx + reach, sy + reach];
+            let halo = g.halo as f32;
+            for (i, (lx, ly)) in label_positions(g, state).into_iter().enumerate() {
+                let l = &g.labels[i];
+                let (lw, lh) = (l.width as f32, l.height as f32);
+                let text = [lx - halo, ly - halo, lx + lw + halo, ly + lh + halo];
+                assert_eq!(
+                    overlap(text, marker),
+                    0.0,
+                    "{w}²: slider at {:?}: name {} {text:?} over the slider {marker:?}",
+                    state.slider,
+                    state.lights[i].name
+                );
+            }
+            // And in the pixels: the reticle's ring is white all round (a name's halo would paint it
+            // the panel's colour): the brightest pixel within one of each point on the ring.
+            let mut rgb = vec![0u8; w * w * 3];
+            o.draw(&mut rgb, w, w, state, &[]);
+            let (ring, _) = g.reticle();
+            for a in 0..48 {
+                let phi = a as f32 * std::f32::consts::TAU / 48.0;
+                let (x, y) = (sx + ring * phi.cos(), sy + ring * phi.sin());
+                let p = (0..9)
+                    .map(|n| {
+                        let (px, py) = (x.round() as usize + n % 3 - 1, y.round() as usize + n / 3 - 1);
+                        let i = ((y0 + py) * w + x0 + px) * 3;
+                        [rgb[i], rgb[i + 1], rgb[i + 2]]
+                    })
+                    .max_by_key(|p| p.iter().map(|&v| u32::from(v)).sum::<u32>())
+                    .unwrap_or_default();
+                assert!(p.iter().all(|&v| v > 200), "{w}²: slider at {:?}: ring at {a}/48 is {p:?}", state.slider);
+            }
+        }
+    }
+}
+
 #[test]
 fn the_slider_is_a_white_hollow_reticle_not_a_disc() {
     // Every light yellow: the slider must still look like none of them.
