@@ -278,9 +278,10 @@ mod tests {
         let mut files: Vec<std::path::PathBuf> = ["palettes", "volumes"]
             .iter()
             .flat_map(|d| std::fs::read_dir(root.join(d)).unwrap().map(|e| e.unwrap().path()))
+            // The palettes' TOML files only: the designer leaves ignored `.basis.json` stores beside them.
             .filter(|p| {
-                p.extension().is_some_and(|e| e == "toml") && p.to_string_lossy().contains("palette")
-                    || p.parent().is_some_and(|d| d.ends_with("palettes"))
+                p.extension().is_some_and(|e| e == "toml")
+                    && (p.to_string_lossy().contains("palette") || p.parent().is_some_and(|d| d.ends_with("palettes")))
             })
             .collect();
         files.sort();
