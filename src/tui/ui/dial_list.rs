@@ -26,6 +26,17 @@ pub(crate) enum Status {
 }
 
 impl Status {
+    /// A solved entry's status: not used, else met or unmet as the solve says.
+    fn of(active: bool, unmet: bool) -> Status {
+        if !active {
+            Status::NotUsed
+        } else if unmet {
+            Status::Unmet
+        } else {
+            Status::Met
+        }
+    }
+
     fn text(self) -> &'static str {
         match self {
             Status::NotUsed => "not used",
@@ -79,13 +90,7 @@ pub(crate) fn rows(state: &State) -> Vec<Row> {
                                 (Some(s), Some(d)) => format!("  Vm {} ΔE {}", linear_to_hex(&s), de(d)),
                                 _ => String::new(),
                             };
-                            let status = if !m.is_active() {
-                                Status::NotUsed
-                            } else if r.unmet_mixtures.get(k).copied().unwrap_or(false) {
-                                Status::Unmet
-                            } else {
-                                Status::Met
-                            };
+                            let status = Status::of(m.is_active(), r.unmet_mixtures.get(k).copied().unwrap_or(false));
                             Row {
                                 entry,
                                 name,
@@ -112,13 +117,7 @@ pub(crate) fn rows(state: &State) -> Vec<Row> {
                     match r.paths.get(k) {
                         Some(c) => {
                             let vm = c.worst_delta_e_subspace.map(|d| format!("  Vm {}", de(d))).unwrap_or_default();
-                            let status = if !q.is_active() {
-                                Status::NotUsed
-                            } else if c.is_unmet() {
-                                Status::Unmet
-                            } else {
-                                Status::Met
-                            };
+                            let status = Status::of(q.is_active(), c.is_unmet());
                             Row {
                                 entry,
                                 name,
