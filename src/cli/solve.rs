@@ -171,12 +171,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
     );
     let (saved, report) = (saved?, report?);
+    // Both renames first, then each distinct folder synced once (one sync when both outputs share a
+    // folder, as they usually do); a failed second commit still syncs the first's folder (on drop).
+    let mut folders = crate::fsio::FolderSync::default();
     if let (Some(staged), Some(out)) = (saved, &args.output) {
-        file.commit(staged).with_context(|| saved_context(out))?;
+        file.commit_in(staged, &mut folders).with_context(|| saved_context(out))?;
     }
     if let Some(staged) = report {
-        staged.commit().context("cannot write the report")?;
+        staged.commit_in(&mut folders).context("cannot write the report")?;
     }
+    folders.sync();
     print_table(&table, &solution, args.output.as_deref(), seconds)
 }
 

@@ -8,7 +8,8 @@
 //!
 //! **Writes** ([`write_atomic`], or [`stage`] then [`Staged::commit`] for outputs written together) go to a temporary file in the target's folder, are synced, renamed over the
 //! target and the folder is synced: a reader (or a crash, or a full disk) sees the old file or the new one,
-//! never a mix. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused, and so
+//! never a mix. Outputs committed together ([`Staged::commit_in`]) are renamed in turn and each distinct
+//! folder is then synced once ([`FolderSync`]), after the last rename into it. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused, and so
 //! is one whose mode gives no write permission (read-only) unless the caller passes [`Replace::Force`]; a
 //! symbolic link to a regular file is followed, so the target is rewritten and the link kept. New files follow
 //! the umask (the temporary file is created `0666 & !umask`); an in-place save keeps the old file's mode and,
@@ -750,20 +751,68 @@ impl Staged {
     /// Put the staged content in place (a rename over the target), then sync the folder. A target
     /// changed since it was read is refused here too (it may have changed while the output was staged).
     pub fn commit(self) -> Result<(), FsError> {
+        let mut folders = FolderSync::default();
+        self.commit_in(&mut folders)
+        // `folders` dropped here: the folder is synced before this returns.
+    }
+
+    /// [`Staged::commit`] whose folder sync is left to `folders`: a command committing several outputs
+    /// renames each in turn and syncs each distinct folder once, after the last rename ([`FolderSync`]).
+    pub fn commit_in(self, folders: &mut FolderSync) -> Result<(), FsError> {
         let Staged { tmp, path, target, dir, replace, crc } = self;
         if replace < Replace::Changed && changed_since_read(&target) {
             return Err(FsError::Changed { path });
         }
         tmp.persist(&target).map_err(|e| FsError::Write { path: path.clone(), source: e.error })?;
         note_written(&target, crc);
-        #[cfg(unix)]
-        if let Ok(d) = File::open(&dir) {
-            // Best effort: some file systems refuse to sync a directory.
-            let _ = d.sync_all();
-        }
-        #[cfg(not(unix))]
-        let _ = dir;
+        folders.add(dir);
         Ok(())
+    }
+}
+
+/// The folders of renamed outputs still to be synced (the last step of an atomic write, which makes the
+/// rename itself durable). [`FolderSync::sync`] syncs each distinct folder once, so the outputs of one
+/// command in one folder (a solve's palette and report) cost one folder sync rather than one each; the
+/// sync still follows every rename into that folder. Dropping it syncs too, so a command that fails after
+/// a rename (its next output refused) still syncs the folder of what it renamed. Folders are told apart
+/// by their path as written: one folder named two ways is synced twice, which is only slower.
+#[derive(Debug, Default)]
+pub struct FolderSync {
+    dirs: Vec<PathBuf>,
+}
+
+impl FolderSync {
+    fn add(&mut self, dir: PathBuf) {
+        if !self.dirs.contains(&dir) {
+            self.dirs.push(dir);
+        }
+    }
+
+    /// The distinct folders waiting for their sync.
+    pub fn pending(&self) -> &[PathBuf] {
+        &self.dirs
+    }
+
+    /// Sync every folder added (best effort: some file systems refuse to sync a directory).
+    pub fn sync(mut self) {
+        self.sync_pending();
+    }
+
+    fn sync_pending(&mut self) {
+        for dir in self.dirs.drain(..) {
+            #[cfg(unix)]
+            if let Ok(d) = File::open(&dir) {
+                let _ = d.sync_all();
+            }
+            #[cfg(not(unix))]
+            let _ = dir;
+        }
+    }
+}
+
+impl Drop for FolderSync {
+    fn drop(&mut self) {
+        self.sync_pending();
     }
 }
 
@@ -1014,6 +1063,42 @@ mod tests {
         assert!(matches!(failed, Err(FsError::Write { .. })), "{failed:?}");
         assert_eq!(std::fs::read(&path).unwrap(), whole);
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file is left");
+    }
+
+    #[test]
+    fn outputs_committed_together_are_in_place_with_one_sync_per_folder() {
+        let dir = tempfile::tempdir().unwrap();
+        let other = tempfile::tempdir().unwrap();
+        let (a, b, c) = (dir.path().join("a.toml"), dir.path().join("a.json"), other.path().join("c.json"));
+        std::fs::write(&a, "old").unwrap();
+        let staged: Vec<Staged> =
+            [(&a, b"A"), (&b, b"B"), (&c, b"C")].iter().map(|(p, t)| stage(p, *t).unwrap()).collect();
+        let mut folders = FolderSync::default();
+        for s in staged {
+            s.commit_in(&mut folders).unwrap();
+        }
+        // Every output is renamed into place before any folder is synced; two folders, each listed once.
+        assert_eq!(std::fs::read(&a).unwrap(), b"A");
+        assert_eq!(std::fs::read(&b).unwrap(), b"B");
+        assert_eq!(std::fs::read(&c).unwrap(), b"C");
+        assert_eq!(folders.pending(), [dir.path().to_path_buf(), other.path().to_path_buf()]);
+        folders.sync();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2, "no temporary file is left");
+        // A failed second commit leaves the first in place (its folder synced when `folders` drops): the
+        // second's target became a folder after it was staged, so its rename fails.
+        let first = stage(&a, b"A2").unwrap();
+        let second = stage(&b, b"B2").unwrap();
+        std::fs::remove_file(&b).unwrap();
+        std::fs::create_dir(&b).unwrap();
+        std::fs::write(b.join("inside"), "x").unwrap();
+        let mut folders = FolderSync::default();
+        first.commit_in(&mut folders).unwrap();
+        let failed = second.commit_in(&mut folders);
+        assert!(matches!(failed, Err(FsError::Write { .. })), "{failed:?}");
+        assert_eq!(folders.pending(), [dir.path().to_path_buf()]);
+        drop(folders);
+        assert_eq!(std::fs::read(&a).unwrap(), b"A2");
+        assert!(b.is_dir());
     }
 
     #[test]

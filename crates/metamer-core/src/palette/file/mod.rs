@@ -442,8 +442,18 @@ impl PaletteFile {
 
     /// Put a staged save in place and make this file what was written (its path, text and palette).
     pub fn commit(&mut self, save: StagedSave) -> Result<(), PaletteError> {
+        let mut folders = crate::fsio::FolderSync::default();
+        self.commit_in(save, &mut folders)
+        // `folders` dropped here: the folder is synced before this returns.
+    }
+
+    /// [`PaletteFile::commit`] whose folder sync is left to `folders` ([`crate::fsio::FolderSync`]), for a
+    /// command that commits other outputs after this one.
+    pub fn commit_in(&mut self, save: StagedSave, folders: &mut crate::fsio::FolderSync) -> Result<(), PaletteError> {
         let StagedSave { staged, path, update } = save;
-        staged.commit().map_err(|cause| PaletteError::Write { path: path.clone(), cause: Box::new(cause) })?;
+        staged
+            .commit_in(folders)
+            .map_err(|cause| PaletteError::Write { path: path.clone(), cause: Box::new(cause) })?;
         match update {
             Update::Tables(saved) => {
                 let saved = *saved;
