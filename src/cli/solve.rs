@@ -144,7 +144,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // table formatted on a third.
     let (saved, table, report) = std::thread::scope(|scope| {
         let saved = scope.spawn(|| match &args.output {
-            Some(out) => file.stage_save_as(&solution.palette, out, replace).map(Some).with_context(|| saved_context(out)),
+            Some(out) => {
+                file.stage_save_as(&solution.palette, out, replace).map(Some).with_context(|| saved_context(out))
+            }
             None => Ok(None),
         });
         let table = scope.spawn(|| {
@@ -886,21 +888,21 @@ impl<'a> Report<'a> {
             cells: Rows::new(
                 s.cells
                     .iter()
-                .map(|c| {
-                    let cell = &p.colours[c.cell];
-                    let CellName { light, reflectance } = names(c.cell);
-                    CellJson {
-                        light,
-                        reflectance,
-                        colours: ColoursJson::new(c),
-                        free: cell.free.map(|g| p.free[g].name.as_str()),
-                        weight: cell.weight,
-                        enabled: cell.enabled,
-                        unphysical: unphysical_range(&p.lights[cell.light]).is_some()
-                            || unphysical_range(&p.reflectances[cell.reflectance]).is_some(),
-                    }
-                })
-                .collect(),
+                    .map(|c| {
+                        let cell = &p.colours[c.cell];
+                        let CellName { light, reflectance } = names(c.cell);
+                        CellJson {
+                            light,
+                            reflectance,
+                            colours: ColoursJson::new(c),
+                            free: cell.free.map(|g| p.free[g].name.as_str()),
+                            weight: cell.weight,
+                            enabled: cell.enabled,
+                            unphysical: unphysical_range(&p.lights[cell.light]).is_some()
+                                || unphysical_range(&p.reflectances[cell.reflectance]).is_some(),
+                        }
+                    })
+                    .collect(),
             ),
             mixtures: s
                 .mixtures
