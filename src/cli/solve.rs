@@ -143,13 +143,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // report's pieces (formatted meanwhile) could use. The report is staged on this thread the same way, the
     // table formatted on a third.
     let (saved, table, report) = std::thread::scope(|scope| {
-        let saved = scope.spawn(|| match &args.output {
+        let saved = beside(scope, || match &args.output {
             Some(out) => {
                 file.stage_save_as(&solution.palette, out, replace).map(Some).with_context(|| saved_context(out))
             }
             None => Ok(None),
         });
-        let table = scope.spawn(|| {
+        let table = beside(scope, || {
             let mut t = table_text(&solution, &notes, basis_warning.as_deref(), args.quiet);
             for f in feasibility.iter().flatten() {
                 let _ = writeln!(t, "feasibility: {}", f.line);
@@ -168,9 +168,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             None => Ok(None),
         };
-        let table = table.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-        let saved = saved.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-        (saved, table, report)
+        (saved.join(), table.join(), report)
     });
     let (saved, report) = (saved?, report?);
     // Both renames first, then each distinct folder synced once (one sync when both outputs share a
@@ -184,6 +182,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     folders.sync();
     print_table(&table, &solution, args.output.as_deref(), seconds)
+}
+
+/// Work started on a thread of its own ([`beside`]), or already done.
+enum Beside<'scope, T> {
+    Thread(std::thread::ScopedJoinHandle<'scope, T>),
+    Done(T),
+}
+
+impl<T> Beside<'_, T> {
+    /// The work's result (a panic in it goes on here).
+    fn join(self) -> T {
+        match self {
+            Beside::Thread(handle) => handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+            Beside::Done(result) => result,
+        }
+    }
+}
+
+/// `work` on a thread of its own in `scope`, or here and now when no thread can be started.
+fn beside<'scope, T: Send + 'scope>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    work: impl FnOnce() -> T + Send + Copy + 'scope,
+) -> Beside<'scope, T> {
+    match std::thread::Builder::new().spawn_scoped(scope, work) {
+        Ok(handle) => Beside::Thread(handle),
+        Err(_) => Beside::Done(work()),
+    }
 }
 
 /// `r g b` with four decimals.
