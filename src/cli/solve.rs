@@ -138,38 +138,38 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     });
     let replace = if args.force { crate::fsio::Replace::Force } else { crate::fsio::Replace::Writable };
     let saved_context = |out: &Path| format!("{}: cannot write the solved palette", out.display());
-    let ((saved, table), report) = rayon::join(
-        || {
-            rayon::join(
-                || match &args.output {
-                    Some(out) => file
-                        .stage_save_as(&solution.palette, out, replace)
-                        .map(Some)
-                        .with_context(|| saved_context(out)),
-                    None => Ok(None),
-                },
-                || {
-                    let mut t = table_text(&solution, &notes, basis_warning.as_deref(), args.quiet);
-                    for f in feasibility.iter().flatten() {
-                        let _ = writeln!(t, "feasibility: {}", f.line);
-                    }
-                    t
-                },
-            )
-        },
-        || match &args.report {
+    // The solved palette is staged on a thread of its own: its text is formatted on the pool's threads, and
+    // its write and fsync (mostly waiting for the disk) then block that thread, not a pool thread that the
+    // report's pieces (formatted meanwhile) could use. The report is staged on this thread the same way, the
+    // table formatted on a third.
+    let (saved, table, report) = std::thread::scope(|scope| {
+        let saved = beside(scope, || match &args.output {
+            Some(out) => {
+                file.stage_save_as(&solution.palette, out, replace).map(Some).with_context(|| saved_context(out))
+            }
+            None => Ok(None),
+        });
+        let table = beside(scope, || {
+            let mut t = table_text(&solution, &notes, basis_warning.as_deref(), args.quiet);
+            for f in feasibility.iter().flatten() {
+                let _ = writeln!(t, "feasibility: {}", f.line);
+            }
+            t
+        });
+        let report = match &args.report {
             Some(path) => {
                 let mut report = Report::new(&solution, seconds);
                 report.basis_warning = basis_warning.as_deref();
                 report.feasibility = feasibility.as_deref();
-                // Serialised straight into the staged file (no copy of the whole text in memory).
-                crate::fsio::stage_writing(path, crate::fsio::Name::User, replace, |w| write_report(w, &report))
+                // Serialised straight into the staged file (its long arrays in pieces, in parallel).
+                crate::fsio::stage_writing(path, crate::fsio::Name::User, replace, |w| write_report(w, &mut report))
                     .context("cannot write the report")
                     .map(Some)
             }
             None => Ok(None),
-        },
-    );
+        };
+        (saved.join(), table.join(), report)
+    });
     let (saved, report) = (saved?, report?);
     // Both renames first, then each distinct folder synced once (one sync when both outputs share a
     // folder, as they usually do); a failed second commit still syncs the first's folder (on drop).
@@ -182,6 +182,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     folders.sync();
     print_table(&table, &solution, args.output.as_deref(), seconds)
+}
+
+/// Work started on a thread of its own ([`beside`]), or already done.
+enum Beside<'scope, T> {
+    Thread(std::thread::ScopedJoinHandle<'scope, T>),
+    Done(T),
+}
+
+impl<T> Beside<'_, T> {
+    /// The work's result (a panic in it goes on here).
+    fn join(self) -> T {
+        match self {
+            Beside::Thread(handle) => handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+            Beside::Done(result) => result,
+        }
+    }
+}
+
+/// `work` on a thread of its own in `scope`, or here and now when no thread can be started.
+fn beside<'scope, T: Send + 'scope>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    work: impl FnOnce() -> T + Send + Copy + 'scope,
+) -> Beside<'scope, T> {
+    match std::thread::Builder::new().spawn_scoped(scope, work) {
+        Ok(handle) => Beside::Thread(handle),
+        Err(_) => Beside::Done(work()),
+    }
 }
 
 /// `r g b` with four decimals.
@@ -425,9 +452,83 @@ fn print_table(table: &str, s: &Solution, output: Option<&Path>, seconds: f64) -
     Ok(())
 }
 
-/// The JSON report, pretty-printed, and a final newline.
-fn write_report(w: &mut impl std::io::Write, report: &Report) -> std::io::Result<()> {
+/// The JSON report, pretty-printed, and a final newline. Its long arrays (spectra, cells, diagnostics) are
+/// serialised first, in pieces on the pool's threads ([`Rows::render`]), then the whole report in order with
+/// those pieces written as they are: the same bytes as serialising it in one pass ([`Pretty`]).
+fn write_report(w: &mut impl std::io::Write, report: &mut Report) -> std::io::Result<()> {
+    let Report { spectra, cells, diagnostics, .. } = report;
+    let ((spectra, cells), diagnostics) = rayon::join(
+        || rayon::join(|| spectra.render(SPECTRUM_BYTES), || cells.render(CELL_BYTES)),
+        || diagnostics.render(DIAGNOSTIC_BYTES),
+    );
+    spectra.and(cells).and(diagnostics)?;
     write_report_value(w, report)
+}
+
+/// About how many bytes a row of the report takes (a spectrum's 31 samples, a cell, a diagnostic): each
+/// piece's buffer is sized for its rows up front (growing them by doubling copied them and faulted in fresh
+/// pages twice over).
+const SPECTRUM_BYTES: usize = 1100;
+const CELL_BYTES: usize = 560;
+const DIAGNOSTIC_BYTES: usize = 480;
+
+/// One of the report's long arrays, each of its rows an element. [`Rows::render`] serialises the rows in
+/// pieces of [`Rows::PIECE`] rows, in parallel, each piece as it stands in the report ([`Pretty`] at the
+/// array's depth, rows separated as the printer separates them); serialising the array then writes the
+/// pieces as they are ([`Pretty::write_byte_array`]). Before `render` it serialises as the plain array.
+struct Rows<T> {
+    items: Vec<T>,
+    pieces: Vec<Vec<u8>>,
+}
+
+impl<T: serde::Serialize + Sync> Rows<T> {
+    /// Rows a piece: enough work per piece to be worth a task, small enough for two threads to share.
+    const PIECE: usize = 96;
+    /// The printer's indentation level of the elements of a top-level field's array.
+    const LEVEL: usize = 2;
+
+    fn new(items: Vec<T>) -> Self {
+        Rows { items, pieces: Vec::new() }
+    }
+
+    /// Serialise the rows into pieces, in parallel (see [`Rows`]).
+    fn render(&mut self, row_bytes: usize) -> std::io::Result<()> {
+        use rayon::prelude::*;
+        self.pieces = self
+            .items
+            .par_chunks(Self::PIECE)
+            .map(|rows| {
+                let mut out = Vec::with_capacity(rows.len() * row_bytes);
+                for (k, row) in rows.iter().enumerate() {
+                    let pretty = Pretty { level: Self::LEVEL, has_value: false };
+                    if k > 0 {
+                        pretty.line(&mut out, false)?;
+                    }
+                    row.serialize(&mut serde_json::Serializer::with_formatter(&mut out, pretty))?;
+                }
+                Ok(out)
+            })
+            .collect::<std::io::Result<_>>()?;
+        Ok(())
+    }
+}
+
+impl<T: serde::Serialize> serde::Serialize for Rows<T> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        if self.pieces.is_empty() {
+            return serializer.collect_seq(&self.items);
+        }
+        serializer.collect_seq(self.pieces.iter().map(|p| Piece(p)))
+    }
+}
+
+/// Rows serialised ahead ([`Rows::render`]): written as they are by [`Pretty::write_byte_array`].
+struct Piece<'a>(&'a [u8]);
+
+impl serde::Serialize for Piece<'_> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_bytes(self.0)
+    }
 }
 
 /// `value` as pretty JSON ([`Pretty`]) and a final line feed.
@@ -516,6 +617,12 @@ impl serde_json::ser::Formatter for Pretty {
     fn end_object_value<W: ?Sized + std::io::Write>(&mut self, _w: &mut W) -> std::io::Result<()> {
         self.has_value = true;
         Ok(())
+    }
+
+    /// Not serde_json's: a byte array here is JSON text serialised ahead by this printer (a [`Piece`] of
+    /// [`Rows`]), written as it is. Nothing else in the report serialises bytes.
+    fn write_byte_array<W: ?Sized + std::io::Write>(&mut self, w: &mut W, value: &[u8]) -> std::io::Result<()> {
+        w.write_all(value)
     }
 }
 
@@ -679,16 +786,16 @@ pub(crate) struct Report<'a> {
     /// Wall time of the solve itself.
     solve_seconds: f64,
     kkt_residual: f64,
-    spectra: Vec<SpectrumJson<'a>>,
+    spectra: Rows<SpectrumJson<'a>>,
     free: Vec<FreeJson<'a>>,
-    cells: Vec<CellJson<'a>>,
+    cells: Rows<CellJson<'a>>,
     /// Criteria under mixtures of lights (`[[mixtures]]`), absent when there are none.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     mixtures: Vec<MixtureJson<'a>>,
     /// Constancy paths (`[[paths]]`), absent when there are none.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     paths: Vec<PathJson<'a>>,
-    diagnostics: Vec<DiagnosticJson<'a>>,
+    diagnostics: Rows<DiagnosticJson<'a>>,
     /// Set when the factor model behind `rgb_subspace` is poor on the solved spectra's own pairs
     /// ([`crate::basis::Report::poor_model`]).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -801,26 +908,27 @@ impl<'a> Report<'a> {
             seconds,
             solve_seconds: s.seconds,
             kkt_residual: s.kkt_residual,
-            spectra: p.lights.iter().chain(&p.reflectances).map(SpectrumJson::new).collect(),
+            spectra: Rows::new(p.lights.iter().chain(&p.reflectances).map(SpectrumJson::new).collect()),
             free: p.free.iter().zip(&s.free).map(|(g, c)| FreeJson { name: &g.name, rgb: arr(c) }).collect(),
-            cells: s
-                .cells
-                .iter()
-                .map(|c| {
-                    let cell = &p.colours[c.cell];
-                    let CellName { light, reflectance } = names(c.cell);
-                    CellJson {
-                        light,
-                        reflectance,
-                        colours: ColoursJson::new(c),
-                        free: cell.free.map(|g| p.free[g].name.as_str()),
-                        weight: cell.weight,
-                        enabled: cell.enabled,
-                        unphysical: unphysical_range(&p.lights[cell.light]).is_some()
-                            || unphysical_range(&p.reflectances[cell.reflectance]).is_some(),
-                    }
-                })
-                .collect(),
+            cells: Rows::new(
+                s.cells
+                    .iter()
+                    .map(|c| {
+                        let cell = &p.colours[c.cell];
+                        let CellName { light, reflectance } = names(c.cell);
+                        CellJson {
+                            light,
+                            reflectance,
+                            colours: ColoursJson::new(c),
+                            free: cell.free.map(|g| p.free[g].name.as_str()),
+                            weight: cell.weight,
+                            enabled: cell.enabled,
+                            unphysical: unphysical_range(&p.lights[cell.light]).is_some()
+                                || unphysical_range(&p.reflectances[cell.reflectance]).is_some(),
+                        }
+                    })
+                    .collect(),
+            ),
             mixtures: s
                 .mixtures
                 .iter()
@@ -872,7 +980,9 @@ impl<'a> Report<'a> {
                     }
                 })
                 .collect(),
-            diagnostics: s.diagnostics.iter().map(|d| DiagnosticJson::new(d, d.cell.map(names), p)).collect(),
+            diagnostics: Rows::new(
+                s.diagnostics.iter().map(|d| DiagnosticJson::new(d, d.cell.map(names), p)).collect(),
+            ),
             basis_warning: None,
             feasibility: None,
         }
@@ -895,6 +1005,31 @@ mod tests {
             let mut theirs = serde_json::to_vec_pretty(&value).unwrap();
             theirs.push(b'\n');
             assert_eq!(String::from_utf8(ours).unwrap(), String::from_utf8(theirs).unwrap());
+        }
+    }
+
+    /// The report written with its long arrays in pieces ([`super::Rows`]) is byte for byte serde_json's
+    /// pretty printer of the same report in one pass: a random batch (more rows than a piece in every
+    /// array: spectra, cells and diagnostics), and shipped palettes with mixtures, paths and free colours.
+    #[test]
+    fn the_report_in_pieces_is_the_report_in_one_pass() {
+        use crate::colorimetry::Colorimetry;
+        use crate::design::{self, SolveOptions};
+        let colorimetry = Colorimetry::default();
+        let mut palettes = vec![crate::palette::random::batch_palette(150, 7, &colorimetry)];
+        for name in ["dial_mixtures", "constancy", "metamers"] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("palettes/{name}.toml"));
+            palettes.push(crate::palette::PaletteFile::load(&path).unwrap().palette);
+        }
+        for palette in &palettes {
+            let solution = design::solve(palette, None, &colorimetry, &SolveOptions::default()).unwrap();
+            let mut report = super::Report::new(&solution, 0.25);
+            let mut theirs = serde_json::to_vec_pretty(&report).unwrap();
+            theirs.push(b'\n');
+            let mut ours = Vec::new();
+            super::write_report(&mut ours, &mut report).unwrap();
+            assert!(report.cells.pieces.len() > 1 || palette.colours.len() <= 96);
+            assert_eq!(String::from_utf8(ours).unwrap(), String::from_utf8(theirs).unwrap(), "{}", palette.name);
         }
     }
 }

@@ -763,9 +763,18 @@ impl Staged {
         if replace < Replace::Changed && changed_since_read(&target) {
             return Err(FsError::Changed { path });
         }
+        // The file being replaced, held open across the rename: freeing its blocks then waits for the last
+        // close, which [`FolderSync`] makes on a thread of its own while the folder syncs, instead of inside
+        // the rename (about 1 ms for a 1 MB output on ext4, measured with `strace -T`). Best effort: a
+        // replaced file that cannot be opened (no read permission) is freed by the rename as before.
+        #[cfg(unix)]
+        let replaced = open_nonblocking(&target).ok();
+        #[cfg(not(unix))]
+        let replaced: Option<File> = None;
         tmp.persist(&target).map_err(|e| FsError::Write { path: path.clone(), source: e.error })?;
         note_written(&target, crc);
         folders.add(dir);
+        folders.replaced.extend(replaced);
         Ok(())
     }
 }
@@ -776,9 +785,15 @@ impl Staged {
 /// sync still follows every rename into that folder. Dropping it syncs too, so a command that fails after
 /// a rename (its next output refused) still syncs the folder of what it renamed. Folders are told apart
 /// by their path as written: one folder named two ways is synced twice, which is only slower.
+///
+/// It also holds the files the renames replaced ([`Staged::commit_in`] opens each before its rename), and
+/// closes them on a thread of its own while the folders sync: the last close of a replaced file frees its
+/// blocks, which then overlaps the sync instead of lengthening each rename. Closing a replaced file
+/// changes nothing a reader or a crash can see (its name already belongs to the new content).
 #[derive(Debug, Default)]
 pub struct FolderSync {
     dirs: Vec<PathBuf>,
+    replaced: Vec<File>,
 }
 
 impl FolderSync {
@@ -799,14 +814,21 @@ impl FolderSync {
     }
 
     fn sync_pending(&mut self) {
-        for dir in self.dirs.drain(..) {
-            #[cfg(unix)]
-            if let Ok(d) = File::open(&dir) {
-                let _ = d.sync_all();
+        let replaced = std::mem::take(&mut self.replaced);
+        std::thread::scope(|scope| {
+            if !replaced.is_empty() {
+                // When no thread can be started the spawn drops the files: they are closed at once.
+                let _ = std::thread::Builder::new().spawn_scoped(scope, move || drop(replaced));
             }
-            #[cfg(not(unix))]
-            let _ = dir;
-        }
+            for dir in self.dirs.drain(..) {
+                #[cfg(unix)]
+                if let Ok(d) = File::open(&dir) {
+                    let _ = d.sync_all();
+                }
+                #[cfg(not(unix))]
+                let _ = dir;
+            }
+        });
     }
 }
 
@@ -1099,6 +1121,30 @@ mod tests {
         drop(folders);
         assert_eq!(std::fs::read(&a).unwrap(), b"A2");
         assert!(b.is_dir());
+    }
+
+    /// The files a commit replaces are held open from before their rename until the folder sync, which
+    /// closes them (on a thread of its own): the new content is in place meanwhile, the old one is still
+    /// what the held file reads, and a new output (nothing replaced) holds nothing.
+    #[cfg(unix)]
+    #[test]
+    fn replaced_files_are_held_until_the_folder_sync() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.toml"), dir.path().join("b.json"));
+        std::fs::write(&a, "old a").unwrap();
+        let staged = [stage(&a, b"new a").unwrap(), stage(&b, b"new b").unwrap()];
+        let mut folders = FolderSync::default();
+        for s in staged {
+            s.commit_in(&mut folders).unwrap();
+        }
+        assert_eq!(std::fs::read(&a).unwrap(), b"new a");
+        assert_eq!(std::fs::read(&b).unwrap(), b"new b");
+        assert_eq!(folders.replaced.len(), 1, "only a replaced a file");
+        let mut old = String::new();
+        folders.replaced[0].read_to_string(&mut old).unwrap();
+        assert_eq!(old, "old a");
+        folders.sync();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2, "no temporary file is left");
     }
 
     #[test]
