@@ -9,9 +9,9 @@
 //! How it stays exact: only an array this module fully understands is read (a line `samples = [`, then
 //! decimal integers and floats as TOML spells them, with no underscores, no `inf`/`nan`, separated by commas
 //! and blanks or line feeds, an optional trailing comma, no comment); anything else is left in the text for
-//! the parser. A read array's text is replaced by blanks of the same length (line feeds kept) in a copy of
-//! the piece of text the events' parse reads ([`super::events`]), so the parser sees an empty array at the
-//! same span and every other span and line is unchanged. The reader takes
+//! the parser. A read array's text is replaced by spaces of the same length in a copy of the piece of text
+//! the events' parse reads ([`super::events`]), so the parser sees an empty array at the same span and every
+//! other span is unchanged. The reader takes
 //! the numbers of an empty `samples` array at exactly a read array's span ([`Read::take`]); the palette is
 //! accepted from this path only when the parse and the read succeed and every read array was taken (so none
 //! was, say, inside a multi-line string). Otherwise the original text is parsed as before, so errors and
@@ -56,7 +56,9 @@ impl Read {
     pub(super) fn new(mut arrays: Vec<(Range<usize>, Vec<f64>)>) -> Read {
         // In text order ([`Read::take`] searches by start); arrays of different keys never overlap (an array
         // read holds only numbers, commas and blanks).
-        arrays.sort_unstable_by_key(|(range, _)| range.start);
+        if !arrays.is_sorted_by_key(|(range, _)| range.start) {
+            arrays.sort_unstable_by_key(|(range, _)| range.start);
+        }
         let taken = arrays.iter().map(|_| AtomicBool::new(false)).collect();
         Read { arrays, taken }
     }
@@ -68,46 +70,45 @@ impl Read {
 }
 
 /// `piece` (which starts at byte `offset` of the text) with the insides of the `arrays` read from it (spans
-/// in the whole text) replaced by blanks, line feeds kept: the parser sees an empty array at the same span,
-/// and every other span and line is unchanged. Borrowed as it is when no array was read.
+/// in the whole text) replaced by spaces, line feeds too: the parser sees an empty array at the same span
+/// (one blank run, not a token per line), and every other span is unchanged. Line numbers inside the arrays
+/// change, which no one reads: the events' path reports no error (any error is the whole parse's). Borrowed
+/// as it is when no array was read.
 pub(super) fn blank<'t>(piece: &'t str, offset: usize, arrays: &[(Range<usize>, Vec<f64>)]) -> Option<Cow<'t, str>> {
     if arrays.is_empty() {
         return Some(Cow::Borrowed(piece));
     }
     let mut blanked = piece.as_bytes().to_vec();
     for (range, _) in arrays {
-        for c in blanked.get_mut(range.start + 1 - offset..range.end - 1 - offset)? {
-            if *c != b'\n' && *c != b'\r' {
-                *c = b' ';
-            }
-        }
+        blanked.get_mut(range.start + 1 - offset..range.end - 1 - offset)?.fill(b' ');
     }
     // Only ASCII bytes of the arrays were replaced by spaces: the text is still UTF-8.
     String::from_utf8(blanked).ok().map(Cow::Owned)
 }
 
-/// The arrays of [`KEYS`] whose key starts in `text[piece]`, in no particular order.
+/// The arrays of [`KEYS`] whose key starts in `text[piece]`, in text order: a line at a time (a key is read
+/// only after nothing but blanks on its line), the next line found by the standard library's byte search.
 pub(super) fn arrays_in(text: &str, piece: Range<usize>) -> Vec<(Range<usize>, Vec<f64>)> {
     let b = text.as_bytes();
+    let end = piece.end.min(b.len());
     let mut arrays = Vec::new();
-    for name in KEYS {
-        let mut at = piece.start;
-        while let Some(found) = text.get(at..piece.end).and_then(|t| t.find(name)) {
-            let key = at + found;
-            at = key + name.len();
-            let line_start = b[..key].iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
-            if !b[line_start..key].iter().all(|&c| c == b' ' || c == b'\t') {
-                continue;
+    let mut line = piece.start;
+    while line < end {
+        let mut next = line;
+        let i = skip_blanks(b, line);
+        if let Some(name) = KEYS.iter().find(|k| b.get(i..).is_some_and(|r| r.starts_with(k.as_bytes()))) {
+            let j = skip_blanks(b, i + name.len());
+            if b.get(j) == Some(&b'=') {
+                let j = skip_blanks(b, j + 1);
+                if let Some((after, values)) = array(text, j) {
+                    arrays.push((j..after, values));
+                    next = after;
+                }
             }
-            let mut i = skip_blanks(b, at);
-            if b.get(i) != Some(&b'=') {
-                continue;
-            }
-            i = skip_blanks(b, i + 1);
-            if let Some((end, values)) = array(b, i) {
-                arrays.push((i..end, values));
-                at = end;
-            }
+        }
+        match text.get(next..end).and_then(|rest| rest.find('\n')) {
+            Some(p) => line = next + p + 1,
+            None => break,
         }
     }
     arrays
@@ -132,7 +133,8 @@ fn skip_array_space(b: &[u8], mut i: usize) -> usize {
 }
 
 /// A non-empty array of numbers starting at `b[i] == '['`: the index past its `]` and its values.
-fn array(b: &[u8], i: usize) -> Option<(usize, Vec<f64>)> {
+fn array(t: &str, i: usize) -> Option<(usize, Vec<f64>)> {
+    let b = t.as_bytes();
     if b.get(i) != Some(&b'[') {
         return None;
     }
@@ -142,7 +144,7 @@ fn array(b: &[u8], i: usize) -> Option<(usize, Vec<f64>)> {
         if b.get(i) == Some(&b']') && !values.is_empty() {
             return Some((i + 1, values));
         }
-        let (end, x) = number(b, i)?;
+        let (end, x) = number(t, i)?;
         values.push(x);
         i = skip_array_space(b, end);
         match b.get(i)? {
@@ -156,7 +158,8 @@ fn array(b: &[u8], i: usize) -> Option<(usize, Vec<f64>)> {
 /// A finite decimal number as TOML writes it, without underscores: `[+-]` then `0` or a digit run not
 /// starting with 0, then an optional `.digits` and an optional exponent `[eE][+-]digits`. An integer is
 /// read as the parser's reader reads it (as `i64`, then converted); `None` for anything else.
-fn number(b: &[u8], start: usize) -> Option<(usize, f64)> {
+fn number(t: &str, start: usize) -> Option<(usize, f64)> {
+    let b = t.as_bytes();
     let digits = |mut i: usize| {
         let from = i;
         while b.get(i).is_some_and(u8::is_ascii_digit) {
@@ -190,7 +193,7 @@ fn number(b: &[u8], start: usize) -> Option<(usize, f64)> {
     if b.get(i).is_some_and(|c| !matches!(c, b' ' | b'\t' | b'\n' | b'\r' | b',' | b']')) {
         return None;
     }
-    let s = std::str::from_utf8(&b[start..i]).ok()?;
+    let s = t.get(start..i)?;
     let x = if float { s.parse::<f64>().ok()? } else { s.parse::<i64>().ok()? as f64 };
     x.is_finite().then_some((i, x))
 }
@@ -200,7 +203,7 @@ pub(super) mod tests {
     use super::*;
 
     fn one(s: &str) -> Option<Vec<f64>> {
-        array(s.as_bytes(), 0).filter(|(end, _)| *end == s.len()).map(|(_, v)| v)
+        array(s, 0).filter(|(end, _)| *end == s.len()).map(|(_, v)| v)
     }
 
     #[test]
@@ -247,12 +250,16 @@ pub(super) mod tests {
         let arrays = arrays_in(&text, 0..text.len());
         let blanked = blank(&text, 0, &arrays).unwrap();
         assert_eq!(blanked.len(), text.len());
-        assert_eq!(blanked.matches('\n').count(), text.matches('\n').count());
+        assert_eq!(
+            blanked.matches('\n').count(),
+            text.matches('\n').count() - 3 * 8,
+            "the line feeds inside the arrays are blanks too"
+        );
         let read = Read::new(arrays);
         assert_eq!(read.len(), 8, "only the keys at a line's start");
         for (range, values) in &read.arrays {
             assert_eq!(&text[range.clone()], arr);
-            assert_eq!(blanked[range.clone()].replace(['\n', ' '], ""), "[]");
+            assert_eq!(blanked[range.clone()].replace(' ', ""), "[]");
             assert_eq!(values, &[0.1, 0.2, 0.3]);
         }
         assert!(!read.all_taken());
