@@ -278,14 +278,19 @@ impl PaletteFile {
     ) -> Result<(read::ReadOutcome, Option<tables::Tables>), PaletteError> {
         let root = spanned.get_ref();
         let colorimetry = Colorimetry::default();
-        let outcome = read::Reader::new(path, colorimetry.luminance(), numbers).read(root).map_err(|e| match e {
-            PaletteError::Invalid { path, key, reason, line: None } => {
-                let line = span_of_key(root, &key).map(|s| line_column(text, s.start).0);
-                PaletteError::Invalid { path, key, reason, line }
-            }
-            other => other,
-        });
-        let tables = outcome.is_ok().then(|| tables::Tables::of(root, text)).flatten();
+        // The tables' layout is found beside the reading (and dropped if the palette is refused).
+        let (outcome, tables) = rayon::join(
+            || {
+                read::Reader::new(path, colorimetry.luminance(), numbers).read(root).map_err(|e| match e {
+                    PaletteError::Invalid { path, key, reason, line: None } => {
+                        let line = span_of_key(root, &key).map(|s| line_column(text, s.start).0);
+                        PaletteError::Invalid { path, key, reason, line }
+                    }
+                    other => other,
+                })
+            },
+            || tables::Tables::of(root, text),
+        );
         pieces::drop_tree(spanned);
         Ok((outcome?, tables))
     }
