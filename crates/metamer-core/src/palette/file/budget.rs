@@ -48,12 +48,79 @@ pub(crate) fn count(text: &str) -> Counts {
     scan(text).counts
 }
 
-/// The one scan of a palette's text, skipping strings and comments ([`skip_literal`]) and tracking the
-/// depth of arrays and inline tables, so that a line starting with `[` inside an array is no header.
+/// Texts shorter than this are scanned in one piece (a thread's start costs more than scanning them).
+const MIN_PIECE: usize = 64 * 1024;
+
+/// The one scan of a palette's text ([`scan_piece`]). A long text is scanned in pieces on several threads,
+/// cut at lines opening with `[[`: the scan is a machine whose state between bytes is the depth of arrays
+/// and inline tables, whether a line has started, and whether a string or comment is open; a piece
+/// scanned from the first state (depth 0, at a line's start, outside strings) that ends in that same state
+/// (depth 0, after its last line feed, no string or comment left open) leaves the next piece where the
+/// scan of the whole text would. The pieces' counts add up and their headers join (a non-simple header
+/// clears those before it); when any piece but the last ends in another state, the text is scanned whole.
 pub(crate) fn scan(text: &str) -> Scan {
+    scan_in_pieces(text).unwrap_or_else(|| scan_piece(text.as_bytes()).scan)
+}
+
+/// [`scan`] in pieces on several threads; `None` for a short text or when a piece but the last does not end
+/// in the first state.
+fn scan_in_pieces(text: &str) -> Option<Scan> {
     let b = text.as_bytes();
+    let pieces = (b.len() / MIN_PIECE).min(4 * rayon::current_num_threads());
+    if pieces >= 2 {
+        let mut starts = vec![0];
+        for k in 1..pieces {
+            let from = (k * b.len() / pieces).max(starts[starts.len() - 1]);
+            match b[from..].windows(3).position(|w| w == b"\n[[") {
+                Some(p) if from + p + 1 > starts[starts.len() - 1] => starts.push(from + p + 1),
+                _ => {}
+            }
+        }
+        if starts.len() >= 2 {
+            return scan_at(b, &starts);
+        }
+    }
+    None
+}
+
+/// The scan of `b` in pieces starting at `starts` (the first at 0, each at a line's start), joined; `None`
+/// when a piece but the last does not end in the first state.
+fn scan_at(b: &[u8], starts: &[usize]) -> Option<Scan> {
+    use rayon::prelude::*;
+    let bounds: Vec<std::ops::Range<usize>> =
+        starts.iter().enumerate().map(|(i, &a)| a..starts.get(i + 1).copied().unwrap_or(b.len())).collect();
+    let parts: Vec<Piece> = bounds.par_iter().map(|r| scan_piece(&b[r.clone()])).collect();
+    if !parts[..parts.len() - 1].iter().all(|p| p.clean) {
+        return None;
+    }
+    let mut whole = Scan::default();
+    for (part, range) in parts.into_iter().zip(&bounds) {
+        whole.counts.tables += part.scan.counts.tables;
+        whole.counts.arrays += part.scan.counts.arrays;
+        whole.counts.values += part.scan.counts.values;
+        if part.cleared {
+            whole.headers.clear();
+        }
+        whole.headers.extend(part.scan.headers.iter().map(|h| h + range.start));
+    }
+    Some(whole)
+}
+
+/// The scan of a piece of text: its counts and headers (from the piece's start), whether a non-simple
+/// header cleared the headers before it, and whether it ends in the state it started in.
+struct Piece {
+    scan: Scan,
+    cleared: bool,
+    clean: bool,
+}
+
+/// The scan of `b` from the start of a line outside strings and comments, skipping strings and comments
+/// ([`skip_literal`]) and tracking the depth of arrays and inline tables, so that a line starting with `[`
+/// inside an array is no header.
+fn scan_piece(b: &[u8]) -> Piece {
     let mut c = Counts::default();
     let mut headers = Vec::new();
+    let mut cleared = false;
     let mut depth = 0usize;
     let mut i = 0;
     let mut line_start = true;
@@ -90,6 +157,7 @@ pub(crate) fn scan(text: &str) -> Scan {
                                 headers.push(b[..i].iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1));
                             } else {
                                 headers.clear();
+                                cleared = true;
                             }
                         }
                         // `[[x]]` is one table (its brackets still count for the depth).
@@ -113,7 +181,9 @@ pub(crate) fn scan(text: &str) -> Scan {
         }
         i += 1;
     }
-    Scan { counts: c, headers }
+    // A string or escape run past the end leaves `i` beyond it, or the line not started.
+    let clean = i == b.len() && line_start && depth == 0 && b.last() == Some(&b'\n');
+    Piece { scan: Scan { counts: c, headers }, cleared, clean }
 }
 
 /// Bytes the scan gives no role but ending a line's start: all but comment and string openers, blanks, line
@@ -180,6 +250,55 @@ fn skip_literal(b: &[u8], mut i: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Long texts scanned in pieces give the scan of the whole text, whatever the pieces' cuts fall in:
+    /// multi-line strings and arrays holding lines that open with `[[`, comments, a header of another shape
+    /// late in the text, CRLF; and a batch of designs is scanned in pieces.
+    #[test]
+    fn the_scan_in_pieces_is_the_scan_of_the_whole_text() {
+        let col = crate::colorimetry::Colorimetry::default();
+        let p = crate::palette::random::reachable_batch_palette(600, 3, &col);
+        let batch = super::super::PaletteFile::from_palette(&p).text();
+        assert!(scan_in_pieces(&batch).is_some(), "a batch is scanned in pieces");
+        let mut traps = String::new();
+        for i in 0..6000 {
+            traps += &format!("[[reflectances]]\nname = \"r{i}\" # [[x]] {{\nsamples = [1, 2,\n  3]\n");
+            match i % 1000 {
+                100 => traps += "note = \"\"\"\n[[reflectances]]\n\"\"\"\n",
+                300 => traps += "list = [\n[[1]], [[2]],\n]\n",
+                500 => traps += "lit = '''\n[[colours]]\n'''\n",
+                700 => traps += "esc = \"a\\\"\n",
+                900 => traps += "[settings]\nx = {a = [1, {b = 2}]}\n",
+                _ => {}
+            }
+        }
+        let open = format!("{traps}x = \"\"\"\n[[a]]\n");
+        let mut in_pieces = 0;
+        for text in [batch, traps.clone(), traps.replace('\n', "\r\n"), open] {
+            let whole = scan_piece(text.as_bytes()).scan;
+            assert_eq!(scan(&text), whole);
+            if let Some(pieces) = scan_in_pieces(&text) {
+                assert_eq!(pieces, whole);
+                in_pieces += 1;
+            }
+        }
+        assert!(in_pieces >= 2, "{in_pieces}");
+        // Cut at every line opening with `[[` around the traps, inside strings and arrays too: a piece that
+        // ends inside one is refused, any other gives the whole text's scan.
+        let short: String = traps.lines().take(4400).map(|l| format!("{l}\n")).collect();
+        let whole = scan_piece(short.as_bytes()).scan;
+        let (mut refused, mut joined) = (0, 0);
+        for (p, _) in short.match_indices("\n[[") {
+            match scan_at(short.as_bytes(), &[0, p + 1]) {
+                Some(s) => {
+                    assert_eq!(s, whole, "cut at {p}");
+                    joined += 1;
+                }
+                None => refused += 1,
+            }
+        }
+        assert!(refused >= 3 && joined > 100, "{refused} refused, {joined} joined");
+    }
 
     #[test]
     fn counts_skip_strings_and_comments() {

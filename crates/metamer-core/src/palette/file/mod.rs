@@ -12,6 +12,7 @@
 //! file ([`tables`]); it is the same writer, applied to less text.
 
 mod budget;
+mod events;
 mod float_text;
 mod numbers;
 mod pieces;
@@ -214,12 +215,12 @@ impl PaletteFile {
     /// Parse the text of a palette file; `path` names the file in messages and its folder resolves
     /// `csv = "..."` sources.
     pub fn parse(text: &str, path: &Path) -> Result<PaletteFile, PaletteError> {
-        PaletteFile::parse_with(text, path, Some(numbers::MIN_ARRAYS)).map(|(file, _)| file)
+        PaletteFile::parse_with(text, path, true).map(|(file, _)| file)
     }
 
-    /// [`PaletteFile::parse`], trying the hand-read sample arrays first when there are at least `fast` of
-    /// them (and saying whether the palette came from that path).
-    fn parse_with(text: &str, path: &Path, fast: Option<usize>) -> Result<(PaletteFile, bool), PaletteError> {
+    /// [`PaletteFile::parse`], trying the parse from events with the number arrays read by hand first when
+    /// `fast` (and saying how many arrays were read by hand when the palette came from that path).
+    fn parse_with(text: &str, path: &Path, fast: bool) -> Result<(PaletteFile, Option<usize>), PaletteError> {
         if text.trim().is_empty() {
             return Err(PaletteError::Empty { path: path.to_path_buf() });
         }
@@ -236,25 +237,24 @@ impl PaletteFile {
                 limit_mb: budget::budget(text.len()) >> 20,
             });
         }
-        // The sample arrays read by hand first ([`numbers`]), the text as it is when that path does not apply.
-        if let Some(min_arrays) = fast
-            && let Some((blanked, read)) = numbers::blank_samples(text, min_arrays, &scan.headers)
-            && let Ok((outcome, tables)) = PaletteFile::read_tree(&blanked, &scan.headers, path, Some(&read))
+        // The usual shapes parsed from the parser's events with the number arrays read by hand
+        // ([`events`]); the text parsed as it is when that path does not apply or the palette is refused.
+        if fast
+            && let Some((tree, read)) = events::parse(text, &scan.headers)
+            && let Ok((outcome, tables)) = PaletteFile::read_parsed(text, tree, path, Some(&read))
             && read.all_taken()
         {
-            return Ok((PaletteFile::from_outcome(text, path, outcome, tables), true));
+            return Ok((PaletteFile::from_outcome(text, path, outcome, tables), Some(read.len())));
         }
-        let (outcome, tables) = PaletteFile::read_tree(text, &scan.headers, path, None)?;
-        Ok((PaletteFile::from_outcome(text, path, outcome, tables), false))
+        let (outcome, tables) = PaletteFile::read_tree(text, &scan.headers, path)?;
+        Ok((PaletteFile::from_outcome(text, path, outcome, tables), None))
     }
 
-    /// Parse `text` (cut at some of its `headers` when long) and read the tree into the model, with the
-    /// sample arrays already read (`numbers`) taken at their spans.
+    /// Parse `text` (cut at some of its `headers` when long) and read the tree into the model.
     fn read_tree(
         text: &str,
         headers: &[usize],
         path: &Path,
-        numbers: Option<&numbers::Read>,
     ) -> Result<(read::ReadOutcome, Option<tables::Tables>), PaletteError> {
         let syntax = |message: &str, span: Option<std::ops::Range<usize>>| {
             let (line, column) = line_column(text, span.map_or(0, |s| s.start));
@@ -265,16 +265,32 @@ impl PaletteFile {
             pieces::Failure::Syntax(e) => syntax(e.message(), e.span()),
             pieces::Failure::Number(span, message) => syntax(message, Some(span)),
         })?;
+        PaletteFile::read_parsed(text, spanned, path, None)
+    }
+
+    /// Read the parsed tree of `text` into the model, with the sample arrays already read (`numbers`) taken
+    /// at their spans.
+    fn read_parsed(
+        text: &str,
+        spanned: toml::Spanned<DeTable<'_>>,
+        path: &Path,
+        numbers: Option<&numbers::Read>,
+    ) -> Result<(read::ReadOutcome, Option<tables::Tables>), PaletteError> {
         let root = spanned.get_ref();
         let colorimetry = Colorimetry::default();
-        let outcome = read::Reader::new(path, colorimetry.luminance(), numbers).read(root).map_err(|e| match e {
-            PaletteError::Invalid { path, key, reason, line: None } => {
-                let line = span_of_key(root, &key).map(|s| line_column(text, s.start).0);
-                PaletteError::Invalid { path, key, reason, line }
-            }
-            other => other,
-        });
-        let tables = outcome.is_ok().then(|| tables::Tables::of(root, text)).flatten();
+        // The tables' layout is found beside the reading (and dropped if the palette is refused).
+        let (outcome, tables) = rayon::join(
+            || {
+                read::Reader::new(path, colorimetry.luminance(), numbers).read(root).map_err(|e| match e {
+                    PaletteError::Invalid { path, key, reason, line: None } => {
+                        let line = span_of_key(root, &key).map(|s| line_column(text, s.start).0);
+                        PaletteError::Invalid { path, key, reason, line }
+                    }
+                    other => other,
+                })
+            },
+            || tables::Tables::of(root, text),
+        );
         pieces::drop_tree(spanned);
         Ok((outcome?, tables))
     }

@@ -9,15 +9,16 @@
 //! How it stays exact: only an array this module fully understands is read (a line `samples = [`, then
 //! decimal integers and floats as TOML spells them, with no underscores, no `inf`/`nan`, separated by commas
 //! and blanks or line feeds, an optional trailing comma, no comment); anything else is left in the text for
-//! the parser. A read array's text is replaced by blanks of the same length (line feeds kept), so the
-//! parser sees an empty array at the same span and every other span and line is unchanged. The reader takes
+//! the parser. A read array's text is replaced by spaces of the same length in a copy of the piece of text
+//! the events' parse reads ([`super::events`]), so the parser sees an empty array at the same span and every
+//! other span is unchanged. The reader takes
 //! the numbers of an empty `samples` array at exactly a read array's span ([`Read::take`]); the palette is
 //! accepted from this path only when the parse and the read succeed and every read array was taken (so none
 //! was, say, inside a multi-line string). Otherwise the original text is parsed as before, so errors and
 //! results are those of the parser alone. Tests compare both paths (a property test and every shipped
 //! palette).
 
-use rayon::prelude::*;
+use std::borrow::Cow;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -25,9 +26,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// batch of designs has three cells per spectrum, and their targets were half of the numbers the parser
 /// read and checked).
 const KEYS: [&str; 2] = ["samples", "target"];
-
-/// Files with fewer read arrays than this are parsed as they are (nothing to gain).
-pub(super) const MIN_ARRAYS: usize = 8;
 
 /// The arrays read from a text, by span (in text order), and which of them the reader took.
 pub(super) struct Read {
@@ -53,58 +51,64 @@ impl Read {
     }
 }
 
-/// The text with every array this module reads blanked, and the arrays read; `None` when there are fewer
-/// than `min_arrays`. The text is read in the pieces the parse cuts it into ([`super::pieces::starts`], at
-/// `[[name]]` header lines, which no array crosses), on several threads.
-pub(super) fn blank_samples(text: &str, min_arrays: usize, headers: &[usize]) -> Option<(String, Read)> {
-    let b = text.as_bytes();
-    let starts = super::pieces::starts(text, headers);
-    let bounds: Vec<Range<usize>> =
-        starts.iter().enumerate().map(|(i, &a)| a..starts.get(i + 1).copied().unwrap_or(text.len())).collect();
-    let found: Vec<Vec<(Range<usize>, Vec<f64>)>> = bounds.par_iter().map(|r| arrays_in(text, r.clone())).collect();
-    let mut arrays: Vec<(Range<usize>, Vec<f64>)> = found.into_iter().flatten().collect();
-    // In text order ([`Read::take`] searches by start); arrays of different keys never overlap (an array
-    // read holds only numbers, commas and blanks).
-    arrays.sort_unstable_by_key(|(range, _)| range.start);
-    if arrays.is_empty() || arrays.len() < min_arrays {
-        return None;
-    }
-    let mut blanked = b.to_vec();
-    for (range, _) in &arrays {
-        for c in &mut blanked[range.start + 1..range.end - 1] {
-            if *c != b'\n' && *c != b'\r' {
-                *c = b' ';
-            }
+impl Read {
+    /// The arrays read (in any order; kept in text order).
+    pub(super) fn new(mut arrays: Vec<(Range<usize>, Vec<f64>)>) -> Read {
+        // In text order ([`Read::take`] searches by start); arrays of different keys never overlap (an array
+        // read holds only numbers, commas and blanks).
+        if !arrays.is_sorted_by_key(|(range, _)| range.start) {
+            arrays.sort_unstable_by_key(|(range, _)| range.start);
         }
+        let taken = arrays.iter().map(|_| AtomicBool::new(false)).collect();
+        Read { arrays, taken }
     }
-    // Only ASCII bytes of the arrays were replaced by spaces: the text is still UTF-8.
-    let blanked = String::from_utf8(blanked).ok()?;
-    let taken = arrays.iter().map(|_| AtomicBool::new(false)).collect();
-    Some((blanked, Read { arrays, taken }))
+
+    /// How many arrays were read.
+    pub(super) fn len(&self) -> usize {
+        self.arrays.len()
+    }
 }
 
-/// The arrays of [`KEYS`] whose key starts in `text[piece]`, in no particular order.
-fn arrays_in(text: &str, piece: Range<usize>) -> Vec<(Range<usize>, Vec<f64>)> {
+/// `piece` (which starts at byte `offset` of the text) with the insides of the `arrays` read from it (spans
+/// in the whole text) replaced by spaces, line feeds too: the parser sees an empty array at the same span
+/// (one blank run, not a token per line), and every other span is unchanged. Line numbers inside the arrays
+/// change, which no one reads: the events' path reports no error (any error is the whole parse's). Borrowed
+/// as it is when no array was read.
+pub(super) fn blank<'t>(piece: &'t str, offset: usize, arrays: &[(Range<usize>, Vec<f64>)]) -> Option<Cow<'t, str>> {
+    if arrays.is_empty() {
+        return Some(Cow::Borrowed(piece));
+    }
+    let mut blanked = piece.as_bytes().to_vec();
+    for (range, _) in arrays {
+        blanked.get_mut(range.start + 1 - offset..range.end - 1 - offset)?.fill(b' ');
+    }
+    // Only ASCII bytes of the arrays were replaced by spaces: the text is still UTF-8.
+    String::from_utf8(blanked).ok().map(Cow::Owned)
+}
+
+/// The arrays of [`KEYS`] whose key starts in `text[piece]`, in text order: a line at a time (a key is read
+/// only after nothing but blanks on its line), the next line found by the standard library's byte search.
+pub(super) fn arrays_in(text: &str, piece: Range<usize>) -> Vec<(Range<usize>, Vec<f64>)> {
     let b = text.as_bytes();
+    let end = piece.end.min(b.len());
     let mut arrays = Vec::new();
-    for name in KEYS {
-        let mut at = piece.start;
-        while let Some(found) = text.get(at..piece.end).and_then(|t| t.find(name)) {
-            let key = at + found;
-            at = key + name.len();
-            let line_start = b[..key].iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
-            if !b[line_start..key].iter().all(|&c| c == b' ' || c == b'\t') {
-                continue;
+    let mut line = piece.start;
+    while line < end {
+        let mut next = line;
+        let i = skip_blanks(b, line);
+        if let Some(name) = KEYS.iter().find(|k| b.get(i..).is_some_and(|r| r.starts_with(k.as_bytes()))) {
+            let j = skip_blanks(b, i + name.len());
+            if b.get(j) == Some(&b'=') {
+                let j = skip_blanks(b, j + 1);
+                if let Some((after, values)) = array(text, j) {
+                    arrays.push((j..after, values));
+                    next = after;
+                }
             }
-            let mut i = skip_blanks(b, at);
-            if b.get(i) != Some(&b'=') {
-                continue;
-            }
-            i = skip_blanks(b, i + 1);
-            if let Some((end, values)) = array(b, i) {
-                arrays.push((i..end, values));
-                at = end;
-            }
+        }
+        match text.get(next..end).and_then(|rest| rest.find('\n')) {
+            Some(p) => line = next + p + 1,
+            None => break,
         }
     }
     arrays
@@ -129,7 +133,8 @@ fn skip_array_space(b: &[u8], mut i: usize) -> usize {
 }
 
 /// A non-empty array of numbers starting at `b[i] == '['`: the index past its `]` and its values.
-fn array(b: &[u8], i: usize) -> Option<(usize, Vec<f64>)> {
+fn array(t: &str, i: usize) -> Option<(usize, Vec<f64>)> {
+    let b = t.as_bytes();
     if b.get(i) != Some(&b'[') {
         return None;
     }
@@ -139,7 +144,7 @@ fn array(b: &[u8], i: usize) -> Option<(usize, Vec<f64>)> {
         if b.get(i) == Some(&b']') && !values.is_empty() {
             return Some((i + 1, values));
         }
-        let (end, x) = number(b, i)?;
+        let (end, x) = number(t, i)?;
         values.push(x);
         i = skip_array_space(b, end);
         match b.get(i)? {
@@ -153,7 +158,8 @@ fn array(b: &[u8], i: usize) -> Option<(usize, Vec<f64>)> {
 /// A finite decimal number as TOML writes it, without underscores: `[+-]` then `0` or a digit run not
 /// starting with 0, then an optional `.digits` and an optional exponent `[eE][+-]digits`. An integer is
 /// read as the parser's reader reads it (as `i64`, then converted); `None` for anything else.
-fn number(b: &[u8], start: usize) -> Option<(usize, f64)> {
+fn number(t: &str, start: usize) -> Option<(usize, f64)> {
+    let b = t.as_bytes();
     let digits = |mut i: usize| {
         let from = i;
         while b.get(i).is_some_and(u8::is_ascii_digit) {
@@ -187,17 +193,17 @@ fn number(b: &[u8], start: usize) -> Option<(usize, f64)> {
     if b.get(i).is_some_and(|c| !matches!(c, b' ' | b'\t' | b'\n' | b'\r' | b',' | b']')) {
         return None;
     }
-    let s = std::str::from_utf8(&b[start..i]).ok()?;
+    let s = t.get(start..i)?;
     let x = if float { s.parse::<f64>().ok()? } else { s.parse::<i64>().ok()? as f64 };
     x.is_finite().then_some((i, x))
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     fn one(s: &str) -> Option<Vec<f64>> {
-        array(s.as_bytes(), 0).filter(|(end, _)| *end == s.len()).map(|(_, v)| v)
+        array(s, 0).filter(|(end, _)| *end == s.len()).map(|(_, v)| v)
     }
 
     #[test]
@@ -238,36 +244,49 @@ mod tests {
     fn blanked_text_keeps_every_span_and_line() {
         let arr = "[\n  0.1, 0.2,\n  0.3,\n]";
         let mut text = String::from("name = \"x\"\nnote = \"samples = [1, 2]\"\n");
-        for i in 0..MIN_ARRAYS {
+        for i in 0..8 {
             text += &format!("[[reflectances]]\nname = \"r{i}\"\n  samples = {arr}\n# samples = [5, 6]\n");
         }
-        let (blanked, read) = blank_samples(&text, MIN_ARRAYS, &[]).unwrap();
+        let arrays = arrays_in(&text, 0..text.len());
+        let blanked = blank(&text, 0, &arrays).unwrap();
         assert_eq!(blanked.len(), text.len());
-        assert_eq!(blanked.matches('\n').count(), text.matches('\n').count());
-        assert_eq!(read.arrays.len(), MIN_ARRAYS, "only the keys at a line's start");
+        assert_eq!(
+            blanked.matches('\n').count(),
+            text.matches('\n').count() - 3 * 8,
+            "the line feeds inside the arrays are blanks too"
+        );
+        let read = Read::new(arrays);
+        assert_eq!(read.len(), 8, "only the keys at a line's start");
         for (range, values) in &read.arrays {
             assert_eq!(&text[range.clone()], arr);
-            assert_eq!(blanked[range.clone()].replace(['\n', ' '], ""), "[]");
+            assert_eq!(blanked[range.clone()].replace(' ', ""), "[]");
             assert_eq!(values, &[0.1, 0.2, 0.3]);
         }
         assert!(!read.all_taken());
         assert!(read.take(&(read.arrays[0].0.start..read.arrays[0].0.end - 1)).is_none(), "only the exact span");
+        // A piece later in the text: its arrays' spans count from the text's start.
+        let at = text.find("[[reflectances]]").unwrap();
+        let piece_arrays = arrays_in(&text, at..text.len());
+        assert_eq!(blank(&text[at..], at, &piece_arrays).unwrap(), blanked[at..]);
     }
 
-    /// What a parse gives, comparably: the file's model, warnings and table layout, or the error message.
-    fn outcome(r: Result<(super::super::PaletteFile, bool), super::super::PaletteError>) -> (String, bool) {
+    /// What a parse gives, comparably: the file's model, warnings and table layout, or the error message;
+    /// and how many arrays were read by hand when the events' path ([`super::super::events`]) gave it.
+    fn outcome(
+        r: Result<(super::super::PaletteFile, Option<usize>), super::super::PaletteError>,
+    ) -> (String, Option<usize>) {
         match r {
             Ok((f, fast)) => {
                 (format!("{:?}\n{:?}\n{:?}\n{:?}", f.palette, f.warnings, f.tables, f.csv_raw.len()), fast)
             }
-            Err(e) => (format!("error: {e}"), false),
+            Err(e) => (format!("error: {e}"), None),
         }
     }
 
-    /// Both paths on `text`: the same outcome; whether the hand-read path gave it.
-    fn both(text: &str, path: &std::path::Path) -> (String, bool) {
-        let (slow, _) = outcome(super::super::PaletteFile::parse_with(text, path, None));
-        let (fast, used) = outcome(super::super::PaletteFile::parse_with(text, path, Some(1)));
+    /// Both paths on `text`: the same outcome; how many arrays the hand-read path read when it gave it.
+    pub(in crate::palette::file) fn both(text: &str, path: &std::path::Path) -> (String, Option<usize>) {
+        let (slow, _) = outcome(super::super::PaletteFile::parse_with(text, path, false));
+        let (fast, used) = outcome(super::super::PaletteFile::parse_with(text, path, true));
         assert_eq!(fast, slow, "the hand-read sample arrays change what {} reads as", path.display());
         (slow, used)
     }
@@ -288,8 +307,9 @@ mod tests {
         assert!(files.len() >= 5, "{files:?}");
         for path in files {
             let text = std::fs::read_to_string(&path).unwrap();
-            let (read, _) = both(&text, &path);
+            let (read, used) = both(&text, &path);
             assert!(!read.starts_with("error"), "{}: {read}", path.display());
+            assert!(used.is_some(), "{}: read from the parser's events", path.display());
             // The same palette with every spectrum given as samples, as a solve writes them.
             let mut p = super::super::PaletteFile::parse(&text, &path).unwrap().palette;
             for e in p.lights.iter_mut().chain(p.reflectances.iter_mut()) {
@@ -298,7 +318,7 @@ mod tests {
             let sampled = super::super::PaletteFile::from_palette(&p).text();
             let (read, used) = both(&sampled, &path);
             assert!(!read.starts_with("error"), "{}: {read}", path.display());
-            assert!(used, "{}: the sample arrays as written are read by hand", path.display());
+            assert!(used.is_some_and(|n| n > 0), "{}: the sample arrays as written are read by hand", path.display());
         }
     }
 
@@ -331,7 +351,8 @@ mod tests {
             }
             let (read, used) = both(&text, std::path::Path::new("p.toml"));
             let valid = !read.starts_with("error");
-            assert_eq!(used, by_hand && valid, "{target}: {read}");
+            assert_eq!(used == Some(3), by_hand && valid, "{target}: {read}");
+            assert_eq!(used.is_some(), valid, "{target}: {read}");
             if target.contains("1, 2]") || target.contains("0.4]") {
                 assert!(read.contains("expected 3 numbers"), "{target}: {read}");
             }
@@ -347,13 +368,13 @@ mod tests {
         let text = super::super::PaletteFile::from_palette(&p).text();
         let scan = super::super::budget::scan(&text);
         assert!(super::super::pieces::starts(&text, &scan.headers).len() > 1, "{} bytes", text.len());
-        let (_, read) = blank_samples(&text, MIN_ARRAYS, &scan.headers).unwrap();
+        let (_, read) = super::super::events::parse(&text, &scan.headers).unwrap();
         let sampled = p.lights.iter().chain(&p.reflectances).filter(|e| matches!(e.source, Source::Samples(_))).count();
         assert_eq!(read.arrays.len(), sampled + p.colours.len(), "every spectrum's samples and every cell's target");
         assert_eq!(p.colours.len(), 1800);
         assert!(read.arrays.windows(2).all(|w| w[0].0.end <= w[1].0.start), "in text order");
         let (outcome, used) = both(&text, std::path::Path::new("batch.toml"));
-        assert!(used && !outcome.starts_with("error"), "{outcome}");
+        assert!(used == Some(read.len()) && !outcome.starts_with("error"), "{outcome}");
     }
 
     mod prop {
@@ -428,9 +449,9 @@ mod tests {
                 let (read, used) = both(&text, std::path::Path::new("p.toml"));
                 if note {
                     // The array inside the string is read, blanked and never taken: the text as it is.
-                    prop_assert!(!used, "{read}");
+                    prop_assert!(used.is_none(), "{read}");
                 } else if arrays.iter().all(|(_, plain, _)| *plain) && !read.starts_with("error") {
-                    prop_assert!(used, "{read}");
+                    prop_assert!(used.is_some(), "{read}");
                 }
             }
         }

@@ -73,6 +73,12 @@ fn parse_pieces<'i>(text: &'i str, starts: &[usize]) -> Option<Spanned<DeTable<'
             Some((span, if range.start == 0 { root } else { shift_table(root, range.start) }))
         })
         .collect::<Option<_>>()?;
+    join(text, parsed)
+}
+
+/// The trees of the pieces of `text` (each with its root's span, spans counted from the start of `text`),
+/// joined in order; `None` when the join is not what the whole text says.
+pub(super) fn join<'i>(text: &'i str, parsed: Vec<(Range<usize>, DeTable<'i>)>) -> Option<Spanned<DeTable<'i>>> {
     let mut parsed = parsed.into_iter();
     let (span, mut root) = parsed.next()?;
     // Keys whose arrays are known to be made of `[[key]]` tables.
@@ -133,7 +139,7 @@ fn shift_table(table: DeTable<'_>, by: usize) -> DeTable<'_> {
     table.into_iter().map(|(k, v)| (Spanned::new(moved(k.span(), by), k.into_inner()), shift(v, by))).collect()
 }
 
-fn shift(value: Spanned<DeValue<'_>>, by: usize) -> Spanned<DeValue<'_>> {
+pub(super) fn shift(value: Spanned<DeValue<'_>>, by: usize) -> Spanned<DeValue<'_>> {
     let span = moved(value.span(), by);
     let inner = match value.into_inner() {
         DeValue::Array(mut items) => {

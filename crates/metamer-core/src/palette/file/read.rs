@@ -75,6 +75,16 @@ pub(super) struct Reader<'a> {
 
 pub(super) type Res<T> = Result<T, PaletteError>;
 
+/// An entry's place in its list (`colours[3]`), written out only when a message or warning needs it (a
+/// batch of designs has thousands of entries and few messages).
+pub(super) struct At<'a>(pub(super) &'a str, pub(super) usize);
+
+impl std::fmt::Display for At<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}[{}]", self.0, self.1)
+    }
+}
+
 /// Lookups by key in a parsed table.
 pub(super) trait TableExt<'i> {
     fn value(&self, key: &str) -> Option<&Value<'i>>;
@@ -158,17 +168,18 @@ impl<'a> Reader<'a> {
         self.invalid(key, format!("expected {expected}, found {}", type_name(v)))
     }
 
-    fn warn_unknown(&mut self, table: &Table, known: &[&str], prefix: &str) {
+    fn warn_unknown(&mut self, table: &Table, known: &[&str], prefix: &dyn std::fmt::Display) {
         let w = self.unknown_keys(table, known, prefix);
         self.warnings.extend(w);
     }
 
     /// The warnings about the keys of `table` not in `known`.
-    pub(super) fn unknown_keys(&self, table: &Table, known: &[&str], prefix: &str) -> Vec<String> {
+    pub(super) fn unknown_keys(&self, table: &Table, known: &[&str], prefix: &dyn std::fmt::Display) -> Vec<String> {
         let mut out = Vec::new();
         for k in table.keys() {
             let k: &str = k.get_ref();
             if !known.contains(&k) {
+                let prefix = prefix.to_string();
                 let at = if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
                 out.push(format!("{}: {at}: unknown key, kept as it is", self.path.display()));
             }
@@ -231,10 +242,14 @@ impl<'a> Reader<'a> {
     pub(super) fn array_of_tables<'v, 'i>(&self, root: &'v Table<'i>, key: &str) -> Res<Vec<&'v Table<'i>>> {
         match root.value(key) {
             None => Ok(Vec::new()),
+            // The element's key is only built for the message.
             Some(Value::Array(items)) => items
                 .iter()
                 .enumerate()
-                .map(|(i, item)| self.sub_table(item.get_ref(), &format!("{key}[{i}]")))
+                .map(|(i, item)| match item.get_ref() {
+                    Value::Table(t) => Ok(t),
+                    v => Err(self.wrong_type(&format!("{key}[{i}]"), "a table", v)),
+                })
                 .collect(),
             Some(v) => Err(self.wrong_type(key, &format!("an array of tables ([[{key}]])"), v)),
         }
@@ -245,7 +260,7 @@ impl<'a> Reader<'a> {
         if root.is_empty() {
             return Err(PaletteError::Empty { path: self.path.to_path_buf() });
         }
-        self.warn_unknown(root, TOP_KEYS, "");
+        self.warn_unknown(root, TOP_KEYS, &"");
         let name = match root.value("name") {
             Some(v) => self.string(v, "name")?.to_string(),
             None => self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
@@ -270,7 +285,7 @@ impl<'a> Reader<'a> {
 
     fn wavelengths(&mut self, v: &Value) -> Res<()> {
         let t = self.sub_table(v, "wavelengths")?;
-        self.warn_unknown(t, &["start", "step", "count"], "wavelengths");
+        self.warn_unknown(t, &["start", "step", "count"], &"wavelengths");
         let std = Grid::STANDARD;
         let get = |k: &str| t.value(k).ok_or_else(|| self.invalid(format!("wavelengths.{k}"), "missing"));
         let start = self.number(get("start")?, "wavelengths.start", false)?;
@@ -290,7 +305,7 @@ impl<'a> Reader<'a> {
     }
 
     fn settings(&mut self, t: &Table) -> Res<Settings> {
-        self.warn_unknown(t, SETTINGS_KEYS, "settings");
+        self.warn_unknown(t, SETTINGS_KEYS, &"settings");
         let mut s = Settings::default();
         if let Some(v) = t.value("basis_dimension") {
             let key = "settings.basis_dimension";
@@ -332,12 +347,11 @@ impl<'a> Reader<'a> {
             .par_iter()
             .enumerate()
             .map(|(i, t)| {
-                let at = format!("{list}[{i}]");
+                let at = At(list, i);
                 (this.unknown_keys(t, SPECTRUM_KEYS, &at), this.spectrum(t, &at, kind))
             })
             .collect();
         for (i, (warnings, entry)) in read.into_iter().enumerate() {
-            let at = format!("{list}[{i}]");
             self.warnings.extend(warnings);
             let (entry, csv) = entry?;
             if let Some((file, raw)) = csv {
@@ -345,7 +359,7 @@ impl<'a> Reader<'a> {
             }
             if let Some(first) = seen.insert(entry.name.clone(), i) {
                 return Err(self.invalid(
-                    format!("{at}.name"),
+                    format!("{list}[{i}].name"),
                     format!("duplicate {} name `{}` (first used by {list}[{first}])", kind.as_str(), entry.name),
                 ));
             }
@@ -355,7 +369,7 @@ impl<'a> Reader<'a> {
     }
 
     /// One spectrum, and its CSV file's raw samples when it has one.
-    pub(super) fn spectrum(&self, t: &Table, at: &str, kind: Kind) -> Res<ReadSpectrum> {
+    pub(super) fn spectrum(&self, t: &Table, at: &dyn std::fmt::Display, kind: Kind) -> Res<ReadSpectrum> {
         let name = match t.value("name") {
             Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
             None => return Err(self.invalid(format!("{at}.name"), "missing: every spectrum needs a name")),
@@ -368,29 +382,30 @@ impl<'a> Reader<'a> {
             [one] => *one,
             [] => {
                 return Err(self.invalid(
-                    at,
+                    at.to_string(),
                     format!("{} `{name}` has no source: give one of {}", kind.as_str(), Source::KEYS.join(", ")),
                 ));
             }
             many => {
                 return Err(self.invalid(
-                    at,
+                    at.to_string(),
                     format!("{} `{name}` has more than one source key ({}): keep one", kind.as_str(), many.join(", ")),
                 ));
             }
         };
-        let key = format!("{at}.{source_key}");
-        let v = t.value(source_key).ok_or_else(|| self.invalid(&key, "missing"))?;
+        // The key is written out when it is needed (a hand-read array does not need it).
+        let key = || format!("{at}.{source_key}");
+        let v = t.value(source_key).ok_or_else(|| self.invalid(key(), "missing"))?;
         let source = match source_key {
-            "illuminant" => Source::Illuminant(self.string(v, &key)?.to_string()),
-            "colorchecker" => Source::ColorChecker(self.string(v, &key)?.to_string()),
-            "planck" => Source::Planck(self.number(v, &key, false)?),
-            "flat" => Source::Flat(self.number(v, &key, false)?),
+            "illuminant" => Source::Illuminant(self.string(v, &key())?.to_string()),
+            "colorchecker" => Source::ColorChecker(self.string(v, &key())?.to_string()),
+            "planck" => Source::Planck(self.number(v, &key(), false)?),
+            "flat" => Source::Flat(self.number(v, &key(), false)?),
             "samples" => Source::Samples(match self.read_samples(t) {
                 Some(x) => x,
-                None => self.numbers(v, &key, None, false)?,
+                None => self.numbers(v, &key(), None, false)?,
             }),
-            _ => Source::Csv(self.string(v, &key)?.to_string()),
+            _ => Source::Csv(self.string(v, &key())?.to_string()),
         };
         let normalize = match (t.value("normalize"), kind) {
             (None, _) => Normalize::default(),
@@ -423,13 +438,13 @@ impl<'a> Reader<'a> {
             }
             None => None,
         };
-        let raw = source.raw_spectrum(self.base_dir.as_deref()).map_err(|e| self.source_error(&key, e))?;
+        let raw = source.raw_spectrum(self.base_dir.as_deref()).map_err(|e| self.source_error(&key(), e))?;
         let csv = match &source {
             Source::Csv(file) => Some((file.clone(), raw)),
             _ => None,
         };
         let spectrum = finish(&raw, kind, normalize, scale, &self.luminance).map_err(|e| {
-            self.invalid(if kind == Kind::Light { format!("{at}.normalize") } else { key.clone() }, e.to_string())
+            self.invalid(if kind == Kind::Light { format!("{at}.normalize") } else { key() }, e.to_string())
         })?;
         Ok((SpectrumEntry { name, kind, source, normalize, scale, design, bounds, dial, spectrum }, csv))
     }
@@ -501,7 +516,7 @@ impl<'a> Reader<'a> {
             .par_iter()
             .enumerate()
             .map(|(i, t)| {
-                let at = format!("colours[{i}]");
+                let at = At("colours", i);
                 let lookup = |k: &str, entries: &[SpectrumEntry], index: &HashMap<&str, usize>, what: &str| {
                     let key = || format!("{at}.{k}");
                     let v =
@@ -536,7 +551,7 @@ impl<'a> Reader<'a> {
     }
 
     /// A cell's keys besides its light and reflectance.
-    pub(super) fn cell_rest(&self, t: &Table, at: &str, free: &[FreeGroup]) -> Res<CellRest> {
+    pub(super) fn cell_rest(&self, t: &Table, at: &dyn std::fmt::Display, free: &[FreeGroup]) -> Res<CellRest> {
         let free_group = match t.value("free") {
             Some(v) => {
                 let key = format!("{at}.free");

@@ -65,7 +65,8 @@ impl Tables {
                 _ => {}
             }
         }
-        starts.sort_unstable();
+        // In text order within each list: the stable sort merges the runs.
+        starts.sort();
         starts.dedup();
         let end_of = |start: usize| {
             let i = starts.partition_point(|&s| s <= start);
