@@ -280,7 +280,18 @@ impl<'a> Fields<'a> {
     /// `i` in it.
     #[inline(always)]
     pub(crate) fn block<'c>(&'a self, i: [usize; 3], cursor: &'c mut Cursor<'a>) -> (&'c BlockRef<'a>, usize) {
-        let b = self.brick_of(i);
+        self.block_in(self.brick_of(i), i, cursor)
+    }
+
+    /// As [`Self::block`], for a cell start `i` in field brick `b` (the caller's [`Self::brick_of`]).
+    #[inline(always)]
+    pub(crate) fn block_in<'c>(
+        &'a self,
+        b: [usize; 3],
+        i: [usize; 3],
+        cursor: &'c mut Cursor<'a>,
+    ) -> (&'c BlockRef<'a>, usize) {
+        debug_assert_eq!(b, self.brick_of(i));
         let l = [i[0] - (b[0] << SHIFT), i[1] - (b[1] << SHIFT), i[2] - (b[2] << SHIFT)];
         let bi = b[0] + self.counts[0] * (b[1] + self.counts[1] * b[2]);
         let local = l[0] + S * (l[1] + S * l[2]);
@@ -386,14 +397,17 @@ impl<'a> Fields<'a> {
         // The cell's corners in one slice: one bounds check (none for an empty block's) instead of eight.
         let Some(g) = block.grad.get(base..base + CELL) else { return [0.0; 3] };
         let w = corner_weights(f);
-        let mut out = [0f32; 3];
+        // Each corner as four lanes (the three components and a zero), so that the conversions and the
+        // multiply-adds are one vector operation per corner; each component is summed in the same order.
+        let mut out = [0f32; 4];
         for (c, wc) in CORNERS.iter().zip(w) {
             let v = g[*c];
-            out[0] += wc * f32::from(v[0]);
-            out[1] += wc * f32::from(v[1]);
-            out[2] += wc * f32::from(v[2]);
+            let v = [i32::from(v[0]), i32::from(v[1]), i32::from(v[2]), 0].map(|q| q as f32);
+            for l in 0..4 {
+                out[l] += wc * v[l];
+            }
         }
-        out.map(|c| c * self.scale)
+        [out[0] * self.scale, out[1] * self.scale, out[2] * self.scale]
     }
 
     /// Central differences of the value (or opacity) field, exactly as a whole-volume grid would hold
@@ -411,7 +425,12 @@ impl<'a> Fields<'a> {
         let max = f32::from(i16::MAX);
         // One quantised central difference from the field `hi` and `lo`, h voxels after and before (both
         // paths below use it).
-        let diff = |hi: f32, lo: f32| round_half_away(((hi - lo) / den * inv).clamp(-max, max)) as i16;
+        // Clamped by comparisons (NaN passes, as through `clamp`, and rounds to 0).
+        let diff = |hi: f32, lo: f32| {
+            let c = (hi - lo) / den * inv;
+            let c = if c < -max { -max } else { c };
+            round_half_away(if c > max { max } else { c }) as i16
+        };
         let o = b.map(|v| v << SHIFT);
         // The field over the block grown by h each side (coordinates clamped into the grid), read once:
         // entry j along an axis is voxel clamp(o − h + j).
@@ -428,7 +447,9 @@ impl<'a> Fields<'a> {
             let v = v.to_f32();
             if opacity { self.classifier.alpha_of(v) } else { v }
         };
-        let mut field = vec![0f32; n * n * n];
+        // On the stack (n ≤ S + 4): a block is built for most bricks rays reach, and an allocation per
+        // block cost as much as filling it.
+        let mut field = [0f32; (S + 4) * (S + 4) * (S + 4)];
         for z in 0..n {
             let vz = coord(2, z);
             for y in 0..n {
