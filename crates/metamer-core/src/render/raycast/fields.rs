@@ -396,17 +396,24 @@ impl<'a> Fields<'a> {
     pub(crate) fn gradient(&self, block: &Block, base: usize, f: [f32; 3]) -> [f32; 3] {
         // The cell's corners in one slice: one bounds check (none for an empty block's) instead of eight.
         let Some(g) = block.grad.get(base..base + CELL) else { return [0.0; 3] };
-        let w = corner_weights(f);
-        // Each corner as four lanes (the three components and a zero), so that the conversions and the
-        // multiply-adds are one vector operation per corner; each component is summed in the same order.
-        let mut out = [0f32; 4];
-        for (c, wc) in CORNERS.iter().zip(w) {
-            let v = g[*c];
-            let v = [i32::from(v[0]), i32::from(v[1]), i32::from(v[2]), 0].map(|q| q as f32);
+        // Each corner as four lanes (the three components and a zero), interpolated by seven lerps along
+        // x, then y, then z (as `Cell::value` does for one lane): vector operations, and no corner
+        // weights to form.
+        let corner = |c: usize| {
+            let v = g[CORNERS[c]];
+            [i32::from(v[0]), i32::from(v[1]), i32::from(v[2]), 0].map(|q| q as f32)
+        };
+        let lerp = |a: [f32; 4], b: [f32; 4], t: f32| {
+            let mut r = [0f32; 4];
             for l in 0..4 {
-                out[l] += wc * v[l];
+                r[l] = a[l] + t * (b[l] - a[l]);
             }
-        }
+            r
+        };
+        let [fx, fy, fz] = f;
+        let c0 = lerp(lerp(corner(0), corner(1), fx), lerp(corner(2), corner(3), fx), fy);
+        let c1 = lerp(lerp(corner(4), corner(5), fx), lerp(corner(6), corner(7), fx), fy);
+        let out = lerp(c0, c1, fz);
         [out[0] * self.scale, out[1] * self.scale, out[2] * self.scale]
     }
 
