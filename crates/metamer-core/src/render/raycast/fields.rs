@@ -280,18 +280,7 @@ impl<'a> Fields<'a> {
     /// `i` in it.
     #[inline(always)]
     pub(crate) fn block<'c>(&'a self, i: [usize; 3], cursor: &'c mut Cursor<'a>) -> (&'c BlockRef<'a>, usize) {
-        self.block_in(self.brick_of(i), i, cursor)
-    }
-
-    /// As [`Self::block`], for a cell start `i` in field brick `b` (the caller's [`Self::brick_of`]).
-    #[inline(always)]
-    pub(crate) fn block_in<'c>(
-        &'a self,
-        b: [usize; 3],
-        i: [usize; 3],
-        cursor: &'c mut Cursor<'a>,
-    ) -> (&'c BlockRef<'a>, usize) {
-        debug_assert_eq!(b, self.brick_of(i));
+        let b = self.brick_of(i);
         let l = [i[0] - (b[0] << SHIFT), i[1] - (b[1] << SHIFT), i[2] - (b[2] << SHIFT)];
         let bi = b[0] + self.counts[0] * (b[1] + self.counts[1] * b[2]);
         let local = l[0] + S * (l[1] + S * l[2]);

@@ -1,6 +1,6 @@
 //! Marching one ray: sample reconstruction, classification, shading and front-to-back compositing.
 
-use super::block::{FIELD_BRICK, S3, SHIFT};
+use super::block::{FIELD_BRICK, S3};
 use super::classify::{BrickMap, Classifier, EMPTY, MIXED};
 use super::fields::{BlockRef, CELL, CORNERS, Cursor, Fields, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
@@ -329,20 +329,17 @@ impl<'a> RayContext<'a> {
         (self.classifier.material[bin], bin)
     }
 
-    /// The smooth gradient at a located sample (in field brick `brick` when the caller knows it).
+    /// The smooth gradient at a located sample.
     #[inline(always)]
-    fn smooth_gradient(&self, at: Located, brick: Option<[usize; 3]>, cursor: &mut Cursor<'a>) -> [f32; 3] {
+    fn smooth_gradient(&self, at: Located, cursor: &mut Cursor<'a>) -> [f32; 3] {
         let Some(fields) = self.fields else { return [0.0; 3] };
-        let (block, base) = match brick {
-            Some(b) => fields.block_in(b, at.i, cursor),
-            None => fields.block(at.i, cursor),
-        };
+        let (block, base) = fields.block(at.i, cursor);
         fields.gradient(block, base, at.f)
     }
 
-    /// Composite a value sample of material `material` (index + 1, 0 = none) in bin `bin` at `at` (in
-    /// field brick `brick` when the caller knows it) with opacities `alpha` (per bin, for the step it
-    /// stands for): adds its material's weight, returns the opacity it absorbs.
+    /// Composite a value sample of material `material` (index + 1, 0 = none) in bin `bin` at `at` with
+    /// opacities `alpha` (per bin, for the step it stands for): adds its material's weight, returns the
+    /// opacity it absorbs.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn composite_value<T: Voxel>(
@@ -350,7 +347,6 @@ impl<'a> RayContext<'a> {
         data: &[T],
         (material, bin): (u8, usize),
         at: Located,
-        brick: Option<[usize; 3]>,
         alpha: &[f32],
         transmittance: f32,
         out: &mut [f32],
@@ -374,7 +370,7 @@ impl<'a> RayContext<'a> {
         }
         let shade = match (self.options.shading, self.options.gradient) {
             (Shading::Unshaded, _) => 1.0,
-            (_, Gradient::Smooth) => self.shade(self.smooth_gradient(at, brick, cursor)),
+            (_, Gradient::Smooth) => self.shade(self.smooth_gradient(at, cursor)),
             (_, Gradient::Cell) => self.shade(cell_g.unwrap_or_else(|| Cell::gradient(&self.cell(data, at.b), at.f))),
         };
         out[usize::from(material) - 1] += transmittance * alpha * shade;
@@ -545,14 +541,11 @@ impl<'a> RayContext<'a> {
         let mut carry = false;
         let mut cursor = Cursor::default();
         let (mut samples, mut uniform_samples, mut skipped, mut skipped_bricks) = (0u64, 0u64, 0u64, 0u64);
-        let same_bricks = self.bricks.is_some_and(|(bm, _)| bm.shift == SHIFT);
-        'ray: while k + jitter <= t1 {
+        while k + jitter <= t1 {
             let t = k + jitter;
             let p = [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
             let at = self.locate(p);
             let mut uniform = MIXED;
-            // The sample's field brick, when the skipping bricks are the field bricks.
-            let mut brick = None;
             if let Some((bm, table)) = self.bricks {
                 // The brick of the sample's cell (it bounds the cell's eight voxels). A cell starts at most
                 // at dims − 2 (0 along an axis of one voxel), so its brick is below the counts.
@@ -561,9 +554,6 @@ impl<'a> RayContext<'a> {
                 let b = [at.i[0] >> sh, at.i[1] >> sh, at.i[2] >> sh];
                 debug_assert!((0..3).all(|a| b[a] < bm.counts[a]), "{b:?} {:?}", bm.counts);
                 uniform = table[b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2])];
-                if same_bricks {
-                    brick = Some(b);
-                }
                 if uniform == EMPTY {
                     prev = Edge::EMPTY;
                     carry = false;
@@ -593,34 +583,14 @@ impl<'a> RayContext<'a> {
             if refine {
                 // The step from the previous sample to this one crosses a boundary: composite it as
                 // `substeps` substeps ending at this sample (which is the last of them).
-                let n = self.substeps as f64;
-                for j in 1..self.substeps {
-                    let tj = t - 1.0 + j as f64 / n;
-                    if tj < t0 {
-                        continue;
-                    }
-                    let pj = [origin[0] + tj * dir[0], origin[1] + tj * dir[1], origin[2] + tj * dir[2]];
-                    samples += 1;
-                    // A substep may lie in the brick before this sample's: reconstruct it in full.
-                    let atj = self.locate(pj);
-                    let sj = self.classify(data, pj, atj);
-                    let absorbed = self.composite_value(
-                        data,
-                        sj,
-                        atj,
-                        None,
-                        &classifier.alpha_sub,
-                        transmittance,
-                        out,
-                        &mut cursor,
-                    );
-                    if self.attenuate(absorbed, &mut transmittance, stats) {
-                        break 'ray;
-                    }
+                let (n, stop) = self.value_substeps(data, ray, t, &mut transmittance, out, &mut cursor, stats);
+                samples += n;
+                if stop {
+                    break;
                 }
             }
             let alpha = if refine { &classifier.alpha_sub } else { &classifier.alpha };
-            let absorbed = self.composite_value(data, sample, at, brick, alpha, transmittance, out, &mut cursor);
+            let absorbed = self.composite_value(data, sample, at, alpha, transmittance, out, &mut cursor);
             if self.attenuate(absorbed, &mut transmittance, stats) {
                 break;
             }
@@ -631,6 +601,42 @@ impl<'a> RayContext<'a> {
         stats.skipped += skipped;
         stats.skipped_bricks += skipped_bricks;
         debug_assert!(out.len() == self.n_mat);
+    }
+
+    /// The refinement substeps of the value loop before the sample at `t` (all but that sample, the
+    /// last of them): taken out of the loop (about one step in six is refined), so that the loop keeps
+    /// its state in registers. Returns the substeps taken and whether early termination stopped the ray.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn value_substeps<T: Voxel>(
+        &self,
+        data: &[T],
+        ray: &Ray,
+        t: f64,
+        transmittance: &mut f32,
+        out: &mut [f32],
+        cursor: &mut Cursor<'a>,
+        stats: &mut RaycastStats,
+    ) -> (u64, bool) {
+        let Ray { origin, dir, t0, .. } = *ray;
+        let n = self.substeps as f64;
+        let mut samples = 0;
+        for j in 1..self.substeps {
+            let tj = t - 1.0 + j as f64 / n;
+            if tj < t0 {
+                continue;
+            }
+            let pj = [origin[0] + tj * dir[0], origin[1] + tj * dir[1], origin[2] + tj * dir[2]];
+            samples += 1;
+            // A substep may lie in the brick before this sample's: reconstruct it in full.
+            let at = self.locate(pj);
+            let s = self.classify(data, pj, at);
+            let absorbed = self.composite_value(data, s, at, &self.classifier.alpha_sub, *transmittance, out, cursor);
+            if self.attenuate(absorbed, transmittance, stats) {
+                return (samples, true);
+            }
+        }
+        (samples, false)
     }
 
     #[inline(always)]
