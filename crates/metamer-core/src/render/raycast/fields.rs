@@ -385,15 +385,25 @@ impl<'a> Fields<'a> {
     pub(crate) fn gradient(&self, block: &Block, base: usize, f: [f32; 3]) -> [f32; 3] {
         // The cell's corners in one slice: one bounds check (none for an empty block's) instead of eight.
         let Some(g) = block.grad.get(base..base + CELL) else { return [0.0; 3] };
-        let w = corner_weights(f);
-        let mut out = [0f32; 3];
-        for (c, wc) in CORNERS.iter().zip(w) {
-            let v = g[*c];
-            out[0] += wc * f32::from(v[0]);
-            out[1] += wc * f32::from(v[1]);
-            out[2] += wc * f32::from(v[2]);
-        }
-        out.map(|c| c * self.scale)
+        // Each corner as four lanes (the three components and a zero), interpolated by seven lerps along
+        // x, then y, then z (as `Cell::value` does for one lane): vector operations, and no corner
+        // weights to form.
+        let corner = |c: usize| {
+            let v = g[CORNERS[c]];
+            [i32::from(v[0]), i32::from(v[1]), i32::from(v[2]), 0].map(|q| q as f32)
+        };
+        let lerp = |a: [f32; 4], b: [f32; 4], t: f32| {
+            let mut r = [0f32; 4];
+            for l in 0..4 {
+                r[l] = a[l] + t * (b[l] - a[l]);
+            }
+            r
+        };
+        let [fx, fy, fz] = f;
+        let c0 = lerp(lerp(corner(0), corner(1), fx), lerp(corner(2), corner(3), fx), fy);
+        let c1 = lerp(lerp(corner(4), corner(5), fx), lerp(corner(6), corner(7), fx), fy);
+        let out = lerp(c0, c1, fz);
+        [out[0] * self.scale, out[1] * self.scale, out[2] * self.scale]
     }
 
     /// Central differences of the value (or opacity) field, exactly as a whole-volume grid would hold
@@ -411,7 +421,12 @@ impl<'a> Fields<'a> {
         let max = f32::from(i16::MAX);
         // One quantised central difference from the field `hi` and `lo`, h voxels after and before (both
         // paths below use it).
-        let diff = |hi: f32, lo: f32| round_half_away(((hi - lo) / den * inv).clamp(-max, max)) as i16;
+        // Clamped by comparisons (NaN passes, as through `clamp`, and rounds to 0).
+        let diff = |hi: f32, lo: f32| {
+            let c = (hi - lo) / den * inv;
+            let c = if c < -max { -max } else { c };
+            round_half_away(if c > max { max } else { c }) as i16
+        };
         let o = b.map(|v| v << SHIFT);
         // The field over the block grown by h each side (coordinates clamped into the grid), read once:
         // entry j along an axis is voxel clamp(o − h + j).
@@ -428,7 +443,9 @@ impl<'a> Fields<'a> {
             let v = v.to_f32();
             if opacity { self.classifier.alpha_of(v) } else { v }
         };
-        let mut field = vec![0f32; n * n * n];
+        // On the stack (n ≤ S + 4): a block is built for most bricks rays reach, and an allocation per
+        // block cost as much as filling it.
+        let mut field = [0f32; (S + 4) * (S + 4) * (S + 4)];
         for z in 0..n {
             let vz = coord(2, z);
             for y in 0..n {

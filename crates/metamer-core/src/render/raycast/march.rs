@@ -8,21 +8,16 @@ use super::view::View;
 use super::{
     Gradient, Interpolation, MAX_MATERIALS, RaycastOptions, RaycastStats, Shading, interleaved_gradient_noise,
 };
-use crate::volume::Volume;
+use crate::volume::{Volume, Voxel};
 
-/// The eight voxels around a sample and the sample's fractional position among them
-/// (`v[x + 2y + 4z]`).
-struct Cell {
-    v: [f32; 8],
-    f: [f32; 3],
-}
+/// The trilinear cell of a sample: its eight voxels (`v[x + 2y + 4z]`) and the sample's fractional
+/// position among them.
+struct Cell;
 
 impl Cell {
     /// Trilinear interpolation.
     #[inline(always)]
-    fn value(&self) -> f32 {
-        let [fx, fy, fz] = self.f;
-        let v = &self.v;
+    fn value(v: &[f32; 8], [fx, fy, fz]: [f32; 3]) -> f32 {
         let c00 = v[0] + fx * (v[1] - v[0]);
         let c10 = v[2] + fx * (v[3] - v[2]);
         let c01 = v[4] + fx * (v[5] - v[4]);
@@ -34,9 +29,7 @@ impl Cell {
 
     /// Gradient of the trilinear interpolant at the sample, per voxel index.
     #[inline(always)]
-    fn gradient(&self) -> [f32; 3] {
-        let [fx, fy, fz] = self.f;
-        let v = &self.v;
+    fn gradient(v: &[f32; 8], [fx, fy, fz]: [f32; 3]) -> [f32; 3] {
         let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
         let dx = gy * gz * (v[1] - v[0]) + fy * gz * (v[3] - v[2]) + gy * fz * (v[5] - v[4]) + fy * fz * (v[7] - v[6]);
         let dy = gx * gz * (v[2] - v[0]) + fx * gz * (v[3] - v[1]) + gx * fz * (v[6] - v[4]) + fx * fz * (v[7] - v[5]);
@@ -88,17 +81,6 @@ struct Located {
     f: [f32; 3],
 }
 
-/// A value-classified sample before compositing.
-struct ValueSample {
-    /// Material index + 1 (0 = none).
-    material: u8,
-    bin: usize,
-    /// The bin's step opacity.
-    alpha: f32,
-    at: Located,
-    cell: Option<Cell>,
-}
-
 /// A label sample before compositing.
 struct LabelSample<'a> {
     /// Held here: the substeps before this sample's composite may move the ray's cursor.
@@ -141,8 +123,9 @@ impl Edge {
 }
 
 /// One way of reconstructing samples: what a sample holds before compositing, how it is taken and
-/// composited, and what the refinement test compares. The marcher is generic over it, so each kind's
-/// loop is compiled on its own.
+/// composited, and what the refinement test compares. The marcher [`RayContext::march`] is generic over
+/// it (label mode; value classes have their own loop, [`RayContext::march_values`], generic over the
+/// voxel type instead).
 trait Sampler<'a> {
     type Sample;
     /// The sample at index-space point `p`, or the field brick no material reaches (label mode).
@@ -172,48 +155,8 @@ trait Sampler<'a> {
     ) -> f32;
 }
 
-/// Value classes (trilinear or nearest).
-struct Values;
 /// Shape-based labels.
 struct Labels;
-
-impl<'a> Sampler<'a> for Values {
-    type Sample = ValueSample;
-    #[inline(always)]
-    fn sample(
-        ctx: &RayContext<'a>,
-        p: [f64; 3],
-        at: Located,
-        uniform: u8,
-        _: &mut Cursor<'a>,
-    ) -> Result<ValueSample, [usize; 3]> {
-        Ok(if uniform == MIXED { ctx.value_sample(p, at) } else { ctx.uniform_sample(at, uniform) })
-    }
-    #[inline(always)]
-    fn edge(s: &ValueSample) -> Edge {
-        Edge { near: false, material: s.material, level: s.alpha }
-    }
-    #[inline(always)]
-    fn refine(a: &Edge, b: &Edge) -> bool {
-        a.material != b.material && a.level.max(b.level) >= Edge::MIN_ALPHA
-    }
-    #[inline(always)]
-    fn dense(e: &Edge) -> bool {
-        e.level >= Edge::DENSE
-    }
-    #[inline(always)]
-    fn composite(
-        ctx: &RayContext<'a>,
-        s: &ValueSample,
-        sub: bool,
-        transmittance: f32,
-        out: &mut [f32],
-        cursor: &mut Cursor<'a>,
-    ) -> f32 {
-        let c = ctx.classifier;
-        ctx.composite_values(s, if sub { &c.alpha_sub } else { &c.alpha }, transmittance, out, cursor)
-    }
-}
 
 impl<'a> Sampler<'a> for Labels {
     type Sample = LabelSample<'a>;
@@ -254,12 +197,23 @@ impl<'a> Sampler<'a> for Labels {
     }
 }
 
+/// A ray clipped to the framed box: samples at `origin + (k + jitter)·dir` for whole k with
+/// `t0 ≤ k + jitter ≤ t1` (index space, steps).
+#[derive(Clone, Copy)]
+struct Ray {
+    origin: [f64; 3],
+    dir: [f64; 3],
+    t0: f64,
+    t1: f64,
+    jitter: f64,
+}
+
 /// The volume's grid as the inner loop needs it, computed once per raycast.
 pub(super) struct Grid {
     /// The largest index-space coordinate along each axis (dims − 1).
     hi: [f64; 3],
     /// The largest first voxel of a cell (dims − 2, 0 along an axis of one voxel).
-    imax: [usize; 3],
+    imax: [f64; 3],
     /// The strides to the next voxel along x, y and z (0 along an axis of one voxel).
     strides: [usize; 3],
 }
@@ -269,7 +223,7 @@ impl Grid {
         let d = volume.dims;
         Grid {
             hi: d.map(|n| (n.max(1) - 1) as f64),
-            imax: d.map(|n| n.saturating_sub(2)),
+            imax: d.map(|n| n.saturating_sub(2) as f64),
             strides: [usize::from(d[0] > 1), if d[1] > 1 { d[0] } else { 0 }, if d[2] > 1 { d[0] * d[1] } else { 0 }],
         }
     }
@@ -293,70 +247,44 @@ pub(super) struct RayContext<'a> {
     pub(crate) near_band: f32,
     /// The shading's ambient share, in [0, 1].
     pub(crate) ambient: f32,
+    /// A ray stops once its transmittance falls below this (the termination threshold, or 0 when early
+    /// termination is off: a transmittance is never below 0).
+    pub(crate) stop_below: f32,
     pub(crate) n_mat: usize,
     pub(crate) width: usize,
     pub(crate) height: usize,
 }
 
 impl<'a> RayContext<'a> {
-    #[inline(always)]
-    fn voxel(&self, x: usize, y: usize, z: usize) -> f32 {
-        let d = self.volume.dims;
-        self.volume.voxels.get(x + d[0] * (y + d[1] * z))
-    }
-
     /// Where index-space point p (clamped into [0, dims−1]) falls.
     #[inline(always)]
     fn locate(&self, p: [f64; 3]) -> Located {
         let mut i = [0usize; 3];
         let mut f = [0f32; 3];
         for a in 0..3 {
-            // `max` maps NaN to 0, so q is a number in [0, dims − 1].
-            let q = p[a].max(0.0).min(self.grid.hi[a]);
-            // SAFETY: q is finite and in [0, dims − 1] ⊂ [0, 2³²) (a volume has at most 2³² voxels), so
-            // the truncation is in range for i64 (and is floor, as q ≥ 0); the saturating `as` would
-            // cost a dozen instructions per axis in the inner loop.
-            let t = unsafe { q.to_int_unchecked::<i64>() } as usize;
-            i[a] = t.min(self.grid.imax[a]);
-            f[a] = (q - i[a] as f64) as f32;
+            // Clamped into [0, dims − 1], NaN to 0 (as `max(0.0)` then `min` would, without their NaN
+            // handling: a comparison each).
+            let q = if p[a] > 0.0 { p[a] } else { 0.0 };
+            let q = if q < self.grid.hi[a] { q } else { self.grid.hi[a] };
+            // The cell start min(⌊q⌋, imax) is ⌊min(q, imax)⌋ (imax is a whole number), clamped in f64.
+            // SAFETY: the clamped q is finite and in [0, dims − 2] ⊂ [0, 2³²) (a volume has at most 2³²
+            // voxels), so the truncation is in range for i64 (and is floor, as q ≥ 0); the saturating
+            // `as` would cost a dozen instructions per axis in the inner loop. Converted back through
+            // i64, not usize: the same number without the unsigned conversion's extra instructions.
+            let t = unsafe { (if q < self.grid.imax[a] { q } else { self.grid.imax[a] }).to_int_unchecked::<i64>() };
+            i[a] = t as usize;
+            f[a] = (q - t as f64) as f32;
         }
         let d = self.volume.dims;
         Located { b: i[0] + d[0] * (i[1] + d[1] * i[2]), i, f }
     }
 
-    /// The trilinear cell of the volume's values at a located sample.
-    #[inline(always)]
-    fn cell_at(&self, Located { b, f, .. }: Located) -> Cell {
-        let [sx, sy, sz] = self.grid.strides;
-        crate::with_voxels!(&self.volume.voxels, v => Cell {
-            v: [
-                v[b].to_f32(),
-                v[b + sx].to_f32(),
-                v[b + sy].to_f32(),
-                v[b + sy + sx].to_f32(),
-                v[b + sz].to_f32(),
-                v[b + sz + sx].to_f32(),
-                v[b + sz + sy].to_f32(),
-                v[b + sz + sy + sx].to_f32(),
-            ],
-            f,
-        })
-    }
-
     /// The nearest voxel's value.
     #[inline(always)]
-    fn nearest(&self, p: [f64; 3]) -> f32 {
+    fn nearest<T: Voxel>(&self, data: &[T], p: [f64; 3]) -> f32 {
         let d = self.volume.dims;
         let c = [0, 1, 2].map(|a| ((p[a].max(0.0) + 0.5) as usize).min(d[a] - 1));
-        self.voxel(c[0], c[1], c[2])
-    }
-
-    /// The smooth gradient at a located sample (cell start `i`, fractions `f`).
-    #[inline(always)]
-    fn smooth_gradient(&self, i: [usize; 3], f: [f32; 3], cursor: &mut Cursor<'a>) -> [f32; 3] {
-        let Some(fields) = self.fields else { return [0.0; 3] };
-        let (block, base) = fields.block(i, cursor);
-        fields.gradient(block, base, f)
+        data[c[0] + d[0] * (c[1] + d[1] * c[2])].to_f32()
     }
 
     /// Shading from a field gradient g (per voxel index): `ambient + (1 − ambient)·max(n·l, 0)` with the
@@ -375,50 +303,65 @@ impl<'a> RayContext<'a> {
         a + (1.0 - a) * cos.max(0.0)
     }
 
-    /// Value-classified sample (trilinear or nearest): its material and where it sits.
+    /// The eight voxels of the trilinear cell whose first voxel is `b` (a [`Located::b`]).
     #[inline(always)]
-    fn value_sample(&self, p: [f64; 3], at: Located) -> ValueSample {
-        let trilinear = self.options.interpolation == Interpolation::Trilinear;
-        let cell = trilinear.then(|| self.cell_at(at));
-        let v = match &cell {
-            Some(c) => c.value(),
-            None => self.nearest(p),
+    fn cell<T: Voxel>(&self, data: &[T], b: usize) -> [f32; 8] {
+        let [sx, sy, sz] = self.grid.strides;
+        let last = b + sz + sy + sx;
+        assert!(last < data.len(), "cell {b} past the voxels");
+        // SAFETY: the cell's voxels lie between its first voxel and its last, checked above (the strides
+        // are non-negative). One check instead of eight: this runs at nearly every sample, and at a step
+        // of half a voxel a ray enters a new cell at most samples, so the voxels are read afresh.
+        let v = |o: usize| unsafe { data.get_unchecked(b + o) }.to_f32();
+        [v(0), v(sx), v(sy), v(sy + sx), v(sz), v(sz + sx), v(sz + sy), v(sz + sy + sx)]
+    }
+
+    /// The material (index + 1, 0 = none) and bin of a value sample at `p` (located at `at`): the
+    /// trilinear interpolation of its cell's voxels or the nearest voxel.
+    #[inline(always)]
+    fn classify<T: Voxel>(&self, data: &[T], p: [f64; 3], at: Located) -> (u8, usize) {
+        let v = if self.options.interpolation == Interpolation::Nearest {
+            self.nearest(data, p)
+        } else {
+            Cell::value(&self.cell(data, at.b), at.f)
         };
         let bin = self.classifier.bin(v);
-        let material = self.classifier.material[bin];
-        ValueSample { material, bin, alpha: self.classifier.alpha[bin], at, cell }
+        (self.classifier.material[bin], bin)
     }
 
-    /// A sample in a brick whose values all map to material `m` (index + 1): located, not
-    /// reconstructed (the bin is one of the material's, whose opacities are all alike).
+    /// The smooth gradient at a located sample.
     #[inline(always)]
-    fn uniform_sample(&self, at: Located, m: u8) -> ValueSample {
-        let bin = usize::from(self.classifier.material_bin[usize::from(m) - 1]);
-        ValueSample { material: m, bin, alpha: self.classifier.alpha[bin], at, cell: None }
+    fn smooth_gradient(&self, at: Located, cursor: &mut Cursor<'a>) -> [f32; 3] {
+        let Some(fields) = self.fields else { return [0.0; 3] };
+        let (block, base) = fields.block(at.i, cursor);
+        fields.gradient(block, base, at.f)
     }
 
-    /// Composite a value sample with opacities `alpha` (per bin, for the step it stands for): adds its
-    /// material's weight, returns the opacity it absorbs.
+    /// Composite a value sample of material `material` (index + 1, 0 = none) in bin `bin` at `at` with
+    /// opacities `alpha` (per bin, for the step it stands for): adds its material's weight, returns the
+    /// opacity it absorbs.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn composite_values(
+    fn composite_value<T: Voxel>(
         &self,
-        s: &ValueSample,
+        data: &[T],
+        (material, bin): (u8, usize),
+        at: Located,
         alpha: &[f32],
         transmittance: f32,
         out: &mut [f32],
         cursor: &mut Cursor<'a>,
     ) -> f32 {
-        if s.material == 0 {
+        if material == 0 {
             return 0.0;
         }
-        let mat = self.classifier.per_code[usize::from(s.material)];
-        let cell_gradient = || s.cell.as_ref().map_or_else(|| self.cell_at(s.at).gradient(), Cell::gradient);
-        let mut alpha = alpha[s.bin];
+        let mat = self.classifier.per_code[usize::from(material)];
+        let mut alpha = alpha[bin];
         // The trilinear gradient, taken once per sample for the opacity and the shading alike.
         let mut cell_g = None;
         if mat.gradient_dependent() {
             // A transfer function over value and gradient (`max_gradient`).
-            let g = cell_gradient();
+            let g = Cell::gradient(&self.cell(data, at.b), at.f);
             cell_g = Some(g);
             alpha *= mat.gradient_share(g);
             if alpha <= 0.0 {
@@ -427,10 +370,10 @@ impl<'a> RayContext<'a> {
         }
         let shade = match (self.options.shading, self.options.gradient) {
             (Shading::Unshaded, _) => 1.0,
-            (_, Gradient::Smooth) => self.shade(self.smooth_gradient(s.at.i, s.at.f, cursor)),
-            (_, Gradient::Cell) => self.shade(cell_g.unwrap_or_else(cell_gradient)),
+            (_, Gradient::Smooth) => self.shade(self.smooth_gradient(at, cursor)),
+            (_, Gradient::Cell) => self.shade(cell_g.unwrap_or_else(|| Cell::gradient(&self.cell(data, at.b), at.f))),
         };
-        out[usize::from(s.material) - 1] += transmittance * alpha * shade;
+        out[usize::from(material) - 1] += transmittance * alpha * shade;
         if mat.absorbs { alpha } else { 0.0 }
     }
 
@@ -506,7 +449,7 @@ impl<'a> RayContext<'a> {
                 (_, Gradient::Smooth) => self.shade(fields.gradient(block, at, s.f)),
                 (_, Gradient::Cell) => {
                     let q = &block.sdf[at..];
-                    self.shade(Cell { v: CORNERS.map(|c| f32::from(q[c])), f: s.f }.gradient())
+                    self.shade(Cell::gradient(&CORNERS.map(|c| f32::from(q[c])), s.f))
                 }
             };
             out[m] += transmittance * wgt * shade;
@@ -523,7 +466,7 @@ impl<'a> RayContext<'a> {
     fn attenuate(&self, absorbed: f32, transmittance: &mut f32, stats: &mut RaycastStats) -> bool {
         if absorbed > 0.0 {
             *transmittance *= 1.0 - absorbed;
-            if self.options.early_termination && *transmittance < self.options.termination_transmittance as f32 {
+            if *transmittance < self.stop_below {
                 stats.terminated += 1;
                 return true;
             }
@@ -533,14 +476,18 @@ impl<'a> RayContext<'a> {
 
     /// March the ray of pixel (px, py), accumulating material weights into `out`.
     pub(crate) fn trace(&self, px: usize, py: usize, out: &mut [f32], stats: &mut RaycastStats) {
+        let Some(ray) = self.ray(px, py) else { return };
         match self.options.interpolation {
-            Interpolation::Trilinear | Interpolation::Nearest => self.march::<Values>(px, py, out, stats),
-            Interpolation::Labels => self.march::<Labels>(px, py, out, stats),
+            Interpolation::Trilinear | Interpolation::Nearest => {
+                crate::with_voxels!(&self.volume.voxels, data => self.march_values(data, &ray, out, stats))
+            }
+            Interpolation::Labels => self.march::<Labels>(&ray, out, stats),
         }
     }
 
+    /// The ray of pixel (px, py) clipped to the framed box, or None when it misses it.
     #[inline(always)]
-    fn march<K: Sampler<'a>>(&self, px: usize, py: usize, out: &mut [f32], stats: &mut RaycastStats) {
+    fn ray(&self, px: usize, py: usize) -> Option<Ray> {
         let view = self.view;
         let vol = self.volume;
         let sx = ((px as f64 + 0.5) / self.width as f64 * 2.0 - 1.0) * view.half_extent;
@@ -558,7 +505,7 @@ impl<'a> RayContext<'a> {
             let (lo, hi) = (view.clip_lo[a], view.clip_hi[a]);
             if dir[a].abs() < 1e-12 {
                 if origin[a] < lo || origin[a] > hi {
-                    return;
+                    return None;
                 }
             } else {
                 let (mut ta, mut tb) = ((lo - origin[a]) / dir[a], (hi - origin[a]) / dir[a]);
@@ -572,11 +519,129 @@ impl<'a> RayContext<'a> {
         let t1 = t1.min(t0 + view.max_steps);
         // Steps are whole numbers in f64: beyond 2^52 `k + 1 == k` and a ray would never advance.
         if t0.is_nan() || t1.is_nan() || t0 > t1 || t1 >= (1u64 << 52) as f64 {
-            return;
+            return None;
         }
         // Samples sit at whole steps plus this pixel's jitter from the origin, so skipping never
         // shifts them.
         let jitter = if self.options.jitter { interleaved_gradient_noise(px, py) } else { 0.0 };
+        Some(Ray { origin, dir, t0, t1, jitter })
+    }
+
+    /// March a ray through value classes (trilinear or nearest) of voxels `data`: the loop of
+    /// [`Self::march`] for values, on the volume's own voxel type (no dispatch on it per sample), the
+    /// counters kept per ray.
+    #[inline(never)]
+    fn march_values<T: Voxel>(&self, data: &[T], ray: &Ray, out: &mut [f32], stats: &mut RaycastStats) {
+        let Ray { origin, dir, t0, t1, jitter } = *ray;
+        let classifier = self.classifier;
+        let mut k = (t0 - jitter).ceil();
+        let mut transmittance = 1.0f32;
+        let mut prev = Edge::EMPTY;
+        // The step after a refined entry into a dense material is refined as well.
+        let mut carry = false;
+        let mut cursor = Cursor::default();
+        let (mut samples, mut uniform_samples, mut skipped, mut skipped_bricks) = (0u64, 0u64, 0u64, 0u64);
+        while k + jitter <= t1 {
+            let t = k + jitter;
+            let p = [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
+            let at = self.locate(p);
+            let mut uniform = MIXED;
+            if let Some((bm, table)) = self.bricks {
+                // The brick of the sample's cell (it bounds the cell's eight voxels). A cell starts at most
+                // at dims − 2 (0 along an axis of one voxel), so its brick is below the counts.
+                // Written out: `[0, 1, 2].map` is not always inlined, and this runs at every sample.
+                let sh = bm.shift;
+                let b = [at.i[0] >> sh, at.i[1] >> sh, at.i[2] >> sh];
+                debug_assert!((0..3).all(|a| b[a] < bm.counts[a]), "{b:?} {:?}", bm.counts);
+                uniform = table[b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2])];
+                if uniform == EMPTY {
+                    prev = Edge::EMPTY;
+                    carry = false;
+                    let next = brick_exit(origin, dir, b, bm.size, jitter, k);
+                    skipped += (next - k) as u64;
+                    skipped_bricks += 1;
+                    k = next;
+                    continue;
+                }
+            }
+            samples += 1;
+            // A brick whose values all map to one material: located, not reconstructed (the bin is one of
+            // the material's, whose opacities are all alike).
+            let sample = if uniform == MIXED {
+                self.classify(data, p, at)
+            } else {
+                uniform_samples += 1;
+                (uniform, usize::from(classifier.material_bin[usize::from(uniform) - 1]))
+            };
+            let edge = Edge { near: false, material: sample.0, level: classifier.alpha[sample.1] };
+            // Refined: the two ends' materials differ and not both are thinner than smoke.
+            let crossing =
+                self.substeps > 1 && prev.material != edge.material && prev.level.max(edge.level) >= Edge::MIN_ALPHA;
+            let refine = crossing || carry;
+            carry = crossing && edge.level >= Edge::DENSE;
+            prev = edge;
+            if refine {
+                // The step from the previous sample to this one crosses a boundary: composite it as
+                // `substeps` substeps ending at this sample (which is the last of them).
+                let (n, stop) = self.value_substeps(data, ray, t, &mut transmittance, out, &mut cursor, stats);
+                samples += n;
+                if stop {
+                    break;
+                }
+            }
+            let alpha = if refine { &classifier.alpha_sub } else { &classifier.alpha };
+            let absorbed = self.composite_value(data, sample, at, alpha, transmittance, out, &mut cursor);
+            if self.attenuate(absorbed, &mut transmittance, stats) {
+                break;
+            }
+            k += 1.0;
+        }
+        stats.samples += samples;
+        stats.uniform += uniform_samples;
+        stats.skipped += skipped;
+        stats.skipped_bricks += skipped_bricks;
+        debug_assert!(out.len() == self.n_mat);
+    }
+
+    /// The refinement substeps of the value loop before the sample at `t` (all but that sample, the
+    /// last of them): taken out of the loop (about one step in six is refined), so that the loop keeps
+    /// its state in registers. Returns the substeps taken and whether early termination stopped the ray.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn value_substeps<T: Voxel>(
+        &self,
+        data: &[T],
+        ray: &Ray,
+        t: f64,
+        transmittance: &mut f32,
+        out: &mut [f32],
+        cursor: &mut Cursor<'a>,
+        stats: &mut RaycastStats,
+    ) -> (u64, bool) {
+        let Ray { origin, dir, t0, .. } = *ray;
+        let n = self.substeps as f64;
+        let mut samples = 0;
+        for j in 1..self.substeps {
+            let tj = t - 1.0 + j as f64 / n;
+            if tj < t0 {
+                continue;
+            }
+            let pj = [origin[0] + tj * dir[0], origin[1] + tj * dir[1], origin[2] + tj * dir[2]];
+            samples += 1;
+            // A substep may lie in the brick before this sample's: reconstruct it in full.
+            let at = self.locate(pj);
+            let s = self.classify(data, pj, at);
+            let absorbed = self.composite_value(data, s, at, &self.classifier.alpha_sub, *transmittance, out, cursor);
+            if self.attenuate(absorbed, transmittance, stats) {
+                return (samples, true);
+            }
+        }
+        (samples, false)
+    }
+
+    #[inline(always)]
+    fn march<K: Sampler<'a>>(&self, ray: &Ray, out: &mut [f32], stats: &mut RaycastStats) {
+        let Ray { origin, dir, t0, t1, jitter } = *ray;
         let mut k = (t0 - jitter).ceil();
         let mut transmittance = 1.0f32;
         let mut prev = Edge::EMPTY;

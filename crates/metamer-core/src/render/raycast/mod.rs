@@ -411,6 +411,7 @@ pub fn raycast(
         substeps,
         near_band: march::near_band(volume, step),
         ambient: options.ambient.clamp(0.0, 1.0) as f32,
+        stop_below: if options.early_termination { options.termination_transmittance as f32 } else { 0.0 },
         n_mat,
         width: w,
         height: h,
