@@ -51,10 +51,10 @@ pub(crate) fn gemv(a: &DMatrix<f64>, x: &[f64], y: &mut [f64]) {
         let (x1, x2, x3, x4) = (x[j], x[j + 1], x[j + 2], x[j + 3]);
         for i in 0..m {
             let mut v = y[i];
-            v = c1[i] * x1 + v;
-            v = c2[i] * x2 + v;
-            v = c3[i] * x3 + v;
-            v = c4[i] * x4 + v;
+            v += c1[i] * x1;
+            v += c2[i] * x2;
+            v += c3[i] * x3;
+            v += c4[i] * x4;
             y[i] = v;
         }
         j += 4;
@@ -62,7 +62,7 @@ pub(crate) fn gemv(a: &DMatrix<f64>, x: &[f64], y: &mut [f64]) {
     while j < n {
         let (c, xj) = (&s[j * m..(j + 1) * m], x[j]);
         for (t, &v) in y.iter_mut().zip(c) {
-            *t = v * xj + *t;
+            *t += v * xj;
         }
         j += 1;
     }
