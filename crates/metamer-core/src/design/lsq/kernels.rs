@@ -159,9 +159,7 @@ impl Cholesky {
         }
         let n = self.n;
         for i in k..nf - 1 {
-            for p in 0..=i + 1 {
-                self.l[i * n + p] = self.l[(i + 1) * n + p];
-            }
+            self.l.copy_within((i + 1) * n..(i + 1) * n + i + 2, i * n);
         }
         for i in k..nf - 1 {
             let (a, b) = (self.l[i * n + i], self.l[i * n + i + 1]);
@@ -171,16 +169,14 @@ impl Cholesky {
                 return;
             }
             let (c, s) = (a / r, b / r);
-            for row in i..nf - 1 {
-                let (x, y) = (self.l[row * n + i], self.l[row * n + i + 1]);
-                self.l[row * n + i] = c * x + s * y;
-                self.l[row * n + i + 1] = -s * x + c * y;
+            for row in self.l[i * n..(nf - 1) * n].chunks_exact_mut(n) {
+                let (x, y) = (row[i], row[i + 1]);
+                row[i] = c * x + s * y;
+                row[i + 1] = -s * x + c * y;
             }
             self.l[i * n + i + 1] = 0.0;
         }
-        for p in 0..n {
-            self.l[(nf - 1) * n + p] = 0.0;
-        }
+        self.l[(nf - 1) * n..nf * n].fill(0.0);
     }
 
     pub(super) fn well_conditioned(&self, nf: usize) -> bool {
