@@ -164,7 +164,9 @@ impl Gradient for Objective<'_> {
 
 /// The scaled KKT residual of x (see [`LsqOutcome::kkt`]) from its residual `r = Ax − b`.
 fn kkt_of(sys: &LinearSystem, x: &DVector<f64>, r: &DVector<f64>, grad_scale: f64) -> f64 {
-    let g = sys.a.tr_mul(r) * 2.0;
+    let mut g = DVector::zeros(sys.a.ncols());
+    kernels::gemv_tr(&sys.a, r.as_slice(), g.as_mut_slice());
+    g *= 2.0;
     projected_gradient_norm(x, &g, &sys.lower, &sys.upper) / grad_scale
 }
 
@@ -191,12 +193,20 @@ pub(crate) fn solve_from_start(sys: &LinearSystem, factor: &Factor, start: Start
 
 fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) -> LsqOutcome {
     let n = sys.a.ncols();
-    let atb = sys.a.tr_mul(&sys.b);
+    // The products by the hand kernels, which give nalgebra's bits (`A.tr_mul(b)`, `A x − b`, `A⁺ b`).
+    let mut atb = DVector::zeros(n);
+    kernels::gemv_tr(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
     let grad_scale = 1.0 + 2.0 * atb.amax();
-    let residual_of = |x: &DVector<f64>| &*sys.a * x - &sys.b;
+    let residual_of = |x: &DVector<f64>| {
+        let mut r = DVector::zeros(sys.a.nrows());
+        kernels::gemv(&sys.a, x.as_slice(), r.as_mut_slice());
+        r -= &sys.b;
+        r
+    };
     let residual = |x: &DVector<f64>| residual_of(x).norm_squared();
     let use_qr = work.use_qr;
-    let mut x_svd = &factor.pinv * &sys.b;
+    let mut x_svd = DVector::zeros(n);
+    kernels::gemv(&factor.pinv, sys.b.as_slice(), x_svd.as_mut_slice());
     if use_qr && n > 0 && x_svd.iter().all(|v| v.is_finite()) {
         // Ill-conditioned A: one step of refinement of the SVD solution by QR of A (rows sorted by weight),
         // numerically dependent columns held at their SVD values. It recovers what the SVD's normwise

@@ -38,6 +38,14 @@ pub(super) struct Work {
     pub(super) atb_max: f64,
     /// The free set as a bit mask (the key of [`FreeSets`]).
     pub(super) key: Vec<u64>,
+    /// What the finish built from scratch before its first step, for [`Work::polish`]: the free list, the
+    /// rows of its fresh factor (row-major, `n` apart), `H x_B` and the point (its bound values). Valid
+    /// only on the normal-equations path with a healthy factor (`start_valid`).
+    pub(super) start_free: Vec<usize>,
+    pub(super) start_l: Vec<f64>,
+    pub(super) start_hb: Vec<f64>,
+    pub(super) start_x: Vec<f64>,
+    pub(super) start_valid: bool,
 }
 
 /// The Cholesky factors of `H_FF` built from scratch (free variables added in ascending order), by free
@@ -117,6 +125,11 @@ impl Work {
             h_max: f64::NAN,
             atb_max: f64::NAN,
             key: Vec::new(),
+            start_free: Vec::with_capacity(n),
+            start_l: Vec::new(),
+            start_hb: Vec::with_capacity(n),
+            start_x: Vec::with_capacity(n),
+            start_valid: false,
         }
     }
 
@@ -162,6 +175,7 @@ impl Work {
         self.rough = false;
         self.h_max = f64::NAN;
         self.atb_max = f64::NAN;
+        self.start_valid = false;
     }
 
     /// QR solve of the free set with the other variables at `x`, into `self.z`.
@@ -169,13 +183,27 @@ impl Work {
     /// Cholesky factor of their block of H built from scratch: copied from `sets` when that free set was
     /// factored before (the same bits: the additions depend on H and the set alone), else built by adding
     /// the variables in ascending order (and kept in `sets` when it succeeds).
-    fn factor_free_set(&mut self, h: &DMatrix<f64>, sets: Option<&FreeSets>) {
+    ///
+    /// With `from_start` (the polish), the rows the finish's own fresh factor shares are reused: row k of a
+    /// factor built in ascending order depends on H and the first k + 1 free variables alone, so the rows
+    /// of the longest common prefix of the two free lists are the same bits. When the whole set is the
+    /// start's, its factor is copied without a lookup.
+    fn factor_free_set(&mut self, h: &DMatrix<f64>, sets: Option<&FreeSets>, from_start: bool) {
         self.free.clear();
         self.free.extend((0..self.n).filter(|&i| self.is_free[i]));
         if !self.chol.ok {
             return;
         }
         let n = self.n;
+        let prefix = if from_start && self.start_valid {
+            self.free.iter().zip(&self.start_free).take_while(|(a, b)| a == b).count()
+        } else {
+            0
+        };
+        if prefix > 0 && prefix == self.free.len() && prefix == self.start_free.len() {
+            self.chol.l[..prefix * n].copy_from_slice(&self.start_l[..prefix * n]);
+            return;
+        }
         if let Some(sets) = sets {
             self.key.clear();
             self.key.resize(n.div_ceil(64), 0);
@@ -204,8 +232,10 @@ impl Work {
                 return;
             }
         }
-        // Not held: built without the lock (which other threads may want meanwhile).
-        for k in 0..self.free.len() {
+        // Not held: built without the lock (which other threads may want meanwhile), from the rows shared
+        // with the start's factor on.
+        self.chol.l[..prefix * n].copy_from_slice(&self.start_l[..prefix * n]);
+        for k in prefix..self.free.len() {
             self.chol.add(h, &self.free[..k], self.free[k]);
         }
         if let Some(sets) = sets
@@ -334,11 +364,19 @@ impl Work {
         let (lo, hi) = (sys.lower.as_slice(), sys.upper.as_slice());
         self.chol.ok = true;
         self.chol.l.resize(self.n * self.n, 0.0);
-        self.hb.iter_mut().for_each(|v| *v = 0.0);
-        self.factor_free_set(h, sets);
-        for j in 0..self.n {
-            if !self.is_free[j] && self.x[j] != 0.0 {
-                axpy(self.x[j], column(h, j), &mut self.hb);
+        self.factor_free_set(h, sets, true);
+        // `H x_B` as the start summed it when the bound variables and their values are the start's.
+        let same_bound = self.start_valid
+            && self.free == self.start_free
+            && (0..self.n).all(|j| self.is_free[j] || self.x[j] == self.start_x[j]);
+        if same_bound {
+            self.hb.copy_from_slice(&self.start_hb);
+        } else {
+            self.hb.iter_mut().for_each(|v| *v = 0.0);
+            for j in 0..self.n {
+                if !self.is_free[j] && self.x[j] != 0.0 {
+                    axpy(self.x[j], column(h, j), &mut self.hb);
+                }
             }
         }
         if self.free.is_empty() {
@@ -390,13 +428,27 @@ impl Work {
             }
         }
         // The free variables in ascending order, and their factor (from `sets` when that set was seen).
-        self.factor_free_set(h, sets);
+        self.start_valid = false;
+        self.factor_free_set(h, sets, false);
         if !self.use_qr {
             for j in 0..n {
                 if !self.is_free[j] && self.x[j] != 0.0 {
                     axpy(self.x[j], column(h, j), &mut self.hb);
                 }
             }
+        }
+        if !self.use_qr && self.chol.ok {
+            // Kept for the polish (see `factor_free_set`).
+            let nf = self.free.len();
+            self.start_free.clear();
+            self.start_free.extend_from_slice(&self.free);
+            self.start_l.clear();
+            self.start_l.extend_from_slice(&self.chol.l[..nf * n]);
+            self.start_hb.clear();
+            self.start_hb.extend_from_slice(&self.hb);
+            self.start_x.clear();
+            self.start_x.extend_from_slice(&self.x);
+            self.start_valid = true;
         }
         let mut released: Option<(usize, Status)> = None;
         let max_steps = 4 * n + 20;
