@@ -72,7 +72,8 @@ pub(super) enum Kind {
 
 /// One brick's block.
 pub(super) struct Block {
-    /// `S3` gradient triples, per material in label mode (empty when no gradients are needed).
+    /// `S3` gradient triples, per material in label mode (empty when no gradients are needed); a value
+    /// block's are followed by a padding entry ([`Fields::gradient`]).
     pub(crate) grad: Vec<[i16; 3]>,
     /// Materials (0-based) with some occupancy in the block (label mode).
     pub(crate) mats: Vec<u8>,
@@ -204,7 +205,9 @@ impl<'a> Fields<'a> {
             Kind::Labels => classifier.materials * (2 + if gradients { 6 } else { 0 }),
             Kind::Values | Kind::Opacity => 6,
         };
-        let largest = (S3 * per_entry + classifier.materials + std::mem::size_of::<Block>()) as u64;
+        // A value block's gradients end with a padding entry ([`Fields::gradient`]).
+        let padding = if kind == Kind::Labels { 0 } else { 6 };
+        let largest = (S3 * per_entry + padding + classifier.materials + std::mem::size_of::<Block>()) as u64;
         let pinned_bytes = (n * std::mem::size_of::<OnceLock<Block>>()) as u64;
         let reach = reachable.unwrap_or(n).min(n) as u64;
         let (store, slot_bytes, room) = if largest.saturating_mul(reach).saturating_add(pinned_bytes) <= cap {
@@ -371,7 +374,12 @@ impl<'a> Fields<'a> {
 
     fn build(&self, b: [usize; 3]) -> Block {
         match self.kind {
-            Kind::Values | Kind::Opacity => Block { grad: self.build_gradient(b), mats: vec![], sdf: vec![] },
+            Kind::Values | Kind::Opacity => {
+                let mut grad = self.build_gradient(b);
+                // The padding entry [`Self::gradient`] reads one component of.
+                grad.push([0; 3]);
+                Block { grad, mats: vec![], sdf: vec![] }
+            }
             Kind::Labels => {
                 let l = labels::build(self.volume, self.classifier, b, self.gradients);
                 Block { grad: l.grad, mats: l.mats, sdf: l.sdf }
@@ -383,15 +391,70 @@ impl<'a> Fields<'a> {
     /// (field units per voxel).
     #[inline(always)]
     pub(crate) fn gradient(&self, block: &Block, base: usize, f: [f32; 3]) -> [f32; 3] {
-        // The cell's corners in one slice: one bounds check (none for an empty block's) instead of eight.
+        // The cell's corners in one slice of components: one bounds check instead of eight. It reaches one
+        // component past the last corner's triple (value blocks hold a padding entry for it), so that each
+        // corner is read as four lanes in one load: its triple and the next entry's first component, a
+        // lane whose interpolation is discarded.
+        let flat = block.grad.as_flattened();
+        let Some(g) = flat.get(3 * base..3 * (base + CELL) + 1) else {
+            return self.gradient_unpadded(block, base, f);
+        };
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{
+                __m128, _mm_add_ps, _mm_cvtepi32_ps, _mm_cvtsi64_si128, _mm_mul_ps, _mm_set1_ps, _mm_srai_epi32,
+                _mm_storeu_ps, _mm_sub_ps, _mm_unpacklo_epi16,
+            };
+            // SSE2 (x86-64's baseline) spelled out: without SSE4.1's widening load the compiler widened the
+            // four lanes one by one. A corner's four components as one 64-bit word (one load), widened to
+            // 32 bits by interleaving with themselves and shifting back, converted to f32.
+            let corner = |c: usize| {
+                let s = &g[3 * CORNERS[c]..][..4];
+                // SAFETY: `s` holds four i16, the eight bytes read (x86-64 reads unaligned words).
+                let w = unsafe { s.as_ptr().cast::<u64>().read_unaligned() };
+                // SAFETY (here and below): SSE2 is part of x86-64's baseline, so its intrinsics run on any
+                // x86-64 processor; these read and write registers only.
+                unsafe {
+                    let v = _mm_cvtsi64_si128(w as i64);
+                    _mm_cvtepi32_ps(_mm_srai_epi32(_mm_unpacklo_epi16(v, v), 16))
+                }
+            };
+            let lerp = |a: __m128, b: __m128, t: __m128| unsafe { _mm_add_ps(a, _mm_mul_ps(t, _mm_sub_ps(b, a))) };
+            let [fx, fy, fz] = f.map(|t| unsafe { _mm_set1_ps(t) });
+            let c0 = lerp(lerp(corner(0), corner(1), fx), lerp(corner(2), corner(3), fx), fy);
+            let c1 = lerp(lerp(corner(4), corner(5), fx), lerp(corner(6), corner(7), fx), fy);
+            let mut out = [0f32; 4];
+            // SAFETY: `out` holds four f32, the bytes an unaligned store of one __m128 writes.
+            unsafe { _mm_storeu_ps(out.as_mut_ptr(), lerp(c0, c1, fz)) };
+            [out[0] * self.scale, out[1] * self.scale, out[2] * self.scale]
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let corner = |c: usize| {
+                let v: [i16; 4] = g[3 * CORNERS[c]..][..4].try_into().unwrap_or([0; 4]);
+                v.map(|q| i32::from(q) as f32)
+            };
+            self.interpolate(corner, f)
+        }
+    }
+
+    /// [`Self::gradient`] where the cell's last corner is the block's last entry, without a padding
+    /// entry after it (label blocks): each corner as four lanes, the fourth zero.
+    #[cold]
+    fn gradient_unpadded(&self, block: &Block, base: usize, f: [f32; 3]) -> [f32; 3] {
         let Some(g) = block.grad.get(base..base + CELL) else { return [0.0; 3] };
-        // Each corner as four lanes (the three components and a zero), interpolated by seven lerps along
-        // x, then y, then z (as `Cell::value` does for one lane): vector operations, and no corner
-        // weights to form.
         let corner = |c: usize| {
             let v = g[CORNERS[c]];
             [i32::from(v[0]), i32::from(v[1]), i32::from(v[2]), 0].map(|q| q as f32)
         };
+        self.interpolate(corner, f)
+    }
+
+    /// The eight `corner`s (four lanes, the first three the gradient's) interpolated by seven lerps along
+    /// x, then y, then z (as `Cell::value` does for one lane): vector operations, and no corner weights
+    /// to form.
+    #[inline(always)]
+    fn interpolate(&self, corner: impl Fn(usize) -> [f32; 4], f: [f32; 3]) -> [f32; 3] {
         let lerp = |a: [f32; 4], b: [f32; 4], t: f32| {
             let mut r = [0f32; 4];
             for l in 0..4 {
@@ -462,7 +525,9 @@ impl<'a> Fields<'a> {
                 }
             }
         }
-        let mut grad = vec![[0i16; 3]; S3];
+        // Room for the padding entry `build` adds (no reallocation).
+        let mut grad = Vec::with_capacity(S3 + 1);
+        grad.resize(S3, [0i16; 3]);
         if inside.iter().all(|&i| i) {
             // No clamping: the neighbours of entry l are the grown field's entries l ± h along each axis,
             // the same values the clamped lookups below read.
@@ -601,6 +666,37 @@ mod tests {
             }
         }
         assert!(interior >= 2, "the grid has interior bricks to test the direct path on");
+    }
+
+    /// A value block's gradient read four lanes a corner (the fourth the next entry's first component,
+    /// up to the padding entry) is the one read three lanes a corner with a zero fourth, at every cell of
+    /// the block including the last.
+    #[test]
+    fn four_lane_corner_reads_give_the_three_lane_gradient() {
+        let vol = crate::volume::generate::engine_like_u16([21, 30, 27]);
+        let mats = [MaterialClass::new([18.0 * 257.0, 75.0 * 257.0], 0.3), MaterialClass::new([2e4, 6e4], 0.8)];
+        let classifier = Classifier::new(&vol, &mats, 0.5, 1);
+        let mut nonzero = 0;
+        for kind in [Kind::Values, Kind::Opacity] {
+            let fields = Fields::new(&vol, &classifier, kind, true, u64::MAX, None);
+            for b in [[0, 0, 0], [1, 1, 1], [2, 3, 3]] {
+                let block = fields.build(b);
+                assert_eq!(block.grad.len(), S3 + 1, "the padding entry");
+                for l in 0..BRICK * BRICK * BRICK {
+                    let base = l % BRICK + S * ((l / BRICK) % BRICK + S * (l / (BRICK * BRICK)));
+                    for f in [[0.0, 0.0, 0.0], [0.3, 0.7, 0.1], [0.9, 0.2, 0.6], [1.0, 1.0, 1.0]] {
+                        let got = fields.gradient(&block, base, f);
+                        assert_eq!(
+                            got,
+                            fields.gradient_unpadded(&block, base, f),
+                            "{kind:?} {b:?} cell {base} at {f:?}"
+                        );
+                        nonzero += usize::from(got != [0.0; 3]);
+                    }
+                }
+            }
+        }
+        assert!(nonzero > 1000, "{nonzero}");
     }
 
     #[test]
