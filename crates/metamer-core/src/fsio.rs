@@ -816,9 +816,12 @@ impl FolderSync {
     fn sync_pending(&mut self) {
         let replaced = std::mem::take(&mut self.replaced);
         std::thread::scope(|scope| {
-            if !replaced.is_empty() {
-                // When no thread can be started the spawn drops the files: they are closed at once.
-                let _ = std::thread::Builder::new().spawn_scoped(scope, move || drop(replaced));
+            // One thread per replaced file: each last close frees its file's blocks and cached pages
+            // (0.5 ms for a solve's 1.2 MB palette, 1 ms and more for its 2.9 MB report, `perf trace`), and
+            // the two frees overlap each other as well as the folder sync. When no thread can be started
+            // the spawn drops the file: it is closed at once.
+            for file in replaced {
+                let _ = std::thread::Builder::new().spawn_scoped(scope, move || drop(file));
             }
             for dir in self.dirs.drain(..) {
                 #[cfg(unix)]
