@@ -492,11 +492,9 @@ struct Rows<T> {
     pieces: Vec<Vec<u8>>,
 }
 
-impl<T: serde::Serialize + Sync> Rows<T> {
+impl<T: Row + Sync> Rows<T> {
     /// Rows a piece: enough work per piece to be worth a task, small enough for two threads to share.
     const PIECE: usize = 96;
-    /// The printer's indentation level of the elements of a top-level field's array.
-    const LEVEL: usize = 2;
 
     fn new(items: Vec<T>) -> Self {
         Rows { items, pieces: Vec::new() }
@@ -511,11 +509,10 @@ impl<T: serde::Serialize + Sync> Rows<T> {
             .map(|rows| {
                 let mut out = Vec::with_capacity(rows.len() * row_bytes);
                 for (k, row) in rows.iter().enumerate() {
-                    let pretty = Pretty { level: Self::LEVEL, has_value: false };
                     if k > 0 {
-                        pretty.line(&mut out, false)?;
+                        Pretty { level: ROW_LEVEL, has_value: false }.line(&mut out, false)?;
                     }
-                    row.serialize(&mut serde_json::Serializer::with_formatter(&mut out, pretty))?;
+                    row.write_row(&mut out)?;
                 }
                 Ok(out)
             })
@@ -530,6 +527,133 @@ impl<T: serde::Serialize> serde::Serialize for Rows<T> {
             return serializer.collect_seq(&self.items);
         }
         serializer.collect_seq(self.pieces.iter().map(|p| Piece(p)))
+    }
+}
+
+/// The printer's indentation level of the elements of a top-level field's array.
+const ROW_LEVEL: usize = 2;
+
+/// A row of one of the report's long arrays ([`Rows`]), written as [`Pretty`] writes it at [`ROW_LEVEL`]
+/// (the object's braces and keys included, not the separator before it). By default that is the printer
+/// itself; the two long arrays of a batch, spectra and cells, are written by hand ([`JsonText`]): the
+/// printer's calls per value (a comma and line break, then the value, for each of a spectrum's 31
+/// samples) were half of the report's instructions. Tests compare both ways, row by row and report by
+/// report.
+trait Row: serde::Serialize {
+    fn write_row(&self, out: &mut Vec<u8>) -> std::io::Result<()> {
+        let pretty = Pretty { level: ROW_LEVEL, has_value: false };
+        self.serialize(&mut serde_json::Serializer::with_formatter(out, pretty)).map_err(std::io::Error::from)
+    }
+}
+
+impl Row for DiagnosticJson<'_> {}
+
+/// JSON text written by hand into a report row: the layout (keys, line breaks, indentation) is the row's
+/// own, every string and number is written by serde_json's own serializer (its escapes, its shortest
+/// round-trip digits, `null` for a number that is not finite), so each is what the printer writes.
+struct JsonText<'a>(&'a mut Vec<u8>);
+
+impl JsonText<'_> {
+    fn raw(&mut self, text: &str) {
+        self.0.extend_from_slice(text.as_bytes());
+    }
+
+    fn str(&mut self, value: &str) -> std::io::Result<()> {
+        use serde::Serializer as _;
+        (&mut serde_json::Serializer::new(&mut *self.0)).serialize_str(value).map_err(std::io::Error::from)
+    }
+
+    fn f64(&mut self, value: f64) -> std::io::Result<()> {
+        use serde::Serializer as _;
+        (&mut serde_json::Serializer::new(&mut *self.0)).serialize_f64(value).map_err(std::io::Error::from)
+    }
+
+    fn bool(&mut self, value: bool) {
+        self.raw(if value { "true" } else { "false" });
+    }
+
+    fn opt_str(&mut self, value: Option<&str>) -> std::io::Result<()> {
+        match value {
+            Some(v) => self.str(v),
+            None => Ok(self.raw("null")),
+        }
+    }
+
+    fn opt_f64(&mut self, value: Option<f64>) -> std::io::Result<()> {
+        match value {
+            Some(v) => self.f64(v),
+            None => Ok(self.raw("null")),
+        }
+    }
+
+    /// An array of numbers that is the value of a key of a row (its elements three levels deep).
+    fn numbers(&mut self, values: &[f64]) -> std::io::Result<()> {
+        let Some((last, first)) = values.split_last() else {
+            self.raw("[]");
+            return Ok(());
+        };
+        self.raw("[");
+        for &v in first {
+            self.raw("\n        ");
+            self.f64(v)?;
+            self.raw(",");
+        }
+        self.raw("\n        ");
+        self.f64(*last)?;
+        self.raw("\n      ]");
+        Ok(())
+    }
+}
+
+impl Row for SpectrumJson<'_> {
+    fn write_row(&self, out: &mut Vec<u8>) -> std::io::Result<()> {
+        let mut w = JsonText(out);
+        w.raw("{\n      \"name\": ");
+        w.str(self.name)?;
+        w.raw(",\n      \"kind\": ");
+        w.str(self.kind)?;
+        w.raw(",\n      \"design\": ");
+        w.bool(self.design);
+        w.raw(",\n      \"samples\": ");
+        w.numbers(self.samples)?;
+        w.raw(",\n      \"unphysical\": ");
+        w.bool(self.unphysical);
+        w.raw("\n    }");
+        Ok(())
+    }
+}
+
+impl Row for CellJson<'_> {
+    fn write_row(&self, out: &mut Vec<u8>) -> std::io::Result<()> {
+        let mut w = JsonText(out);
+        let c = &self.colours;
+        w.raw("{\n      \"light\": ");
+        w.str(self.light)?;
+        w.raw(",\n      \"reflectance\": ");
+        w.str(self.reflectance)?;
+        w.raw(",\n      \"target\": ");
+        w.numbers(&c.target)?;
+        w.raw(",\n      \"rgb_full\": ");
+        w.numbers(&c.rgb_full)?;
+        w.raw(",\n      \"rgb_subspace\": ");
+        match &c.rgb_subspace {
+            Some(v) => w.numbers(v)?,
+            None => w.raw("null"),
+        }
+        w.raw(",\n      \"delta_e_full\": ");
+        w.f64(c.delta_e_full)?;
+        w.raw(",\n      \"delta_e_subspace\": ");
+        w.opt_f64(c.delta_e_subspace)?;
+        w.raw(",\n      \"free\": ");
+        w.opt_str(self.free)?;
+        w.raw(",\n      \"weight\": ");
+        w.f64(self.weight)?;
+        w.raw(",\n      \"enabled\": ");
+        w.bool(self.enabled);
+        w.raw(",\n      \"unphysical\": ");
+        w.bool(self.unphysical);
+        w.raw("\n    }");
+        Ok(())
     }
 }
 
@@ -1024,6 +1148,70 @@ mod tests {
             let mut theirs = serde_json::to_vec_pretty(&value).unwrap();
             theirs.push(b'\n');
             assert_eq!(String::from_utf8(ours).unwrap(), String::from_utf8(theirs).unwrap());
+        }
+    }
+
+    /// The rows written by hand ([`super::Row`]) are the printer's rows: names that need escapes (quotes,
+    /// backslashes, control characters, bidirectional controls, non-ASCII), numbers that are not finite, of
+    /// every magnitude and both signs of zero, empty and one-element sample lists, cells with and without
+    /// subspace colours and free colours.
+    #[test]
+    fn rows_written_by_hand_are_the_printers_rows() {
+        use super::{CellJson, ColoursJson, Pretty, ROW_LEVEL, Row, SpectrumJson};
+        fn printer(row: &impl serde::Serialize) -> Vec<u8> {
+            let mut out = Vec::new();
+            let pretty = Pretty { level: ROW_LEVEL, has_value: false };
+            row.serialize(&mut serde_json::Serializer::with_formatter(&mut out, pretty)).unwrap();
+            out
+        }
+        fn by_hand(row: &impl Row) -> Vec<u8> {
+            let mut out = Vec::new();
+            row.write_row(&mut out).unwrap();
+            out
+        }
+        let names = ["r0", "", "a \"quoted\" \\ name", "tab\there\nnew line\u{1}\u{7f}", "ΔE ×\u{202e}rtl", "/slash"];
+        let numbers = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.5,
+            0.1,
+            1e-7,
+            1.9414804882152623e-6,
+            123456789012345680.0,
+            1e300,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        let sample_lists: [&[f64]; 4] = [&[], &[0.5], &numbers, &[f64::NAN, 0.25]];
+        for (k, name) in names.iter().enumerate() {
+            for samples in sample_lists {
+                let row =
+                    SpectrumJson { name, kind: "reflectance", design: k % 2 == 0, samples, unphysical: k % 3 == 0 };
+                assert_eq!(String::from_utf8(by_hand(&row)).unwrap(), String::from_utf8(printer(&row)).unwrap());
+            }
+            for (j, &x) in numbers.iter().enumerate() {
+                let y = numbers[(j + k) % numbers.len()];
+                let row = CellJson {
+                    light: name,
+                    reflectance: names[(k + 1) % names.len()],
+                    colours: ColoursJson {
+                        target: [x, y, 0.5],
+                        rgb_full: [y, x, -0.0],
+                        rgb_subspace: (j % 2 == 0).then_some([x, 1.0, y]),
+                        delta_e_full: y,
+                        delta_e_subspace: (j % 3 != 0).then_some(x),
+                    },
+                    free: (j % 2 == 1).then_some(names[j % names.len()]),
+                    weight: x,
+                    enabled: j % 2 == 0,
+                    unphysical: j % 5 == 0,
+                };
+                assert_eq!(String::from_utf8(by_hand(&row)).unwrap(), String::from_utf8(printer(&row)).unwrap());
+            }
         }
     }
 
