@@ -162,15 +162,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 report.basis_warning = basis_warning.as_deref();
                 report.feasibility = feasibility.as_deref();
                 // Serialised straight into the staged file (its long arrays in pieces, in parallel).
-                let staged = crate::fsio::stage_writing(path, crate::fsio::Name::User, replace, |w| {
-                    write_report(w, &mut report)
-                })
-                .context("cannot write the report")
-                .map(Some);
-                // Its pieces (the report's text, 2.9 MB for a 1200-design batch) are left to the process's
-                // exit: freeing them here came before the renames.
-                std::mem::forget(report);
-                staged
+                crate::fsio::stage_writing(path, crate::fsio::Name::User, replace, |w| write_report(w, &mut report))
+                    .context("cannot write the report")
+                    .map(Some)
             }
             None => Ok(None),
         };
@@ -534,11 +528,11 @@ impl<T: serde::Serialize> serde::Serialize for Rows<T> {
 const ROW_LEVEL: usize = 2;
 
 /// A row of one of the report's long arrays ([`Rows`]), written as [`Pretty`] writes it at [`ROW_LEVEL`]
-/// (the object's braces and keys included, not the separator before it). By default that is the printer
-/// itself; the two long arrays of a batch, spectra and cells, are written by hand ([`JsonText`]): the
-/// printer's calls per value (a comma and line break, then the value, for each of a spectrum's 31
-/// samples) were half of the report's instructions. Tests compare both ways, row by row and report by
-/// report.
+/// (the object's braces and keys included, not the separator before it). The rows of the three long
+/// arrays (spectra, cells, diagnostics) are written by hand ([`JsonText`]): the printer's calls per value
+/// (a comma and line break, then the value, for each of a spectrum's 31 samples) were half of the
+/// report's instructions. The default is the printer itself. Tests compare both ways, row by row and
+/// report by report.
 trait Row: serde::Serialize {
     fn write_row(&self, out: &mut Vec<u8>) -> std::io::Result<()> {
         let pretty = Pretty { level: ROW_LEVEL, has_value: false };
@@ -546,7 +540,40 @@ trait Row: serde::Serialize {
     }
 }
 
-impl Row for DiagnosticJson<'_> {}
+impl Row for DiagnosticJson<'_> {
+    fn write_row(&self, out: &mut Vec<u8>) -> std::io::Result<()> {
+        let mut w = JsonText(out);
+        w.raw("{\n      \"cell\": ");
+        match &self.cell {
+            Some(CellName { light, reflectance }) => {
+                w.raw("{\n        \"light\": ");
+                w.str(light)?;
+                w.raw(",\n        \"reflectance\": ");
+                w.str(reflectance)?;
+                w.raw("\n      }");
+            }
+            None => w.raw("null"),
+        }
+        if let Some(mixture) = &self.mixture {
+            w.raw(",\n      \"mixture\": ");
+            w.str(mixture)?;
+        }
+        if let Some(path) = &self.path {
+            w.raw(",\n      \"path\": ");
+            w.str(path)?;
+        }
+        w.raw(",\n      \"kind\": ");
+        w.str(self.kind)?;
+        if let Some(stopped) = self.stopped {
+            w.raw(",\n      \"stopped\": ");
+            w.str(stopped)?;
+        }
+        w.raw(",\n      \"message\": ");
+        w.str(self.message)?;
+        w.raw("\n    }");
+        Ok(())
+    }
+}
 
 /// JSON text written by hand into a report row: the layout (keys, line breaks, indentation) is the row's
 /// own, every string and number is written by serde_json's own serializer (its escapes, its shortest
@@ -1212,6 +1239,32 @@ mod tests {
                 };
                 assert_eq!(String::from_utf8(by_hand(&row)).unwrap(), String::from_utf8(printer(&row)).unwrap());
             }
+        }
+    }
+
+    /// Diagnostics written by hand are the printer's: with and without a cell, a mixture, a path and why
+    /// a block stopped, messages needing escapes.
+    #[test]
+    fn diagnostics_written_by_hand_are_the_printers() {
+        use super::{CellName, DiagnosticJson, Pretty, ROW_LEVEL, Row};
+        let messages = ["cell D65 × r0 not met (ΔE00 1.65)", "", "\"quoted\" \\ \u{1b}[31m\t\r\n\u{2028}"];
+        for k in 0..32 {
+            let message = messages[k % messages.len()];
+            let row = DiagnosticJson {
+                cell: (k % 2 == 0).then_some(CellName { light: message, reflectance: "r\"1" }),
+                mixture: (k % 4 < 2).then(|| format!("r{k} × dial(0.5, {message})")),
+                path: (k % 8 < 4).then(|| format!("path {k}\u{0}")),
+                kind: if k % 3 == 0 { "unmet" } else { "stopped_early" },
+                stopped: (k % 16 < 8).then_some("time limit"),
+                message,
+            };
+            let mut printer = Vec::new();
+            let pretty = Pretty { level: ROW_LEVEL, has_value: false };
+            serde::Serialize::serialize(&row, &mut serde_json::Serializer::with_formatter(&mut printer, pretty))
+                .unwrap();
+            let mut by_hand = Vec::new();
+            row.write_row(&mut by_hand).unwrap();
+            assert_eq!(String::from_utf8(by_hand).unwrap(), String::from_utf8(printer).unwrap());
         }
     }
 
