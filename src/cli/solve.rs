@@ -701,14 +701,20 @@ impl JsonText<'_> {
     fn opt_str(&mut self, value: Option<&str>) -> std::io::Result<()> {
         match value {
             Some(v) => self.str(v),
-            None => Ok(self.raw("null")),
+            None => {
+                self.raw("null");
+                Ok(())
+            }
         }
     }
 
     fn opt_f64(&mut self, value: Option<f64>) -> std::io::Result<()> {
         match value {
             Some(v) => self.f64(v),
-            None => Ok(self.raw("null")),
+            None => {
+                self.raw("null");
+                Ok(())
+            }
         }
     }
 
