@@ -209,7 +209,14 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
     let n = sys.a.ncols();
     // The products by the hand kernels, which give nalgebra's bits (`A.tr_mul(b)`, `A x − b`, `A⁺ b`).
     let mut atb = DVector::zeros(n);
-    kernels::gemv_tr(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
+    // A (and A⁺) finite on the normal-equations path: the right-hand side's trailing zeros (the smoothness
+    // rows') can be left out of the products with the same bits.
+    let finite = !factor.needs_qr();
+    if finite {
+        kernels::gemv_tr_trailing_zeros(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
+    } else {
+        kernels::gemv_tr(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
+    }
     let grad_scale = 1.0 + 2.0 * atb.amax();
     let residual_of = |x: &DVector<f64>| {
         let mut r = DVector::zeros(sys.a.nrows());
@@ -220,7 +227,11 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
     let residual = |x: &DVector<f64>| residual_of(x).norm_squared();
     let use_qr = work.use_qr;
     let mut x_svd = DVector::zeros(n);
-    kernels::gemv(&factor.pinv, sys.b.as_slice(), x_svd.as_mut_slice());
+    if finite {
+        kernels::gemv_trailing_zeros(&factor.pinv, sys.b.as_slice(), x_svd.as_mut_slice());
+    } else {
+        kernels::gemv(&factor.pinv, sys.b.as_slice(), x_svd.as_mut_slice());
+    }
     if use_qr && n > 0 && x_svd.iter().all(|v| v.is_finite()) {
         // Ill-conditioned A: one step of refinement of the SVD solution by QR of A (rows sorted by weight),
         // numerically dependent columns held at their SVD values. It recovers what the SVD's normwise
