@@ -25,6 +25,10 @@
 //! On the normal-equations path the final free set is solved once more from a fresh factor (free
 //! variables in ascending order, `Work::polish` in `lsq/finish.rs`), so the result is a function of the
 //! active set alone, whatever path of binds and releases led to it: both starts give the same bits.
+//! From the clamped start the active set is first guessed by the same steps worked out on the bound
+//! variables with `G = H⁻¹` (`lsq/guess.rs`: a few unknowns per step instead of 20–30); the guessed set is
+//! solved as the polish solves the finish's final set and kept only when the result passes the finish's
+//! own test of optimality, else the finish runs as above.
 //!
 //! The reported objective and KKT residual are computed from the residual `Ax − b`.
 //! The factorisation (SVD pseudo-inverse, `AᵀA` and `cond(A)`) depends on A only; [`Factor`]s are shared
