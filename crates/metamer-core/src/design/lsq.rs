@@ -25,6 +25,10 @@
 //! On the normal-equations path the final free set is solved once more from a fresh factor (free
 //! variables in ascending order, `Work::polish` in `lsq/finish.rs`), so the result is a function of the
 //! active set alone, whatever path of binds and releases led to it: both starts give the same bits.
+//! From the clamped start the active set is first guessed by the same steps worked out on the bound
+//! variables with `G = H⁻¹` (`lsq/guess.rs`: a few unknowns per step instead of 20–30); the guessed set is
+//! solved as the polish solves the finish's final set and kept only when the result passes the finish's
+//! own test of optimality, else the finish runs as above.
 //!
 //! The reported objective and KKT residual are computed from the residual `Ax − b`.
 //! The factorisation (SVD pseudo-inverse, `AᵀA` and `cond(A)`) depends on A only; [`Factor`]s are shared
@@ -58,12 +62,22 @@ pub struct Factor {
     pub(crate) cond: f64,
     /// Cholesky factors of `H_FF` by free set F, shared by the systems that share this factorisation.
     pub(crate) free_sets: FreeSets,
+    /// `H⁻¹` and the factor of all of H for the guess of the active set (`lsq/guess.rs`), made on first
+    /// use; None on the QR path or when they are not finite.
+    dual: std::sync::OnceLock<Option<Dual>>,
 }
 
 impl Factor {
     pub fn new(a: &DMatrix<f64>) -> Factor {
         let (pinv, cond) = svd_pseudo_inverse(a);
-        Factor { pinv, h: a.tr_mul(a), cond, free_sets: FreeSets::default() }
+        Factor { pinv, h: a.tr_mul(a), cond, free_sets: FreeSets::default(), dual: std::sync::OnceLock::new() }
+    }
+
+    fn dual(&self) -> Option<&Dual> {
+        if self.needs_qr() {
+            return None;
+        }
+        self.dual.get_or_init(|| Dual::of(&self.pinv, &self.h)).as_ref()
     }
 
     /// Whether the bounded solve must work on A rather than on `AᵀA` (see [`NORMAL_EQUATIONS_MAX_COND`]).
@@ -179,6 +193,10 @@ pub(crate) enum Start {
     /// L-BFGS-B's point after [`LBFGSB_ITERATIONS`] from the clamped solution (always on the QR path; on the
     /// normal-equations path only for the tests that check both starts end at the same bits).
     Lbfgsb,
+    /// [`Start::Clamped`] without the guess of the active set (`lsq/guess.rs`): the finish's own steps from
+    /// the clamped solution, for the tests that check the guess ends at the same bits.
+    #[cfg(test)]
+    ClampedUnguessed,
 }
 
 /// Solve the bounded system. `factor` must be `Factor::new(&sys.a)`.
@@ -195,7 +213,14 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
     let n = sys.a.ncols();
     // The products by the hand kernels, which give nalgebra's bits (`A.tr_mul(b)`, `A x − b`, `A⁺ b`).
     let mut atb = DVector::zeros(n);
-    kernels::gemv_tr(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
+    // A (and A⁺) finite on the normal-equations path: the right-hand side's trailing zeros (the smoothness
+    // rows') can be left out of the products with the same bits.
+    let finite = !factor.needs_qr();
+    if finite {
+        kernels::gemv_tr_trailing_zeros(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
+    } else {
+        kernels::gemv_tr(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
+    }
     let grad_scale = 1.0 + 2.0 * atb.amax();
     let residual_of = |x: &DVector<f64>| {
         let mut r = DVector::zeros(sys.a.nrows());
@@ -206,7 +231,11 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
     let residual = |x: &DVector<f64>| residual_of(x).norm_squared();
     let use_qr = work.use_qr;
     let mut x_svd = DVector::zeros(n);
-    kernels::gemv(&factor.pinv, sys.b.as_slice(), x_svd.as_mut_slice());
+    if finite {
+        kernels::gemv_trailing_zeros(&factor.pinv, sys.b.as_slice(), x_svd.as_mut_slice());
+    } else {
+        kernels::gemv(&factor.pinv, sys.b.as_slice(), x_svd.as_mut_slice());
+    }
     if use_qr && n > 0 && x_svd.iter().all(|v| v.is_finite()) {
         // Ill-conditioned A: one step of refinement of the SVD solution by QR of A (rows sorted by weight),
         // numerically dependent columns held at their SVD values. It recovers what the SVD's normwise
@@ -225,6 +254,19 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
         }
     }
     let feasible = (0..n).all(|i| x_svd[i] >= sys.lower[i] && x_svd[i] <= sys.upper[i]);
+    // On the normal-equations path from the clamped start, the active set guessed on the bound variables
+    // and its solution tested as the finish tests its own (`lsq/guess.rs`); else the finish runs, from the
+    // guess's point when it handed over, from the clamped solution when it gave up or its set failed.
+    let guess = match factor.dual() {
+        Some(dual) if !feasible && !use_qr && start == Start::Clamped => {
+            match work.guess(dual, &factor.h, &atb, x_svd.as_slice(), sys) {
+                Guess::Set if work.settle(dual, sys, &factor.h, &atb, Some(&factor.free_sets)) => Guess::Set,
+                Guess::Set => Guess::GaveUp,
+                other => other,
+            }
+        }
+        _ => Guess::GaveUp,
+    };
     if feasible || n == 0 {
         let r = residual_of(&x_svd);
         let objective = r.norm_squared();
@@ -268,9 +310,13 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
         work.rough = false;
         work.set_path(true);
         rough + work.finish(sys, &factor.h, &atb, &x_rough, Some(&factor.free_sets))
+    } else if guess == Guess::Set {
+        0
     } else {
-        let steps = work.finish(sys, &factor.h, &atb, &x1, Some(&factor.free_sets));
-        work.polish(sys, &factor.h, &atb, Some(&factor.free_sets));
+        work.chol.ok = true;
+        let from = if guess == Guess::HandOver { DVector::from_column_slice(&work.x) } else { x1.clone() };
+        let steps = work.finish(sys, &factor.h, &atb, &from, Some(&factor.free_sets));
+        work.polish(sys, &factor.h, &atb, Some(&factor.free_sets), finish::Rows::Start);
         steps
     };
     let x2 = DVector::from_column_slice(&work.x);
@@ -292,8 +338,10 @@ fn run_lbfgsb(problem: Objective, solver: LBfgsB, x0: DVector<f64>, max_iters: u
 mod kernels;
 
 mod finish;
+mod guess;
 pub(crate) use finish::FreeSets;
 use finish::{Work, with_work};
+use guess::{Dual, Guess};
 
 /// Warm-started bounded solve for repeated problems (alternating joint design): the exact active-set
 /// finish from `x0` projected onto the box, without SVD or L-BFGS-B. On a convex problem it ends at an

@@ -46,6 +46,24 @@ pub(super) struct Work {
     pub(super) start_hb: Vec<f64>,
     pub(super) start_x: Vec<f64>,
     pub(super) start_valid: bool,
+    /// The starting guess of the active set ([`Work::guess`] in `lsq/guess.rs`): the Cholesky factor of
+    /// `G_BB` (`G = H⁻¹`, B the bound variables in the order bound), the bound list and the multipliers.
+    pub(super) dual_chol: Cholesky,
+    pub(super) bound: Vec<usize>,
+    pub(super) mu: Vec<f64>,
+    pub(super) zd: Vec<f64>,
+}
+
+/// Where [`Work::factor_free_set`] may take the leading rows of a factor from: row k of a factor built in
+/// ascending order depends on H and the first k + 1 free variables alone.
+#[derive(Clone, Copy)]
+pub(super) enum Rows<'a> {
+    /// Nothing: every row is looked up or built.
+    None,
+    /// The finish's own fresh start factor (`start_l`, for the free list `start_free`), when valid.
+    Start,
+    /// The factor of all of H (every variable free; `rows` of it are valid), shared by every design.
+    Full(&'a [f64], usize),
 }
 
 /// The Cholesky factors of `H_FF` built from scratch (free variables added in ascending order), by free
@@ -130,6 +148,10 @@ impl Work {
             start_hb: Vec::with_capacity(n),
             start_x: Vec::with_capacity(n),
             start_valid: false,
+            dual_chol: Cholesky::new(n, true),
+            bound: Vec::with_capacity(n),
+            mu: Vec::with_capacity(n),
+            zd: vec![0.0; n],
         }
     }
 
@@ -176,6 +198,9 @@ impl Work {
         self.h_max = f64::NAN;
         self.atb_max = f64::NAN;
         self.start_valid = false;
+        self.dual_chol.n = n;
+        self.dual_chol.l.resize(n * n, 0.0);
+        self.zd.resize(n, 0.0);
     }
 
     /// QR solve of the free set with the other variables at `x`, into `self.z`.
@@ -184,24 +209,29 @@ impl Work {
     /// factored before (the same bits: the additions depend on H and the set alone), else built by adding
     /// the variables in ascending order (and kept in `sets` when it succeeds).
     ///
-    /// With `from_start` (the polish), the rows the finish's own fresh factor shares are reused: row k of a
-    /// factor built in ascending order depends on H and the first k + 1 free variables alone, so the rows
-    /// of the longest common prefix of the two free lists are the same bits. When the whole set is the
-    /// start's, its factor is copied without a lookup.
-    fn factor_free_set(&mut self, h: &DMatrix<f64>, sets: Option<&FreeSets>, from_start: bool) {
+    /// With `from` a factor already built ([`Rows::Start`]: the finish's own fresh factor, for the polish;
+    /// [`Rows::Full`]: the factor of all of H), the rows it shares are reused: row k of a factor built in
+    /// ascending order depends on H and the first k + 1 free variables alone, so the rows of the longest
+    /// common prefix of the two free lists are the same bits. When the whole set is such a prefix, the
+    /// factor is copied without a lookup.
+    fn factor_free_set(&mut self, h: &DMatrix<f64>, sets: Option<&FreeSets>, from: Rows) {
         self.free.clear();
         self.free.extend((0..self.n).filter(|&i| self.is_free[i]));
         if !self.chol.ok {
             return;
         }
         let n = self.n;
-        let prefix = if from_start && self.start_valid {
-            self.free.iter().zip(&self.start_free).take_while(|(a, b)| a == b).count()
-        } else {
-            0
+        let (prefix, source) = match from {
+            Rows::Start if self.start_valid => {
+                (self.free.iter().zip(&self.start_free).take_while(|(a, b)| a == b).count(), &self.start_l[..])
+            }
+            Rows::Full(rows, valid) => {
+                (self.free.iter().enumerate().take(valid).take_while(|&(k, &i)| k == i).count(), rows)
+            }
+            _ => (0, &[][..]),
         };
-        if prefix > 0 && prefix == self.free.len() && prefix == self.start_free.len() {
-            self.chol.l[..prefix * n].copy_from_slice(&self.start_l[..prefix * n]);
+        self.chol.l[..prefix * n].copy_from_slice(&source[..prefix * n]);
+        if prefix > 0 && prefix == self.free.len() {
             return;
         }
         if let Some(sets) = sets {
@@ -233,8 +263,7 @@ impl Work {
             }
         }
         // Not held: built without the lock (which other threads may want meanwhile), from the rows shared
-        // with the start's factor on.
-        self.chol.l[..prefix * n].copy_from_slice(&self.start_l[..prefix * n]);
+        // with the source's factor (copied above) on.
         for k in prefix..self.free.len() {
             self.chol.add(h, &self.free[..k], self.free[k]);
         }
@@ -357,6 +386,7 @@ impl Work {
         h: &DMatrix<f64>,
         atb: &DVector<f64>,
         sets: Option<&FreeSets>,
+        from: Rows,
     ) -> bool {
         if self.use_qr {
             return false;
@@ -364,9 +394,10 @@ impl Work {
         let (lo, hi) = (sys.lower.as_slice(), sys.upper.as_slice());
         self.chol.ok = true;
         self.chol.l.resize(self.n * self.n, 0.0);
-        self.factor_free_set(h, sets, true);
+        self.factor_free_set(h, sets, from);
         // `H x_B` as the start summed it when the bound variables and their values are the start's.
-        let same_bound = self.start_valid
+        let same_bound = matches!(from, Rows::Start)
+            && self.start_valid
             && self.free == self.start_free
             && (0..self.n).all(|j| self.is_free[j] || self.x[j] == self.start_x[j]);
         if same_bound {
@@ -395,6 +426,28 @@ impl Work {
             }
         }
         inside
+    }
+
+    /// The bound variable (not stuck, with distinct bounds) whose multiplier, from the last
+    /// [`Work::gradient`], has the wrong sign by the most beyond its rounding level: the finish releases it;
+    /// none means the point is optimal.
+    pub(super) fn worst_multiplier(&self, lo: &[f64], hi: &[f64]) -> Option<usize> {
+        let mut worst: Option<(usize, f64)> = None;
+        let (g, noise) = (self.g.as_slice(), self.noise.as_slice());
+        for i in 0..self.n {
+            if self.stuck[i] || lo[i] == hi[i] {
+                continue;
+            }
+            let v = match self.status[i] {
+                Status::Lower => -g[i],
+                Status::Upper => g[i],
+                Status::Free => continue,
+            };
+            if v > noise[i] && worst.is_none_or(|(_, w)| v > w) {
+                worst = Some((i, v));
+            }
+        }
+        worst.map(|(i, _)| i)
     }
 
     /// The exact active-set finish from `x0` projected onto the box (see the module docs). Leaves the result
@@ -429,7 +482,7 @@ impl Work {
         }
         // The free variables in ascending order, and their factor (from `sets` when that set was seen).
         self.start_valid = false;
-        self.factor_free_set(h, sets, false);
+        self.factor_free_set(h, sets, Rows::None);
         if !self.use_qr {
             for j in 0..n {
                 if !self.is_free[j] && self.x[j] != 0.0 {
@@ -522,22 +575,7 @@ impl Work {
             }
             // Multipliers: the half-gradient at bound variables must point out of the box.
             self.gradient(sys, h, atb);
-            let mut worst: Option<(usize, f64)> = None;
-            let (g, noise) = (self.g.as_slice(), self.noise.as_slice());
-            for i in 0..n {
-                if self.stuck[i] || lo[i] == hi[i] {
-                    continue;
-                }
-                let v = match self.status[i] {
-                    Status::Lower => -g[i],
-                    Status::Upper => g[i],
-                    Status::Free => continue,
-                };
-                if v > noise[i] && worst.is_none_or(|(_, w)| v > w) {
-                    worst = Some((i, v));
-                }
-            }
-            let Some((j, _)) = worst else { break };
+            let Some(j) = self.worst_multiplier(lo, hi) else { break };
             released = Some((j, self.status[j]));
             self.release(h, j);
         }

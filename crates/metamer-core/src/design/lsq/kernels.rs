@@ -68,6 +68,70 @@ pub(crate) fn gemv(a: &DMatrix<f64>, x: &[f64], y: &mut [f64]) {
     }
 }
 
+/// [`gemv`] when x ends in exact zeros (a design's right-hand side is zero on its smoothness rows), with the
+/// same bits: the columns after x's last nonzero entry are left out. Each would add a product `±0` to every
+/// entry, which changes an entry only when it is `−0` and the product `+0`; an entry that is zero after the
+/// kept columns is therefore recomputed by the whole product. A must be finite (`0·∞` is not zero).
+pub(crate) fn gemv_trailing_zeros(a: &DMatrix<f64>, x: &[f64], y: &mut [f64]) {
+    let (m, n) = a.shape();
+    assert!(x.len() == n && y.len() == m, "gemv: dimensions mismatch");
+    let t = x.iter().rposition(|&v| v != 0.0).map_or(0, |i| i + 1);
+    if t == 0 || t == n {
+        return gemv(a, x, y);
+    }
+    let s = &a.as_slice()[..t * m];
+    let y = &mut y[..m];
+    // `gemv` of the first t columns (the same passes over y: the first column, then four at a time).
+    let c0 = &s[..m];
+    for (v, &c) in y.iter_mut().zip(c0) {
+        *v = c * x[0];
+    }
+    let mut j = 1;
+    while j + 4 <= t {
+        let (c1, c2) = (&s[j * m..(j + 1) * m], &s[(j + 1) * m..(j + 2) * m]);
+        let (c3, c4) = (&s[(j + 2) * m..(j + 3) * m], &s[(j + 3) * m..(j + 4) * m]);
+        let (x1, x2, x3, x4) = (x[j], x[j + 1], x[j + 2], x[j + 3]);
+        for i in 0..m {
+            let mut v = y[i];
+            v += c1[i] * x1;
+            v += c2[i] * x2;
+            v += c3[i] * x3;
+            v += c4[i] * x4;
+            y[i] = v;
+        }
+        j += 4;
+    }
+    while j < t {
+        let (c, xj) = (&s[j * m..(j + 1) * m], x[j]);
+        for (v, &cv) in y.iter_mut().zip(c) {
+            *v += cv * xj;
+        }
+        j += 1;
+    }
+    if y.contains(&0.0) {
+        gemv(a, x, y);
+    }
+}
+
+/// [`gemv_tr`] when v ends in exact zeros, with the same bits: [`dot_nalgebra`]'s whole chunks of eight
+/// after v's last nonzero entry are left out (their products `±0` added to a partial sum that starts at
+/// `+0` change nothing: such a sum is never `−0`), when they are followed only by zeros too. A must be
+/// finite.
+pub(crate) fn gemv_tr_trailing_zeros(a: &DMatrix<f64>, v: &[f64], out: &mut [f64]) {
+    let (m, n) = a.shape();
+    assert!(v.len() == m && out.len() == n, "gemv_tr: dimensions mismatch");
+    let t = v.iter().rposition(|&x| x != 0.0).map_or(0, |i| i + 1);
+    let whole = m - m % 8;
+    let kept = t.div_ceil(8) * 8;
+    if kept >= whole {
+        return gemv_tr(a, v, out);
+    }
+    let s = a.as_slice();
+    for (j, o) in out.iter_mut().enumerate() {
+        *o = dot_nalgebra(&s[j * m..j * m + kept], &v[..kept]);
+    }
+}
+
 /// `aᵀb` with the bits of nalgebra's `dot` on dynamic vectors: eight partial sums over whole chunks of
 /// eight, added pairwise into the result, then the remaining products one by one.
 pub(crate) fn dot_nalgebra(a: &[f64], b: &[f64]) -> f64 {

@@ -117,10 +117,20 @@ fn rank_deficient_gives_minimum_norm() {
 
 /// The batch designs' systems (bounded single reflectances under 3 fixed lights), as the solve assembles them.
 fn batch_systems(count: usize, seed: u64) -> Vec<LinearSystem> {
+    let col = crate::colorimetry::Colorimetry::default();
+    systems_of(&crate::palette::random::batch_palette(count, seed, &col))
+}
+
+/// The same with every target reachable (the designs press on fewer bounds).
+fn reachable_systems(count: usize, seed: u64) -> Vec<LinearSystem> {
+    let col = crate::colorimetry::Colorimetry::default();
+    systems_of(&crate::palette::random::reachable_batch_palette(count, seed, &col))
+}
+
+fn systems_of(p: &crate::palette::Palette) -> Vec<LinearSystem> {
     use crate::design::system::{Design, Layout};
     let col = crate::colorimetry::Colorimetry::default();
-    let p = crate::palette::random::batch_palette(count, seed, &col);
-    let design = Design::new(&p, None, &col).expect("the batch palette is valid");
+    let design = Design::new(p, None, &col).expect("the batch palette is valid");
     let v = design.start_values();
     design.blocks().iter().map(|b| design.linear_system(&Layout::new(&b.units), &b.terms, &v)).collect()
 }
@@ -214,6 +224,166 @@ fn hand_products_give_nalgebras_bits() {
             let mut t = DVector::from_element(n, f64::NAN);
             kernels::gemv_tr(&a, v.as_slice(), t.as_mut_slice());
             assert_eq!(bits(&t), bits(&a.tr_mul(&v)), "Aᵀ v, {m} × {n}");
+            // The same vectors ending in zeros of both signs from every cut on (the products that leave the
+            // trailing zeros out), and a row or column of A zero so that a kept sum is exactly zero.
+            let mut az = a.clone();
+            if m > 0 && n > 0 && lcg(&mut seed) < 0.3 {
+                let (r, c) = ((lcg(&mut seed) * m as f64) as usize, (lcg(&mut seed) * n as f64) as usize);
+                az.row_mut(r).fill(if c % 2 == 0 { 0.0 } else { -0.0 });
+                az.column_mut(c).fill(0.0);
+            }
+            for cut in 0..=n {
+                let xz = DVector::from_fn(n, |j, _| {
+                    if j < cut {
+                        x[j]
+                    } else if j % 3 == 0 {
+                        -0.0
+                    } else {
+                        0.0
+                    }
+                });
+                let mut y = DVector::from_element(m, f64::NAN);
+                kernels::gemv_trailing_zeros(&az, xz.as_slice(), y.as_mut_slice());
+                assert_eq!(bits(&y), bits(&(&az * &xz)), "A x with zeros from {cut} on, {m} × {n}");
+            }
+            for cut in 0..=m {
+                let vz = DVector::from_fn(m, |i, _| {
+                    if i < cut {
+                        v[i]
+                    } else if i % 3 == 0 {
+                        -0.0
+                    } else {
+                        0.0
+                    }
+                });
+                let mut t = DVector::from_element(n, f64::NAN);
+                kernels::gemv_tr_trailing_zeros(&az, vz.as_slice(), t.as_mut_slice());
+                assert_eq!(bits(&t), bits(&az.tr_mul(&vz)), "Aᵀ v with zeros from {cut} on, {m} × {n}");
+            }
         }
     }
+}
+
+fn bits(x: &DVector<f64>) -> Vec<u64> {
+    x.iter().map(|v| v.to_bits()).collect()
+}
+
+/// The guessed start against the finish's own steps from the clamped solution (`Start::ClampedUnguessed`,
+/// the path before the guess) and the optimum's conditions: the same bits when the optimum's active set is
+/// unique. Returns whether the two differ at all (allowed only where the caller says the set is degenerate:
+/// then both must be optimal and agree to rounding).
+fn guessed_against_unguessed(sys: &LinearSystem, factor: &Factor) -> bool {
+    let a = solve_from_start(sys, factor, Start::Clamped);
+    let b = solve_from_start(sys, factor, Start::ClampedUnguessed);
+    let n = sys.a.ncols();
+    for out in [&a, &b] {
+        assert!((0..n).all(|i| out.x[i] >= sys.lower[i] && out.x[i] <= sys.upper[i]), "inside the box");
+        assert!(out.kkt < 1e-12, "kkt {}", out.kkt);
+    }
+    let same = bits(&a.x) == bits(&b.x);
+    if same {
+        assert_eq!(a.objective.to_bits(), b.objective.to_bits());
+        assert_eq!(a.kkt.to_bits(), b.kkt.to_bits());
+    } else {
+        assert!((a.objective - b.objective).abs() <= 1e-12 * (1.0 + b.objective), "{} vs {}", a.objective, b.objective);
+        assert!((&a.x - &b.x).amax() < 1e-9, "max |Δx| {}", (&a.x - &b.x).amax());
+    }
+    !same
+}
+
+#[test]
+fn the_guessed_active_set_gives_the_bits_of_the_finish_on_batch_designs() {
+    // Reachable and random targets (the guess hands over to the finish when more than half the samples
+    // bind, most random targets): the same bits as the finish's own path from the clamped solution.
+    for (systems, what) in [(reachable_systems(400, 3), "reachable"), (batch_systems(300, 9), "random")] {
+        let factor = Factor::new(&systems[0].a);
+        assert!(!factor.needs_qr());
+        let mut bounded = 0;
+        for sys in &systems {
+            assert!(!guessed_against_unguessed(sys, &factor), "{what}: the bits differ");
+            bounded += solve(sys, &factor).bounds_active as usize;
+        }
+        assert!(bounded > 100, "{what}: {bounded} designs press on the bounds");
+    }
+}
+
+#[test]
+fn the_guessed_active_set_on_degenerate_designs() {
+    // Targets scaled far outside the reachable colours (every sample clamped, or all but a few), the
+    // unconstrained solution's samples put exactly on a bound (a bound with a zero multiplier: the active
+    // set is not unique there), two identical lights (collinear rows), and bounds that pin samples
+    // (lower = upper). Every result inside the box with KKT ≤ 1e-12 against the finish's own path, the same
+    // bits when the set is unique.
+    let base = reachable_systems(60, 17);
+    let factor = Factor::new(&base[0].a);
+    let mut seed = 5u64;
+    let (mut differed, mut on_bound) = (0, 0);
+    for (k, sys) in base.iter().enumerate() {
+        let mut far = sys.clone();
+        far.b *= 40.0 + 200.0 * lcg(&mut seed);
+        assert!(!guessed_against_unguessed(&far, &factor), "design {k} scaled");
+        // A sample of the unconstrained solution made a bound, and its neighbour the other bound.
+        let mut xu = DVector::zeros(sys.a.ncols());
+        kernels::gemv(&factor.pinv, sys.b.as_slice(), xu.as_mut_slice());
+        let mut at = sys.clone();
+        let inside = |i: usize| xu[i] > sys.lower[i] && xu[i] < sys.upper[i];
+        let from = (lcg(&mut seed) * (xu.len() - 1) as f64) as usize;
+        if let Some(i) = (from..xu.len() - 1).chain(0..from).find(|&i| inside(i) && inside(i + 1)) {
+            at.lower[i] = xu[i];
+            at.upper[i + 1] = xu[i + 1];
+            differed += guessed_against_unguessed(&at, &factor) as usize;
+            on_bound += 1;
+        }
+        let mut pinned = sys.clone();
+        let j = (lcg(&mut seed) * xu.len() as f64) as usize;
+        pinned.lower[j] = 0.25;
+        pinned.upper[j] = 0.25;
+        assert!(!guessed_against_unguessed(&pinned, &factor), "design {k} pinned");
+    }
+    assert!(on_bound > 40, "{on_bound} designs with samples put on a bound");
+    assert!(differed <= 3, "{differed} of {on_bound} designs with a sample on a bound differ in the last bits");
+    // Two identical lights: the first light's rows repeated over the second's.
+    let sys = &base[0];
+    let mut a = (*sys.a).clone();
+    let mut b = sys.b.clone();
+    for r in 3..6 {
+        let row = a.row(r - 3).clone_owned();
+        a.set_row(r, &row);
+        b[r] = b[r - 3];
+    }
+    let twin = LinearSystem { a: a.into(), b, lower: sys.lower.clone(), upper: sys.upper.clone() };
+    let twin_factor = Factor::new(&twin.a);
+    assert!(!twin_factor.needs_qr());
+    for scale in [1.0, 3.0, 30.0] {
+        let mut s = twin.clone();
+        s.b *= scale;
+        assert!(!guessed_against_unguessed(&s, &twin_factor), "twin lights, targets × {scale}");
+    }
+}
+
+#[test]
+fn the_guessed_start_matches_brute_force_on_small_random_systems() {
+    // Small systems (2–5 unknowns, so the guess works on one or two bound variables) against the brute
+    // force over every active set, which solves each by nalgebra's SVD, independently of the engine.
+    let mut seed = 41u64;
+    let mut tried = 0;
+    for _ in 0..200 {
+        let (m, n) = (4 + (lcg(&mut seed) * 4.0) as usize, 2 + (lcg(&mut seed) * 4.0) as usize);
+        let a = DMatrix::from_fn(m, n, |_, _| lcg(&mut seed) * 2.0 - 1.0);
+        let b = DVector::from_fn(m, |_, _| lcg(&mut seed) * 4.0 - 2.0);
+        let lower = DVector::from_fn(n, |_, _| -lcg(&mut seed) * 0.6);
+        let upper = DVector::from_fn(n, |_, _| lcg(&mut seed) * 0.6);
+        let sys = LinearSystem { a: a.into(), b, lower, upper };
+        let factor = Factor::new(&sys.a);
+        if factor.needs_qr() {
+            continue;
+        }
+        tried += 1;
+        let out = solve_from_start(&sys, &factor, Start::Clamped);
+        let best = brute_force(&sys);
+        assert!(out.objective <= best * (1.0 + 1e-9) + 1e-14, "{} vs {best}", out.objective);
+        assert!(out.kkt < 1e-9, "kkt {}", out.kkt);
+        guessed_against_unguessed(&sys, &factor);
+    }
+    assert!(tried > 150, "{tried} systems on the normal-equations path");
 }
