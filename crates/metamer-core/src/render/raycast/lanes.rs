@@ -38,8 +38,11 @@ pub(super) struct Batch {
     pub(super) i: [[u32; LANES]; 3],
     /// Per axis and lane, the sample's fraction in its cell.
     pub(super) f: [[f32; LANES]; 3],
-    /// Per lane, the classifier's bin of the trilinear value.
+    /// Per lane, the skipping brick of the sample's cell (x-fastest index; 0 without bricks).
+    pub(super) brick: [u32; LANES],
+    /// Per lane, the classifier's bin of the trilinear value, once `classified` ([`classify`]).
     pub(super) bin: [u32; LANES],
+    pub(super) classified: bool,
     /// Per lane, the shading of the smooth gradient ([`shade`]), where bit `lane` of `shaded` is set.
     pub(super) shade: [f32; LANES],
     pub(super) shaded: u32,
@@ -52,7 +55,9 @@ impl Default for Batch {
             b: [0; LANES],
             i: [[0; LANES]; 3],
             f: [[0.0; LANES]; 3],
+            brick: [0; LANES],
             bin: [0; LANES],
+            classified: false,
             shade: [0.0; LANES],
             shaded: 0,
         }
@@ -91,25 +96,21 @@ pub(super) struct RayLanes {
 }
 
 /// Fill `batch` with the samples at steps `k .. k + LANES` of `ray` (samples past the ray's end are
-/// taken too, clamped into the volume like any other: the caller stops at the end). `values`: also
-/// the trilinear value's bin (trilinear value classes), else only where the samples fall.
-///
-/// `data` must hold the grid's voxels (`grid` made from the same volume, [`fits`] true for it).
-#[allow(clippy::too_many_arguments)]
+/// taken too, clamped into the volume like any other: the caller stops at the end): where they fall
+/// and, with `bricks` (the skipping bricks' shift and counts), their bricks. Not yet classified.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(super) fn fill<T: Voxel>(
+pub(super) fn fill(
     batch: &mut Batch,
     grid: &Grid,
     dims: [usize; 3],
-    classifier: &Classifier,
-    data: &[T],
+    bricks: Option<(u32, [usize; 3])>,
     ray: &RayLanes,
     k: f64,
-    values: bool,
 ) {
     batch.k0 = k;
     batch.shaded = 0;
+    batch.classified = false;
     let zero = _mm256_setzero_pd();
     let mut cell = [_mm_setzero_si128(); 6];
     let mut frac = [_mm_setzero_ps(); 6];
@@ -147,8 +148,29 @@ pub(super) fn fill<T: Voxel>(
             _mm256_storeu_ps(batch.f[a].as_mut_ptr(), f[a]);
         }
     }
-    if !values {
-        return;
+    if let Some((shift, counts)) = bricks {
+        // The brick of each cell (its start over the brick edge; a cell starts at most at dims − 2, so
+        // below the counts), x fastest: below the voxel count.
+        let sh = _mm_cvtsi32_si128(shift as i32);
+        let (bx, by, bz) = (_mm256_srl_epi32(i[0], sh), _mm256_srl_epi32(i[1], sh), _mm256_srl_epi32(i[2], sh));
+        let (c0, c1) = (_mm256_set1_epi32(counts[0] as i32), _mm256_set1_epi32(counts[1] as i32));
+        let bi = _mm256_add_epi32(bx, _mm256_mullo_epi32(c0, _mm256_add_epi32(by, _mm256_mullo_epi32(c1, bz))));
+        // SAFETY: `batch.brick` holds eight u32, the bytes an unaligned store writes.
+        unsafe { _mm256_storeu_si256(batch.brick.as_mut_ptr().cast(), bi) };
+    }
+}
+
+/// The trilinear value's bin of every sample of a [`fill`]ed `batch` (`classifier`'s bins), from the
+/// voxels `data` of the grid it was filled on ([`fits`] true for it).
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(super) fn classify<T: Voxel>(batch: &mut Batch, grid: &Grid, classifier: &Classifier, data: &[T]) {
+    batch.classified = true;
+    let mut f = [_mm256_setzero_ps(); 3];
+    // SAFETY (the loads): each source holds eight 32-bit lanes, the bytes an unaligned load reads.
+    let b = unsafe { _mm256_loadu_si256(batch.b.as_ptr().cast()) };
+    for a in 0..3 {
+        f[a] = unsafe { _mm256_loadu_ps(batch.f[a].as_ptr()) };
     }
     let [sx, sy, sz] = grid.strides;
     let offsets = [0, sx, sy, sy + sx, sz, sz + sx, sz + sy, sz + sy + sx];

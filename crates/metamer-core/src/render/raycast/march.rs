@@ -590,6 +590,7 @@ impl<'a> RayContext<'a> {
         let ray_lanes = lanes::RayLanes { origin, dir, jitter };
         // Value reconstruction in the lanes: trilinear only (the nearest voxel is read by the scalar path).
         let values = self.options.interpolation == Interpolation::Trilinear;
+        let brick_lanes = self.bricks.map(|(bm, _)| (bm.shift, bm.counts));
         // The smooth gradient's shading in the lanes too: trilinear values, shaded by the smooth gradient.
         let shade_lanes = self
             .fields
@@ -613,18 +614,7 @@ impl<'a> RayContext<'a> {
                     None => {
                         // SAFETY: LANES is true only inside `march_values_avx2`, which runs only where AVX2
                         // was detected; `lanes` was set only for a volume the lanes fit (`lanes::fits`).
-                        unsafe {
-                            lanes::fill(
-                                &mut batch,
-                                &self.grid,
-                                self.volume.dims,
-                                classifier,
-                                data,
-                                &ray_lanes,
-                                k,
-                                values,
-                            )
-                        };
+                        unsafe { lanes::fill(&mut batch, &self.grid, self.volume.dims, brick_lanes, &ray_lanes, k) };
                         0
                     }
                 };
@@ -651,7 +641,12 @@ impl<'a> RayContext<'a> {
                 let sh = bm.shift;
                 let b = [at.i[0] >> sh, at.i[1] >> sh, at.i[2] >> sh];
                 debug_assert!((0..3).all(|a| b[a] < bm.counts[a]), "{b:?} {:?}", bm.counts);
-                uniform = table[b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2])];
+                let bi = match lane {
+                    #[cfg(target_arch = "x86_64")]
+                    Some(j) => batch.brick[j] as usize,
+                    _ => b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2]),
+                };
+                uniform = table[bi];
                 if uniform == EMPTY {
                     prev = Edge::EMPTY;
                     carry = false;
@@ -669,6 +664,10 @@ impl<'a> RayContext<'a> {
                 match lane {
                     #[cfg(target_arch = "x86_64")]
                     Some(j) if values => {
+                        if !batch.classified {
+                            // SAFETY: as for `lanes::fill` above.
+                            unsafe { lanes::classify(&mut batch, &self.grid, classifier, data) };
+                        }
                         let bin = batch.bin[j] as usize;
                         (classifier.material[bin], bin)
                     }
