@@ -361,7 +361,7 @@ pub fn raycast(
 }
 
 /// Whether this processor can take value samples several at a time (x86-64 with AVX2).
-fn lanes_detected() -> bool {
+pub(super) fn lanes_detected() -> bool {
     #[cfg(target_arch = "x86_64")]
     return lanes::detected();
     #[cfg(not(target_arch = "x86_64"))]
@@ -428,6 +428,9 @@ pub(super) fn raycast_with(
         .filter(|(b, _)| !labels && b.size == block::FIELD_BRICK)
         .map(|(_, t)| t.class.len() - t.empty);
     let mut fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients, cap, reachable));
+    if let Some(f) = fields.as_mut() {
+        f.avx2 = lanes;
+    }
     if let Some(f) = fields.as_mut().filter(|f| f.room().is_some()) {
         let rows = last_rows(&view, volume, f.counts(), w, h);
         f.evict_by_rows(rows);
