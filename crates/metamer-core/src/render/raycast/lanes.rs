@@ -169,8 +169,8 @@ pub(super) fn classify<T: Voxel>(batch: &mut Batch, grid: &Grid, classifier: &Cl
     let mut f = [_mm256_setzero_ps(); 3];
     // SAFETY (the loads): each source holds eight 32-bit lanes, the bytes an unaligned load reads.
     let b = unsafe { _mm256_loadu_si256(batch.b.as_ptr().cast()) };
-    for a in 0..3 {
-        f[a] = unsafe { _mm256_loadu_ps(batch.f[a].as_ptr()) };
+    for (fa, src) in f.iter_mut().zip(&batch.f) {
+        *fa = unsafe { _mm256_loadu_ps(src.as_ptr()) };
     }
     let [sx, sy, sz] = grid.strides;
     let offsets = [0, sx, sy, sy + sx, sz, sz + sx, sz + sy, sz + sy + sx];
