@@ -5,7 +5,7 @@ use super::MaterialClass;
 use crate::volume::Volume;
 use rayon::prelude::*;
 
-const LUT_BINS: usize = 4096;
+pub(super) const LUT_BINS: usize = 4096;
 
 /// The transfer function as lookup tables over the volume's value range, and per-brick emptiness.
 pub(super) struct Classifier {

@@ -4,6 +4,8 @@ use super::block::{FIELD_BRICK, S3};
 use super::classify::{BrickMap, Classifier, EMPTY, MIXED};
 use super::fields::{BlockRef, CELL, CORNERS, Cursor, Fields, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
+#[cfg(target_arch = "x86_64")]
+use super::lanes;
 use super::view::View;
 use super::{
     Gradient, Interpolation, MAX_MATERIALS, RaycastOptions, RaycastStats, Shading, interleaved_gradient_noise,
@@ -211,11 +213,11 @@ struct Ray {
 /// The volume's grid as the inner loop needs it, computed once per raycast.
 pub(super) struct Grid {
     /// The largest index-space coordinate along each axis (dims − 1).
-    hi: [f64; 3],
+    pub(super) hi: [f64; 3],
     /// The largest first voxel of a cell (dims − 2, 0 along an axis of one voxel).
-    imax: [f64; 3],
+    pub(super) imax: [f64; 3],
     /// The strides to the next voxel along x, y and z (0 along an axis of one voxel).
-    strides: [usize; 3],
+    pub(super) strides: [usize; 3],
 }
 
 impl Grid {
@@ -251,6 +253,9 @@ pub(super) struct RayContext<'a> {
     /// termination is off: a transmittance is never below 0).
     pub(crate) stop_below: f32,
     pub(crate) n_mat: usize,
+    /// Value classes take their samples several at a time (AVX2 detected, the volume fits the lanes:
+    /// [`super::lanes`]); false: the portable loop. The frames are the same.
+    pub(crate) lanes: bool,
     pub(crate) width: usize,
     pub(crate) height: usize,
 }
@@ -352,6 +357,25 @@ impl<'a> RayContext<'a> {
         out: &mut [f32],
         cursor: &mut Cursor<'a>,
     ) -> f32 {
+        self.composite_value_by(data, (material, bin), at, alpha, transmittance, out, || {
+            self.shade(self.smooth_gradient(at, cursor))
+        })
+    }
+
+    /// [`Self::composite_value`] with the shading of the smooth gradient given by `smooth` (called only
+    /// when the sample is shaded by it).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn composite_value_by<T: Voxel>(
+        &self,
+        data: &[T],
+        (material, bin): (u8, usize),
+        at: Located,
+        alpha: &[f32],
+        transmittance: f32,
+        out: &mut [f32],
+        smooth: impl FnOnce() -> f32,
+    ) -> f32 {
         if material == 0 {
             return 0.0;
         }
@@ -370,7 +394,7 @@ impl<'a> RayContext<'a> {
         }
         let shade = match (self.options.shading, self.options.gradient) {
             (Shading::Unshaded, _) => 1.0,
-            (_, Gradient::Smooth) => self.shade(self.smooth_gradient(at, cursor)),
+            (_, Gradient::Smooth) => smooth(),
             (_, Gradient::Cell) => self.shade(cell_g.unwrap_or_else(|| Cell::gradient(&self.cell(data, at.b), at.f))),
         };
         out[usize::from(material) - 1] += transmittance * alpha * shade;
@@ -478,9 +502,14 @@ impl<'a> RayContext<'a> {
     pub(crate) fn trace(&self, px: usize, py: usize, out: &mut [f32], stats: &mut RaycastStats) {
         let Some(ray) = self.ray(px, py) else { return };
         match self.options.interpolation {
-            Interpolation::Trilinear | Interpolation::Nearest => {
-                crate::with_voxels!(&self.volume.voxels, data => self.march_values(data, &ray, out, stats))
-            }
+            Interpolation::Trilinear | Interpolation::Nearest => crate::with_voxels!(&self.volume.voxels, data => {
+                #[cfg(target_arch = "x86_64")]
+                if self.lanes {
+                    // SAFETY: `lanes` is set only where AVX2 was detected (`super::lanes::detected`).
+                    return unsafe { self.march_values_avx2(data, &ray, out, stats) };
+                }
+                self.march_values(data, &ray, out, stats)
+            }),
             Interpolation::Labels => self.march::<Labels>(&ray, out, stats),
         }
     }
@@ -532,7 +561,41 @@ impl<'a> RayContext<'a> {
     /// counters kept per ray.
     #[inline(never)]
     fn march_values<T: Voxel>(&self, data: &[T], ray: &Ray, out: &mut [f32], stats: &mut RaycastStats) {
+        self.march_values_in::<T, false>(data, ray, out, stats)
+    }
+
+    /// [`Self::march_values`] taking its samples [`lanes::LANES`] at a time ([`lanes::fill`]): the same
+    /// frame, bit for bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    fn march_values_avx2<T: Voxel>(&self, data: &[T], ray: &Ray, out: &mut [f32], stats: &mut RaycastStats) {
+        self.march_values_in::<T, true>(data, ray, out, stats)
+    }
+
+    /// The value loop; `LANES`: samples located and classified in batches (AVX2 only, and only inlined
+    /// into [`Self::march_values_avx2`]).
+    #[inline(always)]
+    fn march_values_in<T: Voxel, const LANES: bool>(
+        &self,
+        data: &[T],
+        ray: &Ray,
+        out: &mut [f32],
+        stats: &mut RaycastStats,
+    ) {
         let Ray { origin, dir, t0, t1, jitter } = *ray;
+        #[cfg(target_arch = "x86_64")]
+        let mut batch = lanes::Batch::default();
+        #[cfg(target_arch = "x86_64")]
+        let ray_lanes = lanes::RayLanes { origin, dir, jitter };
+        // Value reconstruction in the lanes: trilinear only (the nearest voxel is read by the scalar path).
+        let values = self.options.interpolation == Interpolation::Trilinear;
+        let brick_lanes = self.bricks.map(|(bm, _)| (bm.shift, bm.counts));
+        // The smooth gradient's shading in the lanes too: trilinear values, shaded by the smooth gradient.
+        let shade_lanes = self
+            .fields
+            .filter(|_| LANES && values && self.options.shading != Shading::Unshaded)
+            .filter(|_| self.options.gradient == Gradient::Smooth);
         let classifier = self.classifier;
         let mut k = (t0 - jitter).ceil();
         let mut transmittance = 1.0f32;
@@ -544,7 +607,32 @@ impl<'a> RayContext<'a> {
         while k + jitter <= t1 {
             let t = k + jitter;
             let p = [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
-            let at = self.locate(p);
+            #[cfg(target_arch = "x86_64")]
+            let lane = if LANES {
+                let j = match batch.lane(k) {
+                    Some(j) => j,
+                    None => {
+                        // SAFETY: LANES is true only inside `march_values_avx2`, which runs only where AVX2
+                        // was detected; `lanes` was set only for a volume the lanes fit (`lanes::fits`).
+                        unsafe { lanes::fill(&mut batch, &self.grid, self.volume.dims, brick_lanes, &ray_lanes, k) };
+                        0
+                    }
+                };
+                Some(j)
+            } else {
+                None
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let lane: Option<usize> = None;
+            let at = match lane {
+                #[cfg(target_arch = "x86_64")]
+                Some(j) => Located {
+                    b: batch.b[j] as usize,
+                    i: [batch.i[0][j] as usize, batch.i[1][j] as usize, batch.i[2][j] as usize],
+                    f: [batch.f[0][j], batch.f[1][j], batch.f[2][j]],
+                },
+                _ => self.locate(p),
+            };
             let mut uniform = MIXED;
             if let Some((bm, table)) = self.bricks {
                 // The brick of the sample's cell (it bounds the cell's eight voxels). A cell starts at most
@@ -553,7 +641,12 @@ impl<'a> RayContext<'a> {
                 let sh = bm.shift;
                 let b = [at.i[0] >> sh, at.i[1] >> sh, at.i[2] >> sh];
                 debug_assert!((0..3).all(|a| b[a] < bm.counts[a]), "{b:?} {:?}", bm.counts);
-                uniform = table[b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2])];
+                let bi = match lane {
+                    #[cfg(target_arch = "x86_64")]
+                    Some(j) => batch.brick[j] as usize,
+                    _ => b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2]),
+                };
+                uniform = table[bi];
                 if uniform == EMPTY {
                     prev = Edge::EMPTY;
                     carry = false;
@@ -568,7 +661,18 @@ impl<'a> RayContext<'a> {
             // A brick whose values all map to one material: located, not reconstructed (the bin is one of
             // the material's, whose opacities are all alike).
             let sample = if uniform == MIXED {
-                self.classify(data, p, at)
+                match lane {
+                    #[cfg(target_arch = "x86_64")]
+                    Some(j) if values => {
+                        if !batch.classified {
+                            // SAFETY: as for `lanes::fill` above.
+                            unsafe { lanes::classify(&mut batch, &self.grid, classifier, data) };
+                        }
+                        let bin = batch.bin[j] as usize;
+                        (classifier.material[bin], bin)
+                    }
+                    _ => self.classify(data, p, at),
+                }
             } else {
                 uniform_samples += 1;
                 (uniform, usize::from(classifier.material_bin[usize::from(uniform) - 1]))
@@ -590,7 +694,21 @@ impl<'a> RayContext<'a> {
                 }
             }
             let alpha = if refine { &classifier.alpha_sub } else { &classifier.alpha };
-            let absorbed = self.composite_value(data, sample, at, alpha, transmittance, out, &mut cursor);
+            let smooth = || match (lane, shade_lanes) {
+                #[cfg(target_arch = "x86_64")]
+                (Some(j), Some(fields)) => {
+                    if batch.shaded & (1 << j) == 0 {
+                        let (block, base) = fields.block(at.i, &mut cursor);
+                        // SAFETY: as for `lanes::fill` above (AVX2 detected).
+                        unsafe {
+                            lanes::shade(&mut batch, j, &block.grad, base, fields.scale, self.view, self.ambient)
+                        };
+                    }
+                    batch.shade[j]
+                }
+                _ => self.shade(self.smooth_gradient(at, &mut cursor)),
+            };
+            let absorbed = self.composite_value_by(data, sample, at, alpha, transmittance, out, smooth);
             if self.attenuate(absorbed, &mut transmittance, stats) {
                 break;
             }

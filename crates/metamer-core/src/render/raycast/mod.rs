@@ -332,6 +332,8 @@ mod block;
 mod classify;
 mod fields;
 mod labels;
+#[cfg(target_arch = "x86_64")]
+mod lanes;
 mod march;
 #[cfg(test)]
 mod tests;
@@ -355,6 +357,36 @@ pub fn raycast(
     camera: &Camera,
     options: &RaycastOptions,
 ) -> (MaterialWeights, RaycastStats) {
+    raycast_with(volume, materials, bricks, camera, options, lanes_detected())
+}
+
+/// Whether this processor can take value samples several at a time (x86-64 with AVX2).
+pub(super) fn lanes_detected() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return lanes::detected();
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// Whether `volume` fits the lanes' 32-bit indices.
+fn lanes_fit(volume: &Volume) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return crate::with_voxels!(&volume.voxels, d => lanes::fits(std::mem::size_of_val(&d[..]), volume.dims));
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// [`raycast`], with the value samples taken several at a time (`lanes`, only where
+/// [`lanes_detected`]) or one by one: the same frame either way (tests compare them).
+pub(super) fn raycast_with(
+    volume: &Volume,
+    materials: &[MaterialClass],
+    bricks: Option<&BrickMap>,
+    camera: &Camera,
+    options: &RaycastOptions,
+    lanes: bool,
+) -> (MaterialWeights, RaycastStats) {
+    let lanes = lanes && lanes_detected();
     let n_mat = materials.len().min(MAX_MATERIALS);
     let materials = &materials[..n_mat];
     let (w, h) = (options.width.max(1), options.height.max(1));
@@ -396,6 +428,9 @@ pub fn raycast(
         .filter(|(b, _)| !labels && b.size == block::FIELD_BRICK)
         .map(|(_, t)| t.class.len() - t.empty);
     let mut fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients, cap, reachable));
+    if let Some(f) = fields.as_mut() {
+        f.avx2 = lanes;
+    }
     if let Some(f) = fields.as_mut().filter(|f| f.room().is_some()) {
         let rows = last_rows(&view, volume, f.counts(), w, h);
         f.evict_by_rows(rows);
@@ -413,6 +448,7 @@ pub fn raycast(
         ambient: options.ambient.clamp(0.0, 1.0) as f32,
         stop_below: if options.early_termination { options.termination_transmittance as f32 } else { 0.0 },
         n_mat,
+        lanes: lanes && lanes_fit(volume),
         width: w,
         height: h,
     };

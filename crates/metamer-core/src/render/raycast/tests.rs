@@ -517,3 +517,99 @@ fn max_gradient_keeps_flat_smoke_and_drops_the_skin_of_steep_boundaries() {
     assert_eq!(total(&none, 0), 0.0, "no skin with max_gradient");
     assert!((total(&skin, 1) - total(&none, 1)).abs() < 0.01 * total(&skin, 1));
 }
+
+/// The value loop taking its samples several at a time (AVX2 lanes, where the processor has them) gives
+/// the portable loop's frame and counters bit for bit: on every voxel type, shaded by the smooth or the
+/// cell gradient or unshaded, trilinear or nearest, with a gradient-dependent material, at steps that put
+/// samples anywhere in their cells, and on volumes where rays graze the last cells (values up to the far
+/// faces, axis-aligned views, cells clamped at dims − 2) or whose first voxels the lanes read near (a
+/// grid two voxels wide, a grid one voxel thick).
+#[test]
+fn samples_taken_in_lanes_give_the_portable_frame_bit_for_bit() {
+    if !lanes_detected() {
+        eprintln!("no AVX2 on this processor: the lanes are never taken, nothing to compare");
+        return;
+    }
+    let engine = crate::volume::generate::engine_like_u16([37, 30, 26]);
+    let u16s = engine.voxels.to_f32_vec();
+    let dims = engine.dims;
+    let as_type =
+        |name: &str, data: crate::volume::Voxels| Volume::new(Path::new(name), dims, [1.0, 1.2, 0.9], data).unwrap();
+    let u8s: Vec<u8> = u16s.iter().map(|v| (v / 257.0) as u8).collect();
+    let i8s: Vec<i8> = u8s.iter().map(|v| (i16::from(*v) - 128) as i8).collect();
+    let i16s: Vec<i16> = u16s.iter().map(|v| (*v as i32 - 32768) as i16).collect();
+    let f32s: Vec<f32> = u16s.iter().map(|v| v / 257.0 + 0.25).collect();
+    // Values rising towards the far corner (and a few spikes): material up to the last cells.
+    let n = [19, 17, 23];
+    let ramp: Vec<f32> = (0..n[0] * n[1] * n[2])
+        .map(|i| {
+            let (x, y, z) = (i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1]));
+            (x + y + z) as f32 * 4.0 + if i % 37 == 0 { 60.0 } else { 0.0 }
+        })
+        .collect();
+    let ramp = Volume::new(Path::new("ramp"), n, [1.0; 3], ramp).unwrap();
+    let ramp_u8 = Volume::new(
+        Path::new("ramp_u8"),
+        n,
+        [1.0; 3],
+        ramp.voxels.to_f32_vec().iter().map(|v| *v as u8).collect::<Vec<_>>(),
+    )
+    .unwrap();
+    let thin: Vec<u8> = (0..2 * 9 * 11).map(|i| (i * 7 % 200) as u8).collect();
+    let thin = Volume::new(Path::new("thin"), [2, 9, 11], [1.0; 3], thin).unwrap();
+    let sheet: Vec<u16> = (0..12 * 10 * 2).map(|i| (i * 977 % 50_000) as u16).collect();
+    let sheet = Volume::new(Path::new("sheet"), [12, 10, 2], [1.0; 3], sheet).unwrap();
+    let volumes = [
+        (as_type("u8", u8s.into()), [18.0f32, 75.0, 105.0, 175.0, 200.0, 255.0]),
+        (as_type("i8", i8s.into()), [-110.0, -53.0, -23.0, 47.0, 72.0, 127.0]),
+        (engine, [18.0 * 257.0, 75.0 * 257.0, 105.0 * 257.0, 175.0 * 257.0, 200.0 * 257.0, 65535.0]),
+        (as_type("i16", i16s.into()), [-28000.0, -13000.0, -6000.0, 12000.0, 18000.0, 32767.0]),
+        (as_type("f32", f32s.into()), [18.0, 75.0, 105.0, 175.0, 200.0, 256.0]),
+        (ramp, [20.0, 60.0, 61.0, 120.0, 121.0, 300.0]),
+        (ramp_u8, [20.0, 60.0, 61.0, 120.0, 121.0, 255.0]),
+        (thin, [10.0, 60.0, 61.0, 120.0, 121.0, 200.0]),
+        (sheet, [1000.0, 15000.0, 15001.0, 30000.0, 30001.0, 50000.0]),
+    ];
+    let cameras = [
+        Camera::default(),
+        Camera { azimuth_deg: 0.0, elevation_deg: 0.0, zoom: 1.0, fit_materials: false },
+        Camera { azimuth_deg: 90.0, elevation_deg: 0.0, zoom: 0.8, fit_materials: false },
+        Camera { azimuth_deg: 37.0, elevation_deg: -61.0, zoom: 1.7, fit_materials: true },
+    ];
+    let base = RaycastOptions { width: 40, height: 34, shading: Shading::Headlight, ..Default::default() };
+    let settings = [
+        RaycastOptions { step: 0.5, ..base.clone() },
+        RaycastOptions { step: 0.37, shading: Shading::Key, ..base.clone() },
+        RaycastOptions { step: 1.3, gradient: Gradient::Cell, ..base.clone() },
+        RaycastOptions { step: 0.5, shading: Shading::Unshaded, jitter: false, ..base.clone() },
+        RaycastOptions { step: 0.5, interpolation: Interpolation::Nearest, ..base.clone() },
+        RaycastOptions { step: 0.7, empty_space_skipping: false, refine: false, ..base.clone() },
+        RaycastOptions { step: 0.5, early_termination: false, brick_size: 16, ..base.clone() },
+    ];
+    let mut compared = 0;
+    for (vol, r) in &volumes {
+        assert!(lanes_fit(vol));
+        let mut mats = vec![
+            MaterialClass::new([r[0], r[1]], 0.05),
+            MaterialClass::new([r[2], r[3]], 0.3),
+            MaterialClass::new([r[4], r[5]], 0.9),
+        ];
+        for fading in [false, true] {
+            mats[0].max_gradient = fading.then_some(0.2 * (r[1] - r[0]));
+            for cam in &cameras {
+                for opts in &settings {
+                    let (lanes, s_lanes) = raycast_with(vol, &mats, None, cam, opts, true);
+                    let (portable, s_portable) = raycast_with(vol, &mats, None, cam, opts, false);
+                    let what = format!("{:?} {cam:?} {opts:?} fading {fading}", vol.voxels.scalar_type());
+                    assert!(lanes.data.iter().zip(&portable.data).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}");
+                    assert_eq!(s_lanes, s_portable, "{what}");
+                    compared += usize::from(portable.data.iter().any(|v| *v > 0.0));
+                }
+            }
+        }
+    }
+    assert!(
+        compared >= volumes.len() * 2 * cameras.len() * settings.len() * 9 / 10,
+        "{compared} frames showed a material"
+    );
+}
