@@ -91,6 +91,36 @@ fn contradictory_duplicated_targets_compromise() {
     assert!(sol.diagnostics.iter().any(|d| d.cell.is_some() && d.message.contains("conflicts")));
 }
 
+/// Each repeated cell gets one remark naming the pair's first cell, in the cells' order, whatever the
+/// order of the repeats; a cell that is not used is no repeat.
+#[test]
+fn duplicated_cells_are_named_in_order() {
+    let c = col();
+    let mut a = d65(&c);
+    a.name = "A".into();
+    let mut b = d65(&c);
+    b.name = "B".into();
+    let t = Vector3::new(0.2, 0.2, 0.2);
+    let mut p = single(vec![a, b], &[t, t], &[1.0, 1.0]);
+    // colours: A×S, B×S, then A×S, B×S, an unused B×S and A×S again.
+    for (light, weight) in [(0, 1.0), (1, 1.0), (1, 0.0), (0, 1.0)] {
+        p.colours.push(random::cell(light, 0, t, weight));
+    }
+    let sol = design::solve(&p, None, &c, &SolveOptions::default()).unwrap();
+    let dups: Vec<(Option<usize>, &str)> = sol
+        .diagnostics
+        .iter()
+        .filter(|d| d.kind == design::DiagnosticKind::Duplicate)
+        .map(|d| (d.cell, d.message.as_str()))
+        .collect();
+    let pair = |j: usize, k: usize| format!("appears twice (colours[{j}] and colours[{k}])");
+    assert_eq!(dups.len(), 3, "{dups:?}");
+    for ((cell, message), (j, k, name)) in dups.iter().zip([(0, 2, "A × S"), (1, 3, "B × S"), (0, 5, "A × S")]) {
+        assert_eq!(*cell, Some(k), "{message}");
+        assert!(message.starts_with(&format!("cell {name} ")) && message.contains(&pair(j, k)), "{message}");
+    }
+}
+
 #[test]
 fn extreme_weights_stay_finite_and_optimal() {
     let c = col();

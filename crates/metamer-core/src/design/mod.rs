@@ -309,7 +309,7 @@ pub fn solve_with(
             });
         }
     }
-    let objective = design.objective(&values);
+    let objective = design.objective_with(&values, parallel);
     if !objective.is_finite() {
         return Err(DesignError::Invalid(format!(
             "the objective at the solution is {objective}, not a finite number: the palette's values are too \

@@ -319,36 +319,34 @@ pub(crate) fn diagnostics(
             }
         }
     }
-    // Duplicated cells.
-    let mut first: std::collections::HashMap<(usize, usize), usize> = std::collections::HashMap::new();
-    for (k, c) in p.colours.iter().enumerate() {
-        if !c.is_active() {
-            continue;
-        }
-        if let Some(&j) = first.get(&(c.light, c.reflectance)) {
-            out.push(say(
-                Some(k),
-                DiagnosticKind::Duplicate,
-                format!(
-                    "cell {} × {} appears twice (colours[{j}] and colours[{k}]): both count, so the solution is their weighted compromise",
-                    p.lights[c.light].name, p.reflectances[c.reflectance].name
-                ),
-            ));
-        } else {
-            first.insert((c.light, c.reflectance), k);
-        }
+    // Duplicated cells: the active cells sorted by (reflectance, light, index), so each pair's first
+    // cell leads its run (a sort, not a hash map: a batch has thousands of cells, usually in this order
+    // already); the remarks come out in the cells' order, as a walk over the cells would give them.
+    let mut pairs: Vec<(usize, usize, usize)> =
+        p.colours.iter().enumerate().filter(|(_, c)| c.is_active()).map(|(k, c)| (c.reflectance, c.light, k)).collect();
+    pairs.sort_unstable();
+    let mut twice: Vec<(usize, usize)> = Vec::new();
+    for run in pairs.chunk_by(|a, b| (a.0, a.1) == (b.0, b.1)) {
+        twice.extend(run[1..].iter().map(|&(_, _, k)| (k, run[0].2)));
+    }
+    twice.sort_unstable();
+    for (k, j) in twice {
+        let c = &p.colours[k];
+        out.push(say(
+            Some(k),
+            DiagnosticKind::Duplicate,
+            format!(
+                "cell {} × {} appears twice (colours[{j}] and colours[{k}]): both count, so the solution is their weighted compromise",
+                p.lights[c.light].name, p.reflectances[c.reflectance].name
+            ),
+        ));
     }
     // Unmet cells, with a reason (in parallel: each may run a small bounded solve).
-    let mut by_reflectance: Vec<Vec<usize>> = vec![Vec::new(); p.reflectances.len()];
-    for (k, c) in p.colours.iter().enumerate() {
-        if c.is_active() {
-            by_reflectance[c.reflectance].push(k);
-        }
-    }
     // Cells under a zero light: black whatever the reflectance, and ΔE00 against a black white is meaningless.
+    let zero_light: Vec<bool> = v.lights.iter().map(is_zero).collect();
     for r in cells {
         let c = &p.colours[r.cell];
-        if c.is_active() && is_zero(&v.lights[c.light]) {
+        if c.is_active() && zero_light[c.light] {
             out.push(say(
                 Some(r.cell),
                 DiagnosticKind::Unmet,
@@ -362,10 +360,17 @@ pub(crate) fn diagnostics(
             ));
         }
     }
-    let unmet: Vec<&CellResult> = cells
-        .iter()
-        .filter(|r| r.status == CellStatus::Unmet && !is_zero(&v.lights[p.colours[r.cell].light]))
-        .collect();
+    let unmet: Vec<&CellResult> =
+        cells.iter().filter(|r| r.status == CellStatus::Unmet && !zero_light[p.colours[r.cell].light]).collect();
+    if unmet.is_empty() {
+        return out;
+    }
+    let mut by_reflectance: Vec<Vec<usize>> = vec![Vec::new(); p.reflectances.len()];
+    for (k, c) in p.colours.iter().enumerate() {
+        if c.is_active() {
+            by_reflectance[c.reflectance].push(k);
+        }
+    }
     // The form of each cell's colour rows, and the reachability data of each fixed partner, built once.
     let mut form_of = vec![Form::Full; p.colours.len()];
     for t in &design.terms {

@@ -164,6 +164,29 @@ mod tests {
         p
     }
 
+    /// The objective's parts computed on the pool (a batch has more terms than the threshold) are summed
+    /// in the serial order, and a whole solve gives the same results with and without the pool.
+    #[test]
+    fn the_pool_changes_no_bit_of_the_objective_or_the_solution() {
+        let col = Colorimetry::default();
+        for p in [random::batch_palette(300, 5, &col), random::reachable_batch_palette(300, 6, &col)] {
+            let design = Design::new(&p, None, &col).expect("valid");
+            assert!(design.terms.len() >= 512, "the terms must reach the pool");
+            let v = design.start_values();
+            assert_eq!(design.objective_with(&v, true).to_bits(), design.objective_with(&v, false).to_bits());
+            let options = crate::design::SolveOptions::default();
+            let a = crate::design::solve_with(&p, None, &col, &options, true).expect("solved");
+            let b = crate::design::solve_with(&p, None, &col, &options, false).expect("solved");
+            assert_eq!(a.objective.to_bits(), b.objective.to_bits());
+            assert_eq!(a.cells, b.cells);
+            assert_eq!(a.diagnostics, b.diagnostics);
+            let spectra = |s: &crate::design::Solution| {
+                s.palette.reflectances.iter().flat_map(|e| e.spectrum.0.iter().map(|x| x.to_bits())).collect::<Vec<_>>()
+            };
+            assert_eq!(spectra(&a), spectra(&b));
+        }
+    }
+
     fn bits(v: &DVector<f64>) -> Vec<u64> {
         v.iter().map(|x| x.to_bits()).collect()
     }

@@ -24,6 +24,7 @@ use crate::palette::mixing::{light_of, mix_at, route_dial, sample_positions};
 use crate::palette::{Bounds, Kind, Mix, Palette};
 use crate::spectrum::{SAMPLES, Spectrum};
 use nalgebra::{DMatrix, DVector, Vector3};
+use rayon::prelude::*;
 
 use super::DesignError;
 pub use super::layout::{Block, Layout, LinearSystem, Unit, Values};
@@ -170,11 +171,18 @@ impl<'a> Design<'a> {
             }
         }
         let mut v = Values { lights, reflectances, free };
-        // Designed spectra start inside their bounds.
+        // Designed spectra start inside their bounds (clamped in place: the bounds of a spectrum are the
+        // same for each of its samples, those of a free group are its box).
         for unit in self.units() {
-            let b = self.bounds_of(unit);
-            let x: Vec<f64> = v.get(unit).iter().enumerate().map(|(i, &x)| clamp_finite(x, b.0[i], b.1[i])).collect();
-            v.set(unit, &x);
+            match unit {
+                Unit::Light(i) => clamp_spectrum(&mut v.lights[i], p.bounds_of(&p.lights[i])),
+                Unit::Reflectance(i) => clamp_spectrum(&mut v.reflectances[i], p.bounds_of(&p.reflectances[i])),
+                Unit::Free(g) => {
+                    for ch in 0..3 {
+                        v.free[g][ch] = clamp_finite(v.free[g][ch], p.free[g].lower[ch], p.free[g].upper[ch]);
+                    }
+                }
+            }
         }
         v
     }
@@ -232,26 +240,50 @@ impl<'a> Design<'a> {
 
     /// The pinned objective at `v`: the sum of squares of every row.
     pub fn objective(&self, v: &Values) -> f64 {
-        let mut f = 0.0;
-        for t in &self.terms {
+        self.objective_with(v, false)
+    }
+
+    /// [`Design::objective`], its terms' and spectra's parts computed on the pool when `parallel` and there
+    /// are many of them; they are summed in order on the calling thread either way, so the result has the
+    /// same bits.
+    pub(crate) fn objective_with(&self, v: &Values, parallel: bool) -> f64 {
+        let term = |t: &CellTerm| {
             let (c, e) = self.term_residuals(t, v);
-            f += c.norm_squared() + e.norm_squared();
+            c.norm_squared() + e.norm_squared()
+        };
+        let mut f = 0.0;
+        if parallel && self.terms.len() >= PARALLEL_MIN {
+            let parts: Vec<f64> = self.terms.par_iter().with_min_len(PARALLEL_MIN / 2).map(term).collect();
+            for x in parts {
+                f += x;
+            }
+        } else {
+            for t in &self.terms {
+                f += term(t);
+            }
         }
-        f + self.smoothness_objective(v)
+        f + self.smoothness_objective(v, parallel)
     }
 
     /// The smoothness part of the objective.
-    pub(crate) fn smoothness_objective(&self, v: &Values) -> f64 {
+    fn smoothness_objective(&self, v: &Values, parallel: bool) -> f64 {
         if self.smoothness <= 0.0 {
             return 0.0;
         }
         let w = self.smoothness * smoothness_scale();
-        self.units().iter().filter(|u| !matches!(u, Unit::Free(_))).map(|u| smoothness_sq(v.get(*u), w)).sum()
+        let units: Vec<Unit> = self.units().into_iter().filter(|u| !matches!(u, Unit::Free(_))).collect();
+        if parallel && units.len() >= PARALLEL_MIN {
+            let parts: Vec<f64> =
+                units.par_iter().with_min_len(PARALLEL_MIN / 2).map(|u| smoothness_sq(v.get(*u), w)).collect();
+            parts.into_iter().sum()
+        } else {
+            units.iter().map(|u| smoothness_sq(v.get(*u), w)).sum()
+        }
     }
 
-    /// The units each term touches (designed spectra and its free group).
-    pub(crate) fn term_units(&self, t: &CellTerm) -> Vec<Unit> {
-        let mut u = Vec::with_capacity(3);
+    /// The units each term touches (designed spectra and its free group), appended to `u` (no allocation
+    /// once `u` has room).
+    fn term_units(&self, t: &CellTerm, u: &mut Vec<Unit>) {
         for &(i, _) in &t.lights {
             if self.palette.lights[i].design {
                 u.push(Unit::Light(i));
@@ -263,7 +295,6 @@ impl<'a> Design<'a> {
         if let Some(g) = t.free {
             u.push(Unit::Free(g));
         }
-        u
     }
 
     /// Is the term bilinear (light and reflectance both designed)?
@@ -313,9 +344,12 @@ impl<'a> Design<'a> {
             }
             i
         }
-        let in_set = |t: &CellTerm, out: &mut Vec<usize>| {
+        let mut scratch = Vec::with_capacity(4);
+        let mut in_set = |t: &CellTerm, out: &mut Vec<usize>| {
+            scratch.clear();
+            self.term_units(t, &mut scratch);
             out.clear();
-            out.extend(self.term_units(t).iter().filter_map(index_of));
+            out.extend(scratch.iter().filter_map(index_of));
         };
         let mut us = Vec::with_capacity(4);
         for &ti in terms {
@@ -557,6 +591,17 @@ pub(crate) fn smoothness_grad(x: &[f64], w: f64, g: &mut [f64]) {
     for i in 0..n {
         let dtd = 2.0 * d[i] - if i > 0 { d[i - 1] } else { 0.0 } - if i + 1 < n { d[i + 1] } else { 0.0 };
         g[i] += 2.0 * w * w * dtd;
+    }
+}
+
+/// Below this many terms (or spectra) the objective is computed on the calling thread alone: the pool's
+/// hand-off costs more than it saves on a designer's palette.
+const PARALLEL_MIN: usize = 512;
+
+/// Each sample of `s` clamped into `b` ([`clamp_finite`]).
+fn clamp_spectrum(s: &mut Spectrum, b: Bounds) {
+    for x in s.0.iter_mut() {
+        *x = clamp_finite(*x, b.lower, b.upper);
     }
 }
 
