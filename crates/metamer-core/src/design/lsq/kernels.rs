@@ -39,7 +39,14 @@ pub(crate) fn gemv(a: &DMatrix<f64>, x: &[f64], y: &mut [f64]) {
         y.fill(0.0);
         return;
     }
-    let s = a.as_slice();
+    gemv_columns(a.as_slice(), m, &x[..n], y);
+}
+
+/// y = A x over the columns of A (column-major `s`, `m` rows) that x has entries for, in nalgebra's passes
+/// over y: the first column, then four at a time, then the rest one by one. x is not empty.
+#[inline(always)]
+fn gemv_columns(s: &[f64], m: usize, x: &[f64], y: &mut [f64]) {
+    let n = x.len();
     let c0 = &s[..m];
     for (t, &v) in y.iter_mut().zip(c0) {
         *t = v * x[0];
@@ -79,35 +86,9 @@ pub(crate) fn gemv_trailing_zeros(a: &DMatrix<f64>, x: &[f64], y: &mut [f64]) {
     if t == 0 || t == n {
         return gemv(a, x, y);
     }
-    let s = &a.as_slice()[..t * m];
     let y = &mut y[..m];
-    // `gemv` of the first t columns (the same passes over y: the first column, then four at a time).
-    let c0 = &s[..m];
-    for (v, &c) in y.iter_mut().zip(c0) {
-        *v = c * x[0];
-    }
-    let mut j = 1;
-    while j + 4 <= t {
-        let (c1, c2) = (&s[j * m..(j + 1) * m], &s[(j + 1) * m..(j + 2) * m]);
-        let (c3, c4) = (&s[(j + 2) * m..(j + 3) * m], &s[(j + 3) * m..(j + 4) * m]);
-        let (x1, x2, x3, x4) = (x[j], x[j + 1], x[j + 2], x[j + 3]);
-        for i in 0..m {
-            let mut v = y[i];
-            v += c1[i] * x1;
-            v += c2[i] * x2;
-            v += c3[i] * x3;
-            v += c4[i] * x4;
-            y[i] = v;
-        }
-        j += 4;
-    }
-    while j < t {
-        let (c, xj) = (&s[j * m..(j + 1) * m], x[j]);
-        for (v, &cv) in y.iter_mut().zip(c) {
-            *v += cv * xj;
-        }
-        j += 1;
-    }
+    // `gemv` of the first t columns (the same passes over y).
+    gemv_columns(&a.as_slice()[..t * m], m, &x[..t], y);
     if y.contains(&0.0) {
         gemv(a, x, y);
     }
