@@ -16,7 +16,7 @@
 //! start as it did without the guess. An accepted set is a set at which the finish stops, and its result
 //! is the polish's of that set: the same bits as the finish and polish give when they end there.
 
-use super::finish::{Rows, Work};
+use super::finish::{Rows, Work, step_to_box};
 use super::kernels::{Cholesky, Status, axpy, column};
 use super::*;
 
@@ -145,23 +145,8 @@ impl Work {
                     }
                     self.stuck.iter_mut().for_each(|s| *s = false);
                 }
-                let mut alpha: f64 = 1.0;
-                let mut hit: Option<usize> = None;
-                for i in (0..n).filter(|&i| self.is_free[i]) {
-                    let (zi, xi) = (self.zd[i], self.x[i]);
-                    let a = if zi < lo[i] {
-                        (lo[i] - xi) / (zi - xi)
-                    } else if zi > hi[i] {
-                        (hi[i] - xi) / (zi - xi)
-                    } else {
-                        continue;
-                    };
-                    let a = if a.is_finite() { a.clamp(0.0, 1.0) } else { 0.0 };
-                    if hit.is_none() || a < alpha {
-                        alpha = a;
-                        hit = Some(i);
-                    }
-                }
+                let (alpha, hit) =
+                    step_to_box((0..n).filter(|&i| self.is_free[i]).map(|i| (i, self.zd[i])), &self.x, lo, hi);
                 let Some(hit) = hit else {
                     for i in 0..n {
                         if self.is_free[i] {
