@@ -518,11 +518,7 @@ impl Work {
                 // multiplier was rounding noise. Bind it again and skip it until another release succeeds.
                 if let Some((j, from)) = released.take() {
                     let k = self.free.iter().position(|&f| f == j).unwrap_or(0);
-                    let back = match from {
-                        Status::Lower => self.z[k] <= lo[j],
-                        Status::Upper => self.z[k] >= hi[j],
-                        Status::Free => false,
-                    };
+                    let back = goes_back(from, self.z[k], lo[j], hi[j]);
                     if back {
                         self.stuck[j] = true;
                         self.bind(h, j, from);
@@ -541,14 +537,9 @@ impl Work {
                 };
                 self.newly_bound.clear();
                 for (k, &i) in self.free.iter().enumerate() {
-                    let zk = self.z[k];
-                    let v = (self.x[i] + alpha * (zk - self.x[i])).max(lo[i]).min(hi[i]);
+                    let (v, bound) = step_variable(i == hit, self.x[i], self.z[k], alpha, lo[i], hi[i]);
                     self.x[i] = v;
-                    if zk < lo[i] && (i == hit || v - lo[i] <= 1e-14 * (1.0 + lo[i].abs())) {
-                        self.x[i] = lo[i];
-                        self.newly_bound.push(i);
-                    } else if zk > hi[i] && (i == hit || hi[i] - v <= 1e-14 * (1.0 + hi[i].abs())) {
-                        self.x[i] = hi[i];
+                    if bound.is_some() {
                         self.newly_bound.push(i);
                     }
                 }
@@ -597,4 +588,30 @@ pub(super) fn step_to_box(
         }
     }
     (alpha, hit)
+}
+
+/// Whether a variable released from bound `from` a moment ago wants straight back out on the same side
+/// (its new value z at or past that bound): its multiplier was rounding noise.
+#[inline(always)]
+pub(super) fn goes_back(from: Status, z: f64, lo: f64, hi: f64) -> bool {
+    match from {
+        Status::Lower => z <= lo,
+        Status::Upper => z >= hi,
+        Status::Free => false,
+    }
+}
+
+/// A free variable moved the share `alpha` of its step from x towards z ([`step_to_box`]) and kept in
+/// its box: its new value, and the bound it is then bound at — the variable that set the share (`hit`),
+/// or one that came within 1e-14 (relative) of the bound its step passes — or None while it stays free.
+#[inline(always)]
+pub(super) fn step_variable(hit: bool, x: f64, z: f64, alpha: f64, lo: f64, hi: f64) -> (f64, Option<Status>) {
+    let v = (x + alpha * (z - x)).max(lo).min(hi);
+    if z < lo && (hit || v - lo <= 1e-14 * (1.0 + lo.abs())) {
+        (lo, Some(Status::Lower))
+    } else if z > hi && (hit || hi - v <= 1e-14 * (1.0 + hi.abs())) {
+        (hi, Some(Status::Upper))
+    } else {
+        (v, None)
+    }
 }

@@ -16,7 +16,7 @@
 //! start as it did without the guess. An accepted set is a set at which the finish stops, and its result
 //! is the polish's of that set: the same bits as the finish and polish give when they end there.
 
-use super::finish::{Rows, Work, step_to_box};
+use super::finish::{Rows, Work, goes_back, step_to_box, step_variable};
 use super::kernels::{Cholesky, Status, axpy, column};
 use super::*;
 
@@ -133,11 +133,7 @@ impl Work {
                     return Guess::GaveUp;
                 }
                 if let Some((j, from)) = released.take() {
-                    let back = match from {
-                        Status::Lower => self.zd[j] <= lo[j],
-                        Status::Upper => self.zd[j] >= hi[j],
-                        Status::Free => false,
-                    };
+                    let back = goes_back(from, self.zd[j], lo[j], hi[j]);
                     if back {
                         self.stuck[j] = true;
                         self.bind_dual(g, j, from);
@@ -160,15 +156,10 @@ impl Work {
                     if !self.is_free[i] {
                         continue;
                     }
-                    let zi = self.zd[i];
-                    let v = (self.x[i] + alpha * (zi - self.x[i])).max(lo[i]).min(hi[i]);
+                    let (v, bound) = step_variable(i == hit, self.x[i], self.zd[i], alpha, lo[i], hi[i]);
                     self.x[i] = v;
-                    if zi < lo[i] && (i == hit || v - lo[i] <= 1e-14 * (1.0 + lo[i].abs())) {
-                        self.x[i] = lo[i];
-                        self.bind_dual(g, i, Status::Lower);
-                    } else if zi > hi[i] && (i == hit || hi[i] - v <= 1e-14 * (1.0 + hi[i].abs())) {
-                        self.x[i] = hi[i];
-                        self.bind_dual(g, i, Status::Upper);
+                    if let Some(to) = bound {
+                        self.bind_dual(g, i, to);
                     }
                 }
             }
