@@ -142,6 +142,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // its write and fsync (mostly waiting for the disk) then block that thread, not a pool thread that the
     // report's pieces (formatted meanwhile) could use. The report is staged on this thread the same way, the
     // table formatted on a third.
+    let unphysical = Unphysical::of(&solution.palette);
     let (saved, table, report) = std::thread::scope(|scope| {
         let saved = beside(scope, || match &args.output {
             Some(out) => {
@@ -150,7 +151,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             None => Ok(None),
         });
         let table = beside(scope, || {
-            let mut t = table_text(&solution, &notes, basis_warning.as_deref(), args.quiet);
+            let mut t = table_text(&solution, &unphysical, &notes, basis_warning.as_deref(), args.quiet);
             for f in feasibility.iter().flatten() {
                 let _ = writeln!(t, "feasibility: {}", f.line);
             }
@@ -158,7 +159,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         });
         let report = match &args.report {
             Some(path) => {
-                let mut report = Report::new(&solution, seconds);
+                let mut report = Report::new(&solution, &unphysical, seconds);
                 report.basis_warning = basis_warning.as_deref();
                 report.feasibility = feasibility.as_deref();
                 // Serialised straight into the staged file (its long arrays in pieces, in parallel).
@@ -255,6 +256,30 @@ pub(crate) fn unphysical_range(e: &SpectrumEntry) -> Option<(f64, f64)> {
     bad.then_some((lo, hi))
 }
 
+/// Which designed spectra are not physical ([`unphysical_range`]), found once per spectrum for the table
+/// and the report alike (a batch's 3600 cells would otherwise scan their two spectra's samples each).
+pub(crate) struct Unphysical {
+    lights: Vec<bool>,
+    reflectances: Vec<bool>,
+}
+
+impl Unphysical {
+    pub(crate) fn of(p: &Palette) -> Self {
+        let bad = |list: &[SpectrumEntry]| list.iter().map(|e| unphysical_range(e).is_some()).collect();
+        Unphysical { lights: bad(&p.lights), reflectances: bad(&p.reflectances) }
+    }
+
+    /// A cell whose light or reflectance is an unphysical design.
+    fn cell(&self, c: &crate::palette::ColourCell) -> bool {
+        self.lights[c.light] || self.reflectances[c.reflectance]
+    }
+
+    /// A mixture cell one of whose lights, or whose reflectance, is an unphysical design.
+    fn mixture(&self, m: &crate::palette::MixtureCell) -> bool {
+        m.mix.iter().any(|&(i, _)| self.lights[i]) || self.reflectances[m.reflectance]
+    }
+}
+
 /// A line per designed spectrum that is not physical.
 fn unphysical_lines(w: &mut String, p: &crate::palette::Palette) {
     for e in p.lights.iter().chain(&p.reflectances) {
@@ -279,11 +304,9 @@ fn unphysical_lines(w: &mut String, p: &crate::palette::Palette) {
 }
 
 /// The per-cell table (unless `quiet`) and the remark lines: everything printed but the summary.
-fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet: bool) -> String {
+fn table_text(s: &Solution, bad: &Unphysical, notes: &[String], basis_warning: Option<&str>, quiet: bool) -> String {
     let palette = &s.palette;
     let mut w = String::with_capacity(if quiet { 0 } else { 130 * (s.cells.len() + 1) } + 200 * s.diagnostics.len());
-    let light_bad: Vec<bool> = palette.lights.iter().map(|e| unphysical_range(e).is_some()).collect();
-    let refl_bad: Vec<bool> = palette.reflectances.iter().map(|e| unphysical_range(e).is_some()).collect();
     if !quiet {
         w.push_str(TABLE_LEGEND);
         w.push('\n');
@@ -329,12 +352,12 @@ fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet
             if !cell.is_active() {
                 w.push_str("  (not used)");
             }
-            if light_bad[cell.light] || refl_bad[cell.reflectance] {
+            if bad.cell(cell) {
                 w.push_str("  unphysical");
             }
             w.push('\n');
         }
-        mixture_rows(&mut w, s, &light_bad, &refl_bad);
+        mixture_rows(&mut w, s, bad);
         path_lines(&mut w, s);
     }
     unphysical_lines(&mut w, palette);
@@ -352,7 +375,7 @@ fn table_text(s: &Solution, notes: &[String], basis_warning: Option<&str>, quiet
 }
 
 /// One row per mixture cell, as the cells' rows: the mixture's name in the light column.
-fn mixture_rows(w: &mut String, s: &Solution, light_bad: &[bool], refl_bad: &[bool]) {
+fn mixture_rows(w: &mut String, s: &Solution, bad: &Unphysical) {
     let p = &s.palette;
     for r in &s.mixtures {
         let m = &p.mixtures[r.cell];
@@ -391,7 +414,7 @@ fn mixture_rows(w: &mut String, s: &Solution, light_bad: &[bool], refl_bad: &[bo
         if !m.is_active() {
             w.push_str("  (not used)");
         }
-        if m.mix.iter().any(|&(i, _)| light_bad[i]) || refl_bad[m.reflectance] {
+        if bad.mixture(m) {
             w.push_str("  unphysical");
         }
         w.push('\n');
@@ -1164,16 +1187,12 @@ fn arr(c: &Vector3<f64>) -> [f64; 3] {
 
 impl<'a> Report<'a> {
     /// The report of a solution (names, cells and spectra as the solved palette has them).
-    pub fn new(s: &'a Solution, seconds: f64) -> Self {
+    pub fn new(s: &'a Solution, bad: &Unphysical, seconds: f64) -> Self {
         let p = &s.palette;
         let names = |k: usize| {
             let c = &p.colours[k];
             CellName { light: &p.lights[c.light].name, reflectance: &p.reflectances[c.reflectance].name }
         };
-        // Which spectra are unphysical, found once per spectrum rather than once for every cell and mixture
-        // naming it (a batch's 3600 cells scanned their two spectra's samples each: 2.4 M instructions).
-        let light_bad: Vec<bool> = p.lights.iter().map(|e| unphysical_range(e).is_some()).collect();
-        let refl_bad: Vec<bool> = p.reflectances.iter().map(|e| unphysical_range(e).is_some()).collect();
         Report {
             palette: &p.name,
             objective: s.objective,
@@ -1181,8 +1200,8 @@ impl<'a> Report<'a> {
             solve_seconds: s.seconds,
             kkt_residual: s.kkt_residual,
             spectra: Rows::new(
-                (p.lights.iter().zip(&light_bad))
-                    .chain(p.reflectances.iter().zip(&refl_bad))
+                (p.lights.iter().zip(&bad.lights))
+                    .chain(p.reflectances.iter().zip(&bad.reflectances))
                     .map(|(e, &bad)| SpectrumJson::new(e, bad))
                     .collect(),
             ),
@@ -1200,7 +1219,7 @@ impl<'a> Report<'a> {
                             free: cell.free.map(|g| p.free[g].name.as_str()),
                             weight: cell.weight,
                             enabled: cell.enabled,
-                            unphysical: light_bad[cell.light] || refl_bad[cell.reflectance],
+                            unphysical: bad.cell(cell),
                         }
                     })
                     .collect(),
@@ -1226,7 +1245,7 @@ impl<'a> Report<'a> {
                         free: m.free.map(|g| p.free[g].name.as_str()),
                         weight: m.weight,
                         enabled: m.enabled,
-                        unphysical: m.mix.iter().any(|&(i, _)| light_bad[i]) || refl_bad[m.reflectance],
+                        unphysical: bad.mixture(m),
                     }
                 })
                 .collect(),
@@ -1415,7 +1434,7 @@ mod tests {
         }
         for palette in &palettes {
             let solution = design::solve(palette, None, &colorimetry, &SolveOptions::default()).unwrap();
-            let report = super::Report::new(&solution, 0.25);
+            let report = super::Report::new(&solution, &super::Unphysical::of(&solution.palette), 0.25);
             let mut theirs = serde_json::to_vec_pretty(&report).unwrap();
             theirs.push(b'\n');
             let mut ours = Vec::new();
