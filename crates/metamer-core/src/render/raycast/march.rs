@@ -1,7 +1,7 @@
 //! Marching one ray: sample reconstruction, classification, shading and front-to-back compositing.
 
 use super::block::{FIELD_BRICK, S3};
-use super::classify::{BrickMap, Classifier, EMPTY, MIXED};
+use super::classify::{BrickMap, Classifier, EMPTY, LUT_BINS, MIXED};
 use super::fields::{BlockRef, CELL, CORNERS, Cursor, Fields, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 #[cfg(target_arch = "x86_64")]
@@ -597,6 +597,15 @@ impl<'a> RayContext<'a> {
             .filter(|_| LANES && values && self.options.shading != Shading::Unshaded)
             .filter(|_| self.options.gradient == Gradient::Smooth);
         let classifier = self.classifier;
+        // The tables every sample reads, as arrays of the bins' count (a bin is below it: indexed without a
+        // bounds check) and held in locals rather than read through the classifier at every sample.
+        let tables = |t: &'a [f32]| -> &'a [f32; LUT_BINS] { t.try_into().expect("a table per bin") };
+        let (alpha_of, alpha_sub_of) = (tables(&classifier.alpha), tables(&classifier.alpha_sub));
+        let material_of: &[u8; LUT_BINS] = classifier.material.as_slice().try_into().expect("a material per bin");
+        let per_code = &classifier.per_code;
+        let refining = self.substeps > 1;
+        // The lanes' shaded composite (below): shaded in the lanes, no gradient-dependent material.
+        let shade_fast = shade_lanes.filter(|_| !classifier.gradient_dependent);
         let mut k = (t0 - jitter).ceil();
         let mut transmittance = 1.0f32;
         let mut prev = Edge::EMPTY;
@@ -694,7 +703,8 @@ impl<'a> RayContext<'a> {
                             unsafe { lanes::classify(&mut batch, &self.grid, classifier, data) };
                         }
                         let bin = batch.bin[j] as usize;
-                        (classifier.material[bin], bin)
+                        debug_assert!(bin < LUT_BINS);
+                        (material_of[bin % LUT_BINS], bin)
                     }
                     _ => self.classify(data, p!(), at_!()),
                 }
@@ -702,10 +712,10 @@ impl<'a> RayContext<'a> {
                 uniform_samples += 1;
                 (uniform, usize::from(classifier.material_bin[usize::from(uniform) - 1]))
             };
-            let edge = Edge { near: false, material: sample.0, level: classifier.alpha[sample.1] };
+            debug_assert!(sample.1 < LUT_BINS);
+            let edge = Edge { near: false, material: sample.0, level: alpha_of[sample.1 % LUT_BINS] };
             // Refined: the two ends' materials differ and not both are thinner than smoke.
-            let crossing =
-                self.substeps > 1 && prev.material != edge.material && prev.level.max(edge.level) >= Edge::MIN_ALPHA;
+            let crossing = refining && prev.material != edge.material && prev.level.max(edge.level) >= Edge::MIN_ALPHA;
             let refine = crossing || carry;
             carry = crossing && edge.level >= Edge::DENSE;
             prev = edge;
@@ -718,18 +728,18 @@ impl<'a> RayContext<'a> {
                     break;
                 }
             }
-            let alpha = if refine { &classifier.alpha_sub } else { &classifier.alpha };
-            let absorbed = match (lane, shade_lanes) {
+            let alpha = if refine { alpha_sub_of } else { alpha_of };
+            let absorbed = match (lane, shade_fast) {
                 // Shaded in the lanes, no gradient-dependent material: `composite_value_by`'s operations
                 // for that case, without building the sample's place unless its block is fetched.
                 #[cfg(target_arch = "x86_64")]
-                (Some(j), Some(fields)) if !classifier.gradient_dependent => {
+                (Some(j), Some(fields)) => {
                     let (material, bin) = sample;
                     if material == 0 {
                         0.0
                     } else {
-                        let mat = classifier.per_code[usize::from(material)];
-                        let alpha = alpha[bin];
+                        let mat = per_code[usize::from(material)];
+                        let alpha = alpha[bin % LUT_BINS];
                         if batch.shaded & (1 << j) == 0 {
                             let i = [batch.i[0][j] as usize, batch.i[1][j] as usize, batch.i[2][j] as usize];
                             let (block, base) = fields.block(i, &mut cursor);
