@@ -29,6 +29,8 @@ pub(super) struct Classifier {
     /// Per material code (index + 1, as [`Self::material`] holds it): what compositing reads of a
     /// material at every sample, in one table a `u8` indexes without a bounds check.
     pub(super) per_code: [PerMaterial; 256],
+    /// Whether some material's opacity depends on the gradient ([`PerMaterial::gradient_dependent`]).
+    pub(super) gradient_dependent: bool,
     /// Per material: its step-corrected opacity (0 when it never shows).
     pub(super) material_alpha: Vec<f32>,
     /// Per material: its opacity corrected for a substep.
@@ -127,6 +129,7 @@ impl Classifier {
             run_start,
             material_bin,
             materials: materials.len(),
+            gradient_dependent: per_code.iter().any(PerMaterial::gradient_dependent),
             per_code,
             material_alpha,
             material_alpha_sub,

@@ -99,7 +99,7 @@ pub(super) struct RayLanes {
 /// taken too, clamped into the volume like any other: the caller stops at the end): where they fall
 /// and, with `bricks` (the skipping bricks' shift and counts), their bricks. Not yet classified.
 #[target_feature(enable = "avx2")]
-#[inline]
+#[inline(never)]
 pub(super) fn fill(
     batch: &mut Batch,
     grid: &Grid,
@@ -163,7 +163,7 @@ pub(super) fn fill(
 /// The trilinear value's bin of every sample of a [`fill`]ed `batch` (`classifier`'s bins), from the
 /// voxels `data` of the grid it was filled on ([`fits`] true for it).
 #[target_feature(enable = "avx2")]
-#[inline]
+#[inline(never)]
 pub(super) fn classify<T: Voxel>(batch: &mut Batch, grid: &Grid, classifier: &Classifier, data: &[T]) {
     batch.classified = true;
     let mut f = [_mm256_setzero_ps(); 3];
@@ -187,7 +187,44 @@ pub(super) fn classify<T: Voxel>(batch: &mut Batch, grid: &Grid, classifier: &Cl
     let before = (4 - size).div_ceil(size);
     let low = batch.b.iter().fold(u32::MAX, |m, &x| m.min(x)) as usize;
     let mut v = [_mm256_setzero_ps(); 8];
-    if low < before {
+    // One- and two-byte voxels along x (stride 1): a cell's two voxels along x lie in the 32-bit word that
+    // starts at the first of them, so four gathers read the eight corners (half the gathers). The word of
+    // the last pair ends `4 − size` bytes past that pair's first voxel, which must lie inside the voxels.
+    let pairs = size <= 2 && sx == 1 && (high + sz + sy) * size + 4 <= std::mem::size_of_val(data);
+    if pairs {
+        let p = data.as_ptr().cast::<u8>();
+        for (c, o) in [0, sy, sz, sz + sy].into_iter().enumerate() {
+            let idx = _mm256_add_epi32(b, _mm256_set1_epi32(o as i32));
+            // SAFETY: every lane's pair starts at voxel b + o ≤ high + sz + sy, and its word's 4 bytes end
+            // inside `data` (checked above); the byte offset fits i32 ([`fits`]).
+            let w = unsafe {
+                if size == 1 {
+                    _mm256_i32gather_epi32::<1>(p.cast(), idx)
+                } else {
+                    _mm256_i32gather_epi32::<2>(p.cast(), idx)
+                }
+            };
+            // The pair's first voxel in the word's low bytes, its second in the next (little-endian),
+            // sign- or zero-extended as the voxel type is.
+            let (first, second) = match T::TYPE {
+                ScalarType::U8 => (
+                    _mm256_and_si256(w, _mm256_set1_epi32(0xff)),
+                    _mm256_and_si256(_mm256_srli_epi32::<8>(w), _mm256_set1_epi32(0xff)),
+                ),
+                ScalarType::I8 => (
+                    _mm256_srai_epi32::<24>(_mm256_slli_epi32::<24>(w)),
+                    _mm256_srai_epi32::<24>(_mm256_slli_epi32::<16>(w)),
+                ),
+                ScalarType::U16 => (_mm256_and_si256(w, _mm256_set1_epi32(0xffff)), _mm256_srli_epi32::<16>(w)),
+                _ => {
+                    debug_assert!(T::TYPE == ScalarType::I16);
+                    (_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(w)), _mm256_srai_epi32::<16>(w))
+                }
+            };
+            v[2 * c] = _mm256_cvtepi32_ps(first);
+            v[2 * c + 1] = _mm256_cvtepi32_ps(second);
+        }
+    } else if low < before {
         // Near the first voxel: the portable reads.
         let mut r = [0f32; LANES];
         for (c, o) in offsets.iter().enumerate() {
@@ -291,22 +328,31 @@ pub(super) fn shade(
     // Each lane's cell at local index l0 + S·(l1 + S·l2) with every l ≤ S − 2: its last corner at most
     // S3 − 1, whose gz word reaches the first component of the entry after it, the padding entry.
     assert!(grad.len() > S3, "a value block ends with its padding entry");
-    let flat = grad.as_flattened().as_ptr().cast::<i32>();
+    let flat = grad.as_flattened().as_ptr().cast::<i64>();
     // In i16 units: entry `local` times 3.
     let first = _mm256_mullo_epi32(local, _mm256_set1_epi32(3));
     // Per corner, the gradient's components as f32 in three registers of eight lanes.
     let mut cs = [[_mm256_setzero_ps(); 3]; 8];
     for (c, corner) in cs.iter_mut().enumerate() {
         let idx = _mm256_add_epi32(first, _mm256_set1_epi32(3 * CORNERS[c] as i32));
-        // SAFETY: every lane's entry is at most S3 − 1 (above), so the words at its 2-byte offsets 3e and
-        // 3e + 2 end at most at the padding entry's first component, inside `grad` (asserted above).
-        // Unaligned 32-bit reads are what the gather does.
-        let (xy, z) = unsafe {
+        // Each lane's entry as one 64-bit word (x, y, z and the next entry's x, which is dropped): two
+        // gathers of four lanes, half the loads of two 32-bit gathers of eight.
+        // SAFETY: every lane's entry is at most S3 − 1 (above), so the eight bytes at its 2-byte offset 3e
+        // end at most at the padding entry's first component, inside `grad` (asserted above). Unaligned
+        // 64-bit reads are what the gather does.
+        let (lo, hi) = unsafe {
             (
-                _mm256_i32gather_epi32::<2>(flat, idx),
-                _mm256_i32gather_epi32::<2>(flat, _mm256_add_epi32(idx, _mm256_set1_epi32(2))),
+                _mm256_i32gather_epi64::<2>(flat, _mm256_castsi256_si128(idx)),
+                _mm256_i32gather_epi64::<2>(flat, _mm256_extracti128_si256::<1>(idx)),
             )
         };
+        // The words' low halves (x, y) and high halves (z, dropped) in lane order: the shuffle takes lanes
+        // 0 1 4 5 | 2 3 6 7, the permutation of 64-bit pairs puts them back.
+        let (lo, hi) = (_mm256_castsi256_ps(lo), _mm256_castsi256_ps(hi));
+        let xy =
+            _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(_mm256_shuffle_ps::<0b10_00_10_00>(lo, hi)));
+        let z =
+            _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(_mm256_shuffle_ps::<0b11_01_11_01>(lo, hi)));
         *corner = [
             _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(xy))),
             _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(xy)),

@@ -1,7 +1,7 @@
 //! Marching one ray: sample reconstruction, classification, shading and front-to-back compositing.
 
 use super::block::{FIELD_BRICK, S3};
-use super::classify::{BrickMap, Classifier, EMPTY, MIXED};
+use super::classify::{BrickMap, Classifier, EMPTY, LUT_BINS, MIXED};
 use super::fields::{BlockRef, CELL, CORNERS, Cursor, Fields, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 #[cfg(target_arch = "x86_64")]
@@ -597,6 +597,15 @@ impl<'a> RayContext<'a> {
             .filter(|_| LANES && values && self.options.shading != Shading::Unshaded)
             .filter(|_| self.options.gradient == Gradient::Smooth);
         let classifier = self.classifier;
+        // The tables every sample reads, as arrays of the bins' count (a bin is below it: indexed without a
+        // bounds check) and held in locals rather than read through the classifier at every sample.
+        let tables = |t: &'a [f32]| -> &'a [f32; LUT_BINS] { t.try_into().expect("a table per bin") };
+        let (alpha_of, alpha_sub_of) = (tables(&classifier.alpha), tables(&classifier.alpha_sub));
+        let material_of: &[u8; LUT_BINS] = classifier.material.as_slice().try_into().expect("a material per bin");
+        let per_code = &classifier.per_code;
+        let refining = self.substeps > 1;
+        // The lanes' shaded composite (below): shaded in the lanes, no gradient-dependent material.
+        let shade_fast = shade_lanes.filter(|_| !classifier.gradient_dependent);
         let mut k = (t0 - jitter).ceil();
         let mut transmittance = 1.0f32;
         let mut prev = Edge::EMPTY;
@@ -606,7 +615,13 @@ impl<'a> RayContext<'a> {
         let (mut samples, mut uniform_samples, mut skipped, mut skipped_bricks) = (0u64, 0u64, 0u64, 0u64);
         while k + jitter <= t1 {
             let t = k + jitter;
-            let p = [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
+            // The sample's point and where it falls, taken where they are used: the lanes hold them already
+            // (their common path reads neither).
+            macro_rules! p {
+                () => {
+                    [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]]
+                };
+            }
             #[cfg(target_arch = "x86_64")]
             let lane = if LANES {
                 let j = match batch.lane(k) {
@@ -624,30 +639,49 @@ impl<'a> RayContext<'a> {
             };
             #[cfg(not(target_arch = "x86_64"))]
             let lane: Option<usize> = None;
-            let at = match lane {
-                #[cfg(target_arch = "x86_64")]
-                Some(j) => Located {
-                    b: batch.b[j] as usize,
-                    i: [batch.i[0][j] as usize, batch.i[1][j] as usize, batch.i[2][j] as usize],
-                    f: [batch.f[0][j], batch.f[1][j], batch.f[2][j]],
-                },
-                _ => self.locate(p),
-            };
+            macro_rules! at {
+                () => {
+                    match lane {
+                        #[cfg(target_arch = "x86_64")]
+                        Some(j) => Located {
+                            b: batch.b[j] as usize,
+                            i: [batch.i[0][j] as usize, batch.i[1][j] as usize, batch.i[2][j] as usize],
+                            f: [batch.f[0][j], batch.f[1][j], batch.f[2][j]],
+                        },
+                        _ => self.locate(p!()),
+                    }
+                };
+            }
+            // The portable loop locates every sample here (its brick needs the cell); the lanes' fast path
+            // never builds it.
+            let at_portable = if lane.is_none() { Some(self.locate(p!())) } else { None };
+            macro_rules! at_ {
+                () => {
+                    match at_portable {
+                        Some(at) => at,
+                        None => at!(),
+                    }
+                };
+            }
             let mut uniform = MIXED;
             if let Some((bm, table)) = self.bricks {
                 // The brick of the sample's cell (it bounds the cell's eight voxels). A cell starts at most
                 // at dims − 2 (0 along an axis of one voxel), so its brick is below the counts.
                 // Written out: `[0, 1, 2].map` is not always inlined, and this runs at every sample.
                 let sh = bm.shift;
-                let b = [at.i[0] >> sh, at.i[1] >> sh, at.i[2] >> sh];
-                debug_assert!((0..3).all(|a| b[a] < bm.counts[a]), "{b:?} {:?}", bm.counts);
-                let bi = match lane {
+                let brick = |at: Located| [at.i[0] >> sh, at.i[1] >> sh, at.i[2] >> sh];
+                let bi = match (lane, at_portable) {
                     #[cfg(target_arch = "x86_64")]
-                    Some(j) => batch.brick[j] as usize,
-                    _ => b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2]),
+                    (Some(j), _) => batch.brick[j] as usize,
+                    (_, at) => {
+                        let b = brick(at.unwrap_or_else(|| self.locate(p!())));
+                        debug_assert!((0..3).all(|a| b[a] < bm.counts[a]), "{b:?} {:?}", bm.counts);
+                        b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2])
+                    }
                 };
                 uniform = table[bi];
                 if uniform == EMPTY {
+                    let b = brick(at_!());
                     prev = Edge::EMPTY;
                     carry = false;
                     let next = brick_exit(origin, dir, b, bm.size, jitter, k);
@@ -669,18 +703,19 @@ impl<'a> RayContext<'a> {
                             unsafe { lanes::classify(&mut batch, &self.grid, classifier, data) };
                         }
                         let bin = batch.bin[j] as usize;
-                        (classifier.material[bin], bin)
+                        debug_assert!(bin < LUT_BINS);
+                        (material_of[bin % LUT_BINS], bin)
                     }
-                    _ => self.classify(data, p, at),
+                    _ => self.classify(data, p!(), at_!()),
                 }
             } else {
                 uniform_samples += 1;
                 (uniform, usize::from(classifier.material_bin[usize::from(uniform) - 1]))
             };
-            let edge = Edge { near: false, material: sample.0, level: classifier.alpha[sample.1] };
+            debug_assert!(sample.1 < LUT_BINS);
+            let edge = Edge { near: false, material: sample.0, level: alpha_of[sample.1 % LUT_BINS] };
             // Refined: the two ends' materials differ and not both are thinner than smoke.
-            let crossing =
-                self.substeps > 1 && prev.material != edge.material && prev.level.max(edge.level) >= Edge::MIN_ALPHA;
+            let crossing = refining && prev.material != edge.material && prev.level.max(edge.level) >= Edge::MIN_ALPHA;
             let refine = crossing || carry;
             carry = crossing && edge.level >= Edge::DENSE;
             prev = edge;
@@ -693,22 +728,57 @@ impl<'a> RayContext<'a> {
                     break;
                 }
             }
-            let alpha = if refine { &classifier.alpha_sub } else { &classifier.alpha };
-            let smooth = || match (lane, shade_lanes) {
+            let alpha = if refine { alpha_sub_of } else { alpha_of };
+            let absorbed = match (lane, shade_fast) {
+                // Shaded in the lanes, no gradient-dependent material: `composite_value_by`'s operations
+                // for that case, without building the sample's place unless its block is fetched.
                 #[cfg(target_arch = "x86_64")]
                 (Some(j), Some(fields)) => {
-                    if batch.shaded & (1 << j) == 0 {
-                        let (block, base) = fields.block(at.i, &mut cursor);
-                        // SAFETY: as for `lanes::fill` above (AVX2 detected).
-                        unsafe {
-                            lanes::shade(&mut batch, j, &block.grad, base, fields.scale, self.view, self.ambient)
-                        };
+                    let (material, bin) = sample;
+                    if material == 0 {
+                        0.0
+                    } else {
+                        let mat = per_code[usize::from(material)];
+                        let alpha = alpha[bin % LUT_BINS];
+                        if batch.shaded & (1 << j) == 0 {
+                            let i = [batch.i[0][j] as usize, batch.i[1][j] as usize, batch.i[2][j] as usize];
+                            let (block, base) = fields.block(i, &mut cursor);
+                            // SAFETY: as for `lanes::fill` above (AVX2 detected).
+                            unsafe {
+                                lanes::shade(&mut batch, j, &block.grad, base, fields.scale, self.view, self.ambient)
+                            };
+                        }
+                        out[usize::from(material) - 1] += transmittance * alpha * batch.shade[j];
+                        if mat.absorbs { alpha } else { 0.0 }
                     }
-                    batch.shade[j]
                 }
-                _ => self.shade(self.smooth_gradient(at, &mut cursor)),
+                _ => {
+                    let at = at_!();
+                    let smooth = || match (lane, shade_lanes) {
+                        #[cfg(target_arch = "x86_64")]
+                        (Some(j), Some(fields)) => {
+                            if batch.shaded & (1 << j) == 0 {
+                                let (block, base) = fields.block(at.i, &mut cursor);
+                                // SAFETY: as for `lanes::fill` above (AVX2 detected).
+                                unsafe {
+                                    lanes::shade(
+                                        &mut batch,
+                                        j,
+                                        &block.grad,
+                                        base,
+                                        fields.scale,
+                                        self.view,
+                                        self.ambient,
+                                    )
+                                };
+                            }
+                            batch.shade[j]
+                        }
+                        _ => self.shade(self.smooth_gradient(at, &mut cursor)),
+                    };
+                    self.composite_value_by(data, sample, at, alpha, transmittance, out, smooth)
+                }
             };
-            let absorbed = self.composite_value_by(data, sample, at, alpha, transmittance, out, smooth);
             if self.attenuate(absorbed, &mut transmittance, stats) {
                 break;
             }
