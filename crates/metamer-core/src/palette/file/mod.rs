@@ -14,6 +14,7 @@
 mod budget;
 mod events;
 mod float_text;
+mod lines;
 mod numbers;
 mod pieces;
 mod read;
@@ -223,6 +224,15 @@ impl PaletteFile {
     fn parse_with(text: &str, path: &Path, fast: bool) -> Result<(PaletteFile, Option<usize>), PaletteError> {
         if text.trim().is_empty() {
             return Err(PaletteError::Empty { path: path.to_path_buf() });
+        }
+        // A palette written in the plainest lines, read in one pass ([`lines`]); the text read as below when
+        // it holds any other line, is over the parse budget, or the palette is refused.
+        if fast
+            && let Some(lines) = lines::parse(text)
+            && let Ok((outcome, tables)) = PaletteFile::read_parsed(text, lines.tree, path, Some(&lines.read))
+            && lines.read.all_taken()
+        {
+            return Ok((PaletteFile::from_outcome(text, path, outcome, tables), Some(lines.read.len())));
         }
         // Parse memory is bounded by the input size (see [`budget`]): refused before any parse.
         let scan = budget::scan(text);

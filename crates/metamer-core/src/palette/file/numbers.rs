@@ -25,7 +25,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// The keys whose arrays are read: a spectrum's `samples` and a colour cell's `target` (`[r, g, b]`; a
 /// batch of designs has three cells per spectrum, and their targets were half of the numbers the parser
 /// read and checked).
-const KEYS: [&str; 2] = ["samples", "target"];
+pub(super) const KEYS: [&str; 2] = ["samples", "target"];
 
 /// The arrays read from a text, by span (in text order), and which of them the reader took.
 pub(super) struct Read {
@@ -133,7 +133,7 @@ fn skip_array_space(b: &[u8], mut i: usize) -> usize {
 }
 
 /// A non-empty array of numbers starting at `b[i] == '['`: the index past its `]` and its values.
-fn array(t: &str, i: usize) -> Option<(usize, Vec<f64>)> {
+pub(super) fn array(t: &str, i: usize) -> Option<(usize, Vec<f64>)> {
     let b = t.as_bytes();
     if b.get(i) != Some(&b'[') {
         return None;
@@ -158,7 +158,7 @@ fn array(t: &str, i: usize) -> Option<(usize, Vec<f64>)> {
 /// A finite decimal number as TOML writes it, without underscores: `[+-]` then `0` or a digit run not
 /// starting with 0, then an optional `.digits` and an optional exponent `[eE][+-]digits`. An integer is
 /// read as the parser's reader reads it (as `i64`, then converted); `None` for anything else.
-fn number(t: &str, start: usize) -> Option<(usize, f64)> {
+pub(super) fn number(t: &str, start: usize) -> Option<(usize, f64)> {
     let b = t.as_bytes();
     let digits = |mut i: usize| {
         let from = i;

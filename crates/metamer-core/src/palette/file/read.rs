@@ -15,6 +15,10 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 pub(super) type Table<'i> = DeTable<'i>;
+
+/// The reader's maps of names and cells, with a fast hash (no input chooses their keys to collide: they
+/// hold one file's names, which the reader checks for duplicates anyway).
+type FastMap<K, V> = HashMap<K, V, foldhash::fast::RandomState>;
 pub(super) type Value<'i> = DeValue<'i>;
 
 const TOP_KEYS: &[&str] =
@@ -340,7 +344,7 @@ impl<'a> Reader<'a> {
     fn spectra(&mut self, root: &Table, list: &str, kind: Kind) -> Res<Vec<SpectrumEntry>> {
         let tables = self.array_of_tables(root, list)?;
         let mut out: Vec<SpectrumEntry> = Vec::with_capacity(tables.len());
-        let mut seen: HashMap<String, usize> = HashMap::with_capacity(tables.len());
+        let mut seen: FastMap<String, usize> = FastMap::with_capacity_and_hasher(tables.len(), Default::default());
         // Entries are read in parallel, then taken in order (the first error in file order is reported).
         let this = &*self;
         let read: Vec<(Vec<String>, Res<ReadSpectrum>)> = tables
@@ -503,9 +507,10 @@ impl<'a> Reader<'a> {
     ) -> Res<Vec<ColourCell>> {
         let tables = self.array_of_tables(root, "colours")?;
         let mut out = Vec::with_capacity(tables.len());
-        let mut cells: HashMap<(usize, usize), usize> = HashMap::with_capacity(tables.len());
+        let mut cells: FastMap<(usize, usize), usize> =
+            FastMap::with_capacity_and_hasher(tables.len(), Default::default());
         // Names are unique within each list (checked when reading them).
-        let index = |entries: &'v [SpectrumEntry]| -> HashMap<&'v str, usize> {
+        let index = |entries: &'v [SpectrumEntry]| -> FastMap<&'v str, usize> {
             entries.iter().enumerate().map(|(i, e)| (e.name.as_str(), i)).collect()
         };
         let (light_index, reflectance_index) = (index(lights), index(reflectances));
@@ -517,7 +522,7 @@ impl<'a> Reader<'a> {
             .enumerate()
             .map(|(i, t)| {
                 let at = At("colours", i);
-                let lookup = |k: &str, entries: &[SpectrumEntry], index: &HashMap<&str, usize>, what: &str| {
+                let lookup = |k: &str, entries: &[SpectrumEntry], index: &FastMap<&str, usize>, what: &str| {
                     let key = || format!("{at}.{k}");
                     let v =
                         t.value(k).ok_or_else(|| this.invalid(key(), format!("missing: a colour names its {what}")))?;
