@@ -55,17 +55,19 @@ pub(super) fn parse(text: &str) -> Option<Lines<'_>> {
     let limit = budget::budget(text.len());
     let spent = AtomicU64::new(0);
     let ranges = cuts(text);
-    type Piece<'i> = (DeTable<'i>, Vec<(Range<usize>, Vec<f64>)>, Counts);
     let parsed: Vec<Piece<'_>> =
         ranges.par_iter().map(|range| piece(text, range.clone(), &spent, limit)).collect::<Option<_>>()?;
     let mut counts = Counts::default();
-    let mut arrays = Vec::new();
+    let mut arrays = Vec::with_capacity(parsed.iter().map(|p| p.arrays.len()).sum());
+    let mut values = Vec::with_capacity(parsed.iter().map(|p| p.values.len()).sum());
     let mut tables = Vec::with_capacity(parsed.len());
-    for ((table, found, c), range) in parsed.into_iter().zip(&ranges) {
+    for (Piece { table, arrays: found, values: numbers, counts: c }, range) in parsed.into_iter().zip(&ranges) {
         counts.tables += c.tables;
         counts.arrays += c.arrays;
         counts.values += c.values;
-        arrays.extend(found);
+        let base = values.len();
+        arrays.extend(found.into_iter().map(|(span, at)| (span, at.start + base..at.end + base)));
+        values.extend_from_slice(&numbers);
         let span = if range.start == 0 { 0..0 } else { range.clone() };
         tables.push((span, table));
     }
@@ -73,7 +75,16 @@ pub(super) fn parse(text: &str) -> Option<Lines<'_>> {
         return None;
     }
     let tree = pieces::join(text, tables)?;
-    Some(Lines { tree, read: numbers::Read::new(arrays), counts })
+    Some(Lines { tree, read: numbers::Read::flat(arrays, values), counts })
+}
+
+/// A piece as read: its table, the arrays read by hand (their spans in the whole text, and where their
+/// numbers sit in `values`), and its counts.
+struct Piece<'i> {
+    table: DeTable<'i>,
+    arrays: Vec<(Range<usize>, Range<usize>)>,
+    values: Vec<f64>,
+    counts: Counts,
 }
 
 /// Where the pieces are (the first at 0): about one per [`MIN_PIECE`] bytes, at most four per thread, each
@@ -105,19 +116,15 @@ fn control(c: u8) -> bool {
     (c < 0x20 && c != b'\t') || c == 0x7f
 }
 
-/// The piece `text[range]`: its table, the arrays read by hand (spans in the whole text) and its counts;
-/// `None` at a line this pass does not read, or once the pieces' total `spent` is over `limit`.
-fn piece<'i>(
-    text: &'i str,
-    range: Range<usize>,
-    spent: &AtomicU64,
-    limit: u64,
-) -> Option<(DeTable<'i>, Vec<(Range<usize>, Vec<f64>)>, Counts)> {
+/// The piece `text[range]` as read; `None` at a line this pass does not read, or once the pieces' total
+/// `spent` is over `limit`.
+fn piece<'i>(text: &'i str, range: Range<usize>, spent: &AtomicU64, limit: u64) -> Option<Piece<'i>> {
     // Nothing past the piece is read (spans still count from the start of the text).
     let t = text.get(..range.end)?;
     let b = t.as_bytes();
     let mut tree = Tree::default();
     let mut arrays = Vec::new();
+    let mut values = Vec::new();
     let mut counts = Counts::default();
     let mut pending = Counts::default();
     let mut i = range.start;
@@ -202,13 +209,15 @@ fn piece<'i>(
                         (DeValue::Boolean(value), v + word.len())
                     }
                     b'[' => {
-                        let (end, values) = numbers::array(t, v)?;
+                        let from = values.len();
+                        let end = numbers::array_into(t, v, &mut values)?;
                         pending.arrays += 1;
                         pending.values += b[v..end].iter().filter(|&&c| c == b',').count() as u64;
                         if numbers::KEYS.contains(&key.get_ref().as_ref()) {
-                            arrays.push((v..end, values));
+                            arrays.push((v..end, from..values.len()));
                             (DeValue::Array(DeArray::new()), end)
                         } else {
+                            values.truncate(from);
                             (parsed(t, v..end)?, end)
                         }
                     }
@@ -231,7 +240,7 @@ fn piece<'i>(
         }
     }
     add(&mut counts, &mut pending);
-    Some((tree.done()?, arrays, counts))
+    Some(Piece { table: tree.done()?, arrays, values, counts })
 }
 
 /// The value written at `text[range]`, parsed by `toml`'s own value parser and moved to its place; `None`

@@ -153,11 +153,11 @@ impl<'a> Reader<'a> {
     /// The numbers of `t`'s `samples` array when they were read before the parse (the parser then saw an
     /// empty array at its span).
     fn read_samples(&self, t: &Table) -> Option<Vec<f64>> {
-        self.hand_read_array(t.get("samples")?)
+        self.hand_read_array(t.get("samples")?).map(<[f64]>::to_vec)
     }
 
     /// The numbers of the array `v` when they were read before the parse ([`super::numbers`]).
-    fn hand_read_array(&self, v: &Spanned<Value>) -> Option<Vec<f64>> {
+    fn hand_read_array(&self, v: &Spanned<Value>) -> Option<&'a [f64]> {
         match v.get_ref() {
             Value::Array(items) if items.is_empty() => self.hand_read?.take(&v.span()),
             _ => None,
