@@ -214,6 +214,14 @@ impl<'a> Reader<'a> {
         }
     }
 
+    /// [`Reader::number`] (infinities refused) whose key is written out only for a message.
+    fn number_lazy(&self, v: &Value, key: impl Fn() -> String) -> Res<f64> {
+        match number_of(v) {
+            Some(x) if x.is_finite() => Ok(x),
+            _ => self.number(v, &key(), false),
+        }
+    }
+
     pub(super) fn numbers(&self, v: &Value, key: &str, len: Option<usize>, allow_inf: bool) -> Res<Vec<f64>> {
         let arr = v.as_array().ok_or_else(|| self.wrong_type(key, "an array of numbers", v))?;
         if let Some(n) = len
@@ -374,8 +382,12 @@ impl<'a> Reader<'a> {
 
     /// One spectrum, and its CSV file's raw samples when it has one.
     pub(super) fn spectrum(&self, t: &Table, at: &dyn std::fmt::Display, kind: Kind) -> Res<ReadSpectrum> {
+        // Keys are written out for a message only (a batch has thousands of entries).
         let name = match t.value("name") {
-            Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
+            Some(v) => match v.as_str() {
+                Some(s) => s.to_string(),
+                None => return Err(self.wrong_type(&format!("{at}.name"), "a string", v)),
+            },
             None => return Err(self.invalid(format!("{at}.name"), "missing: every spectrum needs a name")),
         };
         if name.trim().is_empty() {
@@ -427,11 +439,14 @@ impl<'a> Reader<'a> {
             }
         };
         let scale = match t.value("scale") {
-            Some(v) => self.number(v, &format!("{at}.scale"), false)?,
+            Some(v) => self.number_lazy(v, || format!("{at}.scale"))?,
             None => 1.0,
         };
         let design = match t.value("design") {
-            Some(v) => self.boolean(v, &format!("{at}.design"))?,
+            Some(v) => match v.as_bool() {
+                Some(b) => b,
+                None => return Err(self.wrong_type(&format!("{at}.design"), "true or false", v)),
+            },
             None => false,
         };
         let bounds = t.value("bounds").map(|v| self.bounds(v, &format!("{at}.bounds"))).transpose()?;
@@ -592,17 +607,19 @@ impl<'a> Reader<'a> {
         };
         let weight = match t.value("weight") {
             Some(v) => {
-                let key = format!("{at}.weight");
-                let w = self.number(v, &key, false)?;
+                let w = self.number_lazy(v, || format!("{at}.weight"))?;
                 if w < 0.0 {
-                    return Err(self.invalid(key, format!("weights must not be negative, got {w}")));
+                    return Err(self.invalid(format!("{at}.weight"), format!("weights must not be negative, got {w}")));
                 }
                 w
             }
             None => 1.0,
         };
         let enabled = match t.value("use") {
-            Some(v) => self.boolean(v, &format!("{at}.use"))?,
+            Some(v) => match v.as_bool() {
+                Some(b) => b,
+                None => return Err(self.wrong_type(&format!("{at}.use"), "true or false", v)),
+            },
             None => true,
         };
         Ok(CellRest { free: free_group, target, notation, weight, enabled })
@@ -630,4 +647,52 @@ pub(super) fn names(entries: &[SpectrumEntry]) -> String {
         return "none".to_string();
     }
     entries.iter().map(|e| e.name.as_str()).collect::<Vec<_>>().join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    /// A spectrum's `name`, `scale` and `design` and a cell's `weight` and `use` are read without writing
+    /// their keys out, and a wrong value is refused with the message (key, line, reason) it always had.
+    #[test]
+    fn wrong_values_are_named_as_before() {
+        let base = "name = \"p\"\n[[lights]]\nname = \"L\"\nilluminant = \"D65\"\n[[reflectances]]\nname = \"r0\"\n\
+                    flat = 0.5\ndesign = true\n[[colours]]\nlight = \"L\"\nreflectance = \"r0\"\n\
+                    target = [0.1, 0.2, 0.3]\n";
+        let cases = [
+            (
+                "design = true",
+                "design = \"yes\"",
+                "p.toml:8: reflectances[0].design: expected true or false, found a string",
+            ),
+            (
+                "flat = 0.5",
+                "flat = 0.5\nscale = inf",
+                "p.toml:8: reflectances[0].scale: must be finite (inf is only allowed in bounds)",
+            ),
+            (
+                "flat = 0.5",
+                "flat = 0.5\nscale = \"x\"",
+                "p.toml:8: reflectances[0].scale: expected a number, found a string",
+            ),
+            ("flat = 0.5", "flat = 0.5\nscale = nan", "p.toml:8: reflectances[0].scale: NaN is not allowed"),
+            ("0.3]", "0.3]\nweight = \"x\"", "p.toml:13: colours[0].weight: expected a number, found a string"),
+            ("0.3]", "0.3]\nweight = -1", "p.toml:13: colours[0].weight: weights must not be negative, got -1"),
+            ("0.3]", "0.3]\nweight = nan", "p.toml:13: colours[0].weight: NaN is not allowed"),
+            (
+                "0.3]",
+                "0.3]\nweight = inf",
+                "p.toml:13: colours[0].weight: must be finite (inf is only allowed in bounds)",
+            ),
+            ("0.3]", "0.3]\nuse = 1", "p.toml:13: colours[0].use: expected true or false, found an integer"),
+            ("name = \"r0\"", "name = 3", "p.toml:6: reflectances[0].name: expected a string, found an integer"),
+            ("name = \"L\"", "name = true", "p.toml:3: lights[0].name: expected a string, found a boolean"),
+        ];
+        let path = std::path::Path::new("p.toml");
+        assert!(super::super::PaletteFile::parse(base, path).is_ok());
+        for (from, to, message) in cases {
+            let text = base.replacen(from, to, 1);
+            let (read, _) = super::super::numbers::tests::both(&text, path);
+            assert_eq!(read, format!("error: {message}"), "{to}");
+        }
+    }
 }
