@@ -22,8 +22,9 @@
 //! a number is parsed by `toml`'s own value parser at its place), and tests compare it with the `toml`
 //! crate's tree of the same text. The parse budget is kept: the pass counts tables, arrays and values as
 //! [`super::budget::scan`] counts them (the same counts, tested), adds them as it goes to a total shared by
-//! the pieces and stops once the total is over [`super::budget::budget`] (the caller's scan then refuses
-//! the text as before), so no more is built than the budget allows.
+//! the pieces (each piece adds its share every [`FLUSH`] bytes of estimate) and stops once the total is over
+//! [`super::budget::budget`] (the caller's scan then refuses the text as before), so what is built stays
+//! within the budget and [`FLUSH`] a piece, as the budget estimates it.
 
 use super::budget::{self, Counts};
 use super::events::Tree;
