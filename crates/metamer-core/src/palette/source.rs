@@ -65,7 +65,7 @@ impl Source {
                 None => return Err(SourceError::CsvWithoutFolder(file.clone())),
             },
         };
-        if spectrum.is_finite() { Ok(spectrum) } else { Err(SourceError::NotFinite) }
+        if all_finite(spectrum.as_slice()) { Ok(spectrum) } else { Err(SourceError::NotFinite) }
     }
 }
 
@@ -81,8 +81,17 @@ pub(crate) fn finish(
         Kind::Light => raw.normalized(normalize, luminance_weights)?,
         Kind::Reflectance => *raw,
     };
-    let out = normalized.scaled(scale);
-    if out.is_finite() { Ok(out) } else { Err(NormalizeError::NotFinite) }
+    // The scale as `Spectrum::scaled` applies it (each sample times `scale`), on plain slices.
+    let mut out = normalized;
+    for x in out.0.as_mut_slice() {
+        *x *= scale;
+    }
+    if all_finite(out.as_slice()) { Ok(out) } else { Err(NormalizeError::NotFinite) }
+}
+
+/// Every sample is finite (`Spectrum::is_finite` on a plain slice).
+fn all_finite(samples: &[f64]) -> bool {
+    samples.iter().all(|x| x.is_finite())
 }
 
 impl SpectrumEntry {
@@ -107,6 +116,70 @@ impl SpectrumEntry {
 /// absolute so all-zero spectra compare equal): the threshold below which a spectrum counts as "as its
 /// source resolves" rather than "designed or edited".
 pub(crate) fn spectra_agree(a: &Spectrum, b: &Spectrum) -> bool {
-    let scale = a.0.amax().max(b.0.amax());
-    (a.0 - b.0).amax() <= 1e-12 * scale + 1e-300
+    let (a, b) = (a.as_slice(), b.as_slice());
+    let scale = amax(a.iter().copied()).max(amax(b.iter().copied()));
+    amax(a.iter().zip(b).map(|(x, y)| x - y)) <= 1e-12 * scale + 1e-300
+}
+
+/// The largest magnitude, as nalgebra's `amax` finds it on plain slices: the first magnitude (0 for none),
+/// then each next one taken when the one so far is not `>=` it.
+fn amax(mut values: impl Iterator<Item = f64>) -> f64 {
+    let first = values.next().map_or(0.0, f64::abs);
+    values.fold(first, |m, x| if m >= x.abs() { m } else { x.abs() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plain-slice `spectra_agree`, `finish` and finiteness give nalgebra's answers and bits: spectra
+    /// that agree, differ at the tolerance, hold zeros of both signs, NaN or infinities.
+    #[test]
+    fn the_slice_loops_give_nalgebras_answers() {
+        let base: Vec<f64> = (0..SAMPLES).map(|i| 0.01 + i as f64 / 40.0).collect();
+        let mut cases = vec![base.clone(), vec![0.0; SAMPLES], vec![-0.0; SAMPLES]];
+        for (i, special) in [f64::NAN, f64::INFINITY, -f64::INFINITY, -3.5, 1e-300, 0.0].into_iter().enumerate() {
+            for at in [0, 7, SAMPLES - 1] {
+                let mut v = base.clone();
+                v[(at + i) % SAMPLES] = special;
+                cases.push(v);
+            }
+        }
+        for k in [1e-13, 1e-12, 2e-12, 1e-9] {
+            cases.push(base.iter().map(|x| x * (1.0 + k)).collect());
+        }
+        let spectra: Vec<Spectrum> = cases.iter().map(|v| Spectrum::from_slice(v).unwrap()).collect();
+        let lum = crate::colorimetry::Colorimetry::default().luminance();
+        for a in &spectra {
+            assert_eq!(all_finite(a.as_slice()), a.is_finite());
+            for b in &spectra {
+                let nalgebra = {
+                    let scale = a.0.amax().max(b.0.amax());
+                    (a.0 - b.0).amax() <= 1e-12 * scale + 1e-300
+                };
+                assert_eq!(spectra_agree(a, b), nalgebra, "{a:?} {b:?}");
+            }
+            for (kind, normalize) in
+                [(Kind::Reflectance, Normalize::None), (Kind::Light, Normalize::None), (Kind::Light, Normalize::L2)]
+            {
+                for scale in [1.0, 0.5, -2.0, 1e308, f64::NAN] {
+                    let ours = finish(a, kind, normalize, scale, &lum);
+                    let normalized = match kind {
+                        Kind::Light => a.normalized(normalize, &lum),
+                        Kind::Reflectance => Ok(*a),
+                    };
+                    let theirs = normalized
+                        .map(|n| n.scaled(scale))
+                        .and_then(|s| if s.is_finite() { Ok(s) } else { Err(NormalizeError::NotFinite) });
+                    match (ours, theirs) {
+                        (Ok(x), Ok(y)) => {
+                            assert!(x.as_slice().iter().zip(y.as_slice()).all(|(p, q)| p.to_bits() == q.to_bits()))
+                        }
+                        (Err(x), Err(y)) => assert_eq!(x.to_string(), y.to_string()),
+                        (x, y) => panic!("{x:?} against {y:?}"),
+                    }
+                }
+            }
+        }
+    }
 }

@@ -84,9 +84,7 @@ fn piece<'i>(text: &'i str, range: Range<usize>, arrays: &[(Range<usize>, Vec<f6
         offset: range.start,
         events: &events,
         at: 0,
-        root: DeTable::new(),
-        current: None,
-        arrays_of_tables: Vec::new(),
+        tree: Tree::default(),
     };
     builder.document()
 }
@@ -102,10 +100,65 @@ struct Builder<'e, 'i> {
     offset: usize,
     events: &'e [Event],
     at: usize,
+    tree: Tree<'i>,
+}
+
+/// A piece's tree as it is built, header by header (shared with the line reader, [`super::lines`]).
+#[derive(Default)]
+pub(super) struct Tree<'i> {
     root: DeTable<'i>,
     current: Option<Header<'i>>,
     /// The root's keys opened by `[[…]]` headers (their arrays take further tables).
     arrays_of_tables: Vec<Cow<'i, str>>,
+}
+
+impl<'i> Tree<'i> {
+    /// `key = value` in the table being read (the root before any header); `None` for a key given twice.
+    pub(super) fn insert(&mut self, key: Spanned<Cow<'i, str>>, value: Spanned<DeValue<'i>>) -> Option<()> {
+        let table = match &mut self.current {
+            Some((_, _, _, table)) => table,
+            None => &mut self.root,
+        };
+        // A key given twice gives `None` (the tree is dropped).
+        table.insert(key, value).is_none().then_some(())
+    }
+
+    /// A `[name]` (or `[[name]]` when `is_array`) header at `span`: the table before it put in its place.
+    pub(super) fn open(&mut self, is_array: bool, key: Spanned<Cow<'i, str>>, span: Range<usize>) -> Option<()> {
+        self.finish()?;
+        self.current = Some((is_array, key, span, DeTable::new()));
+        Some(())
+    }
+
+    /// Put the table being read in its place in the root.
+    fn finish(&mut self) -> Option<()> {
+        let Some((is_array, key, span, table)) = self.current.take() else { return Some(()) };
+        let name: &str = key.get_ref();
+        let value = Spanned::new(span.clone(), DeValue::Table(table));
+        match self.root.get_mut(name) {
+            None if is_array => {
+                self.arrays_of_tables.push(key.get_ref().clone());
+                let mut array = DeArray::new();
+                array.push(value);
+                self.root.insert(key, Spanned::new(span, DeValue::Array(array)));
+            }
+            None => {
+                self.root.insert(key, value);
+            }
+            Some(existing) if is_array && self.arrays_of_tables.iter().any(|k| k == name) => {
+                let DeValue::Array(array) = existing.get_mut() else { return None };
+                array.push(value);
+            }
+            Some(_) => return None,
+        }
+        Some(())
+    }
+
+    /// The root, once every table is in its place.
+    pub(super) fn done(mut self) -> Option<DeTable<'i>> {
+        self.finish()?;
+        Some(self.root)
+    }
 }
 
 impl<'i> Builder<'_, 'i> {
@@ -133,30 +186,19 @@ impl<'i> Builder<'_, 'i> {
         while let Some(e) = self.next() {
             match e.kind() {
                 EventKind::Whitespace | EventKind::Newline | EventKind::Comment => {}
-                EventKind::StdTableOpen | EventKind::ArrayTableOpen => {
-                    self.finish()?;
-                    self.header(e)?;
-                }
+                EventKind::StdTableOpen | EventKind::ArrayTableOpen => self.header(e)?,
                 EventKind::SimpleKey => {
                     let key = self.key(&e)?;
                     if self.next_solid()?.kind() != EventKind::KeyValSep {
                         return None;
                     }
                     let value = self.value()?;
-                    let table = match &mut self.current {
-                        Some((_, _, _, table)) => table,
-                        None => &mut self.root,
-                    };
-                    if table.contains_key(key.get_ref().as_ref()) {
-                        return None;
-                    }
-                    table.insert(key, value);
+                    self.tree.insert(key, value)?;
                 }
                 _ => return None,
             }
         }
-        self.finish()?;
-        Some(self.root)
+        self.tree.done()
     }
 
     /// A single key, decoded (a dotted key is left to the whole parse).
@@ -182,32 +224,7 @@ impl<'i> Builder<'_, 'i> {
             return None;
         }
         let span = self.offset + open.span().start()..self.offset + close.span().end();
-        self.current = Some((is_array, key, span, DeTable::new()));
-        Some(())
-    }
-
-    /// Put the table being read in its place in the root.
-    fn finish(&mut self) -> Option<()> {
-        let Some((is_array, key, span, table)) = self.current.take() else { return Some(()) };
-        let name: &str = key.get_ref();
-        let value = Spanned::new(span.clone(), DeValue::Table(table));
-        match self.root.get_mut(name) {
-            None if is_array => {
-                self.arrays_of_tables.push(key.get_ref().clone());
-                let mut array = DeArray::new();
-                array.push(value);
-                self.root.insert(key, Spanned::new(span, DeValue::Array(array)));
-            }
-            None => {
-                self.root.insert(key, value);
-            }
-            Some(existing) if is_array && self.arrays_of_tables.iter().any(|k| k == name) => {
-                let DeValue::Array(array) = existing.get_mut() else { return None };
-                array.push(value);
-            }
-            Some(_) => return None,
-        }
-        Some(())
+        self.tree.open(is_array, key, span)
     }
 
     /// The value after `key =`.

@@ -14,6 +14,7 @@
 mod budget;
 mod events;
 mod float_text;
+mod lines;
 mod numbers;
 mod pieces;
 mod read;
@@ -157,6 +158,9 @@ pub struct PaletteFile {
     original: String,
 }
 
+/// A text read: the model and where its spectra's tables sit.
+type Read = (read::ReadOutcome, Option<tables::Tables>);
+
 /// Line and column (1-based, columns in characters) of a byte offset.
 fn line_column(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());
@@ -198,7 +202,14 @@ impl PaletteFile {
     pub fn load(path: &Path) -> Result<PaletteFile, PaletteError> {
         let bytes = crate::fsio::read(path, crate::fsio::Kind::Palette)
             .map_err(|cause| PaletteError::Read { path: path.to_path_buf(), cause: Box::new(cause) })?;
-        PaletteFile::parse_bytes(&bytes, path)
+        // The bytes read become the file's text as they are (checked as `parse_bytes` checks them, not copied).
+        let text = String::from_utf8(bytes)
+            .map_err(|e| PaletteError::Binary { path: path.to_path_buf(), offset: e.utf8_error().valid_up_to() })?;
+        if let Some(offset) = text.find('\0') {
+            return Err(PaletteError::Binary { path: path.to_path_buf(), offset });
+        }
+        let (read, _) = PaletteFile::read_text(&text, path, true)?;
+        Ok(PaletteFile::from_read(text, path, read))
     }
 
     /// Parse the bytes of a palette file; `path` names the file in messages and its folder resolves
@@ -221,8 +232,24 @@ impl PaletteFile {
     /// [`PaletteFile::parse`], trying the parse from events with the number arrays read by hand first when
     /// `fast` (and saying how many arrays were read by hand when the palette came from that path).
     fn parse_with(text: &str, path: &Path, fast: bool) -> Result<(PaletteFile, Option<usize>), PaletteError> {
+        let (read, used) = PaletteFile::read_text(text, path, fast)?;
+        Ok((PaletteFile::from_read(text.to_string(), path, read), used))
+    }
+
+    /// What [`PaletteFile::parse_with`] reads from `text`: the model and the tables' layout, and how many
+    /// arrays were read by hand when they were.
+    fn read_text(text: &str, path: &Path, fast: bool) -> Result<(Read, Option<usize>), PaletteError> {
         if text.trim().is_empty() {
             return Err(PaletteError::Empty { path: path.to_path_buf() });
+        }
+        // A palette written in the plainest lines, read in one pass ([`lines`]); the text read as below when
+        // it holds any other line, is over the parse budget, or the palette is refused.
+        if fast
+            && let Some(lines) = lines::parse(text)
+            && let Ok((outcome, tables)) = PaletteFile::read_parsed(text, lines.tree, path, Some(&lines.read))
+            && lines.read.all_taken()
+        {
+            return Ok(((outcome, tables), Some(lines.read.len())));
         }
         // Parse memory is bounded by the input size (see [`budget`]): refused before any parse.
         let scan = budget::scan(text);
@@ -244,10 +271,10 @@ impl PaletteFile {
             && let Ok((outcome, tables)) = PaletteFile::read_parsed(text, tree, path, Some(&read))
             && read.all_taken()
         {
-            return Ok((PaletteFile::from_outcome(text, path, outcome, tables), Some(read.len())));
+            return Ok(((outcome, tables), Some(read.len())));
         }
         let (outcome, tables) = PaletteFile::read_tree(text, &scan.headers, path)?;
-        Ok((PaletteFile::from_outcome(text, path, outcome, tables), None))
+        Ok(((outcome, tables), None))
     }
 
     /// Parse `text` (cut at some of its `headers` when long) and read the tree into the model.
@@ -295,14 +322,20 @@ impl PaletteFile {
         Ok((outcome?, tables))
     }
 
-    fn from_outcome(text: &str, path: &Path, outcome: read::ReadOutcome, tables: Option<tables::Tables>) -> Self {
+    /// The file of the text `original` read as `read`.
+    fn from_read(original: String, path: &Path, read: Read) -> Self {
+        let (outcome, tables) = read;
+        let text = original.as_str();
         // Line endings: CRLF when most newlines have a carriage return before them.
-        // Line feeds counted in runs of 255 bytes with a byte-wide count (which the compiler vectorises);
-        // most files hold no carriage return at all.
+        // Line feeds counted in runs of 255 bytes with a byte-wide count (which the compiler vectorises), and
+        // only when there is a CRLF: most files hold no carriage return at all (then LF, not mixed).
         let bytes = text.as_bytes();
-        let newlines: usize =
-            bytes.chunks(255).map(|run| usize::from(run.iter().fold(0u8, |n, &c| n + u8::from(c == b'\n')))).sum();
         let crlf = if bytes.contains(&b'\r') { text.matches("\r\n").count() } else { 0 };
+        let newlines: usize = if crlf == 0 {
+            0
+        } else {
+            bytes.chunks(255).map(|run| usize::from(run.iter().fold(0u8, |n, &c| n + u8::from(c == b'\n')))).sum()
+        };
         PaletteFile {
             path: Some(path.to_path_buf()),
             document: OnceLock::new(),
@@ -314,7 +347,7 @@ impl PaletteFile {
             mixed_newlines: crlf != 0 && crlf != newlines,
             no_final_newline: !text.ends_with('\n'),
             bom: text.starts_with('\u{feff}'),
-            original: text.to_string(),
+            original,
         }
     }
 

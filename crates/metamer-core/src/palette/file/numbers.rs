@@ -25,24 +25,28 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// The keys whose arrays are read: a spectrum's `samples` and a colour cell's `target` (`[r, g, b]`; a
 /// batch of designs has three cells per spectrum, and their targets were half of the numbers the parser
 /// read and checked).
-const KEYS: [&str; 2] = ["samples", "target"];
+pub(super) const KEYS: [&str; 2] = ["samples", "target"];
 
-/// The arrays read from a text, by span (in text order), and which of them the reader took.
+/// The arrays read from a text, by span (in text order), and which of them the reader took. The numbers of
+/// all the arrays sit in one vector (a batch of designs has thousands of arrays: one allocation, not one
+/// each, and the reader borrows them).
 pub(super) struct Read {
-    arrays: Vec<(Range<usize>, Vec<f64>)>,
+    /// Each array's span in the text and where its numbers sit in `values`.
+    arrays: Vec<(Range<usize>, Range<usize>)>,
+    values: Vec<f64>,
     taken: Vec<AtomicBool>,
 }
 
 impl Read {
     /// The numbers of the array read at exactly `span`, marked as taken (`None` when none was read there).
-    pub(super) fn take(&self, span: &Range<usize>) -> Option<Vec<f64>> {
+    pub(super) fn take(&self, span: &Range<usize>) -> Option<&[f64]> {
         let i = self.arrays.binary_search_by_key(&span.start, |(r, _)| r.start).ok()?;
         let (range, values) = &self.arrays[i];
         if range != span {
             return None;
         }
         self.taken[i].store(true, Ordering::Relaxed);
-        Some(values.clone())
+        self.values.get(values.clone())
     }
 
     /// Every read array was taken by the reader.
@@ -53,14 +57,25 @@ impl Read {
 
 impl Read {
     /// The arrays read (in any order; kept in text order).
-    pub(super) fn new(mut arrays: Vec<(Range<usize>, Vec<f64>)>) -> Read {
+    pub(super) fn new(arrays: Vec<(Range<usize>, Vec<f64>)>) -> Read {
+        let mut values = Vec::with_capacity(arrays.iter().map(|(_, v)| v.len()).sum());
+        let mut spans = Vec::with_capacity(arrays.len());
+        for (span, v) in arrays {
+            spans.push((span, values.len()..values.len() + v.len()));
+            values.extend_from_slice(&v);
+        }
+        Read::flat(spans, values)
+    }
+
+    /// The arrays read (in any order; kept in text order), each with where its numbers sit in `values`.
+    pub(super) fn flat(mut arrays: Vec<(Range<usize>, Range<usize>)>, values: Vec<f64>) -> Read {
         // In text order ([`Read::take`] searches by start); arrays of different keys never overlap (an array
         // read holds only numbers, commas and blanks).
         if !arrays.is_sorted_by_key(|(range, _)| range.start) {
             arrays.sort_unstable_by_key(|(range, _)| range.start);
         }
         let taken = arrays.iter().map(|_| AtomicBool::new(false)).collect();
-        Read { arrays, taken }
+        Read { arrays, values, taken }
     }
 
     /// How many arrays were read.
@@ -133,23 +148,38 @@ fn skip_array_space(b: &[u8], mut i: usize) -> usize {
 }
 
 /// A non-empty array of numbers starting at `b[i] == '['`: the index past its `]` and its values.
-fn array(t: &str, i: usize) -> Option<(usize, Vec<f64>)> {
+pub(super) fn array(t: &str, i: usize) -> Option<(usize, Vec<f64>)> {
+    let mut values = Vec::with_capacity(crate::spectrum::SAMPLES);
+    array_into(t, i, &mut values).map(|end| (end, values))
+}
+
+/// [`array`] with its values pushed onto `values` (left as it was when `None`).
+pub(super) fn array_into(t: &str, i: usize, values: &mut Vec<f64>) -> Option<usize> {
+    let from = values.len();
+    let end = numbers_into(t, i, values);
+    if end.is_none() {
+        values.truncate(from);
+    }
+    end
+}
+
+fn numbers_into(t: &str, i: usize, values: &mut Vec<f64>) -> Option<usize> {
     let b = t.as_bytes();
     if b.get(i) != Some(&b'[') {
         return None;
     }
-    let mut values = Vec::with_capacity(crate::spectrum::SAMPLES);
+    let from = values.len();
     let mut i = skip_array_space(b, i + 1);
     loop {
-        if b.get(i) == Some(&b']') && !values.is_empty() {
-            return Some((i + 1, values));
+        if b.get(i) == Some(&b']') && values.len() > from {
+            return Some(i + 1);
         }
         let (end, x) = number(t, i)?;
         values.push(x);
         i = skip_array_space(b, end);
         match b.get(i)? {
             b',' => i = skip_array_space(b, i + 1),
-            b']' => return Some((i + 1, values)),
+            b']' => return Some(i + 1),
             _ => return None,
         }
     }
@@ -158,7 +188,7 @@ fn array(t: &str, i: usize) -> Option<(usize, Vec<f64>)> {
 /// A finite decimal number as TOML writes it, without underscores: `[+-]` then `0` or a digit run not
 /// starting with 0, then an optional `.digits` and an optional exponent `[eE][+-]digits`. An integer is
 /// read as the parser's reader reads it (as `i64`, then converted); `None` for anything else.
-fn number(t: &str, start: usize) -> Option<(usize, f64)> {
+pub(super) fn number(t: &str, start: usize) -> Option<(usize, f64)> {
     let b = t.as_bytes();
     let digits = |mut i: usize| {
         let from = i;
@@ -260,7 +290,7 @@ pub(super) mod tests {
         for (range, values) in &read.arrays {
             assert_eq!(&text[range.clone()], arr);
             assert_eq!(blanked[range.clone()].replace(' ', ""), "[]");
-            assert_eq!(values, &[0.1, 0.2, 0.3]);
+            assert_eq!(&read.values[values.clone()], &[0.1, 0.2, 0.3]);
         }
         assert!(!read.all_taken());
         assert!(read.take(&(read.arrays[0].0.start..read.arrays[0].0.end - 1)).is_none(), "only the exact span");

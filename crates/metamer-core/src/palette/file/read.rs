@@ -15,6 +15,10 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 pub(super) type Table<'i> = DeTable<'i>;
+
+/// The reader's maps of names and cells, with a fast hash (no input chooses their keys to collide: they
+/// hold one file's names, which the reader checks for duplicates anyway).
+type FastMap<K, V> = HashMap<K, V, foldhash::fast::RandomState>;
 pub(super) type Value<'i> = DeValue<'i>;
 
 const TOP_KEYS: &[&str] =
@@ -149,11 +153,11 @@ impl<'a> Reader<'a> {
     /// The numbers of `t`'s `samples` array when they were read before the parse (the parser then saw an
     /// empty array at its span).
     fn read_samples(&self, t: &Table) -> Option<Vec<f64>> {
-        self.hand_read_array(t.get("samples")?)
+        self.hand_read_array(t.get("samples")?).map(<[f64]>::to_vec)
     }
 
     /// The numbers of the array `v` when they were read before the parse ([`super::numbers`]).
-    fn hand_read_array(&self, v: &Spanned<Value>) -> Option<Vec<f64>> {
+    fn hand_read_array(&self, v: &Spanned<Value>) -> Option<&'a [f64]> {
         match v.get_ref() {
             Value::Array(items) if items.is_empty() => self.hand_read?.take(&v.span()),
             _ => None,
@@ -207,6 +211,14 @@ impl<'a> Reader<'a> {
             Err(self.invalid(key, "must be finite (inf is only allowed in bounds)"))
         } else {
             Ok(x)
+        }
+    }
+
+    /// [`Reader::number`] (infinities refused) whose key is written out only for a message.
+    fn number_lazy(&self, v: &Value, key: impl Fn() -> String) -> Res<f64> {
+        match number_of(v) {
+            Some(x) if x.is_finite() => Ok(x),
+            _ => self.number(v, &key(), false),
         }
     }
 
@@ -340,7 +352,7 @@ impl<'a> Reader<'a> {
     fn spectra(&mut self, root: &Table, list: &str, kind: Kind) -> Res<Vec<SpectrumEntry>> {
         let tables = self.array_of_tables(root, list)?;
         let mut out: Vec<SpectrumEntry> = Vec::with_capacity(tables.len());
-        let mut seen: HashMap<String, usize> = HashMap::with_capacity(tables.len());
+        let mut seen: FastMap<String, usize> = FastMap::with_capacity_and_hasher(tables.len(), Default::default());
         // Entries are read in parallel, then taken in order (the first error in file order is reported).
         let this = &*self;
         let read: Vec<(Vec<String>, Res<ReadSpectrum>)> = tables
@@ -370,8 +382,12 @@ impl<'a> Reader<'a> {
 
     /// One spectrum, and its CSV file's raw samples when it has one.
     pub(super) fn spectrum(&self, t: &Table, at: &dyn std::fmt::Display, kind: Kind) -> Res<ReadSpectrum> {
+        // Keys are written out for a message only (a batch has thousands of entries).
         let name = match t.value("name") {
-            Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
+            Some(v) => match v.as_str() {
+                Some(s) => s.to_string(),
+                None => return Err(self.wrong_type(&format!("{at}.name"), "a string", v)),
+            },
             None => return Err(self.invalid(format!("{at}.name"), "missing: every spectrum needs a name")),
         };
         if name.trim().is_empty() {
@@ -423,11 +439,14 @@ impl<'a> Reader<'a> {
             }
         };
         let scale = match t.value("scale") {
-            Some(v) => self.number(v, &format!("{at}.scale"), false)?,
+            Some(v) => self.number_lazy(v, || format!("{at}.scale"))?,
             None => 1.0,
         };
         let design = match t.value("design") {
-            Some(v) => self.boolean(v, &format!("{at}.design"))?,
+            Some(v) => match v.as_bool() {
+                Some(b) => b,
+                None => return Err(self.wrong_type(&format!("{at}.design"), "true or false", v)),
+            },
             None => false,
         };
         let bounds = t.value("bounds").map(|v| self.bounds(v, &format!("{at}.bounds"))).transpose()?;
@@ -503,9 +522,10 @@ impl<'a> Reader<'a> {
     ) -> Res<Vec<ColourCell>> {
         let tables = self.array_of_tables(root, "colours")?;
         let mut out = Vec::with_capacity(tables.len());
-        let mut cells: HashMap<(usize, usize), usize> = HashMap::with_capacity(tables.len());
+        let mut cells: FastMap<(usize, usize), usize> =
+            FastMap::with_capacity_and_hasher(tables.len(), Default::default());
         // Names are unique within each list (checked when reading them).
-        let index = |entries: &'v [SpectrumEntry]| -> HashMap<&'v str, usize> {
+        let index = |entries: &'v [SpectrumEntry]| -> FastMap<&'v str, usize> {
             entries.iter().enumerate().map(|(i, e)| (e.name.as_str(), i)).collect()
         };
         let (light_index, reflectance_index) = (index(lights), index(reflectances));
@@ -517,7 +537,7 @@ impl<'a> Reader<'a> {
             .enumerate()
             .map(|(i, t)| {
                 let at = At("colours", i);
-                let lookup = |k: &str, entries: &[SpectrumEntry], index: &HashMap<&str, usize>, what: &str| {
+                let lookup = |k: &str, entries: &[SpectrumEntry], index: &FastMap<&str, usize>, what: &str| {
                     let key = || format!("{at}.{k}");
                     let v =
                         t.value(k).ok_or_else(|| this.invalid(key(), format!("missing: a colour names its {what}")))?;
@@ -587,17 +607,19 @@ impl<'a> Reader<'a> {
         };
         let weight = match t.value("weight") {
             Some(v) => {
-                let key = format!("{at}.weight");
-                let w = self.number(v, &key, false)?;
+                let w = self.number_lazy(v, || format!("{at}.weight"))?;
                 if w < 0.0 {
-                    return Err(self.invalid(key, format!("weights must not be negative, got {w}")));
+                    return Err(self.invalid(format!("{at}.weight"), format!("weights must not be negative, got {w}")));
                 }
                 w
             }
             None => 1.0,
         };
         let enabled = match t.value("use") {
-            Some(v) => self.boolean(v, &format!("{at}.use"))?,
+            Some(v) => match v.as_bool() {
+                Some(b) => b,
+                None => return Err(self.wrong_type(&format!("{at}.use"), "true or false", v)),
+            },
             None => true,
         };
         Ok(CellRest { free: free_group, target, notation, weight, enabled })
@@ -625,4 +647,52 @@ pub(super) fn names(entries: &[SpectrumEntry]) -> String {
         return "none".to_string();
     }
     entries.iter().map(|e| e.name.as_str()).collect::<Vec<_>>().join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    /// A spectrum's `name`, `scale` and `design` and a cell's `weight` and `use` are read without writing
+    /// their keys out, and a wrong value is refused with the message (key, line, reason) it always had.
+    #[test]
+    fn wrong_values_are_named_as_before() {
+        let base = "name = \"p\"\n[[lights]]\nname = \"L\"\nilluminant = \"D65\"\n[[reflectances]]\nname = \"r0\"\n\
+                    flat = 0.5\ndesign = true\n[[colours]]\nlight = \"L\"\nreflectance = \"r0\"\n\
+                    target = [0.1, 0.2, 0.3]\n";
+        let cases = [
+            (
+                "design = true",
+                "design = \"yes\"",
+                "p.toml:8: reflectances[0].design: expected true or false, found a string",
+            ),
+            (
+                "flat = 0.5",
+                "flat = 0.5\nscale = inf",
+                "p.toml:8: reflectances[0].scale: must be finite (inf is only allowed in bounds)",
+            ),
+            (
+                "flat = 0.5",
+                "flat = 0.5\nscale = \"x\"",
+                "p.toml:8: reflectances[0].scale: expected a number, found a string",
+            ),
+            ("flat = 0.5", "flat = 0.5\nscale = nan", "p.toml:8: reflectances[0].scale: NaN is not allowed"),
+            ("0.3]", "0.3]\nweight = \"x\"", "p.toml:13: colours[0].weight: expected a number, found a string"),
+            ("0.3]", "0.3]\nweight = -1", "p.toml:13: colours[0].weight: weights must not be negative, got -1"),
+            ("0.3]", "0.3]\nweight = nan", "p.toml:13: colours[0].weight: NaN is not allowed"),
+            (
+                "0.3]",
+                "0.3]\nweight = inf",
+                "p.toml:13: colours[0].weight: must be finite (inf is only allowed in bounds)",
+            ),
+            ("0.3]", "0.3]\nuse = 1", "p.toml:13: colours[0].use: expected true or false, found an integer"),
+            ("name = \"r0\"", "name = 3", "p.toml:6: reflectances[0].name: expected a string, found an integer"),
+            ("name = \"L\"", "name = true", "p.toml:3: lights[0].name: expected a string, found a boolean"),
+        ];
+        let path = std::path::Path::new("p.toml");
+        assert!(super::super::PaletteFile::parse(base, path).is_ok());
+        for (from, to, message) in cases {
+            let text = base.replacen(from, to, 1);
+            let (read, _) = super::super::numbers::tests::both(&text, path);
+            assert_eq!(read, format!("error: {message}"), "{to}");
+        }
+    }
 }

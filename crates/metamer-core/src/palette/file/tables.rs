@@ -84,7 +84,9 @@ impl Tables {
                         return None;
                     }
                     let range = start..end_of(start);
-                    let mut sources = Source::KEYS.iter().filter_map(|k| table.get(*k));
+                    // One walk of the table's keys (not a lookup of each source key).
+                    let mut sources =
+                        table.iter().filter(|(k, _)| Source::KEYS.contains(&k.get_ref().as_ref())).map(|(_, v)| v);
                     let source_value = match (sources.next(), sources.next()) {
                         (Some(v), None) if range.start <= v.span().start && v.span().end <= range.end => {
                             Some(v.span().start - start..v.span().end - start)
