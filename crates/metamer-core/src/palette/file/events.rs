@@ -287,4 +287,4 @@ impl<'i> Builder<'_, 'i> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(super) mod tests;

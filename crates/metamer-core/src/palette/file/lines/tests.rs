@@ -2,6 +2,7 @@
 //! budget's counts, or leaves the text to the events' path; and the palette every path reads is the same,
 //! or the error is.
 
+use super::super::events::tests::{samples, toml_tree_read};
 use super::super::numbers::tests::both;
 use super::super::{PaletteError, PaletteFile, budget, numbers};
 use super::*;
@@ -15,28 +16,8 @@ fn same_tree(text: &str) -> bool {
     let arrays = numbers::arrays_in(text, 0..text.len());
     assert_eq!(arrays.len(), lines.read.len(), "the arrays read are those of the whole text: {text:?}");
     assert_eq!(lines.counts, budget::count(text), "the budget's counts of {text:?}");
-    let spans: Vec<Range<usize>> = arrays.into_iter().map(|(span, _)| span).collect();
-    let mut expected = DeTable::parse(text).expect("the one-pass read took a text the toml crate refuses");
-    for value in expected.get_mut().iter_mut().map(|(_, v)| v) {
-        empty_read(value, &spans);
-    }
-    assert_eq!(format!("{:?}", lines.tree), format!("{expected:?}"), "the tree of {text:?}");
+    assert_eq!(format!("{:?}", lines.tree), toml_tree_read(text, arrays), "the tree of {text:?}");
     true
-}
-
-/// `value` with the arrays at `spans` made empty.
-fn empty_read(value: &mut Spanned<DeValue<'_>>, spans: &[Range<usize>]) {
-    let span = value.span();
-    match value.get_mut() {
-        DeValue::Array(_) if spans.contains(&span) => *value.get_mut() = DeValue::Array(DeArray::new()),
-        DeValue::Array(items) => items.iter_mut().for_each(|v| empty_read(v, spans)),
-        DeValue::Table(t) => t.iter_mut().for_each(|(_, v)| empty_read(v, spans)),
-        _ => {}
-    }
-}
-
-fn samples(n: usize) -> String {
-    (0..n).map(|i| format!("{}", 0.25 + i as f64 / 64.0)).collect::<Vec<_>>().join(", ")
 }
 
 /// A palette of every shape this path reads, each spelled in several ways.
