@@ -456,8 +456,17 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
 }
 
 /// Reset this process's peak resident memory to what it holds now (Linux: `5` into
-/// `/proc/self/clear_refs`); false when it cannot be.
+/// `/proc/self/clear_refs`); false when it cannot be. With glibc, the heap that earlier suites freed and
+/// the allocator kept is first returned to the system (`malloc_trim`), so the peak measured after the reset
+/// is what the workload needs on top of what the benchmark holds live, not whatever freed memory glibc
+/// happened to keep (which varied by ~30 MiB from run to run of the same binary).
 fn reset_peak_memory() -> bool {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: `malloc_trim` only releases free heap memory back to the system; it is thread-safe and
+    // leaves every live allocation where it is.
+    unsafe {
+        libc::malloc_trim(0);
+    }
     std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
@@ -498,7 +507,7 @@ fn large_volume(
         per_frame_s: sweep.seconds / frames as f64,
         peak_bytes: peak_memory_bytes(),
         peak_note: if reset {
-            "VmHWM reset after generating the volume: the raycasts and frames, with all the benchmark holds"
+            "VmHWM reset after generating the volume (with glibc, after returning freed heap to the system): the raycasts and frames, with all the benchmark holds"
         } else {
             "VmHWM of the whole benchmark (it could not be reset here)"
         },
