@@ -192,11 +192,21 @@ impl<'a> Reader<'a> {
     }
 
     pub(super) fn string<'v>(&self, v: &'v Value, key: &str) -> Res<&'v str> {
-        v.as_str().ok_or_else(|| self.wrong_type(key, "a string", v))
+        self.string_lazy(v, || key.to_string())
+    }
+
+    /// [`Reader::string`] whose key is written out only for a message.
+    fn string_lazy<'v>(&self, v: &'v Value, key: impl Fn() -> String) -> Res<&'v str> {
+        v.as_str().ok_or_else(|| self.wrong_type(&key(), "a string", v))
     }
 
     fn boolean(&self, v: &Value, key: &str) -> Res<bool> {
-        v.as_bool().ok_or_else(|| self.wrong_type(key, "true or false", v))
+        self.boolean_lazy(v, || key.to_string())
+    }
+
+    /// [`Reader::boolean`] whose key is written out only for a message.
+    fn boolean_lazy(&self, v: &Value, key: impl Fn() -> String) -> Res<bool> {
+        v.as_bool().ok_or_else(|| self.wrong_type(&key(), "true or false", v))
     }
 
     /// A number (integer or float), never NaN; infinities only when `allow_inf`.
@@ -384,10 +394,7 @@ impl<'a> Reader<'a> {
     pub(super) fn spectrum(&self, t: &Table, at: &dyn std::fmt::Display, kind: Kind) -> Res<ReadSpectrum> {
         // Keys are written out for a message only (a batch has thousands of entries).
         let name = match t.value("name") {
-            Some(v) => match v.as_str() {
-                Some(s) => s.to_string(),
-                None => return Err(self.wrong_type(&format!("{at}.name"), "a string", v)),
-            },
+            Some(v) => self.string_lazy(v, || format!("{at}.name"))?.to_string(),
             None => return Err(self.invalid(format!("{at}.name"), "missing: every spectrum needs a name")),
         };
         if name.trim().is_empty() {
@@ -443,10 +450,7 @@ impl<'a> Reader<'a> {
             None => 1.0,
         };
         let design = match t.value("design") {
-            Some(v) => match v.as_bool() {
-                Some(b) => b,
-                None => return Err(self.wrong_type(&format!("{at}.design"), "true or false", v)),
-            },
+            Some(v) => self.boolean_lazy(v, || format!("{at}.design"))?,
             None => false,
         };
         let bounds = t.value("bounds").map(|v| self.bounds(v, &format!("{at}.bounds"))).transpose()?;
@@ -616,10 +620,7 @@ impl<'a> Reader<'a> {
             None => 1.0,
         };
         let enabled = match t.value("use") {
-            Some(v) => match v.as_bool() {
-                Some(b) => b,
-                None => return Err(self.wrong_type(&format!("{at}.use"), "true or false", v)),
-            },
+            Some(v) => self.boolean_lazy(v, || format!("{at}.use"))?,
             None => true,
         };
         Ok(CellRest { free: free_group, target, notation, weight, enabled })
