@@ -65,7 +65,7 @@ impl Source {
                 None => return Err(SourceError::CsvWithoutFolder(file.clone())),
             },
         };
-        if all_finite(spectrum.as_slice()) { Ok(spectrum) } else { Err(SourceError::NotFinite) }
+        if spectrum.is_finite() { Ok(spectrum) } else { Err(SourceError::NotFinite) }
     }
 }
 
@@ -81,17 +81,8 @@ pub(crate) fn finish(
         Kind::Light => raw.normalized(normalize, luminance_weights)?,
         Kind::Reflectance => *raw,
     };
-    // The scale as `Spectrum::scaled` applies it (each sample times `scale`), on plain slices.
-    let mut out = normalized;
-    for x in out.0.as_mut_slice() {
-        *x *= scale;
-    }
-    if all_finite(out.as_slice()) { Ok(out) } else { Err(NormalizeError::NotFinite) }
-}
-
-/// Every sample is finite (`Spectrum::is_finite` on a plain slice).
-fn all_finite(samples: &[f64]) -> bool {
-    samples.iter().all(|x| x.is_finite())
+    let out = normalized.scaled(scale);
+    if out.is_finite() { Ok(out) } else { Err(NormalizeError::NotFinite) }
 }
 
 impl SpectrumEntry {
@@ -151,7 +142,7 @@ mod tests {
         let spectra: Vec<Spectrum> = cases.iter().map(|v| Spectrum::from_slice(v).unwrap()).collect();
         let lum = crate::colorimetry::Colorimetry::default().luminance();
         for a in &spectra {
-            assert_eq!(all_finite(a.as_slice()), a.is_finite());
+            assert_eq!(a.is_finite(), a.0.iter().all(|v| v.is_finite()));
             for b in &spectra {
                 let nalgebra = {
                     let scale = a.0.amax().max(b.0.amax());
@@ -168,9 +159,9 @@ mod tests {
                         Kind::Light => a.normalized(normalize, &lum),
                         Kind::Reflectance => Ok(*a),
                     };
-                    let theirs = normalized
-                        .map(|n| n.scaled(scale))
-                        .and_then(|s| if s.is_finite() { Ok(s) } else { Err(NormalizeError::NotFinite) });
+                    let theirs = normalized.map(|n| Spectrum(n.0 * scale)).and_then(|s| {
+                        if s.0.iter().all(|v| v.is_finite()) { Ok(s) } else { Err(NormalizeError::NotFinite) }
+                    });
                     match (ours, theirs) {
                         (Ok(x), Ok(y)) => {
                             assert!(x.as_slice().iter().zip(y.as_slice()).all(|(p, q)| p.to_bits() == q.to_bits()))

@@ -171,7 +171,13 @@ impl Spectrum {
 
     /// Multiply every sample by `k`.
     pub fn scaled(&self, k: f64) -> Spectrum {
-        Spectrum(self.0 * k)
+        // Each sample times `k`, as nalgebra's `self.0 * k` computes it, on the plain slice (a palette of
+        // thousands of spectra scales each one as it is read).
+        let mut out = *self;
+        for x in out.0.as_mut_slice() {
+            *x *= k;
+        }
+        out
     }
 
     /// Euclidean norm of the samples.
@@ -181,7 +187,7 @@ impl Spectrum {
 
     /// True when every sample is finite.
     pub fn is_finite(&self) -> bool {
-        self.0.iter().all(|v| v.is_finite())
+        self.as_slice().iter().all(|v| v.is_finite())
     }
 
     /// The samples as a slice.
