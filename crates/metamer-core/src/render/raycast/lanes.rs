@@ -331,7 +331,15 @@ pub(super) fn shade(
     let flat = grad.as_flattened().as_ptr().cast::<i64>();
     // In i16 units: entry `local` times 3.
     let first = _mm256_mullo_epi32(local, _mm256_set1_epi32(3));
-    // Per corner, the gradient's components as f32 in three registers of eight lanes.
+    // The corners' components come out of the gathers below with the lanes' pairs in the order 0 1 4 5 |
+    // 2 3 6 7 (64-bit units 0 2 1 3): the fractions are put in that order too, so that every lerp and the
+    // light term work lane by lane on matching lanes, and only the result is put back in lane order (four
+    // permutations instead of one per corner and component pair). Lane-wise operations: the same values.
+    // (A loop, not `map`: a closure does not take this function's target features.)
+    for fa in f.iter_mut() {
+        *fa = _mm256_castsi256_ps(_mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(*fa)));
+    }
+    // Per corner, the gradient's components as f32 in three registers of eight lanes (pair order above).
     let mut cs = [[_mm256_setzero_ps(); 3]; 8];
     for (c, corner) in cs.iter_mut().enumerate() {
         let idx = _mm256_add_epi32(first, _mm256_set1_epi32(3 * CORNERS[c] as i32));
@@ -346,13 +354,11 @@ pub(super) fn shade(
                 _mm256_i32gather_epi64::<2>(flat, _mm256_extracti128_si256::<1>(idx)),
             )
         };
-        // The words' low halves (x, y) and high halves (z, dropped) in lane order: the shuffle takes lanes
-        // 0 1 4 5 | 2 3 6 7, the permutation of 64-bit pairs puts them back.
+        // The words' low halves (x, y) and high halves (z, dropped): the shuffle takes lanes 0 1 4 5 |
+        // 2 3 6 7, left in that order (the fractions are in it).
         let (lo, hi) = (_mm256_castsi256_ps(lo), _mm256_castsi256_ps(hi));
-        let xy =
-            _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(_mm256_shuffle_ps::<0b10_00_10_00>(lo, hi)));
-        let z =
-            _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(_mm256_shuffle_ps::<0b11_01_11_01>(lo, hi)));
+        let xy = _mm256_castps_si256(_mm256_shuffle_ps::<0b10_00_10_00>(lo, hi));
+        let z = _mm256_castps_si256(_mm256_shuffle_ps::<0b11_01_11_01>(lo, hi));
         *corner = [
             _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(xy))),
             _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(xy)),
@@ -384,9 +390,17 @@ pub(super) fn shade(
     // 1 where the gradient vanishes (n2 < 1e-12).
     let flat_lanes = _mm256_cmp_ps::<_CMP_LT_OQ>(n2, _mm256_set1_ps(1e-12));
     let out = _mm256_blendv_ps(lit, _mm256_set1_ps(1.0), flat_lanes);
-    // The lanes from `from` on in its brick.
+    // Back in lane order (the permutation of 64-bit pairs 0 2 1 3 is its own inverse).
+    let out = _mm256_castsi256_ps(_mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(out)));
+    // The lanes from `from` on in its brick take the new shades, the others keep theirs: blended and stored
+    // whole rather than by a masked store, which the consumer's next read of one lane would wait for (a
+    // masked store is not forwarded to a later load).
     let after = _mm256_cmpgt_epi32(_mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0), _mm256_set1_epi32(from as i32 - 1));
-    // SAFETY: `batch.shade` holds eight f32, the most a masked store of one register writes.
-    unsafe { _mm256_maskstore_ps(batch.shade.as_mut_ptr(), _mm256_and_si256(same, after), out) };
+    let take = _mm256_castsi256_ps(_mm256_and_si256(same, after));
+    // SAFETY: `batch.shade` holds eight f32, the bytes an unaligned load and store of one register touch.
+    unsafe {
+        let old = _mm256_loadu_ps(batch.shade.as_ptr());
+        _mm256_storeu_ps(batch.shade.as_mut_ptr(), _mm256_blendv_ps(old, out, take));
+    }
     batch.shaded |= lanes;
 }
