@@ -521,9 +521,9 @@ fn max_gradient_keeps_flat_smoke_and_drops_the_skin_of_steep_boundaries() {
 /// The value loop taking its samples several at a time (AVX2 lanes, where the processor has them) gives
 /// the portable loop's frame and counters bit for bit: on every voxel type, shaded by the smooth or the
 /// cell gradient or unshaded, trilinear or nearest, with a gradient-dependent material, at steps that put
-/// samples anywhere in their cells, and on volumes where rays graze the last cells (values up to the far
-/// faces, axis-aligned views, cells clamped at dims − 2) or whose first voxels the lanes read near (a
-/// grid two voxels wide, a grid one voxel thick).
+/// samples anywhere in their cells and refine a step into one or several substeps, and on volumes where
+/// rays graze the last cells (values up to the far faces, axis-aligned views, cells clamped at dims − 2)
+/// or whose first voxels the lanes read near (a grid two voxels wide, a grid one voxel thick).
 #[test]
 fn samples_taken_in_lanes_give_the_portable_frame_bit_for_bit() {
     if !lanes_detected() {
@@ -581,6 +581,10 @@ fn samples_taken_in_lanes_give_the_portable_frame_bit_for_bit() {
         RaycastOptions { step: 0.5, ..base.clone() },
         RaycastOptions { step: 0.37, shading: Shading::Key, ..base.clone() },
         RaycastOptions { step: 1.3, gradient: Gradient::Cell, ..base.clone() },
+        // Refined steps of several substeps (five and twelve on most of these grids) between samples
+        // taken in lanes and shaded there by the smooth gradient.
+        RaycastOptions { step: 1.3, ..base.clone() },
+        RaycastOptions { step: 3.1, shading: Shading::Key, ..base.clone() },
         RaycastOptions { step: 0.5, shading: Shading::Unshaded, jitter: false, ..base.clone() },
         RaycastOptions { step: 0.5, interpolation: Interpolation::Nearest, ..base.clone() },
         RaycastOptions { step: 0.7, empty_space_skipping: false, refine: false, ..base.clone() },
