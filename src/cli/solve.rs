@@ -74,7 +74,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let started = Instant::now();
-    let mut file = PaletteFile::load(&args.input)?;
+    let file = PaletteFile::load(&args.input)?;
     let palette = &file.palette;
     let colorimetry = Colorimetry::default();
     let sidecar = basis::sidecar_path(&args.input);
@@ -174,7 +174,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // folder, as they usually do); a failed second commit still syncs the first's folder (on drop).
     let mut folders = crate::fsio::FolderSync::default();
     if let (Some(staged), Some(out)) = (saved, &args.output) {
-        file.commit_in(staged, &mut folders).with_context(|| saved_context(out))?;
+        // The command ends here: the file need not become what was written (its new text joined, its new
+        // palette built).
+        staged.commit_only_in(&mut folders).with_context(|| saved_context(out))?;
     }
     if let Some(staged) = report {
         staged.commit_in(&mut folders).context("cannot write the report")?;
