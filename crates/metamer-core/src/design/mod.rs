@@ -264,6 +264,23 @@ pub fn solve_with(
     options: &SolveOptions,
     parallel: bool,
 ) -> Result<Solution, DesignError> {
+    solve_with_then(palette, basis, colorimetry, options, parallel, |_| ()).map(|(solution, ())| solution)
+}
+
+/// [`solve_with`], and `then` run on the solved palette ([`Solution::palette`]) as soon as the spectra are
+/// solved, beside the solve's last part (the objective, the cells' colours, the diagnostics) when
+/// `parallel`, on the pool: a command formats an output of the solved palette there (the solved palette's
+/// text) while the rest of the solution is computed. The solution is the same, bit for bit; `then` is not
+/// run when the solve is cancelled or fails before its last part, and its result is dropped when that part
+/// fails.
+pub fn solve_with_then<T: Send>(
+    palette: &Palette,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    options: &SolveOptions,
+    parallel: bool,
+    then: impl FnOnce(&Palette) -> T + Send,
+) -> Result<(Solution, T), DesignError> {
     let started = Instant::now();
     let cancelled = || options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
     if cancelled() {
@@ -295,46 +312,55 @@ pub fn solve_with(
         });
         start
     };
-    for b in &blocks {
-        if let Some(why) = b.stopped {
-            diagnostics.push(Diagnostic {
-                cell: None,
-                criterion: None,
-                kind: DiagnosticKind::StoppedEarly(why),
-                message: format!(
-                    "joint design of {} unknown spectra stopped early ({why}); objective {:.6e} is the best found",
-                    b.units.iter().filter(|u| !matches!(u, system::Unit::Free(_))).count(),
-                    b.objective
-                ),
-            });
-        }
-    }
-    let objective = design.objective_with(&values, parallel);
-    if !objective.is_finite() {
-        return Err(DesignError::Invalid(format!(
-            "the objective at the solution is {objective}, not a finite number: the palette's values are too \
-             large or too far apart in scale for the design"
-        )));
-    }
-    let kkt_residual = blocks.iter().map(|b| b.kkt).fold(0.0, f64::max);
-    let cells = report::cell_results(palette, basis, colorimetry, &values);
-    let mixtures = report::mixture_results(palette, basis, colorimetry, &values);
-    let paths = report::path_results(palette, basis, colorimetry, &values);
-    diagnostics.extend(report::diagnostics(&design, colorimetry, &values, &cells));
-    diagnostics.extend(report::mixture_diagnostics(&design, colorimetry, &values, &mixtures));
-    diagnostics.extend(report::path_diagnostics(palette, &paths));
     let solved = solved_palette(palette, &values);
-    Ok(Solution {
-        palette: solved,
-        free: values.free.clone(),
-        objective,
-        kkt_residual,
-        seconds: started.elapsed().as_secs_f64(),
-        cells,
-        mixtures,
-        paths,
-        diagnostics,
-    })
+    // The rest of the solution, which `then` does not need.
+    let rest = move || -> Result<Solution, DesignError> {
+        for b in &blocks {
+            if let Some(why) = b.stopped {
+                diagnostics.push(Diagnostic {
+                    cell: None,
+                    criterion: None,
+                    kind: DiagnosticKind::StoppedEarly(why),
+                    message: format!(
+                        "joint design of {} unknown spectra stopped early ({why}); objective {:.6e} is the best found",
+                        b.units.iter().filter(|u| !matches!(u, system::Unit::Free(_))).count(),
+                        b.objective
+                    ),
+                });
+            }
+        }
+        let objective = design.objective_with(&values, parallel);
+        if !objective.is_finite() {
+            return Err(DesignError::Invalid(format!(
+                "the objective at the solution is {objective}, not a finite number: the palette's values are too \
+                 large or too far apart in scale for the design"
+            )));
+        }
+        let kkt_residual = blocks.iter().map(|b| b.kkt).fold(0.0, f64::max);
+        let cells = report::cell_results(palette, basis, colorimetry, &values);
+        let mixtures = report::mixture_results(palette, basis, colorimetry, &values);
+        let paths = report::path_results(palette, basis, colorimetry, &values);
+        diagnostics.extend(report::diagnostics(&design, colorimetry, &values, &cells));
+        diagnostics.extend(report::mixture_diagnostics(&design, colorimetry, &values, &mixtures));
+        diagnostics.extend(report::path_diagnostics(palette, &paths));
+        Ok(Solution {
+            // The solved palette is put in below.
+            palette: Palette::default(),
+            free: values.free.clone(),
+            objective,
+            kkt_residual,
+            // The solve's own time: not the wait for `then`, when that takes longer.
+            seconds: started.elapsed().as_secs_f64(),
+            cells,
+            mixtures,
+            paths,
+            diagnostics,
+        })
+    };
+    let (then, rest) = if parallel { rayon::join(|| then(&solved), rest) } else { (then(&solved), rest()) };
+    let mut solution = rest?;
+    solution.palette = solved;
+    Ok((solution, then))
 }
 
 /// `palette` with every designed spectrum replaced by its value in `values`, given as samples. A designed
