@@ -74,7 +74,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let started = Instant::now();
-    let mut file = PaletteFile::load(&args.input)?;
+    let file = PaletteFile::load(&args.input)?;
     let palette = &file.palette;
     let colorimetry = Colorimetry::default();
     let sidecar = basis::sidecar_path(&args.input);
@@ -106,8 +106,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         time_limit: Duration::try_from_secs_f64(args.time_limit).unwrap_or(Duration::MAX),
         cancel: None,
     };
-    let mut solution = design::solve(palette, basis.as_ref().map(|b| &b.0), &colorimetry, &options)
+    // The solved palette's text is formatted on the pool as soon as the spectra are solved, beside the
+    // solve's last part (cells, diagnostics); it is written and synced below.
+    let before_solve = started.elapsed();
+    let (mut solution, prepared) =
+        design::solve_with_then(palette, basis.as_ref().map(|b| &b.0), &colorimetry, &options, true, |solved| {
+            args.output.as_ref().map(|out| file.prepare_save_as(solved, out))
+        })
         .with_context(|| format!("{}: the design cannot be solved", args.input.display()))?;
+    let after_solve = Instant::now();
     // Subspace colours for the report: always the basis of the *solved* spectra (the one basis policy,
     // the basis that rendering the solved palette and the designer use).
     let spectra = palette.lights.len() + palette.reflectances.len();
@@ -130,7 +137,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // `seconds` is the time to read and solve. The solved palette and the report are written and synced
     // (mostly waiting for the disk) in parallel with each other and with the table's formatting, then put in
     // place together: when either cannot be written, neither replaces anything and nothing is printed.
-    let seconds = started.elapsed().as_secs_f64();
+    // The solve's own time, not the wait for the solved palette's text when that took longer.
+    let solve_seconds = Duration::try_from_secs_f64(solution.seconds).unwrap_or_default();
+    let seconds = (before_solve + solve_seconds + after_solve.elapsed()).as_secs_f64();
     let feasibility = args.feasibility.then(|| {
         let deadline = started.checked_add(options.time_limit);
         let basis = basis.as_ref().map(|b| &b.0);
@@ -143,12 +152,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // report's pieces (formatted meanwhile) could use. The report is staged on this thread the same way, the
     // table formatted on a third.
     let unphysical = Unphysical::of(&solution.palette);
+    // Taken by the thread that stages it (a closure of `beside` must be `Copy`).
+    let prepared = std::sync::Mutex::new(prepared);
     let (saved, table, report) = std::thread::scope(|scope| {
-        let saved = beside(scope, || match &args.output {
-            Some(out) => {
-                file.stage_save_as(&solution.palette, out, replace).map(Some).with_context(|| saved_context(out))
+        let saved = beside(scope, || {
+            let prepared = prepared.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+            match (prepared, &args.output) {
+                (Some(prepared), Some(out)) => {
+                    prepared.and_then(|p| p.stage(replace)).map(Some).with_context(|| saved_context(out))
+                }
+                _ => Ok(None),
             }
-            None => Ok(None),
         });
         let table = beside(scope, || {
             let mut t = table_text(&solution, &unphysical, &notes, basis_warning.as_deref(), args.quiet);
@@ -174,7 +188,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // folder, as they usually do); a failed second commit still syncs the first's folder (on drop).
     let mut folders = crate::fsio::FolderSync::default();
     if let (Some(staged), Some(out)) = (saved, &args.output) {
-        file.commit_in(staged, &mut folders).with_context(|| saved_context(out))?;
+        // The command ends here: the file need not become what was written (its new text joined, its new
+        // palette built).
+        staged.commit_only_in(&mut folders).with_context(|| saved_context(out))?;
     }
     if let Some(staged) = report {
         staged.commit_in(&mut folders).context("cannot write the report")?;

@@ -187,6 +187,40 @@ mod tests {
         }
     }
 
+    /// `then` gets the solved palette while the rest of the solution is computed, and the solution is
+    /// solve_with's to the bit, with and without the pool; a `then` that panics ends the call with its panic
+    /// (no wait for ever).
+    #[test]
+    fn solve_with_then_gives_the_solved_palette_and_the_same_solution() {
+        let col = Colorimetry::default();
+        let options = crate::design::SolveOptions::default();
+        for p in [random::batch_palette(300, 7, &col), mixed_batch(&col)] {
+            for parallel in [true, false] {
+                let plain = crate::design::solve_with(&p, None, &col, &options, parallel).expect("solved");
+                let (s, seen) =
+                    crate::design::solve_with_then(&p, None, &col, &options, parallel, |solved| solved.clone())
+                        .expect("solved");
+                assert_eq!(seen, s.palette);
+                assert_eq!(s.palette, plain.palette);
+                assert_eq!(s.objective.to_bits(), plain.objective.to_bits());
+                assert_eq!(s.kkt_residual.to_bits(), plain.kkt_residual.to_bits());
+                assert_eq!(s.free, plain.free);
+                assert_eq!(s.cells, plain.cells);
+                assert_eq!(s.diagnostics, plain.diagnostics);
+                assert!(s.seconds > 0.0 && s.seconds.is_finite());
+            }
+        }
+        let p = random::reachable_batch_palette(300, 8, &col);
+        for parallel in [true, false] {
+            let panicked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                crate::design::solve_with_then(&p, None, &col, &options, parallel, |_| -> () {
+                    panic!("formatting failed")
+                })
+            }));
+            assert!(panicked.is_err());
+        }
+    }
+
     fn bits(v: &DVector<f64>) -> Vec<u64> {
         v.iter().map(|x| x.to_bits()).collect()
     }

@@ -476,20 +476,24 @@ impl PaletteFile {
         path: &Path,
         replace: crate::fsio::Replace,
     ) -> Result<StagedSave, PaletteError> {
-        let stage = |path: &Path, text: &str| crate::fsio::stage_with(path, text.as_bytes(), replace);
-        let write_error = |cause| PaletteError::Write { path: path.to_path_buf(), cause: Box::new(cause) };
-        let (staged, update) = match self.save_by_tables(palette, path) {
-            Some(saved) => (stage(path, &saved.text).map_err(write_error)?, Update::Tables(Box::new(saved))),
-            None => {
-                let (document, reread) = self.render(palette, path)?;
-                let staged = stage(path, &self.text_of(&document)).map_err(write_error)?;
-                (staged, Update::Document(Box::new((document, reread))))
-            }
-        };
-        Ok(StagedSave { staged, path: path.to_path_buf(), update })
+        self.prepare_save_as(palette, path)?.stage(replace)
     }
 
-    /// Put a staged save in place and make this file what was written (its path, text and palette).
+    /// The first part of [`PaletteFile::stage_save_as`]: the new text rendered and checked, nothing written
+    /// ([`PreparedSave::stage`] writes it). A command formats it while other work runs and stages it after.
+    pub fn prepare_save_as(&self, palette: &Palette, path: &Path) -> Result<PreparedSave, PaletteError> {
+        let update = match self.save_by_tables(palette, path) {
+            Some(saved) => Prepared::Tables(Box::new(saved)),
+            None => {
+                let (document, reread) = self.render(palette, path)?;
+                let text = self.text_of(&document);
+                Prepared::Document(Box::new((document, reread)), text)
+            }
+        };
+        Ok(PreparedSave { path: path.to_path_buf(), update })
+    }
+
+    /// Put a staged save in place and make this file what was written (its path, text and palette).    /// Put a staged save in place and make this file what was written (its path, text and palette).
     pub fn commit(&mut self, save: StagedSave) -> Result<(), PaletteError> {
         let mut folders = crate::fsio::FolderSync::default();
         self.commit_in(save, &mut folders)
@@ -506,9 +510,9 @@ impl PaletteFile {
         match update {
             Update::Tables(saved) => {
                 let saved = *saved;
-                self.palette = saved.palette;
+                self.palette = saved.palette(&self.palette);
+                self.original = saved.text();
                 self.tables = Some(saved.tables);
-                self.original = saved.text;
                 self.document = OnceLock::new();
             }
             Update::Document(both) => {
@@ -555,9 +559,11 @@ impl PaletteFile {
         // Debug builds (the tests) also read the whole text back.
         #[cfg(debug_assertions)]
         {
-            let reread = PaletteFile::parse(&saved.text, path);
+            let reread = PaletteFile::parse(&saved.text(), path);
             debug_assert!(
-                reread.as_ref().is_ok_and(|r| r.palette == saved.palette && r.tables.as_ref() == Some(&saved.tables)),
+                reread.as_ref().is_ok_and(|r| {
+                    r.palette == saved.palette(&self.palette) && r.tables.as_ref() == Some(&saved.tables)
+                }),
                 "a save by tables does not read back as intended"
             );
         }
@@ -570,6 +576,52 @@ pub struct StagedSave {
     staged: crate::fsio::Staged,
     path: PathBuf,
     update: Update,
+}
+
+impl StagedSave {
+    /// Put the save in place as [`PaletteFile::commit_in`] does (the same checks, the rename, the folder's
+    /// sync left to `folders`) without making the file it was staged from what was written: for a command
+    /// that ends after its save and needs that file no more (the new text is not joined and the new
+    /// palette not built).
+    pub fn commit_only_in(self, folders: &mut crate::fsio::FolderSync) -> Result<(), PaletteError> {
+        let StagedSave { staged, path, update: _ } = self;
+        staged.commit_in(folders).map_err(|cause| PaletteError::Write { path, cause: Box::new(cause) })
+    }
+}
+
+/// A palette save rendered but not yet written ([`PaletteFile::prepare_save_as`]).
+pub struct PreparedSave {
+    path: PathBuf,
+    update: Prepared,
+}
+
+/// The text of a prepared save and what the file becomes once it is committed.
+enum Prepared {
+    Tables(Box<tables::Saved>),
+    Document(Box<(DocumentMut, PaletteFile)>, String),
+}
+
+impl PreparedSave {
+    /// The second part of [`PaletteFile::stage_save_as`]: the text written and synced beside its file
+    /// ([`crate::fsio::stage_writing`]), not yet in place.
+    pub fn stage(self, replace: crate::fsio::Replace) -> Result<StagedSave, PaletteError> {
+        let PreparedSave { path, update } = self;
+        let write_error = |cause| PaletteError::Write { path: path.clone(), cause: Box::new(cause) };
+        let (staged, update) = match update {
+            Prepared::Tables(saved) => {
+                // Its pieces written one after another: the same bytes as the whole text.
+                let staged = crate::fsio::stage_writing(&path, crate::fsio::Name::User, replace, |w| {
+                    saved.pieces.iter().try_for_each(|piece| std::io::Write::write_all(w, piece.as_bytes()))
+                });
+                (staged.map_err(write_error)?, Update::Tables(saved))
+            }
+            Prepared::Document(both, text) => {
+                let staged = crate::fsio::stage_with(&path, text.as_bytes(), replace).map_err(write_error)?;
+                (staged, Update::Document(both))
+            }
+        };
+        Ok(StagedSave { staged, path, update })
+    }
 }
 
 /// What the file becomes once a staged save is committed.

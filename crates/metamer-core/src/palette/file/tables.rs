@@ -105,11 +105,32 @@ impl Tables {
     }
 }
 
-/// A save written table by table: the new text and what the file now says.
+/// A save written table by table: the new text, in pieces, and what the file then says.
 pub(super) struct Saved {
-    pub(crate) text: String,
-    pub(crate) palette: Palette,
+    /// The new text: these pieces one after another (each a run of rewritten tables and the text between
+    /// them, formatted on a thread of the pool; written to the file in turn, joined only when the file
+    /// keeps its text, [`Saved::text`]).
+    pub(crate) pieces: Vec<String>,
+    /// The entries the rewritten tables read as, by list and place (every other entry is the old one).
+    entries: Vec<(Kind, usize, SpectrumEntry)>,
     pub(crate) tables: Tables,
+}
+
+impl Saved {
+    /// The whole new text.
+    pub(crate) fn text(&self) -> String {
+        self.pieces.concat()
+    }
+
+    /// What the new text says, `old` being what the text saved over said.
+    pub(crate) fn palette(&self, old: &Palette) -> Palette {
+        let mut palette = old.clone();
+        for (kind, i, entry) in &self.entries {
+            let list = if *kind == Kind::Light { &mut palette.lights } else { &mut palette.reflectances };
+            list[*i] = entry.clone();
+        }
+        palette
+    }
 }
 
 /// What the file as read says, and how it is laid out.
@@ -126,6 +147,10 @@ pub(super) struct Layout<'a> {
 fn same_but_spectrum(a: &SpectrumEntry, b: &SpectrumEntry) -> bool {
     a.name == b.name && a.kind == b.kind && a.design == b.design && a.bounds == b.bounds && a.dial == b.dial
 }
+
+/// Rewritten tables a piece of the new text: a piece is formatted on one thread into one string sized up
+/// front, instead of a string per table (and another for its samples) copied into a string of the whole.
+const TABLES_A_PIECE: usize = 48;
 
 /// The text of saving `new` to `path` over the file `layout` (which says `old`), or `None` when the change
 /// is more than rewriting some spectrum tables.
@@ -151,39 +176,70 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
     if !same_shape || layout.mixed_newlines || moves_csv() {
         return None;
     }
-    let changed: Vec<(usize, &SpectrumEntry, &SpectrumEntry)> = [Kind::Light, Kind::Reflectance]
+    // The changed entries with their tables, in the text's order.
+    let mut changed: Vec<(usize, &SpectrumEntry, &SpectrumEntry, &TableSpan)> = [Kind::Light, Kind::Reflectance]
         .into_iter()
         .flat_map(|kind| {
             let (o, n) =
                 if kind == Kind::Light { (&old.lights, &new.lights) } else { (&old.reflectances, &new.reflectances) };
-            o.iter().zip(n).enumerate().filter(|(_, (o, n))| o != n).map(|(i, (o, n))| (i, o, n))
+            o.iter().zip(n).enumerate().filter(|(_, (o, n))| o != n).map(move |(i, (o, n))| (i, o, n))
         })
-        .collect();
-    let rewritten: Vec<(Range<usize>, String, SpectrumEntry)> = changed
+        .map(|(i, o, n)| Some((i, o, n, tables.list(o.kind).get(i)?)))
+        .collect::<Option<_>>()?;
+    changed.sort_by_key(|c| c.3.range.start);
+    if changed.windows(2).any(|w| w[0].3.range.end > w[1].3.range.start) {
+        return None;
+    }
+    // Each piece runs from the end of the previous piece's last table (the text's start for the first) to
+    // the end of its own last table (the text's end for the last).
+    let runs: Vec<_> = changed.chunks(TABLES_A_PIECE).collect();
+    let count = runs.len();
+    type Piece = (String, Vec<(Range<usize>, isize)>, Vec<(Kind, usize, SpectrumEntry)>);
+    let pieces: Vec<Piece> = runs
         .par_iter()
-        .map(|&(i, o, n)| {
-            let span = tables.list(o.kind).get(i)?;
-            let (text, entry) = rewrite(layout, span, o, n, ctx)?;
-            Some((span.range.clone(), text, entry))
+        .enumerate()
+        .map(|(k, run)| {
+            let from = match k {
+                0 => 0,
+                _ => runs[k - 1].last()?.3.range.end,
+            };
+            let to = if k + 1 == count { layout.text.len() } else { run.last()?.3.range.end };
+            // The old text's bytes and each table's samples at their usual size.
+            let samples: usize = run
+                .iter()
+                .map(|c| match &c.2.source {
+                    Source::Samples(v) => super::write::samples_text_bytes(v.len()),
+                    _ => super::write::samples_text_bytes(crate::spectrum::SAMPLES),
+                })
+                .sum();
+            let mut out = String::with_capacity(to.saturating_sub(from) + samples);
+            let mut edits = Vec::with_capacity(run.len());
+            let mut entries = Vec::with_capacity(run.len());
+            let mut at = from;
+            for &(i, o, n, span) in run.iter() {
+                out.push_str(layout.text.get(at..span.range.start)?);
+                let before = out.len();
+                entries.push((o.kind, i, rewrite_into(&mut out, layout, span, o, n, ctx)?));
+                edits.push((span.range.clone(), (out.len() - before) as isize - span.range.len() as isize));
+                at = span.range.end;
+            }
+            out.push_str(layout.text.get(at..to)?);
+            Some((out, edits, entries))
         })
         .collect::<Option<_>>()?;
-    let mut order: Vec<usize> = (0..rewritten.len()).collect();
-    order.sort_by_key(|&k| rewritten[k].0.start);
-    let growth: usize = rewritten.iter().map(|(_, t, _)| t.len()).sum();
-    let mut out = String::with_capacity(layout.text.len() + growth);
-    let mut at = 0;
-    for &k in &order {
-        let (range, text, _) = &rewritten[k];
-        out.push_str(layout.text.get(at..range.start)?);
-        out.push_str(text);
-        at = range.end;
+    let mut texts = Vec::with_capacity(pieces.len());
+    let mut edits: Vec<(Range<usize>, isize)> = Vec::with_capacity(changed.len());
+    let mut entries = Vec::with_capacity(changed.len());
+    for (text, e, n) in pieces {
+        texts.push(text);
+        edits.extend(e);
+        entries.extend(n);
     }
-    out.push_str(layout.text.get(at..)?);
+    if texts.is_empty() {
+        // Nothing changed: the text as it is.
+        texts.push(layout.text.to_string());
+    }
     // The tables after the rewrite: each start moves by the growth of the tables before it.
-    let edits: Vec<(Range<usize>, isize)> = order
-        .iter()
-        .map(|&k| (rewritten[k].0.clone(), rewritten[k].1.len() as isize - rewritten[k].0.len() as isize))
-        .collect();
     // Edits are disjoint and sorted: what the tables before a start grew by is a prefix sum.
     let mut grown = Vec::with_capacity(edits.len() + 1);
     grown.push(0isize);
@@ -205,22 +261,19 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
         lights: tables.lights.iter().map(shift).collect(),
         reflectances: tables.reflectances.iter().map(shift).collect(),
     };
-    let mut palette = old.clone();
-    for ((i, o, _), (_, _, entry)) in changed.iter().zip(rewritten) {
-        let list = if o.kind == Kind::Light { &mut palette.lights } else { &mut palette.reflectances };
-        list[*i] = entry;
-    }
-    Some(Saved { text: out, palette, tables: new_tables })
+    Some(Saved { pieces: texts, entries, tables: new_tables })
 }
 
-/// The new text of the table at `span` (which says `old`) saying `new`, and the entry it then reads as.
-fn rewrite(
+/// The new text of the table at `span` (which says `old`) saying `new`, appended to `out`, and the entry it
+/// then reads as.
+fn rewrite_into(
+    out: &mut String,
     layout: &Layout,
     span: &TableSpan,
     old: &SpectrumEntry,
     new: &SpectrumEntry,
     ctx: &SaveContext,
-) -> Option<(String, SpectrumEntry)> {
+) -> Option<SpectrumEntry> {
     let range = span.range.clone();
     let piece = layout.text.get(range.clone())?;
     // Its own header only: no other table, no inline table (which the cut could split).
@@ -228,22 +281,40 @@ fn rewrite(
         return None;
     }
     let (source, normalize, scale) = written_source(new, ctx);
-    let text = match &span.source_value {
+    match &span.source_value {
         // Only the source's value changes (a solve's new samples): what `sync_spectrum` does to the
         // document is to replace that value, keeping the key and the text around it, so the writer's value
         // ([`source_text`]) goes in at the span the reader saw and no document of the table is built.
         Some(v) if only_the_value_changes(old, new, &source, normalize, scale) => {
-            let value = source_text(&source);
-            let value = if layout.crlf { value.replace('\n', "\r\n") } else { value };
-            format!("{}{value}{}", piece.get(..v.start)?, piece.get(v.end..)?)
+            out.push_str(piece.get(..v.start)?);
+            match &source {
+                Source::Samples(values) => {
+                    super::write::push_samples_text(out, values, if layout.crlf { "\r\n" } else { "\n" })
+                }
+                other => {
+                    let value = source_text(other);
+                    out.push_str(&if layout.crlf { value.replace('\n', "\r\n") } else { value });
+                }
+            }
+            out.push_str(piece.get(v.end..)?);
         }
-        _ => rewrite_document(layout, span, old, new, ctx, &source)?,
-    };
+        _ => out.push_str(&rewrite_document(layout, span, old, new, ctx, &source)?),
+    }
     // The entry as reading the new table gives it: the written source, resolved as the reader resolves
     // it (debug builds read the whole text back and compare).
     let normalize = if new.kind == Kind::Light { normalize } else { crate::spectrum::Normalize::default() };
     let spectrum = ctx.resolve(&source, new.kind, normalize, scale)?;
-    Some((text, SpectrumEntry { source, normalize, scale, spectrum, ..new.clone() }))
+    Some(SpectrumEntry {
+        name: new.name.clone(),
+        kind: new.kind,
+        source,
+        normalize,
+        scale,
+        design: new.design,
+        bounds: new.bounds,
+        dial: new.dial,
+        spectrum,
+    })
 }
 
 /// The tables (headers and inline tables, [`super::budget::count`]) in `piece`, the text of the table at

@@ -392,21 +392,41 @@ pub(super) fn float_array(values: &[f64]) -> Value {
 /// `toml_edit` itself prints floats with) writes them ([`super::float_text::push_f64`]), straight into
 /// one string.
 pub(super) fn samples_text(values: &[f64]) -> String {
-    let mut w = String::with_capacity(24 * values.len() + 4);
+    let mut w = String::with_capacity(samples_text_bytes(values.len()));
+    push_samples_text(&mut w, values, "\n");
+    w
+}
+
+/// About how many bytes [`samples_text`] of `n` values takes: a float between 1e-5 and 1e17 in size takes at
+/// most 24 (`{}` writes no exponent, so far smaller or larger ones take more and the text then grows).
+pub(super) fn samples_text_bytes(n: usize) -> usize {
+    24 * n + 4
+}
+
+/// [`samples_text`] appended to `w`, each line feed written as `newline` (`"\r\n"` for a CRLF file: the
+/// text `samples_text(values).replace('\n', "\r\n")` without a string of its own).
+pub(super) fn push_samples_text(w: &mut String, values: &[f64], newline: &str) {
     w.push('[');
     for (i, &x) in values.iter().enumerate() {
-        w.push_str(match (i > 0, i % 8 == 0) {
-            (false, _) => "\n    ",
-            (true, true) => ",\n    ",
-            (true, false) => ", ",
-        });
-        super::float_text::push_f64(&mut w, x);
+        match (i > 0, i % 8 == 0) {
+            (false, _) => {
+                w.push_str(newline);
+                w.push_str("    ");
+            }
+            (true, true) => {
+                w.push(',');
+                w.push_str(newline);
+                w.push_str("    ");
+            }
+            (true, false) => w.push_str(", "),
+        }
+        super::float_text::push_f64(w, x);
     }
     if !values.is_empty() {
         w.push(',');
     }
-    w.push_str("\n]");
-    w
+    w.push_str(newline);
+    w.push(']');
 }
 
 /// The samples as a document value: [`samples_text`] read by `toml_edit`, which keeps the text as it is.
@@ -693,6 +713,10 @@ mod tests {
         for values in [&awkward[..], &random[..31], &random[..], &[], &[0.5]] {
             let text = samples_text(values);
             assert_eq!(text, built(values), "{values:?}");
+            // Appended to a text, and with CRLF line endings: the same text, its line feeds CRLF.
+            let mut crlf = String::from("samples = ");
+            push_samples_text(&mut crlf, values, "\r\n");
+            assert_eq!(crlf, format!("samples = {}", text.replace('\n', "\r\n")));
             // The document value is that text, and reads back as the same numbers.
             let value = samples_array(values);
             assert_eq!(value.to_string(), text);
