@@ -179,7 +179,7 @@ impl PaletteFile {
         // The bytes read become the file's text as they are (checked as `parse_bytes` checks them, not copied).
         let text = String::from_utf8(bytes)
             .map_err(|e| PaletteError::Binary { path: path.to_path_buf(), offset: e.utf8_error().valid_up_to() })?;
-        if let Some(offset) = text.find('\0') {
+        if let Some(offset) = memchr::memchr(0, text.as_bytes()) {
             return Err(PaletteError::Binary { path: path.to_path_buf(), offset });
         }
         let (read, _) = PaletteFile::read_text(&text, path, true)?;
@@ -191,7 +191,7 @@ impl PaletteFile {
     pub fn parse_bytes(bytes: &[u8], path: &Path) -> Result<PaletteFile, PaletteError> {
         let text = std::str::from_utf8(bytes)
             .map_err(|e| PaletteError::Binary { path: path.to_path_buf(), offset: e.valid_up_to() })?;
-        if let Some(offset) = text.find('\0') {
+        if let Some(offset) = memchr::memchr(0, text.as_bytes()) {
             return Err(PaletteError::Binary { path: path.to_path_buf(), offset });
         }
         PaletteFile::parse(text, path)
@@ -304,7 +304,7 @@ impl PaletteFile {
         // Line feeds counted in runs of 255 bytes with a byte-wide count (which the compiler vectorises), and
         // only when there is a CRLF: most files hold no carriage return at all (then LF, not mixed).
         let bytes = text.as_bytes();
-        let crlf = if bytes.contains(&b'\r') { text.matches("\r\n").count() } else { 0 };
+        let crlf = if memchr::memchr(b'\r', bytes).is_some() { text.matches("\r\n").count() } else { 0 };
         let newlines: usize = if crlf == 0 {
             0
         } else {
