@@ -19,6 +19,7 @@
 //! line, column and message are the `toml` crate's. Tests compare the tree with the `toml` crate's on the
 //! same text, and the palettes both paths read.
 
+use super::doc::{Doc, Entry, Item, List};
 use super::{numbers, pieces, read};
 use rayon::prelude::*;
 use std::borrow::Cow;
@@ -34,35 +35,35 @@ const DEPTH: u32 = 80;
 /// The tree of `text` (cut at some of its `[[name]]` header lines `headers`, see [`pieces::starts`]) with
 /// the number arrays read by hand at their spans, or `None` when the text holds something this path leaves
 /// to the whole parse.
-pub(super) fn parse<'i>(text: &'i str, headers: &[usize]) -> Option<(Spanned<DeTable<'i>>, numbers::Read)> {
+pub(super) fn parse<'i>(text: &'i str, headers: &[usize]) -> Option<(Doc<'i>, numbers::Read)> {
     let starts = pieces::starts(text, headers);
     let bounds: Vec<Range<usize>> =
         starts.iter().enumerate().map(|(i, &a)| a..starts.get(i + 1).copied().unwrap_or(text.len())).collect();
-    type Piece<'i> = (Range<usize>, DeTable<'i>, Vec<(Range<usize>, Vec<f64>)>);
+    type Piece<'i> = (Range<usize>, Doc<'i>, Vec<(Range<usize>, Vec<f64>)>);
     let parsed: Vec<Piece<'i>> = bounds
         .par_iter()
         .map(|range| {
             let arrays = numbers::arrays_in(text, range.clone());
-            let table = piece(text, range.clone(), &arrays)?;
-            if table.values().any(|v| read::check_numbers(v).is_some()) {
+            let doc = piece(text, range.clone(), &arrays)?;
+            if doc.values().any(|v| read::check_numbers(v).is_some()) {
                 return None;
             }
             let span = if range.start == 0 { 0..0 } else { range.clone() };
-            Some((span, table, arrays))
+            Some((span, doc, arrays))
         })
         .collect::<Option<_>>()?;
     let mut arrays = Vec::new();
-    let mut tables = Vec::with_capacity(parsed.len());
-    for (span, table, found) in parsed {
+    let mut docs = Vec::with_capacity(parsed.len());
+    for (span, doc, found) in parsed {
         arrays.extend(found);
-        tables.push((span, table));
+        docs.push((span, doc));
     }
-    let root = pieces::join(text, tables)?;
-    Some((root, numbers::Read::new(arrays)))
+    let doc = pieces::join_docs(docs)?;
+    Some((doc, numbers::Read::new(arrays)))
 }
 
 /// The table of `text[range]`, its `arrays` (read by hand) parsed as blank arrays.
-fn piece<'i>(text: &'i str, range: Range<usize>, arrays: &[(Range<usize>, Vec<f64>)]) -> Option<DeTable<'i>> {
+fn piece<'i>(text: &'i str, range: Range<usize>, arrays: &[(Range<usize>, Vec<f64>)]) -> Option<Doc<'i>> {
     let original = text.get(range.clone())?;
     let blanked = numbers::blank(original, range.start, arrays)?;
     let lexed = Source::new(&blanked);
@@ -84,13 +85,10 @@ fn piece<'i>(text: &'i str, range: Range<usize>, arrays: &[(Range<usize>, Vec<f6
         offset: range.start,
         events: &events,
         at: 0,
-        tree: Tree::default(),
+        tree: Tree::with_capacity(range.len() / 32),
     };
     builder.document()
 }
-
-/// A table header: whether it is `[[…]]`, its key, its span, and the table it opens.
-type Header<'i> = (bool, Spanned<Cow<'i, str>>, Range<usize>, DeTable<'i>);
 
 /// Builds a piece's tree from its events, as the `toml` crate's document builder does for the shapes taken.
 struct Builder<'e, 'i> {
@@ -103,21 +101,68 @@ struct Builder<'e, 'i> {
     tree: Tree<'i>,
 }
 
-/// A piece's tree as it is built, header by header (shared with the line reader, [`super::lines`]).
+/// A flat table holding more keys than this checks a new key against a set of its keys, not each key.
+const FEW_KEYS: usize = 8;
+
+/// A hash set of a table's keys (no input chooses them to collide with a seed it cannot know).
+type KeySet<'i> = std::collections::HashSet<Cow<'i, str>, foldhash::fast::RandomState>;
+
+/// The table being read.
+#[derive(Default)]
+enum Current<'i> {
+    /// None yet: the top-level keys.
+    #[default]
+    Root,
+    /// A `[name]` table: its key, its header's span and its keys.
+    Table(Spanned<Cow<'i, str>>, Range<usize>, DeTable<'i>),
+    /// A `[[name]]` table: its list, its header's span and where its entries start.
+    Item(usize, Range<usize>, usize),
+}
+
+/// A piece's document as it is built, header by header (shared with the line reader, [`super::lines`]):
+/// the top-level keys and `[name]` tables in a tree, the `[[name]]` tables in flat lists ([`super::doc`]).
 #[derive(Default)]
 pub(super) struct Tree<'i> {
     root: DeTable<'i>,
-    current: Option<Header<'i>>,
-    /// The root's keys opened by `[[…]]` headers (their arrays take further tables).
-    arrays_of_tables: Vec<Cow<'i, str>>,
+    current: Current<'i>,
+    lists: Vec<List<'i>>,
+    /// The lists by key.
+    list_of: std::collections::HashMap<Cow<'i, str>, usize, foldhash::fast::RandomState>,
+    entries: Vec<Entry<'i>>,
+    /// The keys of the `[[name]]` table being read once it holds more than [`FEW_KEYS`].
+    keys: Option<KeySet<'i>>,
 }
 
 impl<'i> Tree<'i> {
+    /// A tree with room for `entries` keys and values of `[[name]]` tables.
+    pub(super) fn with_capacity(entries: usize) -> Tree<'i> {
+        Tree { entries: Vec::with_capacity(entries), ..Tree::default() }
+    }
+
     /// `key = value` in the table being read (the root before any header); `None` for a key given twice.
     pub(super) fn insert(&mut self, key: Spanned<Cow<'i, str>>, value: Spanned<DeValue<'i>>) -> Option<()> {
         let table = match &mut self.current {
-            Some((_, _, _, table)) => table,
-            None => &mut self.root,
+            Current::Root => &mut self.root,
+            Current::Table(_, _, table) => table,
+            Current::Item(_, _, from) => {
+                let name: &str = key.get_ref();
+                let entries = &self.entries[*from..];
+                let twice = match &mut self.keys {
+                    None if entries.len() < FEW_KEYS => entries.iter().any(|e| e.key.get_ref() == name),
+                    None => {
+                        let mut keys: KeySet<'i> = entries.iter().map(|e| e.key.get_ref().clone()).collect();
+                        let twice = !keys.insert(key.get_ref().clone());
+                        self.keys = Some(keys);
+                        twice
+                    }
+                    Some(keys) => !keys.insert(key.get_ref().clone()),
+                };
+                if twice {
+                    return None;
+                }
+                self.entries.push(Entry { key, value });
+                return Some(());
+            }
         };
         // A key given twice gives `None` (the tree is dropped).
         table.insert(key, value).is_none().then_some(())
@@ -126,38 +171,49 @@ impl<'i> Tree<'i> {
     /// A `[name]` (or `[[name]]` when `is_array`) header at `span`: the table before it put in its place.
     pub(super) fn open(&mut self, is_array: bool, key: Spanned<Cow<'i, str>>, span: Range<usize>) -> Option<()> {
         self.finish()?;
-        self.current = Some((is_array, key, span, DeTable::new()));
+        self.current = if is_array {
+            let name: &str = key.get_ref();
+            let list = match self.list_of.get(name) {
+                Some(&list) => list,
+                // A key of the tree (a value or a `[name]` table) cannot take `[[name]]` tables.
+                None if self.root.contains_key(name) => return None,
+                None => {
+                    self.list_of.insert(key.get_ref().clone(), self.lists.len());
+                    self.lists.push(List { key, span: span.clone(), items: Vec::new() });
+                    self.lists.len() - 1
+                }
+            };
+            Current::Item(list, span, self.entries.len())
+        } else {
+            Current::Table(key, span, DeTable::new())
+        };
         Some(())
     }
 
-    /// Put the table being read in its place in the root.
+    /// Put the table being read in its place.
     fn finish(&mut self) -> Option<()> {
-        let Some((is_array, key, span, table)) = self.current.take() else { return Some(()) };
-        let name: &str = key.get_ref();
-        let value = Spanned::new(span.clone(), DeValue::Table(table));
-        match self.root.get_mut(name) {
-            None if is_array => {
-                self.arrays_of_tables.push(key.get_ref().clone());
-                let mut array = DeArray::new();
-                array.push(value);
-                self.root.insert(key, Spanned::new(span, DeValue::Array(array)));
+        match std::mem::take(&mut self.current) {
+            Current::Root => {}
+            Current::Table(key, span, table) => {
+                let name: &str = key.get_ref();
+                if self.list_of.contains_key(name) || self.root.contains_key(name) {
+                    return None;
+                }
+                self.root.insert(key, Spanned::new(span, DeValue::Table(table)));
             }
-            None => {
-                self.root.insert(key, value);
+            Current::Item(list, span, from) => {
+                let entries = u32::try_from(from).ok()?..u32::try_from(self.entries.len()).ok()?;
+                self.lists[list].items.push(Item { span, piece: 0, entries });
+                self.keys = None;
             }
-            Some(existing) if is_array && self.arrays_of_tables.iter().any(|k| k == name) => {
-                let DeValue::Array(array) = existing.get_mut() else { return None };
-                array.push(value);
-            }
-            Some(_) => return None,
         }
         Some(())
     }
 
-    /// The root, once every table is in its place.
-    pub(super) fn done(mut self) -> Option<DeTable<'i>> {
+    /// The piece's document (its root's span empty), once every table is in its place.
+    pub(super) fn done(mut self) -> Option<Doc<'i>> {
         self.finish()?;
-        Some(self.root)
+        Some(Doc { root: Spanned::new(0..0, self.root), lists: self.lists, entries: vec![self.entries] })
     }
 }
 
@@ -182,7 +238,7 @@ impl<'i> Builder<'_, 'i> {
         self.offset + e.span().start()..self.offset + e.span().end()
     }
 
-    fn document(mut self) -> Option<DeTable<'i>> {
+    fn document(mut self) -> Option<Doc<'i>> {
         while let Some(e) = self.next() {
             match e.kind() {
                 EventKind::Whitespace | EventKind::Newline | EventKind::Comment => {}

@@ -18,15 +18,16 @@
 //! How it stays exact: a line of any other shape (escapes, multi-line strings, dotted or quoted keys, inline
 //! tables, dates, `inf`, a carriage return anywhere, …) makes this path give `None`, and the caller reads the
 //! text as before ([`super::events`], then the `toml` crate's whole parse), so every error is theirs. The tree
-//! is built by the same code as the events' path ([`super::events::Tree`]: the same keys, values and spans;
-//! a number is parsed by `toml`'s own value parser at its place), and tests compare it with the `toml`
-//! crate's tree of the same text. The parse budget is kept: the pass counts tables, arrays and values as
+//! is built by the same code as the events' path ([`super::events::Tree`]: the same keys, values and spans,
+//! the `[[name]]` tables in flat lists, [`super::doc`]; a number is parsed by `toml`'s own value parser at
+//! its place), and tests compare it with the `toml` crate's tree of the same text. The parse budget is kept: the pass counts tables, arrays and values as
 //! [`super::budget::scan`] counts them (the same counts, tested), adds them as it goes to a total shared by
 //! the pieces (each piece adds its share every [`FLUSH`] bytes of estimate) and stops once the total is over
 //! [`super::budget::budget`] (the caller's scan then refuses the text as before), so what is built stays
 //! within the budget and [`FLUSH`] a piece, as the budget estimates it.
 
 use super::budget::{self, Counts};
+use super::doc::Doc;
 use super::events::Tree;
 use super::{numbers, pieces, read};
 use rayon::prelude::*;
@@ -34,7 +35,7 @@ use std::borrow::Cow;
 use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use toml::Spanned;
-use toml::de::{DeArray, DeTable, DeValue};
+use toml::de::{DeArray, DeValue};
 
 /// Texts shorter than this are read in one piece (a thread's start costs more than reading them).
 const MIN_PIECE: usize = 64 * 1024;
@@ -44,7 +45,7 @@ const FLUSH: u64 = 1 << 20;
 
 /// What the pass found: the tree, the arrays read by hand, and the budget's counts.
 pub(super) struct Lines<'i> {
-    pub(super) tree: Spanned<DeTable<'i>>,
+    pub(super) tree: Doc<'i>,
     pub(super) read: numbers::Read,
     #[cfg_attr(not(test), allow(dead_code))]
     pub(super) counts: Counts,
@@ -59,30 +60,27 @@ pub(super) fn parse(text: &str) -> Option<Lines<'_>> {
     let parsed: Vec<Piece<'_>> =
         ranges.par_iter().map(|range| piece(text, range.clone(), &spent, limit)).collect::<Option<_>>()?;
     let mut counts = Counts::default();
-    let mut arrays = Vec::with_capacity(parsed.iter().map(|p| p.arrays.len()).sum());
-    let mut values = Vec::with_capacity(parsed.iter().map(|p| p.values.len()).sum());
-    let mut tables = Vec::with_capacity(parsed.len());
-    for (Piece { table, arrays: found, values: numbers, counts: c }, range) in parsed.into_iter().zip(&ranges) {
+    let mut read = Vec::with_capacity(parsed.len());
+    let mut docs = Vec::with_capacity(parsed.len());
+    for (Piece { doc, arrays, values, counts: c }, range) in parsed.into_iter().zip(&ranges) {
         counts.tables += c.tables;
         counts.arrays += c.arrays;
         counts.values += c.values;
-        let base = values.len();
-        arrays.extend(found.into_iter().map(|(span, at)| (span, at.start + base..at.end + base)));
-        values.extend_from_slice(&numbers);
+        read.push((arrays, values));
         let span = if range.start == 0 { 0..0 } else { range.clone() };
-        tables.push((span, table));
+        docs.push((span, doc));
     }
     if counts.cost() > limit {
         return None;
     }
-    let tree = pieces::join(text, tables)?;
-    Some(Lines { tree, read: numbers::Read::flat(arrays, values), counts })
+    let tree = pieces::join_docs(docs)?;
+    Some(Lines { tree, read: numbers::Read::pieces(read), counts })
 }
 
 /// A piece as read: its table, the arrays read by hand (their spans in the whole text, and where their
 /// numbers sit in `values`), and its counts.
 struct Piece<'i> {
-    table: DeTable<'i>,
+    doc: Doc<'i>,
     arrays: Vec<(Range<usize>, Range<usize>)>,
     values: Vec<f64>,
     counts: Counts,
@@ -123,9 +121,13 @@ fn piece<'i>(text: &'i str, range: Range<usize>, spent: &AtomicU64, limit: u64) 
     // Nothing past the piece is read (spans still count from the start of the text).
     let t = text.get(..range.end)?;
     let b = t.as_bytes();
-    let mut tree = Tree::default();
-    let mut arrays = Vec::new();
-    let mut values = Vec::new();
+    // Room for what a piece of a palette's usual lines holds (batches of designs hold a key and value every
+    // 44 bytes, an array every 148, a number every 5 to 20), so that the vectors seldom grow by copying:
+    // what is reserved and not written is never touched.
+    let len = range.len();
+    let mut tree = Tree::with_capacity(len / 32);
+    let mut arrays = Vec::with_capacity(len / 128);
+    let mut values = Vec::with_capacity(len / 5);
     let mut counts = Counts::default();
     let mut pending = Counts::default();
     let mut i = range.start;
@@ -241,7 +243,7 @@ fn piece<'i>(text: &'i str, range: Range<usize>, spent: &AtomicU64, limit: u64) 
         }
     }
     add(&mut counts, &mut pending);
-    Some(Piece { table: tree.done()?, arrays, values, counts })
+    Some(Piece { doc: tree.done()?, arrays, values, counts })
 }
 
 /// The value written at `text[range]`, parsed by `toml`'s own value parser and moved to its place; `None`

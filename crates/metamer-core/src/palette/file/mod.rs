@@ -5,13 +5,15 @@
 //! missing palette.
 //!
 //! One parser, one writer. Reading ([`read`]) walks the tree of `toml`'s borrowing parser (spans kept for
-//! messages, no document built; a long text is parsed in pieces on several threads, [`pieces`]).
+//! messages, no document built; a long text is parsed in pieces on several threads, [`pieces`]; the faster
+//! paths keep the `[[name]]` tables in flat lists, [`doc`]).
 //! Writing ([`write`]) updates a `toml_edit` document of the text so only
 //! what changed is rewritten; the document is parsed when a save needs it. A save that only changes
 //! spectra (what a solve does) updates a document of each changed table instead of one of the whole
 //! file ([`tables`]); it is the same writer, applied to less text.
 
 mod budget;
+mod doc;
 mod events;
 mod float_text;
 mod lines;
@@ -30,7 +32,6 @@ use crate::spectrum::Spectrum;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
-use toml::de::DeTable;
 use toml_edit::DocumentMut;
 
 /// Why a palette file cannot be read, validated or written.
@@ -170,33 +171,6 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
-/// The span of a key path such as `colours[3].light` (or of the deepest table on the way that exists).
-fn span_of_key(root: &DeTable, key: &str) -> Option<std::ops::Range<usize>> {
-    let mut item: Option<&toml::Spanned<toml::de::DeValue>> = None;
-    let mut best = None;
-    for segment in key.split('.') {
-        let mut parts = segment.split('[');
-        let name = parts.next().unwrap_or("");
-        let next = match item {
-            None => root.get(name),
-            Some(v) => v.get_ref().get(name),
-        };
-        let Some(next) = next else { break };
-        best = Some(next.span());
-        item = Some(next);
-        for index in parts {
-            let Some(next) =
-                index.trim_end_matches(']').parse::<usize>().ok().and_then(|i| item.and_then(|v| v.get_ref().get(i)))
-            else {
-                return best;
-            };
-            best = Some(next.span());
-            item = Some(next);
-        }
-    }
-    best
-}
-
 impl PaletteFile {
     /// Read and validate a palette file.
     pub fn load(path: &Path) -> Result<PaletteFile, PaletteError> {
@@ -205,7 +179,7 @@ impl PaletteFile {
         // The bytes read become the file's text as they are (checked as `parse_bytes` checks them, not copied).
         let text = String::from_utf8(bytes)
             .map_err(|e| PaletteError::Binary { path: path.to_path_buf(), offset: e.utf8_error().valid_up_to() })?;
-        if let Some(offset) = text.find('\0') {
+        if let Some(offset) = memchr::memchr(0, text.as_bytes()) {
             return Err(PaletteError::Binary { path: path.to_path_buf(), offset });
         }
         let (read, _) = PaletteFile::read_text(&text, path, true)?;
@@ -217,7 +191,7 @@ impl PaletteFile {
     pub fn parse_bytes(bytes: &[u8], path: &Path) -> Result<PaletteFile, PaletteError> {
         let text = std::str::from_utf8(bytes)
             .map_err(|e| PaletteError::Binary { path: path.to_path_buf(), offset: e.valid_up_to() })?;
-        if let Some(offset) = text.find('\0') {
+        if let Some(offset) = memchr::memchr(0, text.as_bytes()) {
             return Err(PaletteError::Binary { path: path.to_path_buf(), offset });
         }
         PaletteFile::parse(text, path)
@@ -292,25 +266,25 @@ impl PaletteFile {
             pieces::Failure::Syntax(e) => syntax(e.message(), e.span()),
             pieces::Failure::Number(span, message) => syntax(message, Some(span)),
         })?;
-        PaletteFile::read_parsed(text, spanned, path, None)
+        PaletteFile::read_parsed(text, doc::Doc::tree(spanned), path, None)
     }
 
     /// Read the parsed tree of `text` into the model, with the sample arrays already read (`numbers`) taken
     /// at their spans.
     fn read_parsed(
         text: &str,
-        spanned: toml::Spanned<DeTable<'_>>,
+        doc: doc::Doc<'_>,
         path: &Path,
         numbers: Option<&numbers::Read>,
     ) -> Result<(read::ReadOutcome, Option<tables::Tables>), PaletteError> {
-        let root = spanned.get_ref();
+        let root = &doc;
         let colorimetry = Colorimetry::default();
         // The tables' layout is found beside the reading (and dropped if the palette is refused).
         let (outcome, tables) = rayon::join(
             || {
                 read::Reader::new(path, colorimetry.luminance(), numbers).read(root).map_err(|e| match e {
                     PaletteError::Invalid { path, key, reason, line: None } => {
-                        let line = span_of_key(root, &key).map(|s| line_column(text, s.start).0);
+                        let line = root.span_of_key(&key).map(|s| line_column(text, s.start).0);
                         PaletteError::Invalid { path, key, reason, line }
                     }
                     other => other,
@@ -318,7 +292,7 @@ impl PaletteFile {
             },
             || tables::Tables::of(root, text),
         );
-        pieces::drop_tree(spanned);
+        pieces::drop_doc(doc);
         Ok((outcome?, tables))
     }
 
@@ -330,7 +304,7 @@ impl PaletteFile {
         // Line feeds counted in runs of 255 bytes with a byte-wide count (which the compiler vectorises), and
         // only when there is a CRLF: most files hold no carriage return at all (then LF, not mixed).
         let bytes = text.as_bytes();
-        let crlf = if bytes.contains(&b'\r') { text.matches("\r\n").count() } else { 0 };
+        let crlf = if memchr::memchr(b'\r', bytes).is_some() { text.matches("\r\n").count() } else { 0 };
         let newlines: usize = if crlf == 0 {
             0
         } else {

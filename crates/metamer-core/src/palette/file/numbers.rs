@@ -28,25 +28,40 @@ use std::sync::atomic::{AtomicBool, Ordering};
 pub(super) const KEYS: [&str; 2] = ["samples", "target"];
 
 /// The arrays read from a text, by span (in text order), and which of them the reader took. The numbers of
-/// all the arrays sit in one vector (a batch of designs has thousands of arrays: one allocation, not one
-/// each, and the reader borrows them).
+/// the arrays of each piece of the text read sit in one vector (a batch of designs has thousands of arrays:
+/// one allocation a piece, not one an array, kept as the piece's pass filled it; the reader borrows them).
 pub(super) struct Read {
-    /// Each array's span in the text and where its numbers sit in `values`.
+    /// The pieces that hold arrays, in text order.
+    pieces: Vec<ReadPiece>,
+    taken: Vec<AtomicBool>,
+}
+
+/// The arrays read from a piece of a text: each array's span and where its numbers sit in the piece's
+/// values, and the values.
+pub(super) type PieceArrays = (Vec<(Range<usize>, Range<usize>)>, Vec<f64>);
+
+/// The arrays read from one piece of a text.
+struct ReadPiece {
+    /// Each array's span in the text and where its numbers sit in `values`, in text order.
     arrays: Vec<(Range<usize>, Range<usize>)>,
     values: Vec<f64>,
-    taken: Vec<AtomicBool>,
+    /// The index of its first array among all the pieces' (in [`Read::taken`]).
+    first: usize,
 }
 
 impl Read {
     /// The numbers of the array read at exactly `span`, marked as taken (`None` when none was read there).
     pub(super) fn take(&self, span: &Range<usize>) -> Option<&[f64]> {
-        let i = self.arrays.binary_search_by_key(&span.start, |(r, _)| r.start).ok()?;
-        let (range, values) = &self.arrays[i];
+        // The last piece whose first array starts at or before the span.
+        let p = self.pieces.partition_point(|p| p.arrays[0].0.start <= span.start);
+        let piece = &self.pieces[p.checked_sub(1)?];
+        let i = piece.arrays.binary_search_by_key(&span.start, |(r, _)| r.start).ok()?;
+        let (range, values) = &piece.arrays[i];
         if range != span {
             return None;
         }
-        self.taken[i].store(true, Ordering::Relaxed);
-        self.values.get(values.clone())
+        self.taken[piece.first + i].store(true, Ordering::Relaxed);
+        piece.values.get(values.clone())
     }
 
     /// Every read array was taken by the reader.
@@ -64,23 +79,42 @@ impl Read {
             spans.push((span, values.len()..values.len() + v.len()));
             values.extend_from_slice(&v);
         }
-        Read::flat(spans, values)
+        Read::pieces(vec![(spans, values)])
     }
 
-    /// The arrays read (in any order; kept in text order), each with where its numbers sit in `values`.
-    pub(super) fn flat(mut arrays: Vec<(Range<usize>, Range<usize>)>, values: Vec<f64>) -> Read {
-        // In text order ([`Read::take`] searches by start); arrays of different keys never overlap (an array
-        // read holds only numbers, commas and blanks).
-        if !arrays.is_sorted_by_key(|(range, _)| range.start) {
-            arrays.sort_unstable_by_key(|(range, _)| range.start);
-        }
-        let taken = arrays.iter().map(|_| AtomicBool::new(false)).collect();
-        Read { arrays, values, taken }
+    /// The arrays read from each piece of a text, pieces in text order (within a piece in any order; kept in
+    /// text order), each with where its numbers sit in its piece's values.
+    pub(super) fn pieces(pieces: Vec<PieceArrays>) -> Read {
+        let mut first = 0;
+        let pieces: Vec<ReadPiece> = pieces
+            .into_iter()
+            .filter(|(arrays, _)| !arrays.is_empty())
+            .map(|(mut arrays, values)| {
+                // In text order ([`Read::take`] searches by start); arrays of different keys never overlap (an
+                // array read holds only numbers, commas and blanks).
+                if !arrays.is_sorted_by_key(|(range, _)| range.start) {
+                    arrays.sort_unstable_by_key(|(range, _)| range.start);
+                }
+                first += arrays.len();
+                ReadPiece { first: first - arrays.len(), arrays, values }
+            })
+            .collect();
+        let taken = (0..first).map(|_| AtomicBool::new(false)).collect();
+        Read { pieces, taken }
     }
 
     /// How many arrays were read.
     pub(super) fn len(&self) -> usize {
-        self.arrays.len()
+        self.taken.len()
+    }
+
+    /// Every array read: its span and its numbers, in text order.
+    #[cfg(test)]
+    pub(super) fn arrays(&self) -> Vec<(Range<usize>, &[f64])> {
+        self.pieces
+            .iter()
+            .flat_map(|p| p.arrays.iter().map(|(span, at)| (span.clone(), &p.values[at.clone()])))
+            .collect()
     }
 }
 
@@ -287,13 +321,14 @@ pub(super) mod tests {
         );
         let read = Read::new(arrays);
         assert_eq!(read.len(), 8, "only the keys at a line's start");
-        for (range, values) in &read.arrays {
+        for (range, values) in read.arrays() {
             assert_eq!(&text[range.clone()], arr);
             assert_eq!(blanked[range.clone()].replace(' ', ""), "[]");
-            assert_eq!(&read.values[values.clone()], &[0.1, 0.2, 0.3]);
+            assert_eq!(values, &[0.1, 0.2, 0.3]);
         }
         assert!(!read.all_taken());
-        assert!(read.take(&(read.arrays[0].0.start..read.arrays[0].0.end - 1)).is_none(), "only the exact span");
+        let first = read.arrays()[0].0.clone();
+        assert!(read.take(&(first.start..first.end - 1)).is_none(), "only the exact span");
         // A piece later in the text: its arrays' spans count from the text's start.
         let at = text.find("[[reflectances]]").unwrap();
         let piece_arrays = arrays_in(&text, at..text.len());
@@ -400,9 +435,9 @@ pub(super) mod tests {
         assert!(super::super::pieces::starts(&text, &scan.headers).len() > 1, "{} bytes", text.len());
         let (_, read) = super::super::events::parse(&text, &scan.headers).unwrap();
         let sampled = p.lights.iter().chain(&p.reflectances).filter(|e| matches!(e.source, Source::Samples(_))).count();
-        assert_eq!(read.arrays.len(), sampled + p.colours.len(), "every spectrum's samples and every cell's target");
+        assert_eq!(read.len(), sampled + p.colours.len(), "every spectrum's samples and every cell's target");
         assert_eq!(p.colours.len(), 1800);
-        assert!(read.arrays.windows(2).all(|w| w[0].0.end <= w[1].0.start), "in text order");
+        assert!(read.arrays().windows(2).all(|w| w[0].0.end <= w[1].0.start), "in text order");
         let (outcome, used) = both(&text, std::path::Path::new("batch.toml"));
         assert!(used == Some(read.len()) && !outcome.starts_with("error"), "{outcome}");
     }

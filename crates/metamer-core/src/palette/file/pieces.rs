@@ -12,8 +12,10 @@
 //! piece cannot continue, the text is parsed as one piece, so errors (line, column, message) are exactly
 //! those of the whole-text parse.
 
+use super::doc::{Doc, Item, List};
 use super::read;
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::ops::Range;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
@@ -115,6 +117,59 @@ pub(super) fn join<'i>(text: &'i str, parsed: Vec<(Range<usize>, DeTable<'i>)>) 
         }
     }
     Some(Spanned::new(span, root))
+}
+
+/// The documents of the pieces of a text read by the faster paths (each with its root's span, the first
+/// piece's first), joined in order; `None` when the join is not what the whole text says: a later piece
+/// (which starts at a `[[name]]` header) holds something besides `[[name]]` tables, or a list of such
+/// tables continues a key of the first piece's tree.
+pub(super) fn join_docs<'i>(pieces: Vec<(Range<usize>, Doc<'i>)>) -> Option<Doc<'i>> {
+    let mut pieces = pieces.into_iter();
+    let (span, mut doc) = pieces.next()?;
+    doc.root = Spanned::new(span, doc.root.into_inner());
+    let rest: Vec<Doc<'i>> = pieces.map(|(_, d)| d).collect();
+    let mut list_of: std::collections::HashMap<Cow<'i, str>, usize, foldhash::fast::RandomState> =
+        doc.lists.iter().enumerate().map(|(i, l)| (l.key.get_ref().clone(), i)).collect();
+    // Each list's items reserved once (a batch's lists run through every piece).
+    let mut more = vec![0; doc.lists.len()];
+    for list in rest.iter().flat_map(|d| &d.lists) {
+        if let Some(&i) = list_of.get(list.key.get_ref()) {
+            more[i] += list.items.len();
+        }
+    }
+    for (list, more) in doc.lists.iter_mut().zip(more) {
+        list.items.reserve(more);
+    }
+    for later in rest {
+        if !later.root.get_ref().is_empty() {
+            return None;
+        }
+        let base = u32::try_from(doc.entries.len()).ok()?;
+        doc.entries.extend(later.entries);
+        for list in later.lists {
+            let items = list.items.into_iter().map(|item| Item { piece: item.piece + base, ..item });
+            match list_of.get(list.key.get_ref()) {
+                Some(&i) => doc.lists[i].items.extend(items),
+                None if doc.root.get_ref().contains_key(list.key.get_ref().as_ref()) => return None,
+                None => {
+                    list_of.insert(list.key.get_ref().clone(), doc.lists.len());
+                    doc.lists.push(List { key: list.key, span: list.span, items: items.collect() });
+                }
+            }
+        }
+    }
+    Some(doc)
+}
+
+/// Drop a document read by pieces: its tree as [`drop_tree`] does, its flat tables' entries a piece per
+/// thread.
+pub(super) fn drop_doc(doc: Doc<'_>) {
+    let Doc { root, lists, entries } = doc;
+    drop(lists);
+    if entries.len() > 1 {
+        entries.into_par_iter().for_each(drop);
+    }
+    drop_tree(root);
 }
 
 /// Drop a parsed tree, its long arrays (a long file's `[[…]]` tables, a value per sample) on the pool's

@@ -1,8 +1,9 @@
-//! Reading: a parsed TOML table (`toml`'s borrowed [`DeTable`], spans kept) walked into the resolved [`Palette`]
-//! model with every validation of DESIGN_SPEC §3. Every error names the key path (`colours[3].light`) and the
-//! reason.
+//! Reading: a parsed TOML table (`toml`'s borrowed [`DeTable`], spans kept, its `[[name]]` tables in flat
+//! lists when a faster path read it, [`super::doc`]) walked into the resolved [`Palette`] model with every
+//! validation of DESIGN_SPEC §3. Every error names the key path (`colours[3].light`) and the reason.
 
 use super::PaletteError;
+use super::doc::{Doc, Items, TableRef};
 use crate::colorimetry::hex_to_linear;
 use crate::palette::source::{SourceError, finish};
 use crate::palette::{Bounds, ColourCell, FreeGroup, Kind, Palette, Settings, Source, SpectrumEntry, TargetNotation};
@@ -11,6 +12,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, PoisonError};
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
@@ -54,8 +56,9 @@ pub(super) struct ReadOutcome {
 /// A spectrum as read, and its CSV file's raw samples when it has one.
 type ReadSpectrum = (SpectrumEntry, Option<(String, Spectrum)>);
 
-/// A colour cell as read: the warnings about its keys, its light and reflectance, and the rest.
-type ReadCell = (Vec<String>, Res<(usize, usize)>, Res<CellRest>);
+/// What reading a spectrum gave besides the entry, by its index: the warnings about its keys and its CSV
+/// file's raw samples.
+type Aside = (usize, Vec<String>, Option<(String, Spectrum)>);
 
 /// A colour cell's keys besides its light and reflectance.
 pub(super) struct CellRest {
@@ -64,6 +67,46 @@ pub(super) struct CellRest {
     pub(super) notation: TargetNotation,
     pub(super) weight: f64,
     pub(super) enabled: bool,
+}
+
+/// Why the reader refused a colour cell: its light or reflectance, or (with its light and reflectance) its
+/// other keys.
+enum RefusedCell {
+    Cell(PaletteError),
+    Rest((usize, usize), PaletteError),
+}
+
+/// The cells given so far, by light and reflectance: a table of every pair when there are not many more
+/// pairs than cells (a batch's few lights on its many reflectances), a map otherwise.
+enum Cells {
+    Table(Vec<u32>, usize),
+    Map(FastMap<(usize, usize), usize>),
+}
+
+impl Cells {
+    fn new(lights: usize, reflectances: usize, cells: usize) -> Cells {
+        match lights.checked_mul(reflectances) {
+            Some(pairs) if pairs <= 4 * cells + 1024 && cells < u32::MAX as usize => {
+                Cells::Table(vec![u32::MAX; pairs], reflectances)
+            }
+            _ => Cells::Map(FastMap::with_capacity_and_hasher(cells, Default::default())),
+        }
+    }
+
+    /// Record cell `i` on `light` and `reflectance`; the cell that gave the pair first, if one did.
+    fn insert(&mut self, light: usize, reflectance: usize, i: usize) -> Option<usize> {
+        match self {
+            Cells::Table(first, reflectances) => {
+                let slot = &mut first[light * *reflectances + reflectance];
+                if *slot != u32::MAX {
+                    return Some(*slot as usize);
+                }
+                *slot = i as u32;
+                None
+            }
+            Cells::Map(map) => map.insert((light, reflectance), i),
+        }
+    }
 }
 
 /// Walks a parsed table, collecting warnings and naming keys in errors.
@@ -152,7 +195,7 @@ impl<'a> Reader<'a> {
 
     /// The numbers of `t`'s `samples` array when they were read before the parse (the parser then saw an
     /// empty array at its span).
-    fn read_samples(&self, t: &Table) -> Option<Vec<f64>> {
+    fn read_samples(&self, t: TableRef) -> Option<Vec<f64>> {
         self.hand_read_array(t.get("samples")?).map(<[f64]>::to_vec)
     }
 
@@ -173,20 +216,29 @@ impl<'a> Reader<'a> {
     }
 
     fn warn_unknown(&mut self, table: &Table, known: &[&str], prefix: &dyn std::fmt::Display) {
-        let w = self.unknown_keys(table, known, prefix);
+        let w = self.unknown_keys(TableRef::Tree(table), known, prefix);
         self.warnings.extend(w);
     }
 
     /// The warnings about the keys of `table` not in `known`.
-    pub(super) fn unknown_keys(&self, table: &Table, known: &[&str], prefix: &dyn std::fmt::Display) -> Vec<String> {
-        let mut out = Vec::new();
-        for k in table.keys() {
-            let k: &str = k.get_ref();
-            if !known.contains(&k) {
-                let prefix = prefix.to_string();
-                let at = if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
-                out.push(format!("{}: {at}: unknown key, kept as it is", self.path.display()));
-            }
+    pub(super) fn unknown_keys(&self, table: TableRef, known: &[&str], prefix: &dyn std::fmt::Display) -> Vec<String> {
+        self.unknown_of(table.iter().map(|(k, _)| k), known, prefix)
+    }
+
+    /// The warnings about the `keys` not in `known`, in the order of the keys' text (a tree's order).
+    fn unknown_of<'k>(
+        &self,
+        keys: impl Iterator<Item = &'k str>,
+        known: &[&str],
+        prefix: &dyn std::fmt::Display,
+    ) -> Vec<String> {
+        let mut unknown: Vec<&str> = keys.filter(|k| !known.contains(k)).collect();
+        unknown.sort_unstable();
+        let mut out = Vec::with_capacity(unknown.len());
+        for k in unknown {
+            let prefix = prefix.to_string();
+            let at = if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
+            out.push(format!("{}: {at}: unknown key, kept as it is", self.path.display()));
         }
         out
     }
@@ -261,8 +313,11 @@ impl<'a> Reader<'a> {
         v.as_table().ok_or_else(|| self.wrong_type(key, "a table", v))
     }
 
-    pub(super) fn array_of_tables<'v, 'i>(&self, root: &'v Table<'i>, key: &str) -> Res<Vec<&'v Table<'i>>> {
-        match root.value(key) {
+    pub(super) fn array_of_tables<'v, 'i>(&self, doc: &'v Doc<'i>, key: &str) -> Res<Items<'v, 'i>> {
+        if let Some(list) = doc.list(key) {
+            return Ok(Items::Flat(doc, &list.items));
+        }
+        let tables = match doc.value(key) {
             None => Ok(Vec::new()),
             // The element's key is only built for the message.
             Some(Value::Array(items)) => items
@@ -274,15 +329,17 @@ impl<'a> Reader<'a> {
                 })
                 .collect(),
             Some(v) => Err(self.wrong_type(key, &format!("an array of tables ([[{key}]])"), v)),
-        }
+        };
+        tables.map(Items::Tree)
     }
 
     /// Walk the whole document.
-    pub(super) fn read(mut self, root: &Table) -> Res<ReadOutcome> {
+    pub(super) fn read(mut self, root: &Doc) -> Res<ReadOutcome> {
         if root.is_empty() {
             return Err(PaletteError::Empty { path: self.path.to_path_buf() });
         }
-        self.warn_unknown(root, TOP_KEYS, &"");
+        let w = self.unknown_of(root.keys(), TOP_KEYS, &"");
+        self.warnings.extend(w);
         let name = match root.value("name") {
             Some(v) => self.string(v, "name")?.to_string(),
             None => self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
@@ -359,39 +416,61 @@ impl<'a> Reader<'a> {
         Ok(s)
     }
 
-    fn spectra(&mut self, root: &Table, list: &str, kind: Kind) -> Res<Vec<SpectrumEntry>> {
+    fn spectra(&mut self, root: &Doc, list: &str, kind: Kind) -> Res<Vec<SpectrumEntry>> {
         let tables = self.array_of_tables(root, list)?;
-        let mut out: Vec<SpectrumEntry> = Vec::with_capacity(tables.len());
-        let mut seen: FastMap<String, usize> = FastMap::with_capacity_and_hasher(tables.len(), Default::default());
-        // Entries are read in parallel, then taken in order (the first error in file order is reported).
+        // Entries are read in parallel straight into their places, then checked in order (the first error in
+        // file order is reported); the few warnings and CSV files aside, by entry.
         let this = &*self;
-        let read: Vec<(Vec<String>, Res<ReadSpectrum>)> = tables
-            .par_iter()
-            .enumerate()
-            .map(|(i, t)| {
+        let aside: Mutex<Vec<Aside>> = Mutex::new(Vec::new());
+        let mut read: Vec<Res<SpectrumEntry>> = Vec::with_capacity(tables.len());
+        (0..tables.len())
+            .into_par_iter()
+            .map(|i| {
+                let t = tables.get(i);
                 let at = At(list, i);
-                (this.unknown_keys(t, SPECTRUM_KEYS, &at), this.spectrum(t, &at, kind))
+                let warnings = this.unknown_keys(t, SPECTRUM_KEYS, &at);
+                let (entry, csv) = match this.spectrum(t, &at, kind) {
+                    Ok((entry, csv)) => (Ok(entry), csv),
+                    Err(e) => (Err(e), None),
+                };
+                if !warnings.is_empty() || csv.is_some() {
+                    aside.lock().unwrap_or_else(PoisonError::into_inner).push((i, warnings, csv));
+                }
+                entry
             })
-            .collect();
-        for (i, (warnings, entry)) in read.into_iter().enumerate() {
-            self.warnings.extend(warnings);
-            let (entry, csv) = entry?;
-            if let Some((file, raw)) = csv {
-                self.csv_raw.insert(file, raw);
-            }
-            if let Some(first) = seen.insert(entry.name.clone(), i) {
+            .collect_into_vec(&mut read);
+        let refused = read.iter().position(Result::is_err).unwrap_or(read.len());
+        // A name given twice before the first refused entry is reported first.
+        let mut seen: FastMap<&str, usize> = FastMap::with_capacity_and_hasher(refused, Default::default());
+        for (i, entry) in read[..refused].iter().enumerate() {
+            if let Ok(entry) = entry
+                && let Some(first) = seen.insert(&entry.name, i)
+            {
                 return Err(self.invalid(
                     format!("{list}[{i}].name"),
                     format!("duplicate {} name `{}` (first used by {list}[{first}])", kind.as_str(), entry.name),
                 ));
             }
-            out.push(entry);
         }
-        Ok(out)
+        drop(seen);
+        if refused < read.len()
+            && let Err(e) = read.swap_remove(refused)
+        {
+            return Err(e);
+        }
+        let mut aside = aside.into_inner().unwrap_or_else(PoisonError::into_inner);
+        aside.sort_unstable_by_key(|(i, _, _)| *i);
+        for (_, warnings, csv) in aside {
+            self.warnings.extend(warnings);
+            if let Some((file, raw)) = csv {
+                self.csv_raw.insert(file, raw);
+            }
+        }
+        Ok(read.into_iter().filter_map(Result::ok).collect())
     }
 
     /// One spectrum, and its CSV file's raw samples when it has one.
-    pub(super) fn spectrum(&self, t: &Table, at: &dyn std::fmt::Display, kind: Kind) -> Res<ReadSpectrum> {
+    pub(super) fn spectrum(&self, t: TableRef, at: &dyn std::fmt::Display, kind: Kind) -> Res<ReadSpectrum> {
         // Keys are written out for a message only (a batch has thousands of entries).
         let name = match t.value("name") {
             Some(v) => self.string_lazy(v, || format!("{at}.name"))?.to_string(),
@@ -400,16 +479,17 @@ impl<'a> Reader<'a> {
         if name.trim().is_empty() {
             return Err(self.invalid(format!("{at}.name"), "the name must not be empty"));
         }
-        let present: Vec<&str> = Source::KEYS.iter().copied().filter(|k| t.contains_key(*k)).collect();
-        let source_key = match present.as_slice() {
-            [one] => *one,
-            [] => {
+        let present = || Source::KEYS.iter().copied().filter(|k| t.contains_key(k));
+        let source_key = match (present().next(), present().nth(1)) {
+            (Some(one), None) => one,
+            (None, _) => {
                 return Err(self.invalid(
                     at.to_string(),
                     format!("{} `{name}` has no source: give one of {}", kind.as_str(), Source::KEYS.join(", ")),
                 ));
             }
-            many => {
+            (Some(_), Some(_)) => {
+                let many: Vec<&str> = present().collect();
                 return Err(self.invalid(
                     at.to_string(),
                     format!("{} `{name}` has more than one source key ({}): keep one", kind.as_str(), many.join(", ")),
@@ -476,12 +556,13 @@ impl<'a> Reader<'a> {
         self.invalid(key, e.to_string())
     }
 
-    fn free_groups(&mut self, root: &Table) -> Res<Vec<FreeGroup>> {
+    fn free_groups(&mut self, root: &Doc) -> Res<Vec<FreeGroup>> {
         let tables = self.array_of_tables(root, "free")?;
         let mut out: Vec<FreeGroup> = Vec::new();
-        for (i, t) in tables.into_iter().enumerate() {
+        for (i, t) in tables.iter().enumerate() {
             let at = format!("free[{i}]");
-            self.warn_unknown(t, FREE_KEYS, &at);
+            let w = self.unknown_keys(t, FREE_KEYS, &at);
+            self.warnings.extend(w);
             let name = match t.value("name") {
                 Some(v) => self.string(v, &format!("{at}.name"))?.to_string(),
                 None => return Err(self.invalid(format!("{at}.name"), "missing: every free group needs a name")),
@@ -519,27 +600,27 @@ impl<'a> Reader<'a> {
 
     fn colours<'v>(
         &mut self,
-        root: &Table,
+        root: &Doc,
         lights: &'v [SpectrumEntry],
         reflectances: &'v [SpectrumEntry],
         free: &[FreeGroup],
     ) -> Res<Vec<ColourCell>> {
         let tables = self.array_of_tables(root, "colours")?;
-        let mut out = Vec::with_capacity(tables.len());
-        let mut cells: FastMap<(usize, usize), usize> =
-            FastMap::with_capacity_and_hasher(tables.len(), Default::default());
         // Names are unique within each list (checked when reading them).
         let index = |entries: &'v [SpectrumEntry]| -> FastMap<&'v str, usize> {
             entries.iter().enumerate().map(|(i, e)| (e.name.as_str(), i)).collect()
         };
         let (light_index, reflectance_index) = (index(lights), index(reflectances));
-        // Cells are read in parallel, then taken in order: the first error in file order is reported, a
-        // cell's light and reflectance (and its being a duplicate) before its other keys.
+        // Cells are read in parallel straight into their places (a refused one as what it failed on), then
+        // checked in order: the first error in file order is reported, a cell's light and reflectance (and
+        // its being a duplicate) before its other keys. The few warnings aside, by cell.
         let this = &*self;
-        let read: Vec<ReadCell> = tables
-            .par_iter()
-            .enumerate()
-            .map(|(i, t)| {
+        let aside: Mutex<Vec<(usize, Vec<String>)>> = Mutex::new(Vec::new());
+        let mut read: Vec<Result<ColourCell, Box<RefusedCell>>> = Vec::with_capacity(tables.len());
+        (0..tables.len())
+            .into_par_iter()
+            .map(|i| {
+                let t = tables.get(i);
                 let at = At("colours", i);
                 let lookup = |k: &str, entries: &[SpectrumEntry], index: &FastMap<&str, usize>, what: &str| {
                     let key = || format!("{at}.{k}");
@@ -553,13 +634,44 @@ impl<'a> Reader<'a> {
                 };
                 let cell = lookup("light", lights, &light_index, "light")
                     .and_then(|l| Ok((l, lookup("reflectance", reflectances, &reflectance_index, "reflectance")?)));
-                (this.unknown_keys(t, COLOUR_KEYS, &at), cell, this.cell_rest(t, &at, free))
+                let warnings = this.unknown_keys(t, COLOUR_KEYS, &at);
+                if !warnings.is_empty() {
+                    aside.lock().unwrap_or_else(PoisonError::into_inner).push((i, warnings));
+                }
+                match (cell, this.cell_rest(t, &at, free)) {
+                    (Ok((light, reflectance)), Ok(CellRest { free, target, notation, weight, enabled })) => {
+                        Ok(ColourCell { light, reflectance, target, notation, weight, free, enabled })
+                    }
+                    (Err(e), _) => Err(Box::new(RefusedCell::Cell(e))),
+                    (Ok(pair), Err(e)) => Err(Box::new(RefusedCell::Rest(pair, e))),
+                }
             })
-            .collect();
-        for (i, (warnings, cell, rest)) in read.into_iter().enumerate() {
-            self.warnings.extend(warnings);
-            let (light, reflectance) = cell?;
-            if let Some(first) = cells.insert((light, reflectance), i) {
+            .collect_into_vec(&mut read);
+        // The first cell refused or given twice, in file order.
+        let mut cells = Cells::new(lights.len(), reflectances.len(), read.len());
+        let mut stop = None;
+        for (i, cell) in read.iter().enumerate() {
+            let (light, reflectance) = match cell {
+                Ok(cell) => (cell.light, cell.reflectance),
+                Err(refused) => match **refused {
+                    RefusedCell::Rest(pair, _) => pair,
+                    RefusedCell::Cell(_) => {
+                        stop = Some((i, None));
+                        break;
+                    }
+                },
+            };
+            if let Some(first) = cells.insert(light, reflectance, i) {
+                stop = Some((i, Some((first, light, reflectance))));
+                break;
+            }
+            if cell.is_err() {
+                stop = Some((i, None));
+                break;
+            }
+        }
+        if let Some((i, duplicate)) = stop {
+            if let Some((first, light, reflectance)) = duplicate {
                 return Err(self.invalid(
                     format!("colours[{i}]"),
                     format!(
@@ -568,14 +680,19 @@ impl<'a> Reader<'a> {
                     ),
                 ));
             }
-            let CellRest { free, target, notation, weight, enabled } = rest?;
-            out.push(ColourCell { light, reflectance, target, notation, weight, free, enabled });
+            if let Err(refused) = read.swap_remove(i) {
+                let (RefusedCell::Cell(e) | RefusedCell::Rest(_, e)) = *refused;
+                return Err(e);
+            }
         }
-        Ok(out)
+        let mut aside = aside.into_inner().unwrap_or_else(PoisonError::into_inner);
+        aside.sort_unstable_by_key(|(i, _)| *i);
+        self.warnings.extend(aside.into_iter().flat_map(|(_, w)| w));
+        Ok(read.into_iter().filter_map(Result::ok).collect())
     }
 
     /// A cell's keys besides its light and reflectance.
-    pub(super) fn cell_rest(&self, t: &Table, at: &dyn std::fmt::Display, free: &[FreeGroup]) -> Res<CellRest> {
+    pub(super) fn cell_rest(&self, t: TableRef, at: &dyn std::fmt::Display, free: &[FreeGroup]) -> Res<CellRest> {
         let free_group = match t.value("free") {
             Some(v) => {
                 let key = format!("{at}.free");

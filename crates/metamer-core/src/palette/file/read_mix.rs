@@ -2,7 +2,8 @@
 //! dial path). The weights come from the one dial model ([`crate::palette::mixing`]); errors name the
 //! key and the reason, as for every other table.
 
-use super::read::{CellRest, Reader, Res, Table, TableExt, Value, integer_of, names};
+use super::doc::{Doc, TableRef};
+use super::read::{CellRest, Reader, Res, Value, integer_of, names};
 use crate::palette::mixing::{dial_lights, dial_mix, mix_of};
 use crate::palette::{FreeGroup, Mix, MixSpec, MixtureCell, PathConstancy, Route, SpectrumEntry};
 use crate::render::dial::MAX_DIAL_COORDINATE;
@@ -27,7 +28,7 @@ impl Reader<'_> {
             .ok_or_else(|| self.invalid(key, format!("unknown light `{name}` (known: {})", names(lights))))
     }
 
-    fn reflectance_of(&self, t: &Table, at: &str, reflectances: &[SpectrumEntry], what: &str) -> Res<usize> {
+    fn reflectance_of(&self, t: TableRef, at: &str, reflectances: &[SpectrumEntry], what: &str) -> Res<usize> {
         let key = format!("{at}.reflectance");
         let v = t
             .value("reflectance")
@@ -83,7 +84,7 @@ impl Reader<'_> {
     }
 
     /// `off = [names]`: indices, not every light.
-    fn off_lights(&self, t: &Table, at: &str, lights: &[SpectrumEntry]) -> Res<Vec<usize>> {
+    fn off_lights(&self, t: TableRef, at: &str, lights: &[SpectrumEntry]) -> Res<Vec<usize>> {
         let Some(v) = t.value("off") else { return Ok(Vec::new()) };
         let key = format!("{at}.off");
         let items = v.as_array().ok_or_else(|| self.wrong_type(&key, "an array of light names", v))?;
@@ -134,14 +135,14 @@ impl Reader<'_> {
 
     pub(super) fn mixtures(
         &mut self,
-        root: &Table,
+        root: &Doc,
         lights: &[SpectrumEntry],
         reflectances: &[SpectrumEntry],
         free: &[FreeGroup],
     ) -> Res<Vec<MixtureCell>> {
         let tables = self.array_of_tables(root, "mixtures")?;
         let mut out = Vec::with_capacity(tables.len());
-        for (i, t) in tables.into_iter().enumerate() {
+        for (i, t) in tables.iter().enumerate() {
             let at = format!("mixtures[{i}]");
             let w = self.unknown_keys(t, MIXTURE_KEYS, &at);
             self.warnings.extend(w);
@@ -187,14 +188,14 @@ impl Reader<'_> {
 
     pub(super) fn paths(
         &mut self,
-        root: &Table,
+        root: &Doc,
         lights: &[SpectrumEntry],
         reflectances: &[SpectrumEntry],
         free: &[FreeGroup],
     ) -> Res<Vec<PathConstancy>> {
         let tables = self.array_of_tables(root, "paths")?;
         let mut out = Vec::with_capacity(tables.len());
-        for (i, t) in tables.into_iter().enumerate() {
+        for (i, t) in tables.iter().enumerate() {
             let at = format!("paths[{i}]");
             let w = self.unknown_keys(t, PATH_KEYS, &at);
             self.warnings.extend(w);

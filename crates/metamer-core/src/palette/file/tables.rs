@@ -15,11 +15,12 @@
 //! A source value the writer replaces (a solve's old samples, most of a designed table's text) is not
 //! parsed: the table is parsed with a placeholder in its place, at the span the reader saw.
 
+use super::doc::{Doc, TableRef};
 use super::write::{SaveContext, source_text, sync_spectrum, written_source};
 use crate::palette::{Kind, Palette, Source, SpectrumEntry};
 use rayon::prelude::*;
 use std::ops::Range;
-use toml::de::{DeTable, DeValue};
+use toml::de::DeValue;
 use toml_edit::DocumentMut;
 
 /// Where one spectrum's table sits in the text.
@@ -48,9 +49,16 @@ pub(super) struct Tables {
 impl Tables {
     /// The tables of a parsed text the reader accepted (`None` when its lists are not all `[[…]]` tables,
     /// e.g. inline arrays, which then save through the whole document).
-    pub(super) fn of(root: &DeTable, text: &str) -> Option<Tables> {
+    pub(super) fn of(doc: &Doc, text: &str) -> Option<Tables> {
+        let root = doc.root.get_ref();
         // Every top-level header, sorted: a table ends where the next one starts.
-        let mut starts: Vec<usize> = Vec::new();
+        let mut starts: Vec<usize> = Vec::with_capacity(
+            doc.lists.iter().map(|l| l.items.len()).sum::<usize>()
+                + root.values().map(|v| v.get_ref().as_array().map_or(1, |a| a.len())).sum::<usize>(),
+        );
+        for list in &doc.lists {
+            starts.extend(list.items.iter().map(|i| i.span.start));
+        }
         for value in root.values() {
             match value.get_ref() {
                 DeValue::Array(items) => starts.extend(
@@ -72,30 +80,36 @@ impl Tables {
             let i = starts.partition_point(|&s| s <= start);
             starts.get(i).copied().unwrap_or(text.len())
         };
+        // One walk of a table's keys (not a lookup of each source key).
+        let span = |start: usize, table: TableRef| -> Option<TableSpan> {
+            if !text.get(start..)?.starts_with("[[") {
+                return None;
+            }
+            let range = start..end_of(start);
+            let mut sources = table.iter().filter(|(k, _)| Source::KEYS.contains(k)).map(|(_, v)| v);
+            let source_value = match (sources.next(), sources.next()) {
+                (Some(v), None) if range.start <= v.span().start && v.span().end <= range.end => {
+                    Some(v.span().start - start..v.span().end - start)
+                }
+                _ => None,
+            };
+            Some(TableSpan { range, source_value })
+        };
         let list = |key: &str| -> Option<Vec<TableSpan>> {
-            let Some(v) = root.get(key) else { return Some(Vec::new()) };
-            let items = v.get_ref().as_array()?;
-            items
-                .iter()
-                .map(|item| {
-                    let start = item.span().start;
-                    let table = item.get_ref().as_table()?;
-                    if !text.get(start..)?.starts_with("[[") {
-                        return None;
-                    }
-                    let range = start..end_of(start);
-                    // One walk of the table's keys (not a lookup of each source key).
-                    let mut sources =
-                        table.iter().filter(|(k, _)| Source::KEYS.contains(&k.get_ref().as_ref())).map(|(_, v)| v);
-                    let source_value = match (sources.next(), sources.next()) {
-                        (Some(v), None) if range.start <= v.span().start && v.span().end <= range.end => {
-                            Some(v.span().start - start..v.span().end - start)
-                        }
-                        _ => None,
-                    };
-                    Some(TableSpan { range, source_value })
-                })
-                .collect()
+            let mut out = Vec::new();
+            if let Some(list) = doc.list(key) {
+                out.reserve_exact(list.items.len());
+                for item in &list.items {
+                    out.push(span(item.span.start, doc.table(item))?);
+                }
+            } else if let Some(v) = root.get(key) {
+                let items = v.get_ref().as_array()?;
+                out.reserve_exact(items.len());
+                for item in items {
+                    out.push(span(item.span().start, TableRef::Tree(item.get_ref().as_table()?))?);
+                }
+            }
+            Some(out)
         };
         Some(Tables { lights: list("lights")?, reflectances: list("reflectances")? })
     }

@@ -16,7 +16,7 @@ fn same_tree(text: &str) -> bool {
     let arrays = numbers::arrays_in(text, 0..text.len());
     assert_eq!(arrays.len(), lines.read.len(), "the arrays read are those of the whole text: {text:?}");
     assert_eq!(lines.counts, budget::count(text), "the budget's counts of {text:?}");
-    assert_eq!(format!("{:?}", lines.tree), toml_tree_read(text, arrays), "the tree of {text:?}");
+    assert_eq!(format!("{:?}", lines.tree.into_tree()), toml_tree_read(text, arrays), "the tree of {text:?}");
     true
 }
 
@@ -110,6 +110,61 @@ fn shapes_it_leaves_to_the_other_paths() {
         same_tree(&last);
         both(&last, Path::new("p.toml"));
     }
+}
+
+/// `[[name]]` tables are read into flat lists: one with more keys than are compared one by one is checked
+/// for a key given twice through a set of its keys; its unknown keys are named in the tree's (sorted)
+/// order; an error in a flat table names its line; all as the `toml` crate's tree reads them.
+#[test]
+fn flat_tables_with_many_keys_read_as_the_tree() {
+    let base = plain().replace("name = \"\"\nflat", "name = \"petal\"\nflat");
+    let keys: Vec<String> = ["zeta", "k9", "k10", "alpha", "k1", "mid", "k2", "k3", "k4", "k5", "k6", "k7"]
+        .iter()
+        .enumerate()
+        .map(|(i, k)| format!("{k} = {i}\n"))
+        .collect();
+    let many = format!("{base}\n{}", keys.concat());
+    assert!(same_tree(&many));
+    let (read, _) = both(&many, Path::new("p.toml"));
+    let order: Vec<usize> = ["colours[2].alpha", "colours[2].k1", "colours[2].k10", "colours[2].zeta"]
+        .iter()
+        .map(|k| read.find(k).unwrap_or_else(|| panic!("{k} in {read}")))
+        .collect();
+    assert!(order.is_sorted(), "{read}");
+    // The same key again, before and after the set takes over.
+    for at in [3, 11] {
+        let twice = format!("{base}\n{}{}", keys[..at].concat(), keys[1].replace("= 1", "= 2"));
+        assert!(!same_tree(&twice), "{at}");
+        let (read, _) = both(&twice, Path::new("p.toml"));
+        assert!(read.starts_with("error: p.toml: TOML syntax error"), "{read}");
+    }
+    // A refused value in a flat table: its line.
+    let wrong = many.replace("mid = 5", "weight = -1");
+    assert!(same_tree(&wrong));
+    let (read, _) = both(&wrong, Path::new("p.toml"));
+    let line = wrong[..wrong.find("weight = -1").unwrap()].matches('\n').count() + 1;
+    assert!(read.contains(&format!("p.toml:{line}: colours[2].weight: weights must not be negative")), "{read}");
+    // Key paths find the same spans in the flat lists as in the tree.
+    let flat = parse(&wrong).expect("read in one pass").tree;
+    let tree = super::super::doc::Doc::tree(toml::de::DeTable::parse(&wrong).unwrap());
+    for key in [
+        "colours[2].weight",
+        "colours[2]",
+        "colours[9].light",
+        "colours",
+        "colours[0].target",
+        "colours[1].nothing",
+        "colours.x",
+        "colours[x]",
+        "lights[1].name",
+        "settings.smoothness",
+        "settings.nothing.x",
+        "name",
+        "nothing",
+    ] {
+        assert_eq!(flat.span_of_key(key), tree.span_of_key(key), "{key}");
+    }
+    assert_eq!(flat.span_of_key("colours[2].weight").map(|s| &wrong[s]), Some("-1"));
 }
 
 /// A text of many tables in few bytes is refused for its parse budget as before, and the one-pass read

@@ -134,7 +134,7 @@ fn a_key_the_table_lacks_is_added_in_place() {
 fn tables_run_from_header_to_header() {
     let text = "name = \"t\"\n[[lights]]\nname = \"e\"\nflat = 1\n[settings]\nsmoothness = 0\n[[reflectances]]\nname = \"r\"\nflat = 0.5\n";
     let root = toml::de::DeTable::parse(text).unwrap();
-    let t = Tables::of(root.get_ref(), text).unwrap();
+    let t = Tables::of(&super::super::doc::Doc::tree(root), text).unwrap();
     assert_eq!(&text[t.lights[0].range.clone()], "[[lights]]\nname = \"e\"\nflat = 1\n");
     assert_eq!(&text[t.reflectances[0].range.clone()], "[[reflectances]]\nname = \"r\"\nflat = 0.5\n");
     let value = t.reflectances[0].source_value.clone().unwrap();
