@@ -467,7 +467,7 @@ impl PaletteFile {
         Ok(PreparedSave { path: path.to_path_buf(), update })
     }
 
-    /// Put a staged save in place and make this file what was written (its path, text and palette).    /// Put a staged save in place and make this file what was written (its path, text and palette).
+    /// Put a staged save in place and make this file what was written (its path, text and palette).
     pub fn commit(&mut self, save: StagedSave) -> Result<(), PaletteError> {
         let mut folders = crate::fsio::FolderSync::default();
         self.commit_in(save, &mut folders)
