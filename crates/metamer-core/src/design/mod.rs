@@ -323,8 +323,7 @@ pub fn solve_with_then<T: Send>(
                     kind: DiagnosticKind::StoppedEarly(why),
                     message: format!(
                         "joint design of {} unknown spectra stopped early ({why}); objective {:.6e} is the best found",
-                        b.units.iter().filter(|u| !matches!(u, system::Unit::Free(_))).count(),
-                        b.objective
+                        b.spectra, b.objective
                     ),
                 });
             }

@@ -32,11 +32,15 @@ pub(crate) struct Shared {
 
 impl FactorCache {
     /// The shared A and its factorisation for `key`, `assemble`d and factored once per key, also when
-    /// several threads ask for it at once (the others wait for the first).
-    pub fn get(&self, key: Vec<u64>, assemble: impl FnOnce() -> Arc<DMatrix<f64>>) -> Arc<Shared> {
+    /// several threads ask for it at once (the others wait for the first). The key is looked up as a slice
+    /// and copied only when it is new (once per distinct matrix, not once per block).
+    pub fn get(&self, key: &[u64], assemble: impl FnOnce() -> Arc<DMatrix<f64>>) -> Arc<Shared> {
         let build = |a: Arc<DMatrix<f64>>| Arc::new(Shared { factor: Factor::new(&a), a });
         let slot = match self.map.lock() {
-            Ok(mut map) => map.entry(key).or_default().clone(),
+            Ok(mut map) => match map.get(key) {
+                Some(slot) => slot.clone(),
+                None => map.entry(key.to_vec()).or_default().clone(),
+            },
             // A panic elsewhere poisoned the lock: factor without sharing.
             Err(_) => return build(assemble()),
         };
@@ -44,10 +48,18 @@ impl FactorCache {
     }
 }
 
-/// How one block was solved.
+thread_local! {
+    /// A pool thread's buffer for [`Design::matrix_key`]: a block's key is built here and looked up in
+    /// place, not in a vector of its own per block.
+    static KEY: std::cell::RefCell<Vec<u64>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// How one block was solved. Its new values are written into the solution's own spectra and free colours
+/// ([`solve_all`]), not kept here: a block's report holds no memory of its own but a joint block's history.
 #[derive(Clone, Debug)]
 pub struct BlockReport {
-    pub(crate) units: Vec<Unit>,
+    /// How many of the block's units are spectra (not free colours).
+    pub(crate) spectra: usize,
     pub bilinear: bool,
     /// The block's part of the objective at the end.
     pub(crate) objective: f64,
@@ -56,78 +68,143 @@ pub struct BlockReport {
     /// Joint blocks: objective after each accepted stage (non-increasing).
     pub history: Vec<f64>,
     pub(crate) stopped: Option<crate::optimize::Termination>,
-    /// New values of the block's units.
-    pub(crate) values: Vec<(Unit, Vec<f64>)>,
 }
 
-/// Solve one block starting from `v` (which holds the fixed spectra too).
+/// Solve one block starting from `v` (which holds the fixed spectra too), writing the new values of its
+/// units into `out` (one slice per unit of `block.units`, in that order).
 pub(crate) fn solve_block(
     design: &Design,
     block: &Block,
     v: &Values,
     cache: &FactorCache,
     limits: &JointLimits,
+    out: &mut [&mut [f64]],
 ) -> BlockReport {
     let mut report = BlockReport {
-        units: block.units.clone(),
+        spectra: block.units.iter().filter(|u| !matches!(u, Unit::Free(_))).count(),
         bilinear: block.bilinear,
         objective: 0.0,
         kkt: 0.0,
         bounds_active: false,
         history: Vec::new(),
         stopped: None,
-        values: Vec::new(),
     };
     if block.bilinear {
         let mut local = v.clone();
-        let out = joint::solve_block(design, block, &mut local, limits);
-        report.history = out.history;
-        report.kkt = out.kkt;
-        report.stopped = out.stopped;
+        let joint = joint::solve_block(design, block, &mut local, limits);
+        report.history = joint.history;
+        report.kkt = joint.kkt;
+        report.stopped = joint.stopped;
         report.bounds_active = true;
         report.objective = design.block_objective(block, &local);
-        report.values = block.units.iter().map(|u| (*u, local.get(*u).to_vec())).collect();
+        for (u, to) in block.units.iter().zip(out.iter_mut()) {
+            put(to, local.get(*u));
+        }
         return report;
     }
     // Linear block: no copy of the values; the block objective is ‖Ax − b‖² of its system. A and its
     // factorisation come from the cache (bit-identical for equal keys); b and the bounds are the block's.
     let layout = Layout::new(&block.units);
-    let shared =
-        cache.get(design.matrix_key(&layout, &block.terms), || design.linear_system(&layout, &block.terms, v).a);
+    let shared = KEY.with(|key| match key.try_borrow_mut() {
+        Ok(mut key) => {
+            design.matrix_key_into(&layout, &block.terms, &mut key);
+            cache.get(&key, || design.linear_system(&layout, &block.terms, v).a)
+        }
+        Err(_) => {
+            cache.get(&design.matrix_key(&layout, &block.terms), || design.linear_system(&layout, &block.terms, v).a)
+        }
+    });
     let sys = design.linear_system_with(&shared.a, &layout, &block.terms, v);
-    let mut x = layout.gather(v);
-    if sys.a.nrows() > 0 {
-        let out = lsq::solve(&sys, &shared.factor);
-        report.kkt = out.kkt;
-        report.bounds_active = out.bounds_active;
-        if out.x.iter().all(|x| x.is_finite()) {
+    let solved = if sys.a.nrows() > 0 {
+        let solved = lsq::solve(&sys, &shared.factor);
+        report.kkt = solved.kkt;
+        report.bounds_active = solved.bounds_active;
+        if solved.x.iter().all(|x| x.is_finite()) {
             // `objective` is ‖A x − b‖² of the returned x.
-            report.objective = out.objective;
-            x = out.x;
+            report.objective = solved.objective;
+            Some(solved.x)
         } else {
-            report.objective = (&*sys.a * &x - &sys.b).norm_squared();
+            report.objective = (&*sys.a * layout.gather(v) - &sys.b).norm_squared();
+            None
+        }
+    } else {
+        None
+    };
+    // Units not solved keep their start values.
+    for ((u, o), to) in layout.units.iter().zip(out.iter_mut()) {
+        match &solved {
+            Some(x) => put(to, x.rows(*o, u.len()).as_slice()),
+            None => put(to, v.get(*u)),
         }
     }
-    report.values = layout.units.iter().map(|(u, o)| (*u, x.rows(*o, u.len()).iter().copied().collect())).collect();
     report
+}
+
+/// Copy a unit's values into its place (of the same length; a scratch slice of another length, which
+/// cannot be handed out, takes nothing).
+fn put(to: &mut [f64], from: &[f64]) {
+    if to.len() == from.len() {
+        to.copy_from_slice(from);
+    }
 }
 
 /// Solve every block (in parallel) and return the new values and the per-block reports.
 pub fn solve_all(design: &Design, start: &Values, limits: &JointLimits, parallel: bool) -> (Values, Vec<BlockReport>) {
+    let mut v = start.clone();
+    let reports = solve_all_into(design, start, &mut v, limits, parallel);
+    (v, reports)
+}
+
+/// [`solve_all`] writing the new values into `v` (a copy of `start`): each block writes its units'
+/// values straight into their place in `v` (the blocks' units are disjoint), so a block allocates nothing
+/// that outlives it, and the per-block reports are collected into one vector sized up front.
+pub(crate) fn solve_all_into(
+    design: &Design,
+    start: &Values,
+    v: &mut Values,
+    limits: &JointLimits,
+    parallel: bool,
+) -> Vec<BlockReport> {
     let blocks = design.blocks();
     let cache = FactorCache::default();
-    let reports: Vec<BlockReport> = if parallel {
-        blocks.par_iter().map(|b| solve_block(design, b, start, &cache, limits)).collect()
-    } else {
-        blocks.iter().map(|b| solve_block(design, b, start, &cache, limits)).collect()
+    // Every unit's values in `v`, by kind and index, handed out once each to the block that holds it, in
+    // the blocks' order.
+    let (nl, nr) = (v.lights.len(), v.reflectances.len());
+    let mut places: Vec<Option<&mut [f64]>> = v
+        .lights
+        .iter_mut()
+        .map(|s| s.0.as_mut_slice())
+        .chain(v.reflectances.iter_mut().map(|s| s.0.as_mut_slice()))
+        .chain(v.free.iter_mut().map(|f| f.as_mut_slice()))
+        .map(Some)
+        .collect();
+    let index = |u: &Unit| match *u {
+        Unit::Light(i) => i,
+        Unit::Reflectance(i) => nl + i,
+        Unit::Free(g) => nl + nr + g,
     };
-    let mut v = start.clone();
-    for r in &reports {
-        for (u, x) in &r.values {
-            v.set(*u, x);
-        }
+    let mut outs: Vec<&mut [f64]> = Vec::with_capacity(blocks.iter().map(|b| b.units.len()).sum());
+    for b in &blocks {
+        // A unit is in one block only (the blocks are the connected components of the units); a unit
+        // listed again would get a scratch slice that no one reads.
+        outs.extend(b.units.iter().map(|u| places.get_mut(index(u)).and_then(Option::take).unwrap_or_default()));
     }
-    (v, reports)
+    let mut per_block: Vec<&mut [&mut [f64]]> = Vec::with_capacity(blocks.len());
+    let mut rest = &mut outs[..];
+    for b in &blocks {
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(b.units.len());
+        per_block.push(head);
+        rest = tail;
+    }
+    if parallel {
+        blocks
+            .par_iter()
+            .zip(per_block.into_par_iter())
+            .map(|(b, out)| solve_block(design, b, start, &cache, limits, out))
+            .collect()
+    } else {
+        blocks.iter().zip(per_block).map(|(b, out)| solve_block(design, b, start, &cache, limits, out)).collect()
+    }
 }
 
 /// Solve all unknowns as one dense system (no block splitting, no factor sharing): the baseline the
@@ -238,7 +315,7 @@ mod tests {
                 let own = design.linear_system(&layout, &block.terms, &v);
                 let key = design.matrix_key(&layout, &block.terms);
                 keys.insert(key.clone());
-                let shared = cache.get(key, || own.a.clone());
+                let shared = cache.get(&key, || own.a.clone());
                 let sys = design.linear_system_with(&shared.a, &layout, &block.terms, &v);
                 assert_eq!(sys.a.shape(), own.a.shape());
                 assert!(sys.a.iter().zip(own.a.iter()).all(|(x, y)| x.to_bits() == y.to_bits()));

@@ -103,7 +103,7 @@ impl<'a> Design<'a> {
             )));
         }
         let form = if s.fit_in_subspace { Form::Subspace } else { Form::Full };
-        let mut terms = Vec::new();
+        let mut terms = Vec::with_capacity(palette.colours.len() + palette.mixtures.len());
         let mut push = |origin: Origin, lights: Mix, reflectance: usize, free: Option<usize>, target, weight: f64| {
             let ld = lights.iter().any(|&(i, _)| palette.lights[i].design);
             let rd = palette.reflectances[reflectance].design;
@@ -410,9 +410,20 @@ impl<'a> Design<'a> {
     /// [`Values`] with equal keys have bit-identical A (A is a deterministic function of exactly these), so
     /// a factorisation can be shared by key without hashing or comparing A itself.
     pub(crate) fn matrix_key(&self, layout: &Layout, terms: &[usize]) -> Vec<u64> {
+        let mut key = Vec::new();
+        self.matrix_key_into(layout, terms, &mut key);
+        key
+    }
+
+    /// [`Design::matrix_key`] written into `key` (cleared first), whose storage a caller reuses from block
+    /// to block.
+    pub(crate) fn matrix_key_into(&self, layout: &Layout, terms: &[usize], key: &mut Vec<u64>) {
         const NONE: u64 = u64::MAX;
         let opt = |o: Option<usize>| o.map_or(NONE, |o| o as u64);
-        let mut key = Vec::with_capacity(2 + layout.units.len() + 7 * terms.len());
+        key.clear();
+        key.reserve(
+            2 + layout.units.len() + terms.iter().map(|&ti| 8 + 3 * self.terms[ti].lights.len()).sum::<usize>(),
+        );
         key.push(layout.len() as u64);
         key.push((self.smoothness * smoothness_scale()).to_bits());
         key.extend(layout.units.iter().map(|(u, _)| matches!(u, Unit::Free(_)) as u64));
@@ -439,7 +450,6 @@ impl<'a> Design<'a> {
             let free = t.free.and_then(|g| layout.offset(Unit::Free(g)));
             key.extend([opt(lo), opt(ro), partner, form, t.scale.to_bits(), t.error_scale.to_bits(), opt(free)]);
         }
-        key
     }
 
     /// Assemble the linear least-squares system `min ‖A x − b‖²` over `layout`'s units with every other
