@@ -290,11 +290,18 @@ pub fn solve_with_then<T: Send>(
     // when read; this covers palettes built or edited in memory).
     palette.check_scale().map_err(|e| DesignError::Invalid(e.to_string()))?;
     let design = system::Design::new(palette, basis, colorimetry)?;
-    let start = design.start_values();
     // A huge time limit saturates (it cannot overflow `Instant`).
     let deadline = started.checked_add(options.time_limit).unwrap_or_else(|| far_future(started));
     let limits = joint::JointLimits::new(deadline, options.cancel.clone());
-    let (values, blocks) = solve::solve_all(&design, &start, &limits, parallel);
+    // The start values (and the copy the blocks write their solutions into) beside the blocks.
+    let start_and_copy = || {
+        let start = design.start_values();
+        let copy = start.clone();
+        (start, copy)
+    };
+    let ((start, mut values), units) =
+        if parallel { rayon::join(start_and_copy, || design.blocks()) } else { (start_and_copy(), design.blocks()) };
+    let blocks = solve::solve_all_into(&design, &units, &start, &mut values, &limits, parallel);
     if cancelled() {
         return Err(DesignError::Cancelled);
     }
@@ -312,9 +319,8 @@ pub fn solve_with_then<T: Send>(
         });
         start
     };
-    let solved = solved_palette(palette, &values);
     // The rest of the solution, which `then` does not need.
-    let rest = move || -> Result<Solution, DesignError> {
+    let rest = || -> Result<Solution, DesignError> {
         for b in &blocks {
             if let Some(why) = b.stopped {
                 diagnostics.push(Diagnostic {
@@ -356,7 +362,14 @@ pub fn solve_with_then<T: Send>(
             diagnostics,
         })
     };
-    let (then, rest) = if parallel { rayon::join(|| then(&solved), rest) } else { (then(&solved), rest()) };
+    // The solved palette (a copy of the palette with the new spectra) is built beside the rest too: it is
+    // `then`'s input only.
+    let with_solved = || {
+        let solved = solved_palette(palette, &values);
+        let t = then(&solved);
+        (solved, t)
+    };
+    let ((solved, then), rest) = if parallel { rayon::join(with_solved, rest) } else { (with_solved(), rest()) };
     let mut solution = rest?;
     solution.palette = solved;
     Ok((solution, then))

@@ -151,21 +151,22 @@ fn put(to: &mut [f64], from: &[f64]) {
 /// Solve every block (in parallel) and return the new values and the per-block reports.
 pub fn solve_all(design: &Design, start: &Values, limits: &JointLimits, parallel: bool) -> (Values, Vec<BlockReport>) {
     let mut v = start.clone();
-    let reports = solve_all_into(design, start, &mut v, limits, parallel);
+    let reports = solve_all_into(design, &design.blocks(), start, &mut v, limits, parallel);
     (v, reports)
 }
 
-/// [`solve_all`] writing the new values into `v` (a copy of `start`): each block writes its units'
-/// values straight into their place in `v` (the blocks' units are disjoint), so a block allocates nothing
-/// that outlives it, and the per-block reports are collected into one vector sized up front.
+/// [`solve_all`] of the design's `blocks` ([`Design::blocks`]) writing the new values into `v` (a copy of
+/// `start`): each block writes its units' values straight into their place in `v` (the blocks' units are
+/// disjoint), so a block allocates nothing that outlives it, and the per-block reports are collected into
+/// one vector sized up front.
 pub(crate) fn solve_all_into(
     design: &Design,
+    blocks: &[Block],
     start: &Values,
     v: &mut Values,
     limits: &JointLimits,
     parallel: bool,
 ) -> Vec<BlockReport> {
-    let blocks = design.blocks();
     let cache = FactorCache::default();
     // Every unit's values in `v`, by kind and index, handed out once each to the block that holds it, in
     // the blocks' order.
@@ -184,14 +185,14 @@ pub(crate) fn solve_all_into(
         Unit::Free(g) => nl + nr + g,
     };
     let mut outs: Vec<&mut [f64]> = Vec::with_capacity(blocks.iter().map(|b| b.units.len()).sum());
-    for b in &blocks {
+    for b in blocks {
         // A unit is in one block only (the blocks are the connected components of the units); a unit
         // listed again would get a scratch slice that no one reads.
         outs.extend(b.units.iter().map(|u| places.get_mut(index(u)).and_then(Option::take).unwrap_or_default()));
     }
     let mut per_block: Vec<&mut [&mut [f64]]> = Vec::with_capacity(blocks.len());
     let mut rest = &mut outs[..];
-    for b in &blocks {
+    for b in blocks {
         let (head, tail) = std::mem::take(&mut rest).split_at_mut(b.units.len());
         per_block.push(head);
         rest = tail;

@@ -63,7 +63,7 @@ pub enum Origin {
 pub struct CellTerm {
     pub origin: Origin,
     /// The light as `(light index, weight)` pairs.
-    pub(crate) lights: Mix,
+    pub(crate) lights: TermLights,
     pub(crate) reflectance: usize,
     pub(crate) free: Option<usize>,
     /// Linear-RGB target (unused for a free cell).
@@ -74,6 +74,39 @@ pub struct CellTerm {
     pub(crate) form: Form,
     /// ω_F·ω/√3, 0 when there are no subspace-error rows.
     pub(crate) error_scale: f64,
+}
+
+/// A term's light as `(light index, weight)` pairs ([`Mix`]): an ordinary cell's one light held in place
+/// rather than in a vector of one pair (a batch has thousands of cells, and the solve built them all on the
+/// calling thread). Read as a slice.
+#[derive(Clone, Debug)]
+pub(crate) enum TermLights {
+    One([(usize, f64); 1]),
+    Mix(Mix),
+}
+
+impl TermLights {
+    pub(crate) fn as_slice(&self) -> &[(usize, f64)] {
+        match self {
+            TermLights::One(one) => one,
+            TermLights::Mix(mix) => mix,
+        }
+    }
+}
+
+impl std::ops::Deref for TermLights {
+    type Target = [(usize, f64)];
+    fn deref(&self) -> &[(usize, f64)] {
+        self.as_slice()
+    }
+}
+
+impl<'a> IntoIterator for &'a TermLights {
+    type Item = &'a (usize, f64);
+    type IntoIter = std::slice::Iter<'a, (usize, f64)>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.as_slice().iter()
+    }
 }
 
 /// The design problem of a palette: which units are unknown and which rows exist.
@@ -104,24 +137,25 @@ impl<'a> Design<'a> {
         }
         let form = if s.fit_in_subspace { Form::Subspace } else { Form::Full };
         let mut terms = Vec::with_capacity(palette.colours.len() + palette.mixtures.len());
-        let mut push = |origin: Origin, lights: Mix, reflectance: usize, free: Option<usize>, target, weight: f64| {
-            let ld = lights.iter().any(|&(i, _)| palette.lights[i].design);
-            let rd = palette.reflectances[reflectance].design;
-            if !(ld || rd || free.is_some()) {
-                return;
-            }
-            let scale = weight / 3f64.sqrt();
-            let error_scale = if ld || rd { s.subspace_error * scale } else { 0.0 };
-            terms.push(CellTerm { origin, lights, reflectance, free, target, scale, form, error_scale });
-        };
+        let mut push =
+            |origin: Origin, lights: TermLights, reflectance: usize, free: Option<usize>, target, weight: f64| {
+                let ld = lights.iter().any(|&(i, _)| palette.lights[i].design);
+                let rd = palette.reflectances[reflectance].design;
+                if !(ld || rd || free.is_some()) {
+                    return;
+                }
+                let scale = weight / 3f64.sqrt();
+                let error_scale = if ld || rd { s.subspace_error * scale } else { 0.0 };
+                terms.push(CellTerm { origin, lights, reflectance, free, target, scale, form, error_scale });
+            };
         for (k, c) in palette.colours.iter().enumerate() {
             if c.is_active() {
-                push(Origin::Cell(k), vec![(c.light, 1.0)], c.reflectance, c.free, c.target, c.weight);
+                push(Origin::Cell(k), TermLights::One([(c.light, 1.0)]), c.reflectance, c.free, c.target, c.weight);
             }
         }
         for (k, m) in palette.mixtures.iter().enumerate() {
             if m.is_active() {
-                push(Origin::Mixture(k), m.mix.clone(), m.reflectance, m.free, m.target, m.weight);
+                push(Origin::Mixture(k), TermLights::Mix(m.mix.clone()), m.reflectance, m.free, m.target, m.weight);
             }
         }
         for (k, q) in palette.paths.iter().enumerate() {
@@ -134,7 +168,14 @@ impl<'a> Design<'a> {
             // The path counts like one cell whose error is the root mean square over its samples.
             let weight = q.weight / (positions.len() as f64).sqrt();
             for (j, &t) in positions.iter().enumerate() {
-                push(Origin::Path { path: k, sample: j }, mix_at(&dial, t), q.reflectance, q.free, q.target, weight);
+                push(
+                    Origin::Path { path: k, sample: j },
+                    TermLights::Mix(mix_at(&dial, t)),
+                    q.reflectance,
+                    q.free,
+                    q.target,
+                    weight,
+                );
             }
         }
         Ok(Design { palette, basis, q_rgb: colorimetry.q_rgb, terms, smoothness: s.smoothness })
