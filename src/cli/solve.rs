@@ -11,7 +11,7 @@ use crate::design::Fixed;
 use crate::design::{self, Criterion, Solution, SolveOptions};
 use crate::palette::PaletteFile;
 use crate::palette::mixing;
-use crate::palette::{MixSpec, Palette, PaletteError, PreparedSave, SpectrumEntry, StagedSave};
+use crate::palette::{MixSpec, Palette, PaletteError, PreparedSave, SpectrumEntry, StagedEnd};
 use anyhow::Context;
 use nalgebra::Vector3;
 use std::fmt::Write as _;
@@ -243,7 +243,7 @@ enum Saving {
 /// A save being staged on a thread of its own. Dropped without [`Saving::finish`] (the solve failed
 /// after the text was rendered), it waits for the thread, whose staged file is then removed: nothing is
 /// left beside the output when the command ends.
-struct Staging(Option<std::thread::JoinHandle<Option<Result<StagedSave, PaletteError>>>>);
+struct Staging(Option<std::thread::JoinHandle<Option<Result<StagedEnd, PaletteError>>>>);
 
 impl Drop for Staging {
     fn drop(&mut self) {
@@ -261,7 +261,7 @@ impl Saving {
         };
         // The thread is started first and then handed the save, which thus stays here when it cannot be.
         let (send, receive) = std::sync::mpsc::channel::<PreparedSave>();
-        let spawned = std::thread::Builder::new().spawn(move || receive.recv().ok().map(|p| p.stage(replace)));
+        let spawned = std::thread::Builder::new().spawn(move || receive.recv().ok().map(|p| p.stage_to_end(replace)));
         match spawned {
             Ok(handle) => match send.send(prepared) {
                 Ok(()) => Saving::Staging(Staging(Some(handle))),
@@ -272,9 +272,9 @@ impl Saving {
     }
 
     /// The staged save (waiting for its thread, or staging it here).
-    fn finish(self) -> anyhow::Result<StagedSave> {
+    fn finish(self) -> anyhow::Result<StagedEnd> {
         let staged = match self {
-            Saving::Prepared(prepared, replace) => Some(prepared.and_then(|p| p.stage(replace))),
+            Saving::Prepared(prepared, replace) => Some(prepared.and_then(|p| p.stage_to_end(replace))),
             Saving::Staging(mut staging) => staging
                 .0
                 .take()
@@ -1607,6 +1607,18 @@ mod tests {
         saving.finish().unwrap().commit_only_in(&mut folders).unwrap();
         folders.sync();
         assert_eq!(std::fs::read(&there).unwrap(), std::fs::read(&here).unwrap());
+        // A save through the whole document (the palette renamed: not a save by tables) too.
+        let mut renamed = solved.palette.clone();
+        renamed.name = "renamed".into();
+        let (whole_here, whole_there) = (dir.path().join("whole_here.toml"), dir.path().join("whole_there.toml"));
+        file.stage_save_as(&renamed, &whole_here, Replace::Writable)
+            .unwrap()
+            .commit_only_in(&mut Default::default())
+            .unwrap();
+        let saving = super::Saving::start(file.prepare_save_as(&renamed, &whole_there), Replace::Writable);
+        saving.finish().unwrap().commit_only_in(&mut Default::default()).unwrap();
+        assert_eq!(std::fs::read(&whole_there).unwrap(), std::fs::read(&whole_here).unwrap());
+        assert_ne!(std::fs::read(&whole_there).unwrap(), std::fs::read(&here).unwrap());
         let files = || {
             let mut names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
             names.sort();
