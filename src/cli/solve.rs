@@ -11,7 +11,7 @@ use crate::design::Fixed;
 use crate::design::{self, Criterion, Solution, SolveOptions};
 use crate::palette::PaletteFile;
 use crate::palette::mixing;
-use crate::palette::{MixSpec, Palette, SpectrumEntry};
+use crate::palette::{MixSpec, Palette, PaletteError, PreparedSave, SpectrumEntry, StagedEnd};
 use anyhow::Context;
 use nalgebra::Vector3;
 use std::fmt::Write as _;
@@ -106,15 +106,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         time_limit: Duration::try_from_secs_f64(args.time_limit).unwrap_or(Duration::MAX),
         cancel: None,
     };
-    // The solved palette's text is formatted on the pool as soon as the spectra are solved, beside the
-    // solve's last part (cells, diagnostics); it is written and synced below.
+    let replace = if args.force { crate::fsio::Replace::Force } else { crate::fsio::Replace::Writable };
+    // With -o, the solved palette's text is formatted on the pool as soon as the spectra are solved, beside
+    // the solve's last part (cells, diagnostics), and then written and synced on a thread of its own while
+    // that part runs ([`Saving`]). The report's spectra rows need only the solved spectra: with -o they are
+    // rendered beside the text (a run with the report alone formats nothing inside the solve's time).
     let before_solve = started.elapsed();
-    let (mut solution, prepared) =
+    let (mut solution, early) =
         design::solve_with_then(palette, basis.as_ref().map(|b| &b.0), &colorimetry, &options, true, |solved| {
-            args.output.as_ref().map(|out| file.prepare_save_as(solved, out))
+            let Some(out) = args.output.as_ref() else {
+                return Early::default();
+            };
+            let (prepared, spectra) = rayon::join(
+                || file.prepare_save_as(solved, out),
+                || {
+                    args.report.is_some().then(|| {
+                        let bad = Unphysical::of(solved);
+                        let pieces = spectra_pieces(&spectrum_rows(solved, &bad));
+                        (bad, pieces)
+                    })
+                },
+            );
+            Early { saving: Some(Saving::start(prepared, replace)), spectra }
         })
         .with_context(|| format!("{}: the design cannot be solved", args.input.display()))?;
     let after_solve = Instant::now();
+    let Early { saving, spectra: early_spectra } = early;
     // Subspace colours for the report: always the basis of the *solved* spectra (the one basis policy,
     // the basis that rendering the solved palette and the designer use).
     let spectra = palette.lights.len() + palette.reflectances.len();
@@ -145,22 +162,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let basis = basis.as_ref().map(|b| &b.0);
         feasibility_of(&solution, basis, &colorimetry, args.tolerance, deadline, args.time_limit)
     });
-    let replace = if args.force { crate::fsio::Replace::Force } else { crate::fsio::Replace::Writable };
     let saved_context = |out: &Path| format!("{}: cannot write the solved palette", out.display());
-    // The solved palette is staged on a thread of its own: its text is formatted on the pool's threads, and
-    // its write and fsync (mostly waiting for the disk) then block that thread, not a pool thread that the
-    // report's pieces (formatted meanwhile) could use. The report is staged on this thread the same way, the
-    // table formatted on a third.
-    let unphysical = Unphysical::of(&solution.palette);
-    // Taken by the thread that stages it (a closure of `beside` must be `Copy`).
-    let prepared = std::sync::Mutex::new(prepared);
+    // The solved palette's staging is joined on a thread of its own (or, when its thread could not be
+    // started, done there): the report is staged on this thread meanwhile, the table formatted on a third.
+    let (unphysical, spectra_pieces) = match early_spectra {
+        Some((bad, pieces)) => (bad, Some(pieces)),
+        None => (Unphysical::of(&solution.palette), None),
+    };
+    // Taken by the thread that finishes it (a closure of `beside` must be `Copy`).
+    let saving = std::sync::Mutex::new(saving);
+    let spectra_pieces = std::sync::Mutex::new(spectra_pieces);
     let (saved, table, report) = std::thread::scope(|scope| {
         let saved = beside(scope, || {
-            let prepared = prepared.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
-            match (prepared, &args.output) {
-                (Some(prepared), Some(out)) => {
-                    prepared.and_then(|p| p.stage(replace)).map(Some).with_context(|| saved_context(out))
-                }
+            let saving = saving.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+            match (saving, &args.output) {
+                (Some(saving), Some(out)) => saving.finish().map(Some).with_context(|| saved_context(out)),
                 _ => Ok(None),
             }
         });
@@ -176,6 +192,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 let mut report = Report::new(&solution, &unphysical, seconds);
                 report.basis_warning = basis_warning.as_deref();
                 report.feasibility = feasibility.as_deref();
+                if let Some(pieces) = spectra_pieces.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {
+                    report.spectra.rendered(pieces);
+                }
                 // Serialised straight into the staged file (its long arrays in pieces, in parallel).
                 stage_report(path, replace, &report).map(Some)
             }
@@ -202,6 +221,67 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // output is in place and printed).
     std::mem::forget((file, solution, table));
     printed
+}
+
+/// What `metamer solve` starts inside the solve ([`design::solve_with_then`]) with -o: the solved palette's
+/// save, and with --report too the report's spectra rows with the flags they were rendered with.
+#[derive(Default)]
+struct Early {
+    saving: Option<Saving>,
+    spectra: Option<(Unphysical, Vec<std::io::Result<Vec<u8>>>)>,
+}
+
+/// The solved palette's save, rendered inside the solve: staged (written and synced beside its file) on
+/// a thread of its own from then on, so that its writes and its `fsync` (mostly waiting for the disk)
+/// overlap the rest of the solve and the report, or, when no thread could be started or the text could
+/// not be rendered, left for [`Saving::finish`].
+enum Saving {
+    Staging(Staging),
+    Prepared(Result<PreparedSave, PaletteError>, crate::fsio::Replace),
+}
+
+/// A save being staged on a thread of its own. Dropped without [`Saving::finish`] (the solve failed
+/// after the text was rendered), it waits for the thread, whose staged file is then removed: nothing is
+/// left beside the output when the command ends.
+struct Staging(Option<std::thread::JoinHandle<Option<Result<StagedEnd, PaletteError>>>>);
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        if let Some(handle) = self.0.take() {
+            let _ = handle.join();
+        }
+    }
+}
+
+impl Saving {
+    /// Start staging `prepared` on a thread of its own (when it was rendered and a thread can be started).
+    fn start(prepared: Result<PreparedSave, PaletteError>, replace: crate::fsio::Replace) -> Saving {
+        let Ok(prepared) = prepared else {
+            return Saving::Prepared(prepared, replace);
+        };
+        // The thread is started first and then handed the save, which thus stays here when it cannot be.
+        let (send, receive) = std::sync::mpsc::channel::<PreparedSave>();
+        let spawned = std::thread::Builder::new().spawn(move || receive.recv().ok().map(|p| p.stage_to_end(replace)));
+        match spawned {
+            Ok(handle) => match send.send(prepared) {
+                Ok(()) => Saving::Staging(Staging(Some(handle))),
+                Err(std::sync::mpsc::SendError(prepared)) => Saving::Prepared(Ok(prepared), replace),
+            },
+            Err(_) => Saving::Prepared(Ok(prepared), replace),
+        }
+    }
+
+    /// The staged save (waiting for its thread, or staging it here).
+    fn finish(self) -> anyhow::Result<StagedEnd> {
+        let staged = match self {
+            Saving::Prepared(prepared, replace) => Some(prepared.and_then(|p| p.stage_to_end(replace))),
+            Saving::Staging(mut staging) => staging
+                .0
+                .take()
+                .and_then(|handle| handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))),
+        };
+        Ok(staged.ok_or_else(|| anyhow::anyhow!("the solved palette's text was not handed to its writer"))??)
+    }
 }
 
 /// Work started on a thread of its own ([`beside`]), or already done.
@@ -617,8 +697,28 @@ impl<T: Row + Sync> Rows<T> {
         Rows { items, pieces: Pieces::default() }
     }
 
-    /// Start serialising the rows into pieces on `scope`'s threads (see [`Rows`]).
+    /// The rows' pieces rendered ahead ([`Rows::pieces`] of these rows, in order): serialising the rows
+    /// writes them, and [`Rows::render_in`] leaves them. Pieces that are not these rows' count are not taken.
+    fn rendered(&mut self, pieces: Vec<std::io::Result<Vec<u8>>>) {
+        if pieces.len() == self.items.len().div_ceil(Self::PIECE) && !pieces.is_empty() {
+            let count = pieces.len();
+            *self.pieces.slots() = pieces.into_iter().map(Some).collect();
+            self.pieces.count.store(count, std::sync::atomic::Ordering::Release);
+        }
+    }
+
+    /// `rows` rendered into pieces (in parallel), as [`Rows::render_in`] renders them.
+    fn pieces(rows: &[T], row_bytes: usize) -> Vec<std::io::Result<Vec<u8>>> {
+        use rayon::prelude::*;
+        rows.par_chunks(Self::PIECE).map(|rows| Self::piece(rows, row_bytes)).collect()
+    }
+
+    /// Start serialising the rows into pieces on `scope`'s threads (see [`Rows`]), unless they were
+    /// rendered ahead ([`Rows::rendered`]).
     fn render_in<'s>(&'s self, scope: &rayon::Scope<'s>, row_bytes: usize) {
+        if self.pieces.count() > 0 {
+            return;
+        }
         let count = self.items.len().div_ceil(Self::PIECE);
         *self.pieces.slots() = (0..count).map(|_| None).collect();
         self.pieces.count.store(count, std::sync::atomic::Ordering::Release);
@@ -932,6 +1032,19 @@ impl serde_json::ser::Formatter for Pretty {
     }
 }
 
+/// The report's spectra rows of palette `p`: its lights, then its reflectances.
+fn spectrum_rows<'a>(p: &'a Palette, bad: &Unphysical) -> Vec<SpectrumJson<'a>> {
+    (p.lights.iter().zip(&bad.lights))
+        .chain(p.reflectances.iter().zip(&bad.reflectances))
+        .map(|(e, &bad)| SpectrumJson::new(e, bad))
+        .collect()
+}
+
+/// The report's spectra rows rendered ahead, as the report renders them ([`Rows::rendered`]).
+fn spectra_pieces(rows: &[SpectrumJson<'_>]) -> Vec<std::io::Result<Vec<u8>>> {
+    Rows::pieces(rows, SPECTRUM_BYTES)
+}
+
 /// One spectrum of the report.
 #[derive(serde::Serialize)]
 struct SpectrumJson<'a> {
@@ -1215,12 +1328,7 @@ impl<'a> Report<'a> {
             seconds,
             solve_seconds: s.seconds,
             kkt_residual: s.kkt_residual,
-            spectra: Rows::new(
-                (p.lights.iter().zip(&bad.lights))
-                    .chain(p.reflectances.iter().zip(&bad.reflectances))
-                    .map(|(e, &bad)| SpectrumJson::new(e, bad))
-                    .collect(),
-            ),
+            spectra: Rows::new(spectrum_rows(p, bad)),
             free: p.free.iter().zip(&s.free).map(|(g, c)| FreeJson { name: &g.name, rgb: arr(c) }).collect(),
             cells: Rows::new(
                 s.cells
@@ -1456,7 +1564,75 @@ mod tests {
             let mut ours = Vec::new();
             super::write_report(&mut ours, &report).unwrap();
             assert!(report.cells.pieces.count() > 1 || palette.colours.len() <= 96);
+            assert_eq!(
+                String::from_utf8(ours).unwrap(),
+                String::from_utf8(theirs.clone()).unwrap(),
+                "{}",
+                palette.name
+            );
+            // The spectra rows rendered ahead (as `metamer solve -o` renders them inside the solve) give the
+            // same report.
+            let bad = super::Unphysical::of(&solution.palette);
+            let mut ahead = super::Report::new(&solution, &bad, 0.25);
+            ahead.spectra.rendered(super::spectra_pieces(&super::spectrum_rows(&solution.palette, &bad)));
+            assert_eq!(ahead.spectra.pieces.count(), ahead.spectra.items.len().div_ceil(96));
+            let mut ours = Vec::new();
+            super::write_report(&mut ours, &ahead).unwrap();
             assert_eq!(String::from_utf8(ours).unwrap(), String::from_utf8(theirs).unwrap(), "{}", palette.name);
         }
+    }
+
+    /// The solved palette staged on a thread of its own ([`super::Saving`]) is the save staged in place;
+    /// dropped unfinished (a solve that failed after the text was rendered), it leaves nothing beside the
+    /// output, and a text that could not be rendered fails when finished.
+    #[test]
+    fn a_save_staged_on_its_own_thread_is_the_save_and_leaves_nothing_when_dropped() {
+        use crate::colorimetry::Colorimetry;
+        use crate::design::{self, SolveOptions};
+        use crate::fsio::Replace;
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.toml");
+        let shipped = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("palettes/metamers.toml");
+        std::fs::copy(&shipped, &input).unwrap();
+        let file = crate::palette::PaletteFile::load(&input).unwrap();
+        let solved = design::solve(&file.palette, None, &Colorimetry::default(), &SolveOptions::default()).unwrap();
+        let (here, there) = (dir.path().join("here.toml"), dir.path().join("there.toml"));
+        file.stage_save_as(&solved.palette, &here, Replace::Writable)
+            .unwrap()
+            .commit_only_in(&mut Default::default())
+            .unwrap();
+        let saving = super::Saving::start(file.prepare_save_as(&solved.palette, &there), Replace::Writable);
+        assert!(matches!(saving, super::Saving::Staging(_)));
+        let mut folders = crate::fsio::FolderSync::default();
+        saving.finish().unwrap().commit_only_in(&mut folders).unwrap();
+        folders.sync();
+        assert_eq!(std::fs::read(&there).unwrap(), std::fs::read(&here).unwrap());
+        // A save through the whole document (the palette renamed: not a save by tables) too.
+        let mut renamed = solved.palette.clone();
+        renamed.name = "renamed".into();
+        let (whole_here, whole_there) = (dir.path().join("whole_here.toml"), dir.path().join("whole_there.toml"));
+        file.stage_save_as(&renamed, &whole_here, Replace::Writable)
+            .unwrap()
+            .commit_only_in(&mut Default::default())
+            .unwrap();
+        let saving = super::Saving::start(file.prepare_save_as(&renamed, &whole_there), Replace::Writable);
+        saving.finish().unwrap().commit_only_in(&mut Default::default()).unwrap();
+        assert_eq!(std::fs::read(&whole_there).unwrap(), std::fs::read(&whole_here).unwrap());
+        assert_ne!(std::fs::read(&whole_there).unwrap(), std::fs::read(&here).unwrap());
+        let files = || {
+            let mut names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+            names.sort();
+            names
+        };
+        let before = files();
+        let dropped = dir.path().join("dropped.toml");
+        drop(super::Saving::start(file.prepare_save_as(&solved.palette, &dropped), Replace::Writable));
+        assert_eq!(files(), before, "a dropped save leaves no file");
+        // A save that cannot be rendered (an output in a folder that does not exist cannot be staged either)
+        // fails when finished and writes nothing.
+        let nowhere = dir.path().join("no such folder").join("out.toml");
+        let failed = super::Saving::start(file.prepare_save_as(&solved.palette, &nowhere), Replace::Writable).finish();
+        assert!(failed.is_err());
+        assert_eq!(files(), before);
     }
 }

@@ -983,7 +983,7 @@ impl Write for StagedWriter<'_> {
 
     #[inline]
     fn write_all(&mut self, data: &[u8]) -> std::io::Result<()> {
-        if self.buf.len() + data.len() <= STAGED_BUFFER {
+        if data.len() < WRITE_THROUGH && self.buf.len() + data.len() <= STAGED_BUFFER {
             self.buf.extend_from_slice(data);
             return Ok(());
         }
@@ -997,21 +997,44 @@ impl Write for StagedWriter<'_> {
 }
 
 impl StagedWriter<'_> {
-    /// `write_all` when the buffer cannot take `data`: drain it, then buffer `data` or write it through.
+    /// `write_all` of a large slice (written through, after the buffered bytes, in one `writev`: not
+    /// copied into the buffer, and no separate write of the few bytes before it), or of a small one the
+    /// buffer cannot take (drained first).
     #[cold]
     fn write_slow(&mut self, data: &[u8]) -> std::io::Result<()> {
-        if self.buf.len() + data.len() > STAGED_BUFFER {
-            self.drain()?;
-        }
-        if data.len() >= STAGED_BUFFER {
+        if data.len() >= WRITE_THROUGH {
+            self.crc.update(&self.buf);
             self.crc.update(data);
-            self.len += data.len() as u64;
-            self.file.write_all(data)?;
-        } else {
-            self.buf.extend_from_slice(data);
+            self.len += (self.buf.len() + data.len()) as u64;
+            let written = write_both(self.file, &self.buf, data);
+            self.buf.clear();
+            return written;
         }
+        self.drain()?;
+        self.buf.extend_from_slice(data);
         Ok(())
     }
+}
+
+/// Writes of at least this many bytes go to the file as they are ([`StagedWriter::write_slow`]): the
+/// pieces of text a command formats ahead (a report's rows, a solved palette's tables, tens of KB each).
+const WRITE_THROUGH: usize = 16 * 1024;
+
+/// `first` then `second` written whole to `file`, in one `writev` when the file takes it all.
+fn write_both(file: &mut File, mut first: &[u8], mut second: &[u8]) -> std::io::Result<()> {
+    while !first.is_empty() {
+        match file.write_vectored(&[std::io::IoSlice::new(first), std::io::IoSlice::new(second)]) {
+            Ok(0) => return Err(std::io::ErrorKind::WriteZero.into()),
+            Ok(n) if n < first.len() => first = &first[n..],
+            Ok(n) => {
+                second = &second[n - first.len()..];
+                first = &[];
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    file.write_all(second)
 }
 
 /// The folder a file lives in: its parent, or `.` for a bare file name (relative paths in a file, its
@@ -1063,10 +1086,19 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("r.json");
         std::fs::write(&path, "old").unwrap();
-        // Pieces of odd sizes, more than the buffer in all, so some writes fill it and some bypass it.
+        // Pieces of odd sizes, more than the buffer in all, so some writes fill it and some go through.
         let mut pieces: Vec<Vec<u8>> =
             (0..400u32).map(|i| (0..(i * 37 % 1500)).map(|j| (i * 7 + j) as u8).collect()).collect();
         pieces.insert(200, (0..3 * STAGED_BUFFER).map(|j| (j % 251) as u8).collect());
+        // Pieces at the size from which writes go through ([`WRITE_THROUGH`]), and a run of a few bytes
+        // then a large piece (a report's separators and rows), each large one after some buffered bytes.
+        let sized = |n: usize, seed: usize| -> Vec<u8> { (0..n).map(|j| ((j * 13 + seed) % 241) as u8).collect() };
+        pieces.insert(50, sized(WRITE_THROUGH - 1, 1));
+        pieces.insert(100, sized(WRITE_THROUGH, 2));
+        for k in 0..6 {
+            pieces.insert(300 + 2 * k, sized(6, k));
+            pieces.insert(301 + 2 * k, sized(46_000 + 1000 * k, k));
+        }
         let whole: Vec<u8> = pieces.concat();
         assert!(whole.len() > 2 * STAGED_BUFFER);
         let staged = stage_writing(&path, Name::User, Replace::Writable, |w| {

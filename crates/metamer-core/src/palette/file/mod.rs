@@ -598,6 +598,49 @@ impl PreparedSave {
     }
 }
 
+impl PreparedSave {
+    /// [`PreparedSave::stage`] for a command that ends once the save is in place ([`StagedEnd`]): the
+    /// text's pieces are freed as soon as they are written (before the sync, so that the memory serves
+    /// what the command formats next rather than fresh pages), and what the file would become is not kept.
+    pub fn stage_to_end(self, replace: crate::fsio::Replace) -> Result<StagedEnd, PaletteError> {
+        let PreparedSave { path, update } = self;
+        let write_error = |cause| PaletteError::Write { path: path.clone(), cause: Box::new(cause) };
+        let staged = match update {
+            Prepared::Tables(mut saved) => {
+                let pieces = std::mem::take(&mut saved.pieces);
+                drop(saved);
+                // Its pieces written one after another: the same bytes as the whole text.
+                crate::fsio::stage_writing(&path, crate::fsio::Name::User, replace, move |w| {
+                    let written = pieces.iter().try_for_each(|piece| std::io::Write::write_all(w, piece.as_bytes()));
+                    drop(pieces);
+                    written
+                })
+            }
+            Prepared::Document(both, text) => {
+                drop(both);
+                crate::fsio::stage_with(&path, text.as_bytes(), replace)
+            }
+        };
+        Ok(StagedEnd { staged: staged.map_err(write_error)?, path })
+    }
+}
+
+/// A palette save written and synced beside its file, for a command that ends once it is in place
+/// ([`PreparedSave::stage_to_end`]): it holds neither the text nor what the file would become.
+pub struct StagedEnd {
+    staged: crate::fsio::Staged,
+    path: PathBuf,
+}
+
+impl StagedEnd {
+    /// Put the save in place as [`StagedSave::commit_only_in`] does (the same checks, the rename, the
+    /// folder's sync left to `folders`).
+    pub fn commit_only_in(self, folders: &mut crate::fsio::FolderSync) -> Result<(), PaletteError> {
+        let StagedEnd { staged, path } = self;
+        staged.commit_in(folders).map_err(|cause| PaletteError::Write { path, cause: Box::new(cause) })
+    }
+}
+
 /// What the file becomes once a staged save is committed.
 enum Update {
     Tables(Box<tables::Saved>),
