@@ -609,7 +609,7 @@ impl<'a> RayContext<'a> {
         // bounds check) and held in locals rather than read through the classifier at every sample.
         let tables = |t: &'a [f32]| -> &'a [f32; LUT_BINS] { t.try_into().expect("a table per bin") };
         let (alpha_of, alpha_sub_of) = (tables(&classifier.alpha), tables(&classifier.alpha_sub));
-        let material_of: &[u8; LUT_BINS] = classifier.material[..LUT_BINS].try_into().expect("a material per bin");
+        let material_of: &[u8; LUT_BINS] = classifier.material.as_slice().try_into().expect("a material per bin");
         let per_code = &classifier.per_code;
         let refining = self.substeps > 1;
         // The lanes' shaded composite (below): shaded in the lanes, no gradient-dependent material.
@@ -802,7 +802,7 @@ impl<'a> RayContext<'a> {
     /// [`Self::march_values_avx2`] for its common case (`batched`: trilinear values shaded by the smooth
     /// gradient in the lanes, no gradient-dependent material), with the lane as the loop's index: a batch's
     /// per-sample lookups (brick class, bin, material, opacities, absorption, the refinement test against
-    /// the lane before) are made for all its lanes at once ([`lanes::prepare`]), and only what is
+    /// the lane before) are made for all its lanes at once ([`lanes::classes`], [`lanes::look_up`]), and only what is
     /// sequential along the ray is done sample by sample — the previous sample's edge at a batch's first
     /// lane or past a skipped brick, the refinement carry, the substeps, the shade where a lane is not
     /// shaded yet, the composite and the transmittance with early termination. The same operations on the
@@ -812,9 +812,8 @@ impl<'a> RayContext<'a> {
     #[inline(never)]
     fn march_values_batched<T: Voxel>(&self, data: &[T], ray: &Ray, out: &mut [f32], stats: &mut RaycastStats) {
         let Ray { origin, dir, t0, t1, jitter } = *ray;
-        let Some(fields) = self.fields else {
-            return self.march_values_in::<T, true>(data, ray, out, stats);
-        };
+        // `batched` is set only with the fields (smooth gradients); the general loop otherwise.
+        let Some(fields) = self.fields else { return self.march_values_avx2(data, ray, out, stats) };
         let ray_lanes = lanes::RayLanes { origin, dir, jitter, t1 };
         let brick_lanes = self.bricks.map(|(bm, _)| (bm.shift, bm.counts));
         let refining = self.substeps > 1;
@@ -841,7 +840,7 @@ impl<'a> RayContext<'a> {
                 Some(j) => j,
                 None => {
                     lanes::fill(&mut batch, &self.grid, self.volume.dims, brick_lanes, &ray_lanes, k);
-                    lanes::prepare(&mut batch, &self.grid, &tables, data);
+                    lanes::classes(&mut batch, &tables);
                     0
                 }
             };
@@ -851,6 +850,9 @@ impl<'a> RayContext<'a> {
             let stops = (!batch.within | batch.empty) & from;
             let end = if stops == 0 { lanes::LANES } else { stops.trailing_zeros() as usize };
             let run = from & ((1u32 << end) - 1);
+            if run != 0 && !batch.looked_up {
+                lanes::look_up(&mut batch, &self.grid, &tables, data);
+            }
             // Refined steps: lane j0's crossing from the previous sample (the lanes hold each lane's from the
             // lane before), the others' from the lanes before them in the run; the carry after a refined
             // entry into a dense material moves one lane on.
