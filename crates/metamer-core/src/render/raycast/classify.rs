@@ -7,18 +7,12 @@ use rayon::prelude::*;
 
 pub(super) const LUT_BINS: usize = 4096;
 
-/// The bit of a [`Classifier::bin_word`] set where the bin's material absorbs.
-pub(super) const ABSORBS_BIT: u32 = 8;
-
 /// The transfer function as lookup tables over the volume's value range, and per-brick emptiness.
 pub(super) struct Classifier {
     pub(super) lo: f32,
     pub(super) inv_bin: f32,
     /// Material index + 1 per bin (0 = nothing).
     pub(super) material: Vec<u8>,
-    /// Per bin, what the lanes gather of it (`lanes::prepare`): its material code in the low byte and,
-    /// in bit [`ABSORBS_BIT`], whether that material absorbs.
-    pub(super) bin_word: Vec<u32>,
     /// Step-corrected opacity per bin.
     pub(super) alpha: Vec<f32>,
     /// The same for a substep (a step split in `substeps`; equal to `alpha` when not split).
@@ -37,10 +31,6 @@ pub(super) struct Classifier {
     pub(super) per_code: [PerMaterial; 256],
     /// Whether some material's opacity depends on the gradient ([`PerMaterial::gradient_dependent`]).
     pub(super) gradient_dependent: bool,
-    /// Per material code: the bin a single-material brick's samples take ([`Self::material_bin`]; 0 for
-    /// a code of no material), as the lanes gather it.
-    pub(super) code_bin: [i32; 256],
-
     /// Per material: its step-corrected opacity (0 when it never shows).
     pub(super) material_alpha: Vec<f32>,
     /// Per material: its opacity corrected for a substep.
@@ -127,14 +117,6 @@ impl Classifier {
                 inv_max_gradient: m.max_gradient.map_or(0.0, |g| 1.0 / g.max(f32::EPSILON)),
             };
         }
-        let mut code_bin = [0i32; 256];
-        for (i, bin) in material_bin.iter().take(255).enumerate() {
-            code_bin[i + 1] = i32::from(*bin);
-        }
-        let bin_word = material
-            .iter()
-            .map(|&c| u32::from(c) | u32::from(per_code[usize::from(c)].absorbs) << ABSORBS_BIT)
-            .collect();
         let material_alpha = materials.iter().map(|m| corrected(m.opacity, step)).collect();
         let material_alpha_sub = materials.iter().map(|m| corrected(m.opacity, sub)).collect();
         Classifier {
@@ -148,8 +130,6 @@ impl Classifier {
             material_bin,
             materials: materials.len(),
             gradient_dependent: per_code.iter().any(PerMaterial::gradient_dependent),
-            code_bin,
-            bin_word,
             per_code,
             material_alpha,
             material_alpha_sub,
@@ -187,9 +167,6 @@ impl Classifier {
     }
 }
 
-/// Bytes after a [`BrickTable`]'s classes.
-pub(super) const CLASS_PAD: usize = 3;
-
 /// A brick no sample inside maps to a material: stepped over whole.
 pub(super) const EMPTY: u8 = 0;
 /// A brick whose values map to more than one material (or to a material and to nothing): sampled in
@@ -200,11 +177,7 @@ pub(super) const MIXED: u8 = u8::MAX;
 /// function as [`EMPTY`], one material (index + 1: no value reconstruction or lookup needed, no
 /// boundary to refine inside it) or [`MIXED`].
 pub(super) struct BrickTable {
-    /// Per brick (x fastest), then [`CLASS_PAD`] bytes of [`EMPTY`]: the lanes read a brick's class as the
-    /// 32-bit word that starts at it (`lanes::prepare`).
     pub(super) class: Vec<u8>,
-    /// The bricks (`class` without its padding).
-    pub(super) count: usize,
     pub(super) empty: usize,
     pub(super) uniform: usize,
 }
@@ -235,9 +208,7 @@ impl BrickTable {
         }
         let empty = class.iter().filter(|c| **c == EMPTY).count();
         let uniform = class.iter().filter(|c| **c != EMPTY && **c != MIXED).count();
-        let count = class.len();
-        class.resize(count + CLASS_PAD, EMPTY);
-        BrickTable { class, count, empty, uniform }
+        BrickTable { class, empty, uniform }
     }
 }
 

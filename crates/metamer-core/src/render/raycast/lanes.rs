@@ -1,18 +1,8 @@
 //! Several samples of one ray at once (x86-64 with AVX2, detected at run time): the value loop
 //! (`march.rs`) takes the next [`LANES`] samples of its ray in one batch — positions, where they fall
 //! (cell and fractions), the cell's eight voxels, the trilinear value and its bin — and then consumes
-//! them one by one with its scalar logic (brick table, refinement test, compositing, termination). In
-//! its common case (smooth-gradient shading, no gradient-dependent material) [`classes`] and
-//! [`look_up`] also make the per-sample lookups for the whole batch (brick class, material, opacities, absorption, the refinement
-//! test against the lane before, as bit masks), and the consumer (`march_values_batched`) visits only
-//! the lanes that are refined or of a material. A batch cut short by a skipped brick or by termination
-//! wastes its tail.
-//!
-//! That consumer takes about half the scalar one's instructions but little less time: on the engine CT
-//! at 384² (step 0.5, one thread) the whole process went from 2.657 G to 2.332 G instructions and its
-//! CPU time by 3 %. What is left of a sample's time is mostly the latency of dependent loads and gathers
-//! (the brick class before the bins, the voxels before the lerps, the gradient corners before the
-//! shade), which fewer instructions do not shorten.
+//! them one by one with its scalar logic (brick table, refinement test, compositing, termination). A
+//! batch cut short by a skipped brick or by termination wastes its tail.
 //!
 //! Every lane does the scalar path's operations in its order and precision (f64 positions, no fused
 //! multiply-add, the same clamps and truncations), so the frames are bit for bit those of the portable
@@ -32,7 +22,7 @@
 //! the largest): within the noise.
 
 use super::block::{FIELD_BRICK, S, S3, SHIFT};
-use super::classify::{ABSORBS_BIT, CLASS_PAD, Classifier, LUT_BINS, MIXED};
+use super::classify::{Classifier, LUT_BINS};
 use super::fields::CORNERS;
 use super::march::Grid;
 use super::view::View;
@@ -69,27 +59,6 @@ pub(super) struct Batch {
     /// Per lane, the shading of the smooth gradient ([`shade`]), where bit `lane` of `shaded` is set.
     pub(super) shade: [f32; LANES],
     pub(super) shaded: u32,
-    /// Bit per lane: the sample lies within the ray (`k + jitter ≤ t1`; set by [`fill`]).
-    pub(super) within: u32,
-    /// What [`look_up`] looked up for each lane, as the value loop's scalar consumer reads it per sample:
-    /// the material code (index + 1, 0 = none), the step opacity of the sample's bin (also the
-    /// refinement test's level) and its substep opacity.
-    pub(super) code: [u32; LANES],
-    pub(super) alpha: [f32; LANES],
-    pub(super) alpha_sub: [f32; LANES],
-    /// Bits per lane from [`classes`] (the first two) and [`look_up`]: in an empty brick; in a single-material brick; of a material
-    /// (code ≠ 0); of an absorbing material; a refinement crossing from lane − 1's sample to this one
-    /// (the bit of lane 0 is not set: its previous sample is the consumer's); a dense level.
-    pub(super) empty: u32,
-    pub(super) uniform: u32,
-    /// Per lane, the brick's class ([`classes`]), and whether [`look_up`] has run on this batch (the
-    /// fields above `empty` and below are its).
-    pub(super) class: [u32; LANES],
-    pub(super) looked_up: bool,
-    pub(super) nonzero: u32,
-    pub(super) absorbs: u32,
-    pub(super) cross: u32,
-    pub(super) dense: u32,
 }
 
 impl Default for Batch {
@@ -104,18 +73,6 @@ impl Default for Batch {
             classified: false,
             shade: [0.0; LANES],
             shaded: 0,
-            within: 0,
-            code: [0; LANES],
-            alpha: [0.0; LANES],
-            alpha_sub: [0.0; LANES],
-            empty: 0,
-            uniform: 0,
-            class: [0; LANES],
-            looked_up: false,
-            nonzero: 0,
-            absorbs: 0,
-            cross: 0,
-            dense: 0,
         }
     }
 }
@@ -149,8 +106,6 @@ pub(super) struct RayLanes {
     pub(super) origin: [f64; 3],
     pub(super) dir: [f64; 3],
     pub(super) jitter: f64,
-    /// The last step's place (`t1`): lanes past it are not [`Batch::within`] the ray.
-    pub(super) t1: f64,
 }
 
 /// Fill `batch` with the samples at steps `k .. k + LANES` of `ray` (samples past the ray's end are
@@ -169,17 +124,13 @@ pub(super) fn fill(
     batch.k0 = k;
     batch.shaded = 0;
     batch.classified = false;
-    batch.looked_up = false;
     let zero = _mm256_setzero_pd();
     let mut cell = [_mm_setzero_si128(); 6];
     let mut frac = [_mm_setzero_ps(); 6];
-    let mut within = 0;
     for h in 0..2 {
         let k4 = k + (4 * h) as f64;
         // Whole steps: k + j is exact, as the scalar loop's k += 1.
         let t = _mm256_add_pd(_mm256_set_pd(k4 + 3.0, k4 + 2.0, k4 + 1.0, k4), _mm256_set1_pd(ray.jitter));
-        // The scalar loop's condition k + jitter ≤ t1 (t1 is not NaN).
-        within |= (_mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(t, _mm256_set1_pd(ray.t1))) as u32) << (4 * h);
         for a in 0..3 {
             // origin + t·dir, multiplied then added (as the scalar path: no fused multiply-add).
             let p = _mm256_add_pd(_mm256_set1_pd(ray.origin[a]), _mm256_mul_pd(t, _mm256_set1_pd(ray.dir[a])));
@@ -192,7 +143,6 @@ pub(super) fn fill(
             cell[2 * a + h] = ti;
         }
     }
-    batch.within = within;
     let mut i = [_mm256_setzero_si256(); 3];
     let mut f = [_mm256_setzero_ps(); 3];
     for a in 0..3 {
@@ -349,137 +299,6 @@ pub(super) fn classify<T: Voxel>(batch: &mut Batch, grid: &Grid, classifier: &Cl
     let x = _mm256_min_ps(_mm256_max_ps(x, _mm256_setzero_ps()), _mm256_set1_ps((LUT_BINS - 1) as f32));
     // SAFETY: `batch.bin` holds eight u32, the bytes an unaligned store writes.
     unsafe { _mm256_storeu_si256(batch.bin.as_mut_ptr().cast(), _mm256_cvttps_epi32(x)) };
-}
-
-/// What [`classes`] and [`look_up`] look a batch's samples up in: one raycast's tables.
-pub(super) struct Tables<'a> {
-    /// The skipping bricks' classes (`EMPTY`, a material code, [`MIXED`]) indexed as [`Batch::brick`]
-    /// (filled with the same bricks), followed by [`CLASS_PAD`] more bytes; None without skipping (every
-    /// brick mixed).
-    class: Option<&'a [u8]>,
-    classifier: &'a Classifier,
-    /// Whether refinement is on, and the levels its crossing and dense tests compare with.
-    refining: bool,
-    min_alpha: f32,
-    dense: f32,
-}
-
-impl<'a> Tables<'a> {
-    /// `class`: the classes of `bricks` bricks (x fastest) and their padding.
-    pub(super) fn new(
-        class: Option<(&'a [u8], usize)>,
-        classifier: &'a Classifier,
-        refining: bool,
-        min_alpha: f32,
-        dense: f32,
-    ) -> Tables<'a> {
-        let class = class.map(|(class, bricks)| {
-            assert!(class.len() >= bricks + CLASS_PAD, "the brick classes are padded");
-            class
-        });
-        Tables { class, classifier, refining, min_alpha, dense }
-    }
-}
-
-/// The first part of the value loop's per-sample lookups, made for every lane of a [`fill`]ed `batch` at
-/// once as the scalar loop makes them for one sample. The lookups: the brick's class, the sample's bin (the trilinear value's, [`classify`]
-/// run when some lane is in a mixed brick, or a single-material brick's material's own), its material
-/// code, step and substep opacities, whether the material absorbs, and the refinement test against the
-/// previous lane's sample (`prev.material ≠ material && max(prev.level, level) ≥ min_alpha`) and the
-/// dense test (`level ≥ dense`): table reads and comparisons, no arithmetic on the values, so the
-/// consumer reads the very values the scalar loop would. A lane in an empty brick gets some bin's
-/// values (it is never composited).
-///
-/// In two parts: [`classes`] (the bricks' classes: enough to find the lanes in empty bricks) when the
-/// batch is filled, [`look_up`] (the rest) once a lane is to be taken, so that a batch whose first lanes
-/// lie in an empty brick stepped over beyond the batch costs no reconstruction.
-#[target_feature(enable = "avx2")]
-#[inline]
-pub(super) fn classes(batch: &mut Batch, tables: &Tables) {
-    let u = match tables.class {
-        // SAFETY: every lane's brick is below the bricks' count (`fill`: a cell starts at most at dims − 2),
-        // so the word that starts at its class ends within the padding (`Tables::new`); the index fits i32.
-        Some(class) => _mm256_and_si256(
-            unsafe {
-                _mm256_i32gather_epi32::<1>(class.as_ptr().cast(), _mm256_loadu_si256(batch.brick.as_ptr().cast()))
-            },
-            _mm256_set1_epi32(0xff),
-        ),
-        None => _mm256_set1_epi32(i32::from(MIXED)),
-    };
-    let empty = _mm256_cmpeq_epi32(u, _mm256_setzero_si256());
-    let mixed = _mm256_cmpeq_epi32(u, _mm256_set1_epi32(i32::from(MIXED)));
-    let (empty_bits, mixed_bits) =
-        (_mm256_movemask_ps(_mm256_castsi256_ps(empty)) as u32, _mm256_movemask_ps(_mm256_castsi256_ps(mixed)) as u32);
-    batch.empty = empty_bits;
-    batch.uniform = !(empty_bits | mixed_bits) & 0xff;
-    // SAFETY: `batch.class` holds eight u32, the bytes an unaligned store writes.
-    unsafe { _mm256_storeu_si256(batch.class.as_mut_ptr().cast(), u) };
-}
-
-/// The rest of the lookups, after [`classes`]: run once a batch's lane is to be taken. `data`: the voxels
-/// of the grid the batch was filled on ([`fits`] true for it).
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-pub(super) fn look_up<T: Voxel>(batch: &mut Batch, grid: &Grid, tables: &Tables, data: &[T]) {
-    batch.looked_up = true;
-    let classifier = tables.classifier;
-    let zero = _mm256_setzero_si256();
-    let byte = _mm256_set1_epi32(0xff);
-    // SAFETY: `batch.class` holds eight u32, the bytes an unaligned load reads.
-    let u = unsafe { _mm256_loadu_si256(batch.class.as_ptr().cast()) };
-    // A lane mask's bits (a macro: a closure does not take this function's target features).
-    macro_rules! bits {
-        ($m:expr) => {
-            _mm256_movemask_ps(_mm256_castsi256_ps($m)) as u32
-        };
-    }
-    let mixed = _mm256_cmpeq_epi32(u, _mm256_set1_epi32(i32::from(MIXED)));
-    let mixed_bits = bits!(mixed);
-    let uniform_bits = batch.uniform;
-    if mixed_bits != 0 && !batch.classified {
-        classify(batch, grid, classifier, data);
-    }
-    // The bins: the trilinear value's (mixed bricks), a material's own (single-material bricks).
-    // SAFETY: `batch.bin` holds eight u32, the bytes an unaligned load reads.
-    let mut bin = unsafe { _mm256_loadu_si256(batch.bin.as_ptr().cast()) };
-    if uniform_bits != 0 {
-        // SAFETY: a class is a byte, below the 256 entries of `code_bin`.
-        let own = unsafe { _mm256_i32gather_epi32::<4>(classifier.code_bin.as_ptr(), u) };
-        bin = _mm256_blendv_epi8(own, bin, mixed);
-    }
-    // Every bin is below LUT_BINS: the classifier's clamp, a material's bin, or 0 (a batch never classified).
-    assert!(
-        classifier.bin_word.len() >= LUT_BINS
-            && classifier.alpha.len() >= LUT_BINS
-            && classifier.alpha_sub.len() >= LUT_BINS,
-        "a word and opacities per bin"
-    );
-    // SAFETY: the bins are below LUT_BINS, inside each table as asserted.
-    let (word, alpha, alpha_sub) = unsafe {
-        (
-            _mm256_i32gather_epi32::<4>(classifier.bin_word.as_ptr().cast(), bin),
-            _mm256_i32gather_ps::<4>(classifier.alpha.as_ptr(), bin),
-            _mm256_i32gather_ps::<4>(classifier.alpha_sub.as_ptr(), bin),
-        )
-    };
-    // A single-material brick's lanes take its class, whose own bin's material it is.
-    let code = _mm256_and_si256(word, byte);
-    batch.nonzero = !bits!(_mm256_cmpeq_epi32(code, zero)) & 0xff;
-    batch.absorbs = bits!(_mm256_slli_epi32::<{ 31 - ABSORBS_BIT as i32 }>(word));
-    // Each lane against the lane before it (lane 0 against itself: its bit is cleared).
-    let before = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
-    let same = bits!(_mm256_cmpeq_epi32(code, _mm256_permutevar8x32_epi32(code, before)));
-    let level = _mm256_max_ps(_mm256_permutevar8x32_ps(alpha, before), alpha);
-    let thick = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(level, _mm256_set1_ps(tables.min_alpha))) as u32;
-    batch.cross = if tables.refining { !same & thick & 0xfe } else { 0 };
-    batch.dense = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(alpha, _mm256_set1_ps(tables.dense))) as u32;
-    // SAFETY: each destination holds eight 32-bit lanes, the bytes an unaligned store writes.
-    unsafe {
-        _mm256_storeu_si256(batch.code.as_mut_ptr().cast(), code);
-        _mm256_storeu_ps(batch.alpha.as_mut_ptr(), alpha);
-        _mm256_storeu_ps(batch.alpha_sub.as_mut_ptr(), alpha_sub);
-    }
 }
 
 /// Shade the lanes from `from` on whose cells lie in the field brick of lane `from`'s (block entries

@@ -256,10 +256,6 @@ pub(super) struct RayContext<'a> {
     /// Value classes take their samples several at a time (AVX2 detected, the volume fits the lanes:
     /// [`super::lanes`]); false: the portable loop. The frames are the same.
     pub(crate) lanes: bool,
-    /// With `lanes`: the value loop's common case (trilinear values shaded by the smooth gradient, no
-    /// gradient-dependent material) runs [`Self::march_values_batched`], which looks its samples up a
-    /// batch at a time. The frames are the same.
-    pub(crate) batched: bool,
     pub(crate) width: usize,
     pub(crate) height: usize,
 }
@@ -509,10 +505,6 @@ impl<'a> RayContext<'a> {
             Interpolation::Trilinear | Interpolation::Nearest => crate::with_voxels!(&self.volume.voxels, data => {
                 #[cfg(target_arch = "x86_64")]
                 if self.lanes {
-                    if self.batched {
-                        // SAFETY: as below; `batched` is set only with `lanes`.
-                        return unsafe { self.march_values_batched(data, &ray, out, stats) };
-                    }
                     // SAFETY: `lanes` is set only where AVX2 was detected (`super::lanes::detected`).
                     return unsafe { self.march_values_avx2(data, &ray, out, stats) };
                 }
@@ -595,7 +587,7 @@ impl<'a> RayContext<'a> {
         #[cfg(target_arch = "x86_64")]
         let mut batch = lanes::Batch::default();
         #[cfg(target_arch = "x86_64")]
-        let ray_lanes = lanes::RayLanes { origin, dir, jitter, t1 };
+        let ray_lanes = lanes::RayLanes { origin, dir, jitter };
         // Value reconstruction in the lanes: trilinear only (the nearest voxel is read by the scalar path).
         let values = self.options.interpolation == Interpolation::Trilinear;
         let brick_lanes = self.bricks.map(|(bm, _)| (bm.shift, bm.counts));
@@ -791,151 +783,6 @@ impl<'a> RayContext<'a> {
                 break;
             }
             k += 1.0;
-        }
-        stats.samples += samples;
-        stats.uniform += uniform_samples;
-        stats.skipped += skipped;
-        stats.skipped_bricks += skipped_bricks;
-        debug_assert!(out.len() == self.n_mat);
-    }
-
-    /// [`Self::march_values_avx2`] for its common case (`batched`: trilinear values shaded by the smooth
-    /// gradient in the lanes, no gradient-dependent material), with the lane as the loop's index: a batch's
-    /// per-sample lookups (brick class, bin, material, opacities, absorption, the refinement test against
-    /// the lane before) are made for all its lanes at once ([`lanes::classes`], [`lanes::look_up`]), and only what is
-    /// sequential along the ray is done sample by sample — the previous sample's edge at a batch's first
-    /// lane or past a skipped brick, the refinement carry, the substeps, the shade where a lane is not
-    /// shaded yet, the composite and the transmittance with early termination. The same operations on the
-    /// same values in the same order as the scalar loop: the same frame, bit for bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline(never)]
-    fn march_values_batched<T: Voxel>(&self, data: &[T], ray: &Ray, out: &mut [f32], stats: &mut RaycastStats) {
-        let Ray { origin, dir, t0, t1, jitter } = *ray;
-        // `batched` is set only with the fields (smooth gradients); the general loop otherwise.
-        let Some(fields) = self.fields else { return self.march_values_avx2(data, ray, out, stats) };
-        let ray_lanes = lanes::RayLanes { origin, dir, jitter, t1 };
-        let brick_lanes = self.bricks.map(|(bm, _)| (bm.shift, bm.counts));
-        let refining = self.substeps > 1;
-        let tables = lanes::Tables::new(
-            self.bricks.map(|(bm, table)| (table, bm.counts[0] * bm.counts[1] * bm.counts[2])),
-            self.classifier,
-            refining,
-            Edge::MIN_ALPHA,
-            Edge::DENSE,
-        );
-        let mut batch = lanes::Batch::default();
-        let mut k = (t0 - jitter).ceil();
-        let mut transmittance = 1.0f32;
-        // The previous sample's edge (material code and level; none before the first sample and past a
-        // skipped brick), and whether the step after a refined entry into a dense material is refined too.
-        let (mut prev_code, mut prev_level) = (0u32, 0f32);
-        let mut carry = false;
-        let mut cursor = Cursor::default();
-        let (mut samples, mut uniform_samples, mut skipped, mut skipped_bricks) = (0u64, 0u64, 0u64, 0u64);
-        // Every material code is at most the classifier's count of materials, which `out` holds.
-        assert!(out.len() >= self.classifier.materials, "a weight per material");
-        'ray: while k + jitter <= t1 {
-            let j0 = match batch.lane(k) {
-                Some(j) => j,
-                None => {
-                    lanes::fill(&mut batch, &self.grid, self.volume.dims, brick_lanes, &ray_lanes, k);
-                    lanes::classes(&mut batch, &tables);
-                    0
-                }
-            };
-            let k0 = batch.k0;
-            // The run: the lanes from j0 up to the first past the ray's end or in an empty brick.
-            let from = (0xffu32 << j0) & 0xff;
-            let stops = (!batch.within | batch.empty) & from;
-            let end = if stops == 0 { lanes::LANES } else { stops.trailing_zeros() as usize };
-            let run = from & ((1u32 << end) - 1);
-            if run != 0 && !batch.looked_up {
-                lanes::look_up(&mut batch, &self.grid, &tables, data);
-            }
-            // Refined steps: lane j0's crossing from the previous sample (the lanes hold each lane's from the
-            // lane before), the others' from the lanes before them in the run; the carry after a refined
-            // entry into a dense material moves one lane on.
-            let j = j0 % lanes::LANES;
-            let first = refining && prev_code != batch.code[j] && prev_level.max(batch.alpha[j]) >= Edge::MIN_ALPHA;
-            let cross = ((batch.cross & !(1u32 << j0)) | (u32::from(first) << j0)) & run;
-            let carried = cross & batch.dense;
-            let refined = (cross | (carried << 1) | (u32::from(carry) << j0)) & run;
-            // Only the lanes refined or of a material do anything beyond being counted; in order.
-            let mut todo = (refined | batch.nonzero) & run;
-            while todo != 0 {
-                let j = todo.trailing_zeros() as usize % lanes::LANES;
-                todo &= todo - 1;
-                let bit = 1u32 << j;
-                // The lanes taken up to this one, counted where the ray stops here.
-                let taken = run & ((bit << 1) - 1);
-                let refine = refined & bit != 0;
-                if refine {
-                    // The step from the previous sample to this one crosses a boundary: composite it as
-                    // `substeps` substeps ending at this sample (which is the last of them).
-                    let t = k0 + j as f64 + jitter;
-                    let (n, stop) = self.value_substeps(data, ray, t, &mut transmittance, out, &mut cursor, stats);
-                    samples += n;
-                    if stop {
-                        samples += u64::from(taken.count_ones());
-                        uniform_samples += u64::from((taken & batch.uniform).count_ones());
-                        break 'ray;
-                    }
-                }
-                if batch.nonzero & bit != 0 {
-                    let alpha = if refine { batch.alpha_sub[j] } else { batch.alpha[j] };
-                    if batch.shaded & bit == 0 {
-                        let i = [batch.i[0][j] as usize, batch.i[1][j] as usize, batch.i[2][j] as usize];
-                        let (block, base) = fields.block(i, &mut cursor);
-                        lanes::shade(&mut batch, j, &block.grad, base, fields.scale, self.view, self.ambient);
-                    }
-                    let code = batch.code[j] as usize;
-                    debug_assert!((1..=self.classifier.materials).contains(&code));
-                    // SAFETY: a lane of a material holds its code, 1 ..= the classifier's materials, which
-                    // `out` holds (asserted above).
-                    let o = unsafe { out.get_unchecked_mut(code - 1) };
-                    *o += transmittance * alpha * batch.shade[j];
-                    // `attenuate` for an absorbing material's opacity.
-                    if batch.absorbs & bit != 0 && alpha > 0.0 {
-                        transmittance *= 1.0 - alpha;
-                        if transmittance < self.stop_below {
-                            stats.terminated += 1;
-                            samples += u64::from(taken.count_ones());
-                            uniform_samples += u64::from((taken & batch.uniform).count_ones());
-                            break 'ray;
-                        }
-                    }
-                }
-            }
-            samples += u64::from(run.count_ones());
-            uniform_samples += u64::from((run & batch.uniform).count_ones());
-            if end > j0 {
-                carry = carried & (1u32 << (end - 1)) != 0;
-            }
-            if end < lanes::LANES {
-                if batch.within & (1u32 << end) == 0 {
-                    break 'ray;
-                }
-                // Lane `end` lies in an empty brick: step past it.
-                let Some((bm, _)) = self.bricks else { unreachable!("an empty brick without bricks") };
-                let sh = bm.shift;
-                let b = [
-                    (batch.i[0][end] >> sh) as usize,
-                    (batch.i[1][end] >> sh) as usize,
-                    (batch.i[2][end] >> sh) as usize,
-                ];
-                (prev_code, prev_level) = (0, 0.0);
-                carry = false;
-                let kj = k0 + end as f64;
-                let next = brick_exit(origin, dir, b, bm.size, jitter, kj);
-                skipped += (next - kj) as u64;
-                skipped_bricks += 1;
-                k = next;
-                continue;
-            }
-            // Every lane from j0 on taken: the next batch follows this one.
-            (prev_code, prev_level) = (batch.code[lanes::LANES - 1], batch.alpha[lanes::LANES - 1]);
-            k = k0 + lanes::LANES as f64;
         }
         stats.samples += samples;
         stats.uniform += uniform_samples;

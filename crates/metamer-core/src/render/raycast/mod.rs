@@ -426,7 +426,7 @@ pub(super) fn raycast_with(
     let reachable = bricks
         .zip(table.as_ref())
         .filter(|(b, _)| !labels && b.size == block::FIELD_BRICK)
-        .map(|(_, t)| t.count - t.empty);
+        .map(|(_, t)| t.class.len() - t.empty);
     let mut fields = (gradients || labels).then(|| Fields::new(volume, &classifier, kind, gradients, cap, reachable));
     if let Some(f) = fields.as_mut() {
         f.avx2 = lanes;
@@ -449,12 +449,6 @@ pub(super) fn raycast_with(
         stop_below: if options.early_termination { options.termination_transmittance as f32 } else { 0.0 },
         n_mat,
         lanes: lanes && lanes_fit(volume),
-        batched: lanes
-            && lanes_fit(volume)
-            && fields.is_some()
-            && options.interpolation == Interpolation::Trilinear
-            && gradients
-            && !classifier.gradient_dependent,
         width: w,
         height: h,
     };
@@ -518,7 +512,8 @@ pub(super) fn raycast_with(
         stats.field_store = if room.is_some() { FieldStore::Capped { rows } } else { FieldStore::Pinned };
     }
     if let Some(t) = &table {
-        (stats.bricks, stats.empty_bricks, stats.uniform_bricks) = (t.count as u64, t.empty as u64, t.uniform as u64);
+        (stats.bricks, stats.empty_bricks, stats.uniform_bricks) =
+            (t.class.len() as u64, t.empty as u64, t.uniform as u64);
     }
     (MaterialWeights { width: w, height: h, materials: n_mat, data }, stats)
 }

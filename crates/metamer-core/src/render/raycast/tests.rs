@@ -523,11 +523,9 @@ fn max_gradient_keeps_flat_smoke_and_drops_the_skin_of_steep_boundaries() {
 /// cell gradient or unshaded, trilinear or nearest, with a gradient-dependent material, at steps that put
 /// samples anywhere in their cells and refine a step into one or several substeps, and on volumes where
 /// rays graze the last cells (values up to the far faces, axis-aligned views, cells clamped at dims − 2)
-/// or whose first voxels the lanes read near (a grid two voxels wide, a grid one voxel thick). The
-/// smooth-gradient settings without a gradient-dependent material run the batched consumer
-/// (`march_values_batched`: lookups a batch at a time); rays stopped early within a batch, a material
-/// that does not absorb and bricks small enough to be single-material or empty for a few lanes test its
-/// runs, carries and counts.
+/// or whose first voxels the lanes read near (a grid two voxels wide, a grid one voxel thick), with rays
+/// stopped early within a batch, a material that does not absorb, and bricks small enough to be
+/// single-material or empty for a few lanes of a batch.
 #[test]
 fn samples_taken_in_lanes_give_the_portable_frame_bit_for_bit() {
     if !lanes_detected() {
