@@ -165,8 +165,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let saved_context = |out: &Path| format!("{}: cannot write the solved palette", out.display());
     // The solved palette is staged on a thread of its own: its text was formatted on the pool's threads, and
     // its write and fsync (mostly waiting for the disk) then block that thread, not a pool thread. The report
-    // is staged on this thread meanwhile, the table formatted on a third. (Staging it from inside the solve,
-    // on a thread started there, was measured slower: 0.93 against 0.98–1.01 of the previous binary's wall.)
+    // is staged on this thread meanwhile, the table formatted on a third. (Staging it from a thread started
+    // inside the solve was measured slower: 0.984 and 1.008 of the previous binary's wall in two runs, against
+    // 0.927 and 1.000 without; docs/solve_performance.md.)
     let (unphysical, spectra_pieces) = match early_spectra {
         Some((bad, pieces)) => (bad, Some(pieces)),
         None => (Unphysical::of(&solution.palette), None),

@@ -478,9 +478,7 @@ impl PaletteFile {
     /// command that commits other outputs after this one.
     pub fn commit_in(&mut self, save: StagedSave, folders: &mut crate::fsio::FolderSync) -> Result<(), PaletteError> {
         let StagedSave { staged, path, update } = save;
-        staged
-            .commit_in(folders)
-            .map_err(|cause| PaletteError::Write { path: path.clone(), cause: Box::new(cause) })?;
+        StagedEnd { staged, path: path.clone() }.commit_only_in(folders)?;
         match update {
             Update::Tables(saved) => {
                 let saved = *saved;
@@ -559,7 +557,7 @@ impl StagedSave {
     /// palette not built).
     pub fn commit_only_in(self, folders: &mut crate::fsio::FolderSync) -> Result<(), PaletteError> {
         let StagedSave { staged, path, update: _ } = self;
-        staged.commit_in(folders).map_err(|cause| PaletteError::Write { path, cause: Box::new(cause) })
+        StagedEnd { staged, path }.commit_only_in(folders)
     }
 }
 
@@ -633,8 +631,9 @@ pub struct StagedEnd {
 }
 
 impl StagedEnd {
-    /// Put the save in place as [`StagedSave::commit_only_in`] does (the same checks, the rename, the
-    /// folder's sync left to `folders`).
+    /// Put the save in place: the checks and the rename of [`crate::fsio::Staged::commit_in`], the folder's
+    /// sync left to `folders`. The one place a staged palette save is put in place ([`StagedSave`]'s
+    /// commits and [`PaletteFile::commit_in`] come here).
     pub fn commit_only_in(self, folders: &mut crate::fsio::FolderSync) -> Result<(), PaletteError> {
         let StagedEnd { staged, path } = self;
         staged.commit_in(folders).map_err(|cause| PaletteError::Write { path, cause: Box::new(cause) })
