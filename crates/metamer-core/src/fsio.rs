@@ -264,7 +264,7 @@ pub fn escape_lines(text: &str) -> Cow<'_, str> {
 
 fn escape_keeping(text: &str, keep_lines: bool) -> Cow<'_, str> {
     let bad = |c: char| c.is_control() && !(keep_lines && (c == '\n' || c == '\t')) || is_bidi_control(c);
-    if !text.chars().any(bad) {
+    if !needs_escape(text.as_bytes(), keep_lines) {
         return Cow::Borrowed(text);
     }
     let mut out = String::with_capacity(text.len() + 16);
@@ -281,6 +281,41 @@ fn escape_keeping(text: &str, keep_lines: bool) -> Cow<'_, str> {
         }
     }
     Cow::Owned(out)
+}
+
+/// Does UTF-8 `text` hold a character [`escape_keeping`] escapes: a control character (U+0000–U+001F,
+/// U+007F–U+009F; line feeds and tabs kept when `keep_lines`) or a bidirectional control? The same answer
+/// as testing each `char`, a run of 32 bytes at a time: a run of printable ASCII (nearly all of a solve's
+/// table of 3600 cells, 447 KB; decoding it a `char` at a time was 20 instructions a byte) is passed over
+/// by comparisons the compiler does on the whole run at once, and only a run with another byte below a
+/// space, DEL or a non-ASCII byte is looked at byte by byte. In UTF-8 a character's first byte tells it: U+0080–
+/// U+009F are `C2 80`–`C2 9F`, U+202A–U+202E `E2 80 AA`–`E2 80 AE`, U+2066–U+2069 `E2 81 A6`–`E2 81 A9`,
+/// and a continuation byte (80–BF) is never C2 or E2.
+fn needs_escape(text: &[u8], keep_lines: bool) -> bool {
+    const RUN: usize = 32;
+    // What needs a closer look: a byte below a space (but a kept line feed or tab), DEL, a non-ASCII byte.
+    let odd = |c: u8| (c < b' ' && !(keep_lines && (c == b'\n' || c == b'\t'))) || c >= 0x7f;
+    let bad_at = |i: usize| -> bool {
+        match text[i] {
+            b'\n' | b'\t' => !keep_lines,
+            c if c < b' ' || c == 0x7f => true,
+            0xC2 => matches!(text.get(i + 1), Some(0x80..=0x9F)),
+            0xE2 => matches!(
+                (text.get(i + 1), text.get(i + 2)),
+                (Some(0x80), Some(0xAA..=0xAE)) | (Some(0x81), Some(0xA6..=0xA9))
+            ),
+            _ => false,
+        }
+    };
+    let mut at = 0;
+    for run in text.chunks(RUN) {
+        // No early exit inside the run, so that the comparisons are made on the whole run at once.
+        if run.iter().fold(false, |any, &c| any | odd(c)) && (at..at + run.len()).any(bad_at) {
+            return true;
+        }
+        at += run.len();
+    }
+    false
 }
 
 /// Bidirectional overrides and isolates, which reorder what a terminal shows.
@@ -1056,6 +1091,37 @@ mod tests {
         assert_eq!(escape("plain"), "plain");
         assert_eq!(escape_lines("a\nb\x1b"), "a\nb\\u{1b}");
         assert_eq!(escape("a\nb"), "a\\nb");
+    }
+
+    /// The byte scan ([`needs_escape`]) answers as testing every `char` does: every character around the
+    /// ones escaped (each control, each bidirectional control and their neighbours in the code space, the
+    /// other characters of two and three bytes starting C2 or E2, four-byte ones), alone and at every
+    /// position of texts longer than a run, so that a character also straddles the runs' boundaries.
+    #[test]
+    fn the_byte_scan_finds_what_the_char_test_finds() {
+        let by_chars = |text: &str, keep: bool| {
+            text.chars().any(|c| c.is_control() && !(keep && (c == '\n' || c == '\t')) || is_bidi_control(c))
+        };
+        let mut probes: Vec<char> = (0u32..0x2ff).chain(0x2000..0x2100).filter_map(char::from_u32).collect();
+        probes.extend(['\u{ffff}', '\u{1f600}', '\u{10ffff}', 'Δ', '—', '…', '×']);
+        // A table's characters, with and without its line feeds and tabs.
+        let fillers = ["light r0 #7097e6 0.1618 ΔE00 ", "light\tr0 #7097e6 0.1618 ΔE00\n"];
+        for &c in &probes {
+            for keep in [false, true] {
+                let alone = c.to_string();
+                assert_eq!(needs_escape(alone.as_bytes(), keep), by_chars(&alone, keep), "{c:?} {keep}");
+            }
+        }
+        for (at, filler) in (0..70).flat_map(|at| fillers.map(|f| (at, f))) {
+            for &c in &probes {
+                let mut text: String = filler.chars().cycle().take(at).collect();
+                text.push(c);
+                text.extend(filler.chars().cycle().take(40));
+                for keep in [false, true] {
+                    assert_eq!(needs_escape(text.as_bytes(), keep), by_chars(&text, keep), "{c:?} at {at} {keep}");
+                }
+            }
+        }
     }
 
     #[cfg(unix)]
