@@ -175,7 +175,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Taken by the thread that finishes it (a closure of `beside` must be `Copy`).
     let prepared = std::sync::Mutex::new(prepared);
     let spectra_pieces = std::sync::Mutex::new(spectra_pieces);
-    let (saved, table, report) = std::thread::scope(|scope| {
+    // Both renames first, then each distinct folder synced once (one sync when both outputs share a
+    // folder, as they usually do); a failed second commit still syncs the first's folder (on drop).
+    let commit = |saved: anyhow::Result<Option<crate::palette::StagedEnd>>,
+                  report: anyhow::Result<Option<crate::fsio::Staged>>|
+     -> anyhow::Result<()> {
+        let (saved, report) = (saved?, report?);
+        let mut folders = crate::fsio::FolderSync::default();
+        if let (Some(staged), Some(out)) = (saved, &args.output) {
+            // The command ends here: the file need not become what was written (its new text joined, its new
+            // palette built).
+            staged.commit_only_in(&mut folders).with_context(|| saved_context(out))?;
+        }
+        if let Some(staged) = report {
+            staged.commit_in(&mut folders).context("cannot write the report")?;
+        }
+        folders.sync();
+        Ok(())
+    };
+    let (committed, table) = std::thread::scope(|scope| {
         let saved = beside(scope, || {
             let prepared = prepared.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
             match (prepared, &args.output) {
@@ -191,7 +209,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 let _ = writeln!(t, "feasibility: {}", f.line);
             }
             // Names in the table are the user's: control characters are shown escaped. Here rather than
-            // when it is printed, after the outputs are in place, with the other core idle.
+            // when it is printed, after the outputs are in place.
             match crate::fsio::escape_lines(&t) {
                 std::borrow::Cow::Borrowed(_) => t,
                 std::borrow::Cow::Owned(escaped) => escaped,
@@ -210,21 +228,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             None => Ok(None),
         };
-        (saved.join(), table.join(), report)
+        // The outputs are put in place while the table may still be rendered (it is printed after them).
+        let committed = commit(saved.join(), report);
+        (committed, table.join())
     });
-    let (saved, report) = (saved?, report?);
-    // Both renames first, then each distinct folder synced once (one sync when both outputs share a
-    // folder, as they usually do); a failed second commit still syncs the first's folder (on drop).
-    let mut folders = crate::fsio::FolderSync::default();
-    if let (Some(staged), Some(out)) = (saved, &args.output) {
-        // The command ends here: the file need not become what was written (its new text joined, its new
-        // palette built).
-        staged.commit_only_in(&mut folders).with_context(|| saved_context(out))?;
-    }
-    if let Some(staged) = report {
-        staged.commit_in(&mut folders).context("cannot write the report")?;
-    }
-    folders.sync();
+    committed?;
     let printed = print_table(&table, &solution, args.output.as_deref(), seconds);
     // The process ends here: the model, the solution and the table are left to the exit rather than freed
     // one allocation at a time (a 1200-design batch's are about 1 M instructions of `free`, after every
