@@ -359,8 +359,9 @@ fn fixed_digits(x: f64, decimals: usize) -> Option<([u8; 24], usize)> {
     if !x.is_finite() {
         return None;
     }
+    // Finite: x is, and p is at most 10⁶.
     let y = x.abs() * p as f64;
-    if !(y < (1u64 << 40) as f64) {
+    if y >= (1u64 << 40) as f64 {
         return None;
     }
     // The floor by truncation (y ≥ 0), and y − floor(y) exact as in `Fixed`; away from a half, the nearest
