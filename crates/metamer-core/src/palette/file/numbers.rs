@@ -226,17 +226,19 @@ fn numbers_into(t: &str, i: usize, values: &mut Vec<f64>) -> Option<usize> {
 /// by the standard library: the same bits either way.
 pub(super) fn number(t: &str, start: usize) -> Option<(usize, f64)> {
     let b = t.as_bytes();
-    // A run of digits from `i`, at least one: where it ends, with its digits added to `digits` (the first 19
-    // in `m`, as an integer).
+    // A run of digits from `i`, at least one: where it ends, with its digits added to `digits` (`m` is their
+    // integer while they are at most 19, and wraps around beyond: [`exact`] then does not read it).
     let run = |mut i: usize, digits: &mut Digits| {
         let from = i;
-        while let Some(d) = b.get(i).map(|c| c.wrapping_sub(b'0')).filter(|&d| d < 10) {
-            if digits.count < 19 {
-                digits.m = digits.m * 10 + u64::from(d);
+        while let Some(&c) = b.get(i) {
+            let d = c.wrapping_sub(b'0');
+            if d >= 10 {
+                break;
             }
-            digits.count += 1;
+            digits.m = digits.m.wrapping_mul(10).wrapping_add(u64::from(d));
             i += 1;
         }
+        digits.count += i - from;
         (i > from).then_some(i)
     };
     let mut digits = Digits { m: 0, count: 0 };
@@ -285,7 +287,7 @@ pub(super) fn number(t: &str, start: usize) -> Option<(usize, f64)> {
     x.is_finite().then_some((i, x))
 }
 
-/// A number's digits (integer part and fraction): how many, and the first 19 as an integer.
+/// A number's digits (integer part and fraction): how many, and as an integer when they are at most 19.
 struct Digits {
     m: u64,
     count: usize,
