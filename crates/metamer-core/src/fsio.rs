@@ -552,12 +552,32 @@ pub fn read_capped(path: &Path, kind: Kind, cap: u64) -> Result<Vec<u8>, FsError
     // The opened file is what counts (the path may have been swapped in between).
     let meta = file.metadata().map_err(io)?;
     check_input(path, kind, cap, &meta)?;
-    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
-    file.take(cap.saturating_add(1)).read_to_end(&mut bytes).map_err(io)?;
+    let mut reader = file.take(cap.saturating_add(1));
+    let bytes = read_sized(&mut reader, usize::try_from(meta.len()).unwrap_or(0)).map_err(io)?;
     if bytes.len() as u64 > cap {
         return Err(FsError::TooLarge { path: path.to_path_buf(), kind, size: bytes.len() as u64, cap });
     }
     note_seen(path, kind, &meta, Some(&bytes));
+    Ok(bytes)
+}
+
+/// Everything `reader` gives, expecting `size` bytes: read in one call of that size, then to the end (one more
+/// call that finds nothing, unless the file grew; `reader` bounds what is read). `read_to_end` alone reads a
+/// reader whose size it is not told (a `Take`) in calls of 8 KiB doubling: eight calls for a 0.7 MB palette.
+fn read_sized(reader: &mut impl Read, size: usize) -> std::io::Result<Vec<u8>> {
+    // Zeroed, not written: an allocation this large is fresh memory the allocator knows to be zero.
+    let mut bytes = vec![0; size];
+    let mut filled = 0;
+    while filled < size {
+        match reader.read(&mut bytes[filled..]) {
+            Ok(0) => break,
+            Ok(n) => filled += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    bytes.truncate(filled);
+    reader.read_to_end(&mut bytes)?;
     Ok(bytes)
 }
 
@@ -1084,6 +1104,41 @@ pub fn folder_of(path: &Path) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_file_is_read_whole_whatever_size_it_was_said_to_have() {
+        /// Gives at most 7000 bytes a call, and is interrupted once.
+        struct Trickle<'a>(&'a [u8], bool);
+        impl Read for Trickle<'_> {
+            fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+                if !self.1 {
+                    self.1 = true;
+                    return Err(std::io::ErrorKind::Interrupted.into());
+                }
+                let n = buf.len().min(7000).min(self.0.len());
+                buf[..n].copy_from_slice(&self.0[..n]);
+                self.0 = &self.0[n..];
+                Ok(n)
+            }
+        }
+        let text: Vec<u8> = (0..100_000u32).map(|i| (i % 251) as u8).collect();
+        // The size told may be right, or wrong because the file changed since its size was read.
+        for size in [0, 1, 4096, 99_999, 100_000, 100_001, 300_000] {
+            assert_eq!(read_sized(&mut Trickle(&text, false), size).unwrap(), text, "{size}");
+            assert_eq!(read_sized(&mut &text[..], size).unwrap(), text, "{size}");
+            // What bounds the reader bounds what is read.
+            assert_eq!(read_sized(&mut (&text[..]).take(5000), size).unwrap(), &text[..5000], "{size}");
+        }
+    }
+
+    #[test]
+    fn a_file_over_its_cap_is_refused_and_one_at_it_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.toml");
+        std::fs::write(&path, vec![b'x'; 5000]).unwrap();
+        assert_eq!(read_capped(&path, Kind::Palette, 5000).unwrap().len(), 5000);
+        assert!(matches!(read_capped(&path, Kind::Palette, 4999), Err(FsError::TooLarge { size: 5000, .. })));
+    }
 
     #[test]
     fn escape_shows_control_characters() {
