@@ -290,14 +290,10 @@ fn products_without_the_zero_chunks_give_nalgebras_bits() {
     let bits_of = |v: &DVector<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     for (m, n) in [(40, 31), (12, 9), (17, 16), (24, 5), (33, 8), (9, 31), (48, 40), (7, 3)] {
         for dense in 0..m {
+            // Row i ≥ dense: entries near column i − dense only (a band of three), most of them nonzero.
+            let in_band = |i: usize, j: usize| i < dense || (j + 1 >= i - dense && j <= i - dense + 1);
             let a = DMatrix::from_fn(m, n, |i, j| {
-                if i < dense {
-                    value(&mut seed)
-                } else if j + 1 >= i - dense && j <= i - dense + 1 && lcg(&mut seed) < 0.9 {
-                    value(&mut seed)
-                } else {
-                    zero(&mut seed)
-                }
+                if in_band(i, j) && (i < dense || lcg(&mut seed) < 0.9) { value(&mut seed) } else { zero(&mut seed) }
             });
             let chunks = kernels::ZeroChunks::of(&a).expect("a finite matrix");
             for case in 0..4 {
