@@ -60,6 +60,9 @@ pub struct Factor {
     pub(crate) h: DMatrix<f64>,
     /// `σ_max/σ_min` of A; infinite when A has fewer rows than columns or a zero singular value.
     pub(crate) cond: f64,
+    /// Where A's columns are zero (a design's smoothness rows are sparse), for the products `Aᵀv` with
+    /// nalgebra's bits that leave those zeros out; None when A is not finite.
+    pub(crate) tail: Option<kernels::ZeroChunks>,
     /// Cholesky factors of `H_FF` by free set F, shared by the systems that share this factorisation.
     pub(crate) free_sets: FreeSets,
     /// `H⁻¹` and the factor of all of H for the guess of the active set (`lsq/guess.rs`), made on first
@@ -70,7 +73,14 @@ pub struct Factor {
 impl Factor {
     pub fn new(a: &DMatrix<f64>) -> Factor {
         let (pinv, cond) = svd_pseudo_inverse(a);
-        Factor { pinv, h: a.tr_mul(a), cond, free_sets: FreeSets::default(), dual: std::sync::OnceLock::new() }
+        Factor {
+            pinv,
+            h: a.tr_mul(a),
+            cond,
+            tail: kernels::ZeroChunks::of(a),
+            free_sets: FreeSets::default(),
+            dual: std::sync::OnceLock::new(),
+        }
     }
 
     fn dual(&self) -> Option<&Dual> {
@@ -176,10 +186,20 @@ impl Gradient for Objective<'_> {
     }
 }
 
-/// The scaled KKT residual of x (see [`LsqOutcome::kkt`]) from its residual `r = Ax − b`.
-fn kkt_of(sys: &LinearSystem, x: &DVector<f64>, r: &DVector<f64>, grad_scale: f64) -> f64 {
+/// The scaled KKT residual of x (see [`LsqOutcome::kkt`]) from its residual `r = Ax − b`; `tail` is
+/// [`Factor::tail`] of `sys.a` (the same bits either way).
+fn kkt_of(
+    sys: &LinearSystem,
+    tail: Option<&kernels::ZeroChunks>,
+    x: &DVector<f64>,
+    r: &DVector<f64>,
+    grad_scale: f64,
+) -> f64 {
     let mut g = DVector::zeros(sys.a.ncols());
-    kernels::gemv_tr(&sys.a, r.as_slice(), g.as_mut_slice());
+    match tail {
+        Some(tail) => kernels::gemv_tr_zero_chunks(&sys.a, tail, r.as_slice(), g.as_mut_slice()),
+        None => kernels::gemv_tr(&sys.a, r.as_slice(), g.as_mut_slice()),
+    }
     g *= 2.0;
     projected_gradient_norm(x, &g, &sys.lower, &sys.upper) / grad_scale
 }
@@ -216,7 +236,11 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
     // A (and A⁺) finite on the normal-equations path: the right-hand side's trailing zeros (the smoothness
     // rows') can be left out of the products with the same bits.
     let finite = !factor.needs_qr();
-    if finite {
+    // `Aᵀv` without A's zero chunks (most of a design's smoothness rows), with nalgebra's bits too.
+    let tail = factor.tail.as_ref();
+    if let Some(tail) = tail {
+        kernels::gemv_tr_zero_chunks(&sys.a, tail, sys.b.as_slice(), atb.as_mut_slice());
+    } else if finite {
         kernels::gemv_tr_trailing_zeros(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
     } else {
         kernels::gemv_tr(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
@@ -270,7 +294,7 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
     if feasible || n == 0 {
         let r = residual_of(&x_svd);
         let objective = r.norm_squared();
-        let kkt = kkt_of(sys, &x_svd, &r, grad_scale);
+        let kkt = kkt_of(sys, tail, &x_svd, &r, grad_scale);
         return LsqOutcome {
             x: x_svd,
             objective,
@@ -320,11 +344,23 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
         steps
     };
     let x2 = DVector::from_column_slice(&work.x);
+    let r2 = residual_of(&x2);
+    let f2 = r2.norm_squared();
     // Keep whichever is better (the finish can only improve on a convex problem; this guards rounding).
-    let (r1, r2) = (residual_of(&x1), residual_of(&x2));
-    let (f1, f2) = (r1.norm_squared(), r2.norm_squared());
-    let (x, r, objective) = if f2 <= f1 { (x2, r2, f2) } else { (x1, r1, f1) };
-    let kkt = kkt_of(sys, &x, &r, grad_scale);
+    // Not when the guessed set was accepted: `Work::settle` tested x2 itself, the polished point, by the
+    // finish's own test of optimality (inside the box, its factor healthy and well conditioned, no
+    // multiplier of the wrong sign beyond its rounding level), so x2 is the minimiser of the strictly
+    // convex objective (H positive definite on this path, cond(A) ≤ 1e6) to rounding, and x1 — the clamped
+    // unconstrained solution, which was outside the box — could win the comparison only by a difference
+    // at rounding level between two points that are not the same: a guard against nothing there.
+    let (x, r, objective) = if guess == Guess::Set {
+        (x2, r2, f2)
+    } else {
+        let r1 = residual_of(&x1);
+        let f1 = r1.norm_squared();
+        if f2 <= f1 { (x2, r2, f2) } else { (x1, r1, f1) }
+    };
+    let kkt = kkt_of(sys, tail, &x, &r, grad_scale);
     LsqOutcome { x, objective, kkt, bounds_active: true, lbfgsb_iterations: iters, active_set_steps: steps }
 }
 
@@ -354,7 +390,7 @@ pub(crate) fn solve_from(sys: &LinearSystem, h: &DMatrix<f64>, x0: &DVector<f64>
         (steps, DVector::from_column_slice(&work.x))
     });
     let r = &*sys.a * &x - &sys.b;
-    let kkt = kkt_of(sys, &x, &r, 1.0 + 2.0 * atb.amax());
+    let kkt = kkt_of(sys, None, &x, &r, 1.0 + 2.0 * atb.amax());
     let objective = r.norm_squared();
     LsqOutcome { x, objective, kkt, bounds_active: true, lbfgsb_iterations: 0, active_set_steps: steps }
 }

@@ -19,6 +19,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 #[derive(Default)]
 pub(crate) struct FactorCache {
     map: Mutex<HashMap<Vec<u64>, Slot>>,
+    /// The first key made and its matrix, found without the lock or a hash ([`FactorCache::first`]): the
+    /// designs of a batch under the same lights share one key.
+    first: OnceLock<(Vec<u64>, Arc<Shared>)>,
 }
 
 /// One matrix and its factorisation, filled by the first block that needs it.
@@ -44,7 +47,18 @@ impl FactorCache {
             // A panic elsewhere poisoned the lock: factor without sharing.
             Err(_) => return build(assemble()),
         };
-        slot.get_or_init(|| build(assemble())).clone()
+        let shared = slot.get_or_init(|| build(assemble())).clone();
+        if self.first.get().is_none() {
+            // Another thread may have set it meanwhile: either way it holds a key and that key's matrix.
+            let _ = self.first.set((key.to_vec(), shared.clone()));
+        }
+        shared
+    }
+
+    /// The shared A and its factorisation when `key` is the first key made ([`FactorCache::get`] made it):
+    /// the same `Shared` as `get` gives, borrowed (no lock, no hash, no count of references changed).
+    pub fn first(&self, key: &[u64]) -> Option<&Shared> {
+        self.first.get().filter(|(k, _)| k[..] == *key).map(|(_, shared)| &**shared)
     }
 }
 
@@ -105,15 +119,22 @@ pub(crate) fn solve_block(
     // Linear block: no copy of the values; the block objective is ‖Ax − b‖² of its system. A and its
     // factorisation come from the cache (bit-identical for equal keys); b and the bounds are the block's.
     let layout = Layout::new(&block.units);
-    let shared = KEY.with(|key| match key.try_borrow_mut() {
-        Ok(mut key) => {
-            design.matrix_key_into(&layout, &block.terms, &mut key);
-            cache.get(&key, || design.linear_system(&layout, &block.terms, v).a)
-        }
-        Err(_) => {
-            cache.get(&design.matrix_key(&layout, &block.terms), || design.linear_system(&layout, &block.terms, v).a)
-        }
-    });
+    let held;
+    let shared: &Shared =
+        match KEY.with(|key| match key.try_borrow_mut() {
+            Ok(mut key) => {
+                design.matrix_key_into(&layout, &block.terms, &mut key);
+                cache.first(&key).ok_or_else(|| cache.get(&key, || design.linear_system(&layout, &block.terms, v).a))
+            }
+            Err(_) => Err(cache
+                .get(&design.matrix_key(&layout, &block.terms), || design.linear_system(&layout, &block.terms, v).a)),
+        }) {
+            Ok(first) => first,
+            Err(got) => {
+                held = got;
+                &held
+            }
+        };
     let sys = design.linear_system_with(&shared.a, &layout, &block.terms, v);
     let solved = if sys.a.nrows() > 0 {
         let solved = lsq::solve(&sys, &shared.factor);

@@ -129,7 +129,7 @@ impl Work {
                 for (k, &i) in self.bound.iter().enumerate() {
                     axpy(self.mu[k], column(g, i), &mut self.zd);
                 }
-                if self.zd.iter().chain(&self.mu).any(|v| !v.is_finite()) {
+                if !(self.zd.iter().all(|v| v.is_finite()) && self.mu.iter().all(|v| v.is_finite())) {
                     return Guess::GaveUp;
                 }
                 if let Some((j, from)) = released.take() {

@@ -146,6 +146,73 @@ pub(crate) fn gemv_tr(a: &DMatrix<f64>, v: &[f64], out: &mut [f64]) {
     }
 }
 
+/// Which of [`dot_nalgebra`]'s chunks of eight rows hold a nonzero entry of each column of A, for
+/// [`gemv_tr_zero_chunks`]: a design's A has dense colour rows over sparse smoothness rows (three entries
+/// a row), so that most of a column's chunks are zero. Made once per A and shared like the rest of
+/// [`Factor`].
+#[derive(Clone, Debug)]
+pub(crate) struct ZeroChunks {
+    /// Per column, bit c set when chunk c (rows `8c..8c + 8`) holds a nonzero entry.
+    chunks: Vec<u64>,
+}
+
+impl ZeroChunks {
+    /// None when A is not finite (a product `0·∞` is not zero), empty, or has more than 64 chunks of eight
+    /// rows.
+    pub(crate) fn of(a: &DMatrix<f64>) -> Option<ZeroChunks> {
+        let (m, n) = a.shape();
+        if m == 0 || n == 0 || m / 8 > 64 || a.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let chunks = (0..n)
+            .map(|j| {
+                (0..m / 8).filter(|&c| (8 * c..8 * c + 8).any(|i| a[(i, j)] != 0.0)).fold(0u64, |mask, c| mask | 1 << c)
+            })
+            .collect();
+        Some(ZeroChunks { chunks })
+    }
+}
+
+/// [`gemv_tr`] with the chunks of eight rows where A's column (or v) is zero left out, with the same bits:
+/// each of [`dot_nalgebra`]'s eight partial sums starts at `+0` and is never `−0` (a sum is `−0` only when
+/// both terms are), so a chunk's products `±0` change none of them. v must be finite (else the whole
+/// product is [`gemv_tr`]'s).
+pub(crate) fn gemv_tr_zero_chunks(a: &DMatrix<f64>, tail: &ZeroChunks, v: &[f64], out: &mut [f64]) {
+    let (m, n) = a.shape();
+    assert!(v.len() == m && out.len() == n && tail.chunks.len() == n, "gemv_tr: dimensions mismatch");
+    if !v.iter().all(|x| x.is_finite()) {
+        return gemv_tr(a, v, out);
+    }
+    let s = a.as_slice();
+    let whole = m - m % 8;
+    let nonzero = v[..whole]
+        .chunks_exact(8)
+        .enumerate()
+        .filter(|(_, c)| c.iter().any(|&x| x != 0.0))
+        .fold(0u64, |mask, (c, _)| mask | 1 << c);
+    for ((o, &chunks), col) in out.iter_mut().zip(&tail.chunks).zip(s.chunks_exact(m)) {
+        let mut acc = [0.0f64; 8];
+        let mut left = chunks & nonzero;
+        while left != 0 {
+            let c = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let (x, y) = (&col[8 * c..8 * c + 8], &v[8 * c..8 * c + 8]);
+            for k in 0..8 {
+                acc[k] += x[k] * y[k];
+            }
+        }
+        let mut res = 0.0;
+        res += acc[0] + acc[4];
+        res += acc[1] + acc[5];
+        res += acc[2] + acc[6];
+        res += acc[3] + acc[7];
+        for (x, y) in col[whole..].iter().zip(&v[whole..]) {
+            res += x * y;
+        }
+        *o = res;
+    }
+}
+
 /// Column j of a column-major matrix as a slice.
 pub(super) fn column(m: &DMatrix<f64>, j: usize) -> &[f64] {
     let r = m.nrows();
@@ -182,16 +249,21 @@ impl Cholesky {
             return;
         }
         let (n, k) = (self.n, free.len());
+        // Row k of L (its entries 0..=k) after the rows before it, and column j of H (`h[(free[i], j)]`).
+        let (done, row) = self.l.split_at_mut(k * n);
+        let row = &mut row[..=k];
+        let hj = column(h, j);
         let mut yy = 0.0;
-        for i in 0..k {
-            let v = h[(free[i], j)] - dot(&self.l[i * n..i * n + i], &self.l[k * n..k * n + i]);
-            let y = v / self.l[i * n + i];
-            self.l[k * n + i] = y;
+        for (i, &f) in free.iter().enumerate() {
+            let li = &done[i * n..i * n + i + 1];
+            let v = hj[f] - dot(&li[..i], &row[..i]);
+            let y = v / li[i];
+            row[i] = y;
             yy += y * y;
         }
-        let d2 = h[(j, j)] - yy;
-        if d2.is_finite() && d2 > 1e-13 * h[(j, j)].abs() && d2 > 0.0 {
-            self.l[k * n + k] = d2.sqrt();
+        let d2 = hj[j] - yy;
+        if d2.is_finite() && d2 > 1e-13 * hj[j].abs() && d2 > 0.0 {
+            row[k] = d2.sqrt();
         } else {
             self.ok = false;
         }

@@ -268,6 +268,59 @@ fn bits(x: &DVector<f64>) -> Vec<u64> {
     x.iter().map(|v| v.to_bits()).collect()
 }
 
+#[test]
+fn products_without_the_zero_chunks_give_nalgebras_bits() {
+    // `kernels::gemv_tr_zero_chunks` against `a.tr_mul(&v)`, bit for bit: dense rows over sparse ones (up
+    // to three entries a row, as a design's smoothness rows, with zeros of both signs), every number of
+    // dense rows around the partial sums' chunks of eight and shapes with a remainder after them, vectors
+    // with zeros of both signs, v zero on the sparse rows (a right-hand side), and v not finite (the dense
+    // product's NaN).
+    let mut seed = 48;
+    let value = |seed: &mut u64| {
+        let u = lcg(seed);
+        match (u * 16.0) as u32 {
+            0 => 0.0,
+            1 => -0.0,
+            2 => 1.0,
+            3 => -1.0,
+            _ => (lcg(seed) - 0.5) * 10f64.powi((lcg(seed) * 12.0) as i32 - 6),
+        }
+    };
+    let zero = |seed: &mut u64| if lcg(seed) < 0.5 { 0.0 } else { -0.0 };
+    let bits_of = |v: &DVector<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for (m, n) in [(40, 31), (12, 9), (17, 16), (24, 5), (33, 8), (9, 31), (48, 40), (7, 3)] {
+        for dense in 0..m {
+            // Row i ≥ dense: entries near column i − dense only (a band of three), most of them nonzero.
+            let in_band = |i: usize, j: usize| i < dense || (j + 1 >= i - dense && j <= i - dense + 1);
+            let a = DMatrix::from_fn(m, n, |i, j| {
+                if in_band(i, j) && (i < dense || lcg(&mut seed) < 0.9) { value(&mut seed) } else { zero(&mut seed) }
+            });
+            let chunks = kernels::ZeroChunks::of(&a).expect("a finite matrix");
+            for case in 0..4 {
+                let mut v = DVector::from_fn(m, |_, _| value(&mut seed));
+                match case {
+                    1 => v.rows_mut(dense, m - dense).iter_mut().for_each(|t| *t = zero(&mut seed)),
+                    2 => v[m - 1] = f64::NAN,
+                    3 => v.fill(-0.0),
+                    _ => {}
+                }
+                let mut t = DVector::from_element(n, f64::NAN);
+                kernels::gemv_tr_zero_chunks(&a, &chunks, v.as_slice(), t.as_mut_slice());
+                assert_eq!(bits_of(&t), bits_of(&a.tr_mul(&v)), "Aᵀ v, {m} × {n}, {dense} dense rows, case {case}");
+            }
+        }
+    }
+    // A batch design's own A and right-hand side, and a residual-like v.
+    let sys = &reachable_systems(1, 3)[0];
+    let chunks = kernels::ZeroChunks::of(&sys.a).expect("a finite matrix");
+    let v = DVector::from_fn(sys.a.nrows(), |_, _| value(&mut seed));
+    for v in [&sys.b, &v] {
+        let mut t = DVector::from_element(sys.a.ncols(), f64::NAN);
+        kernels::gemv_tr_zero_chunks(&sys.a, &chunks, v.as_slice(), t.as_mut_slice());
+        assert_eq!(bits_of(&t), bits_of(&sys.a.tr_mul(v)));
+    }
+}
+
 /// The guessed start against the finish's own steps from the clamped solution (`Start::ClampedUnguessed`,
 /// the path before the guess) and the optimum's conditions: the same bits when the optimum's active set is
 /// unique. Returns whether the two differ at all (allowed only where the caller says the set is degenerate:
