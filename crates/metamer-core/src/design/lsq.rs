@@ -62,7 +62,7 @@ pub struct Factor {
     pub(crate) cond: f64,
     /// Where A's columns are zero (a design's smoothness rows are sparse), for the products `Aᵀv` with
     /// nalgebra's bits that leave those zeros out; None when A is not finite.
-    pub(crate) tail: Option<kernels::ZeroChunks>,
+    pub(crate) zero_chunks: Option<kernels::ZeroChunks>,
     /// Cholesky factors of `H_FF` by free set F, shared by the systems that share this factorisation.
     pub(crate) free_sets: FreeSets,
     /// `H⁻¹` and the factor of all of H for the guess of the active set (`lsq/guess.rs`), made on first
@@ -77,7 +77,7 @@ impl Factor {
             pinv,
             h: a.tr_mul(a),
             cond,
-            tail: kernels::ZeroChunks::of(a),
+            zero_chunks: kernels::ZeroChunks::of(a),
             free_sets: FreeSets::default(),
             dual: std::sync::OnceLock::new(),
         }
@@ -186,18 +186,18 @@ impl Gradient for Objective<'_> {
     }
 }
 
-/// The scaled KKT residual of x (see [`LsqOutcome::kkt`]) from its residual `r = Ax − b`; `tail` is
-/// [`Factor::tail`] of `sys.a` (the same bits either way).
+/// The scaled KKT residual of x (see [`LsqOutcome::kkt`]) from its residual `r = Ax − b`; `zero_chunks` is
+/// [`Factor::zero_chunks`] of `sys.a` (the same bits either way).
 fn kkt_of(
     sys: &LinearSystem,
-    tail: Option<&kernels::ZeroChunks>,
+    zero_chunks: Option<&kernels::ZeroChunks>,
     x: &DVector<f64>,
     r: &DVector<f64>,
     grad_scale: f64,
 ) -> f64 {
     let mut g = DVector::zeros(sys.a.ncols());
-    match tail {
-        Some(tail) => kernels::gemv_tr_zero_chunks(&sys.a, tail, r.as_slice(), g.as_mut_slice()),
+    match zero_chunks {
+        Some(chunks) => kernels::gemv_tr_zero_chunks(&sys.a, chunks, r.as_slice(), g.as_mut_slice()),
         None => kernels::gemv_tr(&sys.a, r.as_slice(), g.as_mut_slice()),
     }
     g *= 2.0;
@@ -237,9 +237,9 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
     // rows') can be left out of the products with the same bits.
     let finite = !factor.needs_qr();
     // `Aᵀv` without A's zero chunks (most of a design's smoothness rows), with nalgebra's bits too.
-    let tail = factor.tail.as_ref();
-    if let Some(tail) = tail {
-        kernels::gemv_tr_zero_chunks(&sys.a, tail, sys.b.as_slice(), atb.as_mut_slice());
+    let zero_chunks = factor.zero_chunks.as_ref();
+    if let Some(chunks) = zero_chunks {
+        kernels::gemv_tr_zero_chunks(&sys.a, chunks, sys.b.as_slice(), atb.as_mut_slice());
     } else if finite {
         kernels::gemv_tr_trailing_zeros(&sys.a, sys.b.as_slice(), atb.as_mut_slice());
     } else {
@@ -294,7 +294,7 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
     if feasible || n == 0 {
         let r = residual_of(&x_svd);
         let objective = r.norm_squared();
-        let kkt = kkt_of(sys, tail, &x_svd, &r, grad_scale);
+        let kkt = kkt_of(sys, zero_chunks, &x_svd, &r, grad_scale);
         return LsqOutcome {
             x: x_svd,
             objective,
@@ -360,7 +360,7 @@ fn solve_in(sys: &LinearSystem, factor: &Factor, work: &mut Work, start: Start) 
         let f1 = r1.norm_squared();
         if f2 <= f1 { (x2, r2, f2) } else { (x1, r1, f1) }
     };
-    let kkt = kkt_of(sys, tail, &x, &r, grad_scale);
+    let kkt = kkt_of(sys, zero_chunks, &x, &r, grad_scale);
     LsqOutcome { x, objective, kkt, bounds_active: true, lbfgsb_iterations: iters, active_set_steps: steps }
 }
 

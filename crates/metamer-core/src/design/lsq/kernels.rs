@@ -177,9 +177,9 @@ impl ZeroChunks {
 /// each of [`dot_nalgebra`]'s eight partial sums starts at `+0` and is never `−0` (a sum is `−0` only when
 /// both terms are), so a chunk's products `±0` change none of them. v must be finite (else the whole
 /// product is [`gemv_tr`]'s).
-pub(crate) fn gemv_tr_zero_chunks(a: &DMatrix<f64>, tail: &ZeroChunks, v: &[f64], out: &mut [f64]) {
+pub(crate) fn gemv_tr_zero_chunks(a: &DMatrix<f64>, zero_chunks: &ZeroChunks, v: &[f64], out: &mut [f64]) {
     let (m, n) = a.shape();
-    assert!(v.len() == m && out.len() == n && tail.chunks.len() == n, "gemv_tr: dimensions mismatch");
+    assert!(v.len() == m && out.len() == n && zero_chunks.chunks.len() == n, "gemv_tr: dimensions mismatch");
     if !v.iter().all(|x| x.is_finite()) {
         return gemv_tr(a, v, out);
     }
@@ -190,7 +190,7 @@ pub(crate) fn gemv_tr_zero_chunks(a: &DMatrix<f64>, tail: &ZeroChunks, v: &[f64]
         .enumerate()
         .filter(|(_, c)| c.iter().any(|&x| x != 0.0))
         .fold(0u64, |mask, (c, _)| mask | 1 << c);
-    for ((o, &chunks), col) in out.iter_mut().zip(&tail.chunks).zip(s.chunks_exact(m)) {
+    for ((o, &chunks), col) in out.iter_mut().zip(&zero_chunks.chunks).zip(s.chunks_exact(m)) {
         let mut acc = [0.0f64; 8];
         let mut left = chunks & nonzero;
         while left != 0 {
