@@ -53,7 +53,6 @@ pub(crate) enum Command {
 pub fn main() -> ExitCode {
     tune_allocator();
     let cli = Cli::parse();
-    start_pool();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         // A closed pipe (`metamer check p.toml | head -1`): the reader has what it wanted.
@@ -80,16 +79,6 @@ fn tune_allocator() {
     unsafe {
         libc::mallopt(libc::M_TOP_PAD, 8 << 20);
     }
-}
-
-/// Every command runs on rayon's global pool, which is built by its first use: for `metamer solve` that was
-/// the parse of the palette, after the file was read, so the pool's set-up (the cgroup files
-/// `available_parallelism` reads, a `clone` a thread) sat between the read and the parse on the main thread.
-/// Started here on a thread of its own once the arguments are parsed (`--help` and `--version` never get
-/// here), it is set up while the input is read; a first use before it is done waits for it. A pool that
-/// cannot be built is still the first use's error: this only starts it.
-fn start_pool() {
-    let _ = std::thread::Builder::new().spawn(rayon::current_num_threads);
 }
 
 /// Run a parsed command line.
