@@ -125,12 +125,19 @@ pub(crate) fn dot_nalgebra(a: &[f64], b: &[f64]) -> f64 {
             acc[k] += x[k] * y[k];
         }
     }
+    dot_nalgebra_end(&acc, ca.remainder(), cb.remainder())
+}
+
+/// The end of nalgebra's `dot`: the eight partial sums added pairwise into the result, then the products of
+/// the remainders one by one.
+#[inline(always)]
+fn dot_nalgebra_end(acc: &[f64; 8], a: &[f64], b: &[f64]) -> f64 {
     let mut res = 0.0;
     res += acc[0] + acc[4];
     res += acc[1] + acc[5];
     res += acc[2] + acc[6];
     res += acc[3] + acc[7];
-    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
+    for (x, y) in a.iter().zip(b) {
         res += x * y;
     }
     res
@@ -201,15 +208,7 @@ pub(crate) fn gemv_tr_zero_chunks(a: &DMatrix<f64>, zero_chunks: &ZeroChunks, v:
                 acc[k] += x[k] * y[k];
             }
         }
-        let mut res = 0.0;
-        res += acc[0] + acc[4];
-        res += acc[1] + acc[5];
-        res += acc[2] + acc[6];
-        res += acc[3] + acc[7];
-        for (x, y) in col[whole..].iter().zip(&v[whole..]) {
-            res += x * y;
-        }
-        *o = res;
+        *o = dot_nalgebra_end(&acc, &col[whole..], &v[whole..]);
     }
 }
 
