@@ -277,11 +277,11 @@ fn beside<'scope, T: Send + 'scope>(
 }
 
 /// A row's columns from the target on (as `#rrggbb`, then linear), the full model's colour and ΔE00, the
-/// subspace's or `-`: written straight into the table's text ([`push_fixed`], [`push_hex`]) rather than
+/// subspace's or `-`: written straight into the table's text ([`push_fixed`], [`crate::colorimetry::push_hex`]) rather than
 /// through the standard formatter, which took 25 M of the 37.5 M instructions a 3600-cell table took to
 /// format (callgrind, `RAYON_NUM_THREADS=1`).
 fn colour_columns(w: &mut String, r: &design::CellResult) {
-    push_hex(w, &r.target);
+    crate::colorimetry::push_hex(w, &r.target);
     w.push_str("  ");
     for v in [&r.target, &r.rgb_full] {
         push_rgb(w, v);
@@ -299,16 +299,6 @@ fn colour_columns(w: &mut String, r: &design::CellResult) {
     }
 }
 
-/// `#rrggbb` of a linear colour, as [`linear_to_hex`] writes it.
-fn push_hex(w: &mut String, c: &Vector3<f64>) {
-    const HEX: &[u8; 16] = b"0123456789abcdef";
-    w.push('#');
-    for b in crate::colorimetry::linear_to_srgb8(c) {
-        w.push(char::from(HEX[usize::from(b >> 4)]));
-        w.push(char::from(HEX[usize::from(b & 15)]));
-    }
-}
-
 /// `r g b` with four decimals, padded to 22 characters (the numbers are ASCII: a byte is a character).
 fn push_rgb(w: &mut String, c: &Vector3<f64>) {
     let at = w.len();
@@ -322,7 +312,7 @@ fn push_rgb(w: &mut String, c: &Vector3<f64>) {
 
 /// `x` with `decimals` decimals, as `Fixed(x, decimals)` displays it (and so as `format!("{x:.decimals$}")`).
 fn push_fixed(w: &mut String, x: f64, decimals: usize) {
-    match fixed_digits(x, decimals) {
+    match Fixed(x, decimals).fast_digits() {
         Some((bytes, at)) => push_ascii(w, &bytes[at..]),
         None => {
             let _ = write!(w, "{}", Fixed(x, decimals));
@@ -332,7 +322,7 @@ fn push_fixed(w: &mut String, x: f64, decimals: usize) {
 
 /// As [`push_fixed`], right-aligned in `width` characters (`{:>width$}` of `Fixed`).
 fn push_fixed_right(w: &mut String, x: f64, decimals: usize, width: usize) {
-    match fixed_digits(x, decimals) {
+    match Fixed(x, decimals).fast_digits() {
         Some((bytes, at)) => {
             push_blanks(w, width.saturating_sub(bytes.len() - at));
             push_ascii(w, &bytes[at..]);
@@ -343,61 +333,10 @@ fn push_fixed_right(w: &mut String, x: f64, decimals: usize, width: usize) {
     }
 }
 
-/// Digits, points and signs written by [`fixed_digits`] (ASCII), a character a byte (`str::from_utf8` of
+/// Digits, points and signs written by [`Fixed::fast_digits`] (ASCII), a character a byte (`str::from_utf8` of
 /// a number's few bytes took more instructions than pushing them one by one).
 fn push_ascii(w: &mut String, bytes: &[u8]) {
     w.extend(bytes.iter().map(|&b| char::from(b)));
-}
-
-/// The text of `Fixed(x, decimals)` in its fast case, which it decides as `Fixed` does (a finite `x` with at
-/// most 6 decimals, `|x|·10^decimals` below 2⁴⁰ and not within 10⁻³ of a half: the nearest integer of the
-/// product is then the correctly rounded one), as a buffer whose text starts at the index returned and runs
-/// to its end; `None` where `Fixed` takes the standard formatter's exact path.
-fn fixed_digits(x: f64, decimals: usize) -> Option<([u8; 24], usize)> {
-    const TEN: [u64; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
-    let &p = TEN.get(decimals)?;
-    if !x.is_finite() {
-        return None;
-    }
-    // Finite: x is, and p is at most 10⁶.
-    let y = x.abs() * p as f64;
-    if y >= (1u64 << 40) as f64 {
-        return None;
-    }
-    // The floor by truncation (y ≥ 0), and y − floor(y) exact as in `Fixed`; away from a half, the nearest
-    // integer is the floor or the next one (as `f64::round` gives it, without its call).
-    let floor = y as u64;
-    let frac = y - floor as f64;
-    if (frac - 0.5).abs() <= 1e-3 {
-        return None;
-    }
-    let n = floor + u64::from(frac > 0.5);
-    // Written from the end: the decimals (zero-padded), the point, the integer part, the sign.
-    let mut out = [0u8; 24];
-    let mut at = out.len();
-    let (mut whole, mut fraction) = (n / p, n % p);
-    if decimals > 0 {
-        for _ in 0..decimals {
-            at -= 1;
-            out[at] = b'0' + (fraction % 10) as u8;
-            fraction /= 10;
-        }
-        at -= 1;
-        out[at] = b'.';
-    }
-    loop {
-        at -= 1;
-        out[at] = b'0' + (whole % 10) as u8;
-        whole /= 10;
-        if whole == 0 {
-            break;
-        }
-    }
-    if x.is_sign_negative() {
-        at -= 1;
-        out[at] = b'-';
-    }
-    Some((out, at))
 }
 
 /// Blanks to pad the table's columns with.
@@ -1458,7 +1397,7 @@ impl<'a> Report<'a> {
 #[cfg(test)]
 mod tests {
     /// The table's numbers written by hand ([`super::push_fixed`], [`super::push_fixed_right`],
-    /// [`super::push_hex`]) are what `Fixed` and `linear_to_hex` write: every decimal count (7 is past
+    /// `colorimetry::push_hex`) are what `Fixed`, `format!` and `{:02x}` write: every decimal count (7 is past
     /// `Fixed`'s fast case), both signs of zero, numbers that round to zero, halves and near-halves (exact
     /// path), the fast case's upper end, numbers that are not finite, and a sweep of the colours a table
     /// shows.
@@ -1523,8 +1462,9 @@ mod tests {
             }
             let c = nalgebra::Vector3::new(x, x * 0.5, 1.0 - x);
             let mut hex = String::new();
-            super::push_hex(&mut hex, &c);
-            assert_eq!(hex, crate::colorimetry::linear_to_hex(&c), "{x:e}");
+            crate::colorimetry::push_hex(&mut hex, &c);
+            let [r, g, b] = crate::colorimetry::linear_to_srgb8(&c);
+            assert_eq!(hex, format!("#{r:02x}{g:02x}{b:02x}"), "{x:e}");
         }
     }
 

@@ -139,8 +139,20 @@ pub fn linear_to_srgb8(rgb: &Vector3<f64>) -> [u8; 3] {
 
 /// `"#rrggbb"` of a linear colour, clamped to the gamut.
 pub fn linear_to_hex(rgb: &Vector3<f64>) -> String {
-    let [r, g, b] = linear_to_srgb8(rgb);
-    format!("#{r:02x}{g:02x}{b:02x}")
+    let mut hex = String::with_capacity(7);
+    push_hex(&mut hex, rgb);
+    hex
+}
+
+/// [`linear_to_hex`] of `rgb` appended to `w` (writers of long texts, such as the solve's table, append it
+/// without a `String` of its own).
+pub fn push_hex(w: &mut String, rgb: &Vector3<f64>) {
+    const HEX: &[u8; 16] = b"0123456789abcdef";
+    w.push('#');
+    for b in linear_to_srgb8(rgb) {
+        w.push(char::from(HEX[usize::from(b >> 4)]));
+        w.push(char::from(HEX[usize::from(b & 15)]));
+    }
 }
 
 /// CIELAB (CIE 1976) of `xyz` against reference white `white`.

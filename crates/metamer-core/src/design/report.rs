@@ -97,49 +97,69 @@ pub(crate) fn cell_results(
 #[derive(Clone, Copy, Debug)]
 pub struct Fixed(pub f64, pub usize);
 
-/// A small stack buffer to print into.
-struct Buf {
-    bytes: [u8; 64],
-    len: usize,
-}
-
-impl std::fmt::Write for Buf {
-    fn write_str(&mut self, s: &str) -> std::fmt::Result {
-        let end = self.len + s.len();
-        self.bytes.get_mut(self.len..end).ok_or(std::fmt::Error)?.copy_from_slice(s.as_bytes());
-        self.len = end;
-        Ok(())
+impl Fixed {
+    /// The text in the fast case, as a buffer whose text (ASCII) starts at the index returned and runs to its
+    /// end: a finite `x` with at most 6 decimals, `y = |x|·10^d` below 2⁴⁰ and not within 10⁻³ of a half. y
+    /// is then exact up to half an ulp, below 2⁻¹³, so its nearest integer is the correctly rounded one.
+    /// `None` where the standard formatter's exact path decides. Writers that build long texts (the solve's
+    /// table) take these bytes directly; [`Fixed`]'s `Display` pads them.
+    pub fn fast_digits(self) -> Option<([u8; 24], usize)> {
+        const TEN: [u64; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
+        let Fixed(x, decimals) = self;
+        let &p = TEN.get(decimals)?;
+        if !x.is_finite() {
+            return None;
+        }
+        // Finite: x is, and p is at most 10⁶.
+        let y = x.abs() * p as f64;
+        if y >= (1u64 << 40) as f64 {
+            return None;
+        }
+        // The floor by truncation (y ≥ 0), and y − floor(y) exact; away from a half, the nearest integer is
+        // the floor or the next one (as `f64::round` gives it, without its call).
+        let floor = y as u64;
+        let frac = y - floor as f64;
+        if (frac - 0.5).abs() <= 1e-3 {
+            return None;
+        }
+        let n = floor + u64::from(frac > 0.5);
+        // Written from the end: the decimals (zero-padded), the point, the integer part, the sign.
+        let mut out = [0u8; 24];
+        let mut at = out.len();
+        let (mut whole, mut fraction) = (n / p, n % p);
+        if decimals > 0 {
+            for _ in 0..decimals {
+                at -= 1;
+                out[at] = b'0' + (fraction % 10) as u8;
+                fraction /= 10;
+            }
+            at -= 1;
+            out[at] = b'.';
+        }
+        loop {
+            at -= 1;
+            out[at] = b'0' + (whole % 10) as u8;
+            whole /= 10;
+            if whole == 0 {
+                break;
+            }
+        }
+        if x.is_sign_negative() {
+            at -= 1;
+            out[at] = b'-';
+        }
+        Some((out, at))
     }
 }
 
 impl std::fmt::Display for Fixed {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        use std::fmt::Write as _;
-        let Fixed(x, decimals) = *self;
-        const TEN: [u64; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
-        if let Some(&p) = TEN.get(decimals)
-            && x.is_finite()
+        if let Some((bytes, at)) = self.fast_digits()
+            && let Ok(s) = std::str::from_utf8(&bytes[at..])
         {
-            // y = |x|·10^d is exact up to half an ulp, below 2⁻¹³ for y < 2⁴⁰: the nearest integer is the
-            // correctly rounded one unless y is within that of a half (then the exact path decides).
-            let y = x.abs() * p as f64;
-            let frac = y - y.floor();
-            if y < (1u64 << 40) as f64 && (frac - 0.5).abs() > 1e-3 {
-                let n = y.round() as u64;
-                let mut b = Buf { bytes: [0; 64], len: 0 };
-                let sign = if x.is_sign_negative() { "-" } else { "" };
-                let written = if decimals == 0 {
-                    write!(b, "{sign}{n}")
-                } else {
-                    write!(b, "{sign}{}.{:0width$}", n / p, n % p, width = decimals)
-                };
-                if written.is_ok()
-                    && let Ok(s) = std::str::from_utf8(&b.bytes[..b.len])
-                {
-                    return f.pad(s);
-                }
-            }
+            return f.pad(s);
         }
+        let Fixed(x, decimals) = *self;
         f.pad(&format!("{x:.decimals$}"))
     }
 }

@@ -7,6 +7,16 @@ fn lcg(seed: &mut u64) -> f64 {
     ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
 }
 
+/// A matrix or vector entry for the products' bit tests: one of `specials` (each with chance 1/16, by the
+/// first draw), else a value of mixed sign and a magnitude from 10⁻⁶ to 10⁶.
+fn entry(seed: &mut u64, specials: &[f64]) -> f64 {
+    let u = lcg(seed);
+    match specials.get((u * 16.0) as usize) {
+        Some(&v) => v,
+        None => (lcg(seed) - 0.5) * 10f64.powi((lcg(seed) * 12.0) as i32 - 6),
+    }
+}
+
 /// Brute force over all 3^n active sets for tiny n: the exact optimum of a bounded LS.
 fn brute_force(sys: &LinearSystem) -> f64 {
     let n = sys.a.ncols();
@@ -202,15 +212,7 @@ fn hand_products_give_nalgebras_bits() {
     // 19 × 19 (the remainders of both kernels' unrolling) and the batch's 40 × 31 and 31 × 40, with
     // entries of mixed signs and magnitudes, exact zeros of both signs, and a few entries that cancel.
     let mut seed = 27;
-    let value = |seed: &mut u64| {
-        let u = lcg(seed);
-        match (u * 16.0) as u32 {
-            0 => 0.0,
-            1 => -0.0,
-            2 => 1.0,
-            _ => (lcg(seed) - 0.5) * 10f64.powi((lcg(seed) * 12.0) as i32 - 6),
-        }
-    };
+    let value = |seed: &mut u64| entry(seed, &[0.0, -0.0, 1.0]);
     let bits = |v: &DVector<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     let shapes = (0..20).flat_map(|m| (0..20).map(move |n| (m, n))).chain([(40, 31), (31, 40), (9, 31)]);
     for (m, n) in shapes {
@@ -276,16 +278,7 @@ fn products_without_the_zero_chunks_give_nalgebras_bits() {
     // with zeros of both signs, v zero on the sparse rows (a right-hand side), and v not finite (the dense
     // product's NaN).
     let mut seed = 48;
-    let value = |seed: &mut u64| {
-        let u = lcg(seed);
-        match (u * 16.0) as u32 {
-            0 => 0.0,
-            1 => -0.0,
-            2 => 1.0,
-            3 => -1.0,
-            _ => (lcg(seed) - 0.5) * 10f64.powi((lcg(seed) * 12.0) as i32 - 6),
-        }
-    };
+    let value = |seed: &mut u64| entry(seed, &[0.0, -0.0, 1.0, -1.0]);
     let zero = |seed: &mut u64| if lcg(seed) < 0.5 { 0.0 } else { -0.0 };
     for (m, n) in [(40, 31), (12, 9), (17, 16), (24, 5), (33, 8), (9, 31), (48, 40), (7, 3)] {
         for dense in 0..m {
