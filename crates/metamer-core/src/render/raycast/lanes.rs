@@ -9,9 +9,12 @@
 //! path (`tests.rs` compares them on every voxel type).
 //!
 //! The time a profile puts on the instruction after a batch's first voxel gather and after [`shade`]'s
-//! first gradient gather is the gathers' own latency, not a wait on memory: a cache simulation of the
-//! engine CT at 384² (step 0.5, one thread; 48 KiB first level, 2 MiB second) finds about 5 first-level
-//! misses per [`shade`] call and 0.1 beyond the second level, and hiding them does not pay. Tried and not
+//! first gradient read is the reads' own latency, not a wait on memory: a cache simulation of the
+//! engine CT at 384² (step 0.5, one thread; 48 KiB first level, 2 MiB second) found about 5 first-level
+//! misses per [`shade`] call (then made of gathers) and 0.1 beyond the second level, and hiding them
+//! does not pay. [`shade`] reads its gradient corners lane by lane for the lanes it shades (4.66 a call on
+//! that scene, of which 4.30 are then composited) rather than by sixteen gathers for all eight lanes:
+//! 0.91–0.93 of the raycast's time (docs/render_performance.md). Tried and not
 //! kept (the same frames; CPU time of the whole render, one thread, paired): prefetching the next
 //! batch's voxel rows when a batch is filled, 0.992 (the profile's weight moves off the gather, the time
 //! stays); prefetching the next batch's gradient corners in its block at the end of [`shade`], 1.006
@@ -303,9 +306,17 @@ pub(super) fn classify<T: Voxel>(batch: &mut Batch, grid: &Grid, classifier: &Cl
 
 /// Shade the lanes from `from` on whose cells lie in the field brick of lane `from`'s (block entries
 /// `grad`, lane `from`'s cell at local index `base`), as `RayContext::shade` of `Fields::gradient` does
-/// one sample: the gradient's eight corners (gathered), seven lerps per component along x, then y, then
-/// z, times `scale`, then the headlight or key light term with `ambient`. Sets those lanes' bits of
+/// one sample: the gradient's eight corners, seven lerps per component along x, then y, then z, times
+/// `scale`, then the headlight or key light term with `ambient`. Sets those lanes' bits of
 /// `batch.shaded`.
+///
+/// The gradient is interpolated lane by lane, only for the lanes shaded (about four a call on the engine
+/// CT), its three components side by side in one register: per lane four pairs of 64-bit reads (each a
+/// corner's triple and one component more, x-neighbours in one register's halves, the z-neighbours' rows
+/// in the other), then the lerps on both halves at once. The eight lanes' gradients are then turned into
+/// one register per component for the light term. The same operations on each component as eight lanes
+/// of gathered corners did (a lerp is `a + t·(b − a)` either way), so the same shades; sixteen gathers of
+/// four 64-bit words each for every call, whatever the lanes shaded, cost more.
 #[target_feature(enable = "avx2")]
 #[inline]
 pub(super) fn shade(
@@ -319,71 +330,84 @@ pub(super) fn shade(
 ) {
     // A cell starts at most at dims − 2 on each axis, so its field brick is its start over the brick edge
     // (`Fields::brick_of`'s clamp never applies) and its place in the brick the start's low bits.
-    let mut i = [_mm256_setzero_si256(); 3];
-    let mut f = [_mm256_setzero_ps(); 3];
     let mut local = _mm256_setzero_si256();
     // Lanes in lane `from`'s brick: the same start over the brick edge on every axis.
     let mut same = _mm256_set1_epi32(-1);
     for a in (0..3).rev() {
-        // SAFETY: `batch.i[a]` and `batch.f[a]` hold eight 32-bit lanes, the bytes an unaligned load reads.
-        unsafe {
-            i[a] = _mm256_loadu_si256(batch.i[a].as_ptr().cast());
-            f[a] = _mm256_loadu_ps(batch.f[a].as_ptr());
-        }
-        let l = _mm256_and_si256(i[a], _mm256_set1_epi32(FIELD_BRICK as i32 - 1));
+        // SAFETY: `batch.i[a]` holds eight 32-bit lanes, the bytes an unaligned load reads.
+        let i = unsafe { _mm256_loadu_si256(batch.i[a].as_ptr().cast()) };
+        let l = _mm256_and_si256(i, _mm256_set1_epi32(FIELD_BRICK as i32 - 1));
         local = _mm256_add_epi32(l, _mm256_mullo_epi32(_mm256_set1_epi32(S as i32), local));
-        let brick = _mm256_srli_epi32::<{ SHIFT as i32 }>(i[a]);
+        let brick = _mm256_srli_epi32::<{ SHIFT as i32 }>(i);
         let mine = _mm256_set1_epi32((batch.i[a][from] >> SHIFT) as i32);
         same = _mm256_and_si256(same, _mm256_cmpeq_epi32(brick, mine));
     }
     debug_assert_eq!(base, (0..3).rev().fold(0, |acc, a| acc * S + (batch.i[a][from] as usize % FIELD_BRICK)));
     let lanes = (_mm256_movemask_ps(_mm256_castsi256_ps(same)) as u32) & !((1u32 << from) - 1);
     // Each lane's cell at local index l0 + S·(l1 + S·l2) with every l ≤ S − 2: its last corner at most
-    // S3 − 1, whose gz word reaches the first component of the entry after it, the padding entry.
+    // S3 − 1, whose 64-bit word reaches the first component of the entry after it, the padding entry.
     assert!(grad.len() > S3, "a value block ends with its padding entry");
-    let flat = grad.as_flattened().as_ptr().cast::<i64>();
+    let flat = grad.as_flattened().as_ptr();
     // In i16 units: entry `local` times 3.
-    let first = _mm256_mullo_epi32(local, _mm256_set1_epi32(3));
-    // The corners' components come out of the gathers below with the lanes' pairs in the order 0 1 4 5 |
-    // 2 3 6 7 (64-bit units 0 2 1 3): the fractions are put in that order too, so that every lerp and the
-    // light term work lane by lane on matching lanes, and only the result is put back in lane order (four
-    // permutations instead of one per corner and component pair). Lane-wise operations: the same values.
-    // (A loop, not `map`: a closure does not take this function's target features.)
-    for fa in f.iter_mut() {
-        *fa = _mm256_castsi256_ps(_mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(*fa)));
+    let mut first = [0u32; LANES];
+    // SAFETY: `first` holds eight u32, the bytes an unaligned store writes.
+    unsafe { _mm256_storeu_si256(first.as_mut_ptr().cast(), _mm256_mullo_epi32(local, _mm256_set1_epi32(3))) };
+    // Per lane the interpolated gradient (x, y, z and a discarded fourth lane); lanes not shaded stay 0
+    // and are blended away below.
+    let mut rows = [0f32; 4 * LANES];
+    let mut todo = lanes;
+    while todo != 0 {
+        let l = todo.trailing_zeros() as usize;
+        todo &= todo - 1;
+        // The 64-bit word at i16 offset `o` of the lane's cell, as four i16 in an xmm's low half.
+        // SAFETY: every shaded lane's cell starts at a local index whose corners are at most S3 − 1
+        // (above), so the eight bytes at each corner's 2-byte offset end at most at the padding entry's
+        // first component, inside `grad` (asserted above). x86-64 reads unaligned words.
+        let p = unsafe { flat.add(first[l] as usize) };
+        let word = |o: usize| unsafe { p.add(o).cast::<i64>().read_unaligned() };
+        // Two corners' words (the second in the high half) widened to eight f32: corner triples and
+        // one component of the next entry, whose lane is carried along and discarded.
+        macro_rules! pair {
+            ($lo:expr, $hi:expr) => {
+                _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_set_epi64x(word($hi), word($lo))))
+            };
+        }
+        // Corners x + 2y + 4z at offsets CORNERS (times 3 components): the y = 0 rows (z = 0 | z = 1) and
+        // the y = 1 rows, their first corner and its x-neighbour.
+        let (z, y, x) = (3 * CORNERS[4], 3 * CORNERS[2], 3 * CORNERS[1]);
+        let y0a = pair!(0, z);
+        let y0b = pair!(x, z + x);
+        let y1a = pair!(y, z + y);
+        let y1b = pair!(y + x, z + y + x);
+        let fx = _mm256_set1_ps(batch.f[0][l]);
+        let fy = _mm256_set1_ps(batch.f[1][l]);
+        let fz = _mm_set1_ps(batch.f[2][l]);
+        // Along x: corners 0|4 to 1|5 and 2|6 to 3|7; along y: [c0 | c1]; along z: c0 to c1.
+        let c = lerp!(lerp!(y0a, y0b, fx), lerp!(y1a, y1b, fx), fy);
+        let (c0, c1) = (_mm256_castps256_ps128(c), _mm256_extractf128_ps::<1>(c));
+        let g = _mm_add_ps(c0, _mm_mul_ps(fz, _mm_sub_ps(c1, c0)));
+        // SAFETY: l < LANES, so the four f32 at 4·l lie inside `rows`.
+        unsafe { _mm_storeu_ps(rows.as_mut_ptr().add(4 * l), g) };
     }
-    // Per corner, the gradient's components as f32 in three registers of eight lanes (pair order above).
-    let mut cs = [[_mm256_setzero_ps(); 3]; 8];
-    for (c, corner) in cs.iter_mut().enumerate() {
-        let idx = _mm256_add_epi32(first, _mm256_set1_epi32(3 * CORNERS[c] as i32));
-        // Each lane's entry as one 64-bit word (x, y, z and the next entry's x, which is dropped): two
-        // gathers of four lanes, half the loads of two 32-bit gathers of eight.
-        // SAFETY: every lane's entry is at most S3 − 1 (above), so the eight bytes at its 2-byte offset 3e
-        // end at most at the padding entry's first component, inside `grad` (asserted above). Unaligned
-        // 64-bit reads are what the gather does.
-        let (lo, hi) = unsafe {
-            (
-                _mm256_i32gather_epi64::<2>(flat, _mm256_castsi256_si128(idx)),
-                _mm256_i32gather_epi64::<2>(flat, _mm256_extracti128_si256::<1>(idx)),
-            )
+    // Rows of four (lanes l and l + 4 in one register's halves) transposed to one register per component.
+    // (A macro, not a closure: a closure does not take this function's target features.)
+    macro_rules! row {
+        ($l:expr) => {
+            // SAFETY: l + 4 < LANES, so both loads read four f32 inside `rows`.
+            unsafe {
+                _mm256_set_m128(_mm_loadu_ps(rows.as_ptr().add(4 * $l + 16)), _mm_loadu_ps(rows.as_ptr().add(4 * $l)))
+            }
         };
-        // The words' low halves (x, y) and high halves (z, dropped): the shuffle takes lanes 0 1 4 5 |
-        // 2 3 6 7, left in that order (the fractions are in it).
-        let (lo, hi) = (_mm256_castsi256_ps(lo), _mm256_castsi256_ps(hi));
-        let xy = _mm256_castps_si256(_mm256_shuffle_ps::<0b10_00_10_00>(lo, hi));
-        let z = _mm256_castps_si256(_mm256_shuffle_ps::<0b11_01_11_01>(lo, hi));
-        *corner = [
-            _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(xy))),
-            _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(xy)),
-            _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(z))),
-        ];
     }
-    let mut g = [_mm256_setzero_ps(); 3];
-    for a in 0..3 {
-        let c0 = lerp!(lerp!(cs[0][a], cs[1][a], f[0]), lerp!(cs[2][a], cs[3][a], f[0]), f[1]);
-        let c1 = lerp!(lerp!(cs[4][a], cs[5][a], f[0]), lerp!(cs[6][a], cs[7][a], f[0]), f[1]);
-        g[a] = _mm256_mul_ps(lerp!(c0, c1, f[2]), _mm256_set1_ps(scale));
-    }
+    let (r0, r1, r2, r3) = (row!(0), row!(1), row!(2), row!(3));
+    let (u0, u1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
+    let (u2, u3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
+    let s = _mm256_set1_ps(scale);
+    let g = [
+        _mm256_mul_ps(_mm256_shuffle_ps::<0b01_00_01_00>(u0, u2), s),
+        _mm256_mul_ps(_mm256_shuffle_ps::<0b11_10_11_10>(u0, u2), s),
+        _mm256_mul_ps(_mm256_shuffle_ps::<0b01_00_01_00>(u1, u3), s),
+    ];
     // RayContext::shade: sums of three products, left to right.
     macro_rules! dot {
         ($w:expr, $x:expr, $y:expr, $z:expr) => {{
@@ -403,8 +427,6 @@ pub(super) fn shade(
     // 1 where the gradient vanishes (n2 < 1e-12).
     let flat_lanes = _mm256_cmp_ps::<_CMP_LT_OQ>(n2, _mm256_set1_ps(1e-12));
     let out = _mm256_blendv_ps(lit, _mm256_set1_ps(1.0), flat_lanes);
-    // Back in lane order (the permutation of 64-bit pairs 0 2 1 3 is its own inverse).
-    let out = _mm256_castsi256_ps(_mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(out)));
     // The lanes from `from` on in its brick take the new shades, the others keep theirs: blended and stored
     // whole rather than by a masked store, which the consumer's next read of one lane would wait for (a
     // masked store is not forwarded to a later load).
@@ -412,7 +434,11 @@ pub(super) fn shade(
     let take = _mm256_castsi256_ps(_mm256_and_si256(same, after));
     // SAFETY: `batch.shade` holds eight f32, the bytes an unaligned load and store of one register touch.
     unsafe {
-        let old = _mm256_loadu_ps(batch.shade.as_ptr());
+        let mut old = _mm256_loadu_ps(batch.shade.as_ptr());
+        // The old shades passed through an empty asm block, which the compiler cannot see into: it would
+        // otherwise fold this load, the blend and the store back into a masked store (it did with the
+        // lane-by-lane interpolation above).
+        std::arch::asm!("/* {0} */", inout(ymm_reg) old, options(pure, nomem, nostack, preserves_flags));
         _mm256_storeu_ps(batch.shade.as_mut_ptr(), _mm256_blendv_ps(old, out, take));
     }
     batch.shaded |= lanes;
