@@ -478,6 +478,12 @@ fn changed_since_read(target: &Path) -> bool {
     }
 }
 
+/// Did this process read the file at `target` (a resolved path)? Only then does a write to it need the
+/// written content's checksum ([`note_written`] keeps it for a later [`changed_since_read`]).
+fn was_read(target: &Path) -> bool {
+    std::fs::canonicalize(target).is_ok_and(|canonical| seen_log().contains_key(&canonical))
+}
+
 /// After this process wrote `target`: if it was a file read, what was written is now what was read.
 fn note_written(target: &Path, bytes_crc: Option<u32>) {
     let Ok(canonical) = std::fs::canonicalize(target) else { return };
@@ -799,7 +805,12 @@ pub struct Staged {
     target: PathBuf,
     dir: PathBuf,
     replace: Replace,
+    /// The content's CRC-32 when it was taken as written (the target was a file this process read, and
+    /// the content at most [`CHECKSUM_CAP`] bytes).
     crc: Option<u32>,
+    /// Whether the content was checksummed as written; when not, a target read since is checksummed at the
+    /// commit from the staged file ([`Staged::commit_in`]).
+    checksummed: bool,
 }
 
 impl Staged {
@@ -814,10 +825,20 @@ impl Staged {
     /// [`Staged::commit`] whose folder sync is left to `folders`: a command committing several outputs
     /// renames each in turn and syncs each distinct folder once, after the last rename ([`FolderSync`]).
     pub fn commit_in(self, folders: &mut FolderSync) -> Result<(), FsError> {
-        let Staged { tmp, path, target, dir, replace, crc } = self;
+        let Staged { tmp, path, target, dir, replace, crc, checksummed } = self;
         if replace < Replace::Changed && changed_since_read(&target) {
             return Err(FsError::Changed { path });
         }
+        // A target first read while this output was staged (not seen in any command so far): the content's
+        // checksum from the staged file, so that the next check compares contents as for any file read.
+        let crc = if checksummed || !was_read(&target) {
+            crc
+        } else {
+            std::fs::read(tmp.path())
+                .ok()
+                .filter(|bytes| bytes.len() as u64 <= CHECKSUM_CAP)
+                .map(|bytes| crc32fast::hash(&bytes))
+        };
         // The file being replaced, held open across the rename: freeing its blocks then waits for the last
         // close, which [`FolderSync`] makes on a thread of its own while the folder syncs, instead of inside
         // the rename (about 1 ms for a 1 MB output on ext4, measured with `strace -T`). Best effort: a
@@ -969,16 +990,21 @@ pub fn stage_writing(
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
     let mut tmp = builder.tempfile_in(&dir).map_err(err)?;
+    // The checksum is taken as the content is written only when the target is a file this process read:
+    // it is kept for a later check of that file against outside changes ([`note_written`]), and nothing
+    // else uses it (a solve's report and solved palette, 4.1 MB for a 1200-design batch, are new files to
+    // it: 2.2 M instructions of checksum, half of them on the thread the report is written from).
+    let checksummed = was_read(&target);
     let (len, crc) = {
         let mut w = StagedWriter {
             file: tmp.as_file_mut(),
             buf: Vec::with_capacity(STAGED_BUFFER),
-            crc: crc32fast::Hasher::new(),
+            crc: checksummed.then(crc32fast::Hasher::new),
             len: 0,
         };
         write(&mut w).map_err(err)?;
         w.flush().map_err(err)?;
-        (w.len, w.crc.finalize())
+        (w.len, w.crc.map(crc32fast::Hasher::finalize))
     };
     if let Some(meta) = &existing {
         tmp.as_file().set_permissions(meta.permissions()).map_err(err)?;
@@ -996,29 +1022,31 @@ pub fn stage_writing(
         }
     }
     tmp.as_file().sync_all().map_err(err)?;
-    let crc = (len <= CHECKSUM_CAP).then_some(crc);
-    Ok(Staged { tmp, path: path.to_path_buf(), target, dir, replace, crc })
+    let crc = crc.filter(|_| len <= CHECKSUM_CAP);
+    Ok(Staged { tmp, path: path.to_path_buf(), target, dir, replace, crc, checksummed })
 }
 
 /// The write buffer of a [`StagedWriter`].
 const STAGED_BUFFER: usize = 64 * 1024;
 
 /// The content of a staged file as it is written ([`stage_writing`]): buffered, and checksummed on the way
-/// (the checksum a later changed-since-read check compares with). The buffer is this writer's own rather
+/// when the target is a file this process read (the checksum a later changed-since-read check compares with). The buffer is this writer's own rather
 /// than a `BufWriter` so that the checksum is taken over whole buffers as they go to the file: serialisers
 /// write a few bytes at a time, and checksumming each of those writes was measured at 4 % of a solve's
 /// whole process.
 pub struct StagedWriter<'a> {
     file: &'a mut File,
     buf: Vec<u8>,
-    crc: crc32fast::Hasher,
+    crc: Option<crc32fast::Hasher>,
     len: u64,
 }
 
 impl StagedWriter<'_> {
     /// Checksum the buffered bytes and write them to the file.
     fn drain(&mut self) -> std::io::Result<()> {
-        self.crc.update(&self.buf);
+        if let Some(crc) = &mut self.crc {
+            crc.update(&self.buf);
+        }
         self.len += self.buf.len() as u64;
         let written = self.file.write_all(&self.buf);
         self.buf.clear();
@@ -1058,8 +1086,10 @@ impl StagedWriter<'_> {
     #[cold]
     fn write_slow(&mut self, data: &[u8]) -> std::io::Result<()> {
         if data.len() >= WRITE_THROUGH {
-            self.crc.update(&self.buf);
-            self.crc.update(data);
+            if let Some(crc) = &mut self.crc {
+                crc.update(&self.buf);
+                crc.update(data);
+            }
             self.len += (self.buf.len() + data.len()) as u64;
             let written = write_both(self.file, &self.buf, data);
             self.buf.clear();
@@ -1207,6 +1237,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("r.json");
         std::fs::write(&path, "old").unwrap();
+        // Read by this process: the content written over it is checksummed as it goes.
+        read(&path, Kind::Text).unwrap();
         // Pieces of odd sizes, more than the buffer in all, so some writes fill it and some go through.
         let mut pieces: Vec<Vec<u8>> =
             (0..400u32).map(|i| (0..(i * 37 % 1500)).map(|j| (i * 7 + j) as u8).collect()).collect();
@@ -1241,6 +1273,48 @@ mod tests {
         assert!(matches!(failed, Err(FsError::Write { .. })), "{failed:?}");
         assert_eq!(std::fs::read(&path).unwrap(), whole);
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file is left");
+    }
+
+    #[test]
+    fn only_a_file_this_process_read_is_checksummed_and_its_next_check_compares_contents() {
+        let dir = tempfile::tempdir().unwrap();
+        let seen_crc = |path: &Path| seen_log().get(&std::fs::canonicalize(path).unwrap()).and_then(|s| s.crc);
+        let content: Vec<u8> = (0..3 * STAGED_BUFFER + 17).map(|j| (j % 253) as u8).collect();
+        let write = |w: &mut StagedWriter<'_>| {
+            for piece in content.chunks(1000).chain([&content[..0]]) {
+                w.write_all(piece)?;
+            }
+            w.write_all(&[])
+        };
+        // A new output, and one over a file never read: no checksum taken, none kept.
+        let fresh = dir.path().join("fresh.json");
+        let staged = stage_writing(&fresh, Name::User, Replace::Writable, write).unwrap();
+        assert!(!staged.checksummed && staged.crc.is_none(), "{staged:?}");
+        staged.commit().unwrap();
+        assert_eq!(std::fs::read(&fresh).unwrap(), content);
+        assert_eq!(seen_crc(&fresh), None, "not a file this process read");
+        // A file read before its output is staged: checksummed as written, and the checksum kept.
+        let read_first = dir.path().join("read_first.toml");
+        std::fs::write(&read_first, "old").unwrap();
+        read(&read_first, Kind::Text).unwrap();
+        let staged = stage_writing(&read_first, Name::User, Replace::Writable, write).unwrap();
+        assert!(staged.checksummed && staged.crc == Some(crc32fast::hash(&content)), "{staged:?}");
+        staged.commit().unwrap();
+        assert_eq!(seen_crc(&read_first), Some(crc32fast::hash(&content)));
+        // A file first read while its output was staged: checksummed from the staged file at the commit.
+        let read_later = dir.path().join("read_later.toml");
+        std::fs::write(&read_later, "old").unwrap();
+        let staged = stage_writing(&read_later, Name::User, Replace::Writable, write).unwrap();
+        assert!(!staged.checksummed && staged.crc.is_none(), "{staged:?}");
+        read(&read_later, Kind::Text).unwrap();
+        staged.commit().unwrap();
+        assert_eq!(seen_crc(&read_later), Some(crc32fast::hash(&content)));
+        // So a later change of its times alone (the same content) is no change, and a change of content is.
+        let later = std::time::SystemTime::now() + std::time::Duration::from_secs(5);
+        std::fs::File::options().write(true).open(&read_later).unwrap().set_modified(later).unwrap();
+        assert!(!changed_since_read(&read_later), "the same content with new times");
+        std::fs::write(&read_later, b"changed").unwrap();
+        assert!(changed_since_read(&read_later), "another content");
     }
 
     #[test]
