@@ -791,6 +791,380 @@ impl<'a> RayContext<'a> {
         debug_assert!(out.len() == self.n_mat);
     }
 
+    /// Trace the rays of `pixels` (pixel x, y and the offset of its weights in `buf`) as packets of
+    /// [`lanes::LANES`] rays marched in lockstep, one ray a lane ([`Self::march_packets_avx2`]); false
+    /// when the packets do not apply (then nothing is traced).
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn trace_packets(
+        &self,
+        pixels: &[(usize, usize, usize)],
+        buf: &mut [f32],
+        stats: &mut RaycastStats,
+    ) -> bool {
+        if !self.lanes || self.options.interpolation != Interpolation::Trilinear {
+            return false;
+        }
+        let two = std::env::var_os("METAMER_PACKETS").is_some_and(|v| v == "2")
+            && self.options.shading == Shading::Unshaded
+            && !self.classifier.gradient_dependent;
+        crate::with_voxels!(&self.volume.voxels, data => {
+            // SAFETY: `lanes` is set only where AVX2 was detected and the volume fits the lanes.
+            if two {
+                unsafe { self.march_packets2_avx2(data, pixels, buf, stats) }
+            } else {
+                unsafe { self.march_packets_avx2(data, pixels, buf, stats) }
+            }
+        });
+        true
+    }
+
+    /// The value loop over packets of rays: each lane holds one ray and, per round, takes that ray's
+    /// next step — located and (in a mixed brick) classified for all lanes at once ([`lanes::fill_packet`],
+    /// [`lanes::classify`]), so that eight rays' dependent loads are issued side by side — then consumed
+    /// lane by lane with [`Self::march_values_in`]'s operations in its order. A lane whose ray ends takes
+    /// the next pixel's. The same frame, bit for bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    fn march_packets_avx2<T: Voxel>(
+        &self,
+        data: &[T],
+        pixels: &[(usize, usize, usize)],
+        buf: &mut [f32],
+        stats: &mut RaycastStats,
+    ) {
+        use lanes::LANES as L;
+        struct Lane<'c> {
+            ray: Ray,
+            k: f64,
+            transmittance: f32,
+            prev: Edge,
+            carry: bool,
+            cursor: Cursor<'c>,
+            out: usize,
+        }
+        let n_mat = self.n_mat;
+        let classifier = self.classifier;
+        let tables = |t: &'a [f32]| -> &'a [f32; LUT_BINS] { t.try_into().expect("a table per bin") };
+        let (alpha_of, alpha_sub_of) = (tables(&classifier.alpha), tables(&classifier.alpha_sub));
+        let material_of: &[u8; LUT_BINS] = classifier.material.as_slice().try_into().expect("a material per bin");
+        let refining = self.substeps > 1;
+        let brick_lanes = self.bricks.map(|(bm, _)| (bm.shift, bm.counts));
+        let dir = self.view.dir;
+        let mut lane: [Option<Lane<'a>>; L] = Default::default();
+        let mut next = 0;
+        let mut batch = lanes::Batch::default();
+        let mut origin = [[0f64; L]; 3];
+        let mut t = [0f64; L];
+        let mut class = [MIXED; L];
+        let (mut samples, mut uniform_samples, mut skipped, mut skipped_bricks) = (0u64, 0u64, 0u64, 0u64);
+        loop {
+            // Lanes whose ray has ended take the next pixel's ray.
+            let mut first = None;
+            for (l, slot) in lane.iter_mut().enumerate() {
+                loop {
+                    if let Some(s) = slot {
+                        if s.k + s.ray.jitter <= s.ray.t1 {
+                            break;
+                        }
+                        *slot = None;
+                    }
+                    let Some(&(px, py, out)) = pixels.get(next) else { break };
+                    next += 1;
+                    if let Some(ray) = self.ray(px, py) {
+                        *slot = Some(Lane {
+                            k: (ray.t0 - ray.jitter).ceil(),
+                            ray,
+                            transmittance: 1.0,
+                            prev: Edge::EMPTY,
+                            carry: false,
+                            cursor: Cursor::default(),
+                            out,
+                        });
+                    }
+                }
+                if let Some(s) = slot {
+                    first.get_or_insert(l);
+                    t[l] = s.k + s.ray.jitter;
+                    for a in 0..3 {
+                        origin[a][l] = s.ray.origin[a];
+                    }
+                }
+            }
+            let Some(first) = first else { break };
+            // Idle lanes repeat the first busy lane's sample (a place inside the volume), unused.
+            for l in 0..L {
+                if lane[l].is_none() {
+                    t[l] = t[first];
+                    for o in origin.iter_mut() {
+                        o[l] = o[first];
+                    }
+                }
+            }
+            lanes::fill_packet(&mut batch, &self.grid, self.volume.dims, brick_lanes, &origin, dir, &t);
+            let mut mixed = false;
+            for l in 0..L {
+                class[l] = match self.bricks {
+                    Some((_, table)) => table[batch.brick[l] as usize],
+                    None => MIXED,
+                };
+                mixed |= class[l] == MIXED && lane[l].is_some();
+            }
+            if mixed {
+                lanes::classify(&mut batch, &self.grid, classifier, data);
+            }
+            for (l, slot) in lane.iter_mut().enumerate() {
+                let Some(s) = slot else { continue };
+                let k = s.k;
+                let t = t[l];
+                let at = Located {
+                    b: batch.b[l] as usize,
+                    i: [batch.i[0][l] as usize, batch.i[1][l] as usize, batch.i[2][l] as usize],
+                    f: [batch.f[0][l], batch.f[1][l], batch.f[2][l]],
+                };
+                let uniform = class[l];
+                if uniform == EMPTY {
+                    let Some((bm, _)) = self.bricks else { unreachable!("a class without bricks") };
+                    let sh = bm.shift;
+                    let b = [at.i[0] >> sh, at.i[1] >> sh, at.i[2] >> sh];
+                    s.prev = Edge::EMPTY;
+                    s.carry = false;
+                    let next = brick_exit(s.ray.origin, dir, b, bm.size, s.ray.jitter, k);
+                    skipped += (next - k) as u64;
+                    skipped_bricks += 1;
+                    s.k = next;
+                    continue;
+                }
+                samples += 1;
+                let sample = if uniform == MIXED {
+                    let bin = batch.bin[l] as usize;
+                    debug_assert!(bin < LUT_BINS);
+                    (material_of[bin % LUT_BINS], bin)
+                } else {
+                    uniform_samples += 1;
+                    (uniform, usize::from(classifier.material_bin[usize::from(uniform) - 1]))
+                };
+                let edge = Edge { near: false, material: sample.0, level: alpha_of[sample.1 % LUT_BINS] };
+                let crossing =
+                    refining && s.prev.material != edge.material && s.prev.level.max(edge.level) >= Edge::MIN_ALPHA;
+                let refine = crossing || s.carry;
+                s.carry = crossing && edge.level >= Edge::DENSE;
+                s.prev = edge;
+                let out = &mut buf[s.out..s.out + n_mat];
+                if refine {
+                    let (n, stop) =
+                        self.value_substeps(data, &s.ray, t, &mut s.transmittance, out, &mut s.cursor, stats);
+                    samples += n;
+                    if stop {
+                        *slot = None;
+                        continue;
+                    }
+                }
+                let alpha = if refine { alpha_sub_of } else { alpha_of };
+                let cursor = &mut s.cursor;
+                let absorbed = self.composite_value_by(data, sample, at, alpha, s.transmittance, out, || {
+                    self.shade(self.smooth_gradient(at, cursor))
+                });
+                if self.attenuate(absorbed, &mut s.transmittance, stats) {
+                    *slot = None;
+                    continue;
+                }
+                s.k = k + 1.0;
+            }
+        }
+        stats.samples += samples;
+        stats.uniform += uniform_samples;
+        stats.skipped += skipped;
+        stats.skipped_bricks += skipped_bricks;
+    }
+
+    /// Packets with the state of each lane's ray in arrays and the common case consumed without a
+    /// branch per lane: lanes in empty bricks, refined lanes and stopped lanes are visited through bit
+    /// masks; the others composite together. Unshaded, no gradient-dependent material.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    fn march_packets2_avx2<T: Voxel>(
+        &self,
+        data: &[T],
+        pixels: &[(usize, usize, usize)],
+        buf: &mut [f32],
+        stats: &mut RaycastStats,
+    ) {
+        use lanes::LANES as L;
+        let classifier = self.classifier;
+        let tables = |t: &'a [f32]| -> &'a [f32; LUT_BINS] { t.try_into().expect("a table per bin") };
+        let (alpha_of, alpha_sub_of) = (tables(&classifier.alpha), tables(&classifier.alpha_sub));
+        let material_of: &[u8; LUT_BINS] = classifier.material.as_slice().try_into().expect("a material per bin");
+        // Per brick class (a material code), the bin a single-material brick's samples take; 0 otherwise.
+        let mut code_bin = [0u16; 256];
+        for (m, b) in classifier.material_bin.iter().enumerate() {
+            code_bin[m + 1] = *b;
+        }
+        // Per material code, 1 when it absorbs.
+        let mut absorbs = [0f32; 256];
+        for (c, p) in classifier.per_code.iter().enumerate() {
+            absorbs[c] = if p.absorbs { 1.0 } else { 0.0 };
+        }
+        let refining = self.substeps > 1;
+        let brick_lanes = self.bricks.map(|(bm, _)| (bm.shift, bm.counts));
+        let dir = self.view.dir;
+        let none = Ray { origin: [0.0; 3], dir, t0: 0.0, t1: f64::NEG_INFINITY, jitter: 0.0 };
+        let mut ray = [none; L];
+        let mut alive = [false; L];
+        let mut kk = [0f64; L];
+        let mut tr = [1f32; L];
+        let mut prev_mat = [0u8; L];
+        let mut prev_level = [0f32; L];
+        let mut carry = [false; L];
+        let mut cursor: [Cursor<'a>; L] = Default::default();
+        let mut out = [0usize; L];
+        let mut sink = [0f32; 1];
+        let mut next = 0;
+        let mut batch = lanes::Batch::default();
+        let mut origin = [[0f64; L]; 3];
+        let mut t = [0f64; L];
+        let (mut samples, mut uniform_samples, mut skipped, mut skipped_bricks) = (0u64, 0u64, 0u64, 0u64);
+        loop {
+            let mut any = false;
+            for l in 0..L {
+                let ok = alive[l] && kk[l] + ray[l].jitter <= ray[l].t1;
+                alive[l] = ok;
+                any |= !ok;
+            }
+            if any {
+                for l in 0..L {
+                    while !alive[l] {
+                        let Some(&(px, py, o)) = pixels.get(next) else { break };
+                        next += 1;
+                        if let Some(r) = self.ray(px, py) {
+                            kk[l] = (r.t0 - r.jitter).ceil();
+                            if kk[l] + r.jitter > r.t1 {
+                                continue;
+                            }
+                            ray[l] = r;
+                            alive[l] = true;
+                            tr[l] = 1.0;
+                            prev_mat[l] = 0;
+                            prev_level[l] = 0.0;
+                            carry[l] = false;
+                            cursor[l] = Cursor::default();
+                            out[l] = o;
+                            for a in 0..3 {
+                                origin[a][l] = r.origin[a];
+                            }
+                        }
+                    }
+                }
+                if !alive.iter().any(|&a| a) {
+                    break;
+                }
+            }
+            for l in 0..L {
+                // Idle lanes keep their last place (inside the volume), unused.
+                if alive[l] {
+                    t[l] = kk[l] + ray[l].jitter;
+                }
+            }
+            lanes::fill_packet(&mut batch, &self.grid, self.volume.dims, brick_lanes, &origin, dir, &t);
+            let mut class = [MIXED; L];
+            let mut mixed = false;
+            if let Some((_, table)) = self.bricks {
+                for l in 0..L {
+                    class[l] = table[batch.brick[l] as usize];
+                    mixed |= class[l] == MIXED && alive[l];
+                }
+            } else {
+                mixed = true;
+            }
+            if mixed {
+                lanes::classify(&mut batch, &self.grid, classifier, data);
+            }
+            let (mut empty, mut refined, mut take) = (0u32, 0u32, 0u32);
+            let mut mat = [0u8; L];
+            let mut alpha = [0f32; L];
+            for l in 0..L {
+                let c = class[l];
+                let bin = if c == MIXED { batch.bin[l] as usize } else { usize::from(code_bin[usize::from(c)]) };
+                let m = material_of[bin % LUT_BINS];
+                let level = alpha_of[bin % LUT_BINS];
+                let sampled = alive[l] && c != EMPTY;
+                empty |= u32::from(alive[l] && c == EMPTY) << l;
+                take |= u32::from(sampled) << l;
+                let crossing = refining && prev_mat[l] != m && prev_level[l].max(level) >= Edge::MIN_ALPHA;
+                let refine = crossing || carry[l];
+                refined |= u32::from(sampled && refine) << l;
+                if sampled {
+                    carry[l] = crossing && level >= Edge::DENSE;
+                    prev_mat[l] = m;
+                    prev_level[l] = level;
+                }
+                uniform_samples += u64::from(sampled && c != MIXED);
+                mat[l] = m;
+                alpha[l] = if refine { alpha_sub_of[bin % LUT_BINS] } else { level };
+            }
+            samples += u64::from(take.count_ones());
+            let mut e = empty;
+            while e != 0 {
+                let l = e.trailing_zeros() as usize;
+                e &= e - 1;
+                let Some((bm, _)) = self.bricks else { unreachable!("a class without bricks") };
+                let sh = bm.shift;
+                let b = [batch.i[0][l] as usize >> sh, batch.i[1][l] as usize >> sh, batch.i[2][l] as usize >> sh];
+                prev_mat[l] = 0;
+                prev_level[l] = 0.0;
+                carry[l] = false;
+                let k = kk[l];
+                let nk = brick_exit(ray[l].origin, dir, b, bm.size, ray[l].jitter, k);
+                skipped += (nk - k) as u64;
+                skipped_bricks += 1;
+                kk[l] = nk;
+            }
+            let mut r = refined;
+            while r != 0 {
+                let l = r.trailing_zeros() as usize;
+                r &= r - 1;
+                let o = &mut buf[out[l]..out[l] + self.n_mat];
+                let (n, stop) = self.value_substeps(data, &ray[l], t[l], &mut tr[l], o, &mut cursor[l], stats);
+                samples += n;
+                if stop {
+                    alive[l] = false;
+                    take &= !(1 << l);
+                }
+            }
+            // The composite of the lanes sampled: out[m − 1] += transmittance·alpha·1 (unshaded), the
+            // transmittance attenuated by what absorbs.
+            let mut stop = 0u32;
+            let base = buf.as_mut_ptr();
+            for l in 0..L {
+                let m = usize::from(mat[l]);
+                let w = take & (1 << l) != 0 && m != 0;
+                let a = alpha[l];
+                // SAFETY: lane l's weights lie at out[l] .. out[l] + n_mat in `buf` (m ≤ n_mat), the sink otherwise.
+                let p = if w { unsafe { base.add(out[l] + m - 1) } } else { sink.as_mut_ptr() };
+                unsafe { *p += tr[l] * a * 1.0 };
+                let absorbed = if w { a * absorbs[m] } else { 0.0 };
+                if absorbed > 0.0 {
+                    tr[l] *= 1.0 - absorbed;
+                    stop |= u32::from(tr[l] < self.stop_below) << l;
+                }
+                kk[l] += f64::from(u8::from(take & (1 << l) != 0));
+            }
+            if stop != 0 {
+                stats.terminated += u64::from(stop.count_ones());
+                for l in 0..L {
+                    if stop & (1 << l) != 0 {
+                        alive[l] = false;
+                    }
+                }
+            }
+        }
+        stats.samples += samples;
+        stats.uniform += uniform_samples;
+        stats.skipped += skipped;
+        stats.skipped_bricks += skipped_bricks;
+    }
+
     /// The refinement substeps of the value loop before the sample at `t` (all but that sample, the
     /// last of them): taken out of the loop (on the engine CT one step in 15 to 30 is refined), so that
     /// the loop keeps its state in registers. Scalar even where the loop's samples are taken in lanes:
