@@ -19,7 +19,14 @@
 //! as soon as a batch is taken, so that its gathers are issued before this batch is consumed, 1.06 (6 %
 //! more instructions: batches cut short by skipped bricks waste the batch ahead); the cell index's two
 //! products side by side instead of chained, 0.982 to 0.994 over four runs (36 of 61 pairs faster in
-//! the largest): within the noise.
+//! the largest): within the noise; the four pair gathers as eight scalar 32-bit reads each (the same
+//! bytes), 0.98–0.99 on the engine CT and 0.97–0.99 on the large u16 volume: within the noise too.
+//!
+//! Lanes across rays instead of along one (packets of eight neighbouring rays in lockstep, one ray a
+//! lane, each lane doing its ray's operations: the same frames) were built and measured, and did not pay:
+//! interleaving rays mixes their branch histories and adds the lanes' bookkeeping, while the samples of
+//! one ray already overlap in the processor. `docs/render_performance.md` has the figures; the prototype
+//! is in the history ("raycast packets prototype").
 
 use super::block::{FIELD_BRICK, S, S3, SHIFT};
 use super::classify::{Classifier, LUT_BINS};
@@ -37,9 +44,6 @@ macro_rules! lerp {
         _mm256_add_ps(a, _mm256_mul_ps($t, _mm256_sub_ps($b, a)))
     }};
 }
-
-static SCALAR_PAIRS: std::sync::LazyLock<bool> =
-    std::sync::LazyLock::new(|| std::env::var_os("METAMER_SCALAR_PAIRS").is_some());
 
 /// Samples per batch.
 pub(super) const LANES: usize = 8;
@@ -213,18 +217,11 @@ pub(super) fn classify<T: Voxel>(batch: &mut Batch, grid: &Grid, classifier: &Cl
             let idx = _mm256_add_epi32(b, _mm256_set1_epi32(o as i32));
             // SAFETY: every lane's pair starts at voxel b + o ≤ high + sz + sy, and its word's 4 bytes end
             // inside `data` (checked above); the byte offset fits i32 ([`fits`]).
-            let w = if *SCALAR_PAIRS {
-                let mut ix = [0u32; LANES];
-                unsafe { _mm256_storeu_si256(ix.as_mut_ptr().cast(), idx) };
-                let r = |l: usize| unsafe { p.add(ix[l] as usize * size).cast::<i32>().read_unaligned() };
-                _mm256_set_epi32(r(7), r(6), r(5), r(4), r(3), r(2), r(1), r(0))
-            } else {
-                unsafe {
-                    if size == 1 {
-                        _mm256_i32gather_epi32::<1>(p.cast(), idx)
-                    } else {
-                        _mm256_i32gather_epi32::<2>(p.cast(), idx)
-                    }
+            let w = unsafe {
+                if size == 1 {
+                    _mm256_i32gather_epi32::<1>(p.cast(), idx)
+                } else {
+                    _mm256_i32gather_epi32::<2>(p.cast(), idx)
                 }
             };
             // The pair's first voxel in the word's low bytes, its second in the next (little-endian),
@@ -426,63 +423,4 @@ pub(super) fn shade(
         _mm256_storeu_ps(batch.shade.as_mut_ptr(), _mm256_blendv_ps(old, out, take));
     }
     batch.shaded |= lanes;
-}
-
-/// Fill `batch` with one sample of each of [`LANES`] rays (a packet, `march.rs`'s
-/// `march_packets_avx2`): lane `l` at `origin[·][l] + t[l]·dir`, located as [`fill`] locates a lane
-/// (the same operations in the same order), with its brick when `bricks` is given. Not yet classified.
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-pub(super) fn fill_packet(
-    batch: &mut Batch,
-    grid: &Grid,
-    dims: [usize; 3],
-    bricks: Option<(u32, [usize; 3])>,
-    origin: &[[f64; LANES]; 3],
-    dir: [f64; 3],
-    t: &[f64; LANES],
-) {
-    batch.shaded = 0;
-    batch.classified = false;
-    let zero = _mm256_setzero_pd();
-    let mut cell = [_mm_setzero_si128(); 6];
-    let mut frac = [_mm_setzero_ps(); 6];
-    for h in 0..2 {
-        // SAFETY (the loads): each source holds eight f64 from lane 4h on, four of which an unaligned load reads.
-        let th = unsafe { _mm256_loadu_pd(t.as_ptr().add(4 * h)) };
-        for a in 0..3 {
-            let o = unsafe { _mm256_loadu_pd(origin[a].as_ptr().add(4 * h)) };
-            // origin + t·dir, multiplied then added (as the scalar path: no fused multiply-add).
-            let p = _mm256_add_pd(o, _mm256_mul_pd(th, _mm256_set1_pd(dir[a])));
-            let q = _mm256_min_pd(_mm256_max_pd(p, zero), _mm256_set1_pd(grid.hi[a]));
-            let ti = _mm256_cvttpd_epi32(_mm256_min_pd(q, _mm256_set1_pd(grid.imax[a])));
-            frac[2 * a + h] = _mm256_cvtpd_ps(_mm256_sub_pd(q, _mm256_cvtepi32_pd(ti)));
-            cell[2 * a + h] = ti;
-        }
-    }
-    let mut i = [_mm256_setzero_si256(); 3];
-    let mut f = [_mm256_setzero_ps(); 3];
-    for a in 0..3 {
-        i[a] = _mm256_set_m128i(cell[2 * a + 1], cell[2 * a]);
-        f[a] = _mm256_set_m128(frac[2 * a + 1], frac[2 * a]);
-    }
-    let d0 = _mm256_set1_epi32(dims[0] as i32);
-    let d1 = _mm256_set1_epi32(dims[1] as i32);
-    let b = _mm256_add_epi32(i[0], _mm256_mullo_epi32(d0, _mm256_add_epi32(i[1], _mm256_mullo_epi32(d1, i[2]))));
-    // SAFETY (the stores): each destination holds eight 32-bit lanes, the bytes an unaligned store writes.
-    unsafe {
-        _mm256_storeu_si256(batch.b.as_mut_ptr().cast(), b);
-        for a in 0..3 {
-            _mm256_storeu_si256(batch.i[a].as_mut_ptr().cast(), i[a]);
-            _mm256_storeu_ps(batch.f[a].as_mut_ptr(), f[a]);
-        }
-    }
-    if let Some((shift, counts)) = bricks {
-        let sh = _mm_cvtsi32_si128(shift as i32);
-        let (bx, by, bz) = (_mm256_srl_epi32(i[0], sh), _mm256_srl_epi32(i[1], sh), _mm256_srl_epi32(i[2], sh));
-        let (c0, c1) = (_mm256_set1_epi32(counts[0] as i32), _mm256_set1_epi32(counts[1] as i32));
-        let bi = _mm256_add_epi32(bx, _mm256_mullo_epi32(c0, _mm256_add_epi32(by, _mm256_mullo_epi32(c1, bz))));
-        // SAFETY: `batch.brick` holds eight u32, the bytes an unaligned store writes.
-        unsafe { _mm256_storeu_si256(batch.brick.as_mut_ptr().cast(), bi) };
-    }
 }

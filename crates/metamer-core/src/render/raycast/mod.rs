@@ -462,31 +462,10 @@ pub(super) fn raycast_with(
         .map_or(TILE, |r| band_rows(r, reachable.unwrap_or_else(|| fields::brick_count(volume)), &view, volume, w, h));
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(rows);
-    let packets = std::env::var_os("METAMER_PACKETS").is_some();
     let trace_tile = |t: usize| {
         let (tx, ty) = (t % tiles_x, t / tiles_x);
         let mut stats = RaycastStats::default();
         let mut buf = vec![0f32; TILE * rows * n_mat];
-        #[cfg(target_arch = "x86_64")]
-        if packets {
-            let mut pixels = Vec::with_capacity(TILE * rows);
-            for j in 0..rows {
-                let py = ty * rows + j;
-                if py >= h {
-                    break;
-                }
-                for i in 0..TILE {
-                    let px = tx * TILE + i;
-                    if px >= w {
-                        break;
-                    }
-                    pixels.push((px, py, (j * TILE + i) * n_mat));
-                }
-            }
-            if ctx.trace_packets(&pixels, &mut buf, &mut stats) {
-                return (buf, stats);
-            }
-        }
         for j in 0..rows {
             let py = ty * rows + j;
             if py >= h {
