@@ -15,6 +15,7 @@ pub mod fsio;
 pub mod memory;
 pub(crate) mod optimize;
 pub mod palette;
+pub(crate) mod region;
 pub mod render;
 pub mod spectrum;
 pub mod volume;

@@ -30,6 +30,7 @@
 use super::block::{FIELD_BRICK, S, S3, SHIFT};
 use super::classify::Classifier;
 use super::labels;
+use crate::region::{Buf, Region};
 use crate::volume::Volume;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -74,7 +75,8 @@ pub(super) enum Kind {
 pub(super) struct Block {
     /// `S3` gradient triples, per material in label mode (empty when no gradients are needed); a value
     /// block's are followed by a padding entry ([`Fields::gradient`]).
-    pub(crate) grad: Vec<[i16; 3]>,
+    /// In the pinned store's [`Region`] when it has one (value and opacity blocks), else on the heap.
+    pub(crate) grad: Buf<[i16; 3]>,
     /// Materials (0-based) with some occupancy in the block (label mode).
     pub(crate) mats: Vec<u8>,
     /// `mats.len() × S3` signed distances (label mode, [`labels::LabelBlock::sdf`]).
@@ -171,6 +173,11 @@ pub(super) struct Fields<'a> {
     last_rows: Vec<u32>,
     /// Blocks admitted so far (the eviction order without `last_rows`).
     admitted: AtomicU64,
+    /// The pinned store's gradient blocks, one after another in one mapping of huge pages (never freed
+    /// before the store, so nothing is lost by not freeing them one by one): a raycast's first touches of
+    /// its blocks' memory take a few 2 MiB faults instead of one 4 KiB fault per page and a malloc per
+    /// block. None: capped store, label blocks, or no mapping (the heap then).
+    region: Option<Arc<Region>>,
     built_bytes: AtomicU64,
     built: AtomicU64,
     evicted: AtomicU64,
@@ -212,7 +219,11 @@ impl<'a> Fields<'a> {
         let largest = (S3 * per_entry + padding + classifier.materials + std::mem::size_of::<Block>()) as u64;
         let pinned_bytes = (n * std::mem::size_of::<OnceLock<Block>>()) as u64;
         let reach = reachable.unwrap_or(n).min(n) as u64;
-        let (store, slot_bytes, room) = if largest.saturating_mul(reach).saturating_add(pinned_bytes) <= cap {
+        let pinned = largest.saturating_mul(reach).saturating_add(pinned_bytes) <= cap;
+        // Room for every block the raycast can build (each is built once when pinned); only the pages
+        // touched become resident.
+        let region = (pinned && kind != Kind::Labels).then(|| Region::new((S3 + 1) * 6 * reach as usize)).flatten();
+        let (store, slot_bytes, room) = if pinned {
             (Store::Pinned((0..n).map(|_| OnceLock::new()).collect()), pinned_bytes, None)
         } else {
             let slots = (0..n).map(|_| Slot { block: Mutex::new(None) }).collect();
@@ -238,6 +249,7 @@ impl<'a> Fields<'a> {
             room,
             last_rows: Vec::new(),
             admitted: AtomicU64::new(0),
+            region,
             built_bytes: AtomicU64::new(0),
             built: AtomicU64::new(0),
             evicted: AtomicU64::new(0),
@@ -378,14 +390,14 @@ impl<'a> Fields<'a> {
     fn build(&self, b: [usize; 3]) -> Block {
         match self.kind {
             Kind::Values | Kind::Opacity => {
-                let mut grad = self.build_gradient(b);
-                // The padding entry [`Self::gradient`] reads one component of.
-                grad.push([0; 3]);
+                // S3 entries and the (zero) padding entry [`Self::gradient`] reads one component of.
+                let mut grad = Buf::zeroed(self.region.as_ref(), S3 + 1);
+                self.build_gradient_into(b, &mut grad[..S3]);
                 Block { grad, mats: vec![], sdf: vec![] }
             }
             Kind::Labels => {
                 let l = labels::build(self.volume, self.classifier, b, self.gradients);
-                Block { grad: l.grad, mats: l.mats, sdf: l.sdf }
+                Block { grad: l.grad.into(), mats: l.mats, sdf: l.sdf }
             }
         }
     }
@@ -474,27 +486,37 @@ impl<'a> Fields<'a> {
 
     /// Central differences of the value (or opacity) field, exactly as a whole-volume grid would hold
     /// them (neighbours clamped into the grid).
-    fn build_gradient(&self, b: [usize; 3]) -> Vec<[i16; 3]> {
+    /// Into `grad` (`S3` entries, zeroed).
+    fn build_gradient_into(&self, b: [usize; 3], grad: &mut [[i16; 3]]) {
         crate::with_voxels!(&self.volume.voxels, data => {
             #[cfg(target_arch = "x86_64")]
             if self.avx2 {
                 // SAFETY: `avx2` is set only where AVX2 was detected (`super::lanes::detected`).
-                return unsafe { self.gradient_block_avx2(data, b) };
+                return unsafe { self.gradient_block_avx2(data, b, grad) };
             }
-            self.gradient_block(data, b)
+            self.gradient_block(data, b, grad)
         })
+    }
+
+    /// [`Self::build_gradient_into`] a new vector.
+    #[cfg(test)]
+    fn build_gradient(&self, b: [usize; 3]) -> Vec<[i16; 3]> {
+        let mut grad = vec![[0; 3]; S3];
+        self.build_gradient_into(b, &mut grad);
+        grad
     }
 
     /// [`Self::gradient_block`] compiled for AVX2: the same operations on each entry (no fused
     /// multiply-add), its loops vectorised eight lanes wide instead of four, so the same block.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn gradient_block_avx2<T: crate::volume::Voxel>(&self, data: &[T], b: [usize; 3]) -> Vec<[i16; 3]> {
-        self.gradient_block(data, b)
+    fn gradient_block_avx2<T: crate::volume::Voxel>(&self, data: &[T], b: [usize; 3], grad: &mut [[i16; 3]]) {
+        self.gradient_block(data, b, grad)
     }
 
     #[inline(always)]
-    fn gradient_block<T: crate::volume::Voxel>(&self, data: &[T], b: [usize; 3]) -> Vec<[i16; 3]> {
+    /// Every one of `grad`'s `S3` entries written.
+    fn gradient_block<T: crate::volume::Voxel>(&self, data: &[T], b: [usize; 3], grad: &mut [[i16; 3]]) {
         let d = self.volume.dims;
         let opacity = self.kind == Kind::Opacity;
         let h = if opacity { 2 } else { 1 };
@@ -544,9 +566,7 @@ impl<'a> Fields<'a> {
                 }
             }
         }
-        // Room for the padding entry `build` adds (no reallocation).
-        let mut grad = Vec::with_capacity(S3 + 1);
-        grad.resize(S3, [0i16; 3]);
+        let grad = &mut grad[..S3];
         if inside.iter().all(|&i| i) {
             // No clamping: the neighbours of entry l are the grown field's entries l ± h along each axis,
             // the same values the clamped lookups below read.
@@ -578,7 +598,7 @@ impl<'a> Fields<'a> {
                     }
                 }
             }
-            return grad;
+            return;
         }
         // The field at grid coordinate c (c within the grown block).
         let at = |c: [usize; 3]| field[(c[0] + h - o[0]) + n * ((c[1] + h - o[1]) + n * (c[2] + h - o[2]))];
@@ -599,7 +619,6 @@ impl<'a> Fields<'a> {
                 }
             }
         }
-        grad
     }
 }
 

@@ -22,7 +22,14 @@
 //! as soon as a batch is taken, so that its gathers are issued before this batch is consumed, 1.06 (6 %
 //! more instructions: batches cut short by skipped bricks waste the batch ahead); the cell index's two
 //! products side by side instead of chained, 0.982 to 0.994 over four runs (36 of 61 pairs faster in
-//! the largest): within the noise.
+//! the largest): within the noise; the four pair gathers as eight scalar 32-bit reads each (the same
+//! bytes), 0.98–0.99 on the engine CT and 0.97–0.99 on the large u16 volume: within the noise too.
+//!
+//! Lanes across rays instead of along one (packets of eight neighbouring rays in lockstep, one ray a
+//! lane, each lane doing its ray's operations: the same frames) were built and measured, and did not pay:
+//! interleaving rays mixes their branch histories and adds the lanes' bookkeeping, while the samples of
+//! one ray already overlap in the processor. `docs/render_performance.md` has the figures; the prototype
+//! is in the history ("raycast packets prototype").
 
 use super::block::{FIELD_BRICK, S, S3, SHIFT};
 use super::classify::{Classifier, LUT_BINS};

@@ -241,6 +241,8 @@ impl MaterialWeights {
         let k = colours.first().map_or(0, Vec::len);
         debug_assert_eq!(colours.len(), self.materials);
         let mut data = vec![0f32; self.width * self.height * k];
+        // Fresh and untouched: faulted in by huge pages where it holds whole ones.
+        crate::region::advise_huge(&mut data);
         if k > 0 && self.materials > 0 {
             data.par_chunks_mut(k * 1024).zip(self.data.par_chunks(self.materials * 1024)).for_each(|(out, w)| {
                 for (px, wpx) in out.chunks_exact_mut(k).zip(w.chunks_exact(self.materials)) {
@@ -490,6 +492,8 @@ pub(super) fn raycast_with(
         (0..tiles_x * tiles_y).into_par_iter().map(trace_tile).collect()
     };
     let mut data = vec![0f32; w * h * n_mat];
+    // Fresh and untouched: faulted in by huge pages where it holds whole ones.
+    crate::region::advise_huge(&mut data);
     let mut stats = RaycastStats::default();
     for (t, (buf, s)) in tiles.iter().enumerate() {
         stats.add(s);
