@@ -11,7 +11,7 @@ use crate::design::Fixed;
 use crate::design::{self, Criterion, Solution, SolveOptions};
 use crate::palette::PaletteFile;
 use crate::palette::mixing;
-use crate::palette::{MixSpec, Palette, PaletteDigits, PaletteError, PreparedSave, SampleDigits, SpectrumEntry};
+use crate::palette::{MixSpec, Palette, PaletteError, PreparedSave, SpectrumEntry};
 use anyhow::Context;
 use nalgebra::Vector3;
 use std::fmt::Write as _;
@@ -117,15 +117,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let Some(out) = args.output.as_ref() else {
                 return Early::default();
             };
-            // With the report too, each spectrum's samples are formatted once, for both outputs: the solved
-            // palette's samples and the report's spectra rows spell the same numbers with the same formatter.
-            let digits = args.report.is_some().then(|| PaletteDigits::of(solved));
             let (prepared, spectra) = rayon::join(
-                || file.prepare_save_as_with(solved, out, digits.as_ref()),
+                || file.prepare_save_as(solved, out),
                 || {
-                    digits.as_ref().map(|digits| {
+                    args.report.is_some().then(|| {
                         let bad = Unphysical::of(solved);
-                        let pieces = spectra_pieces(&spectrum_rows(solved, &bad, Some(digits)));
+                        let pieces = spectra_pieces(&spectrum_rows(solved, &bad));
                         (bad, pieces)
                     })
                 },
@@ -847,25 +844,6 @@ impl JsonText<'_> {
         }
     }
 
-    /// [`JsonText::numbers`] of `digits`' values, their text copied: `zmij`'s, which is what serde_json
-    /// writes for a finite number (`null` for the others, as serde_json writes them).
-    fn numbers_from(&mut self, digits: &SampleDigits<'_>) {
-        let n = digits.values().len();
-        if n == 0 {
-            self.raw("[]");
-            return;
-        }
-        self.raw("[");
-        for k in 0..n {
-            self.raw(if k == 0 { "\n        " } else { ",\n        " });
-            match digits.json(k) {
-                Some(text) => self.0.extend_from_slice(text),
-                None => self.raw("null"),
-            }
-        }
-        self.raw("\n      ]");
-    }
-
     /// An array of numbers that is the value of a key of a row (its elements three levels deep).
     fn numbers(&mut self, values: &[f64]) -> std::io::Result<()> {
         let Some((last, first)) = values.split_last() else {
@@ -895,10 +873,7 @@ impl Row for SpectrumJson<'_> {
         w.raw(",\n      \"design\": ");
         w.bool(self.design);
         w.raw(",\n      \"samples\": ");
-        match self.digits {
-            Some(digits) => w.numbers_from(digits),
-            None => w.numbers(self.samples)?,
-        }
+        w.numbers(self.samples)?;
         w.raw(",\n      \"unphysical\": ");
         w.bool(self.unphysical);
         w.raw("\n    }");
@@ -1045,23 +1020,11 @@ impl serde_json::ser::Formatter for Pretty {
 }
 
 /// The report's spectra rows of palette `p`: its lights, then its reflectances.
-/// `digits`, when given, are those of `p`'s spectra ([`PaletteDigits::of`]): the rows copy their text.
-fn spectrum_rows<'a>(p: &'a Palette, bad: &Unphysical, digits: Option<&'a PaletteDigits<'a>>) -> Vec<SpectrumJson<'a>> {
-    let (lights, reflectances) = match digits {
-        Some(d) if d.lights.len() == p.lights.len() && d.reflectances.len() == p.reflectances.len() => {
-            (Some(&d.lights[..]), Some(&d.reflectances[..]))
-        }
-        _ => (None, None),
-    };
-    let with = |list: Option<&'a [SampleDigits<'a>]>, i: usize| list.and_then(|l| l.get(i));
-    let lights = p.lights.iter().zip(&bad.lights).enumerate().map(move |(i, (e, &bad))| (e, bad, with(lights, i)));
-    let reflectances = p
-        .reflectances
-        .iter()
-        .zip(&bad.reflectances)
-        .enumerate()
-        .map(move |(i, (e, &bad))| (e, bad, with(reflectances, i)));
-    lights.chain(reflectances).map(|(e, bad, digits)| SpectrumJson::new(e, bad, digits)).collect()
+fn spectrum_rows<'a>(p: &'a Palette, bad: &Unphysical) -> Vec<SpectrumJson<'a>> {
+    (p.lights.iter().zip(&bad.lights))
+        .chain(p.reflectances.iter().zip(&bad.reflectances))
+        .map(|(e, &bad)| SpectrumJson::new(e, bad))
+        .collect()
 }
 
 /// The report's spectra rows rendered ahead, as the report renders them ([`Rows::rendered`]).
@@ -1078,18 +1041,18 @@ struct SpectrumJson<'a> {
     samples: &'a [f64],
     /// A designed reflectance outside [0, 1] or a designed light below 0 (see [`unphysical_range`]).
     unphysical: bool,
-    /// The samples' text formatted ahead, for the solved palette too (the digits of `samples` only).
-    #[serde(skip)]
-    digits: Option<&'a SampleDigits<'a>>,
 }
 
 impl<'a> SpectrumJson<'a> {
     /// `unphysical`: [`unphysical_range`] of `e` is some.
-    fn new(e: &'a SpectrumEntry, unphysical: bool, digits: Option<&'a SampleDigits<'a>>) -> Self {
-        let samples = e.spectrum.as_slice();
-        // Digits of other numbers than these samples are not used.
-        let digits = digits.filter(|d| std::ptr::eq(d.values(), samples));
-        SpectrumJson { digits, name: &e.name, kind: e.kind.as_str(), design: e.design, samples, unphysical }
+    fn new(e: &'a SpectrumEntry, unphysical: bool) -> Self {
+        SpectrumJson {
+            name: &e.name,
+            kind: e.kind.as_str(),
+            design: e.design,
+            samples: e.spectrum.as_slice(),
+            unphysical,
+        }
     }
 }
 
@@ -1352,7 +1315,7 @@ impl<'a> Report<'a> {
             seconds,
             solve_seconds: s.seconds,
             kkt_residual: s.kkt_residual,
-            spectra: Rows::new(spectrum_rows(p, bad, None)),
+            spectra: Rows::new(spectrum_rows(p, bad)),
             free: p.free.iter().zip(&s.free).map(|(g, c)| FreeJson { name: &g.name, rgb: arr(c) }).collect(),
             cells: Rows::new(
                 s.cells
@@ -1560,14 +1523,8 @@ mod tests {
         let sample_lists: [&[f64]; 4] = [&[], &[0.5], &numbers, &[f64::NAN, 0.25]];
         for (k, name) in names.iter().enumerate() {
             for samples in sample_lists {
-                let row = SpectrumJson {
-                    name,
-                    kind: "reflectance",
-                    design: k % 2 == 0,
-                    samples,
-                    unphysical: k % 3 == 0,
-                    digits: None,
-                };
+                let row =
+                    SpectrumJson { name, kind: "reflectance", design: k % 2 == 0, samples, unphysical: k % 3 == 0 };
                 assert_eq!(String::from_utf8(by_hand(&row)).unwrap(), String::from_utf8(printer(&row)).unwrap());
             }
             for (j, &x) in numbers.iter().enumerate() {
@@ -1676,7 +1633,7 @@ mod tests {
             // same report.
             let bad = super::Unphysical::of(&solution.palette);
             let mut ahead = super::Report::new(&solution, &bad, 0.25);
-            ahead.spectra.rendered(super::spectra_pieces(&super::spectrum_rows(&solution.palette, &bad, None)));
+            ahead.spectra.rendered(super::spectra_pieces(&super::spectrum_rows(&solution.palette, &bad)));
             assert_eq!(ahead.spectra.pieces.count(), ahead.spectra.items.len().div_ceil(96));
             let mut ours = Vec::new();
             super::write_report(&mut ours, &ahead).unwrap();

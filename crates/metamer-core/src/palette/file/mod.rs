@@ -16,7 +16,6 @@ mod budget;
 mod doc;
 mod events;
 mod float_text;
-pub use float_text::{PaletteDigits, SampleDigits};
 mod lines;
 mod numbers;
 mod pieces;
@@ -334,7 +333,6 @@ impl PaletteFile {
             new_base: Path::new("."),
             csv_raw: &HashMap::new(),
             luminance: Colorimetry::default().luminance(),
-            digits: None,
         };
         // A fresh document has no structure that could refuse the model.
         let _ = write::update_document(&mut document, &Palette::default(), palette, &ctx);
@@ -458,18 +456,7 @@ impl PaletteFile {
     /// The first part of [`PaletteFile::stage_save_as`]: the new text rendered and checked, nothing written
     /// ([`PreparedSave::stage`] writes it). A command formats it while other work runs and stages it after.
     pub fn prepare_save_as(&self, palette: &Palette, path: &Path) -> Result<PreparedSave, PaletteError> {
-        self.prepare_save_as_with(palette, path, None)
-    }
-
-    /// [`PaletteFile::prepare_save_as`] copying the text of `palette`'s samples from `digits` (formatted
-    /// once for this save and another output) where they are the samples written.
-    pub fn prepare_save_as_with(
-        &self,
-        palette: &Palette,
-        path: &Path,
-        digits: Option<&PaletteDigits<'_>>,
-    ) -> Result<PreparedSave, PaletteError> {
-        let update = match self.save_by_tables(palette, path, digits) {
+        let update = match self.save_by_tables(palette, path) {
             Some(saved) => Prepared::Tables(Box::new(saved)),
             None => {
                 let (document, reread) = self.render(palette, path)?;
@@ -523,18 +510,12 @@ impl PaletteFile {
             new_base: &new_base,
             csv_raw: &self.csv_raw,
             luminance: Colorimetry::default().luminance(),
-            digits: None,
         })
     }
 
     /// The save of `palette` to `path` that rewrites only the changed spectrum tables, when the change
     /// allows it (see [`tables`]).
-    fn save_by_tables(
-        &self,
-        palette: &Palette,
-        path: &Path,
-        digits: Option<&PaletteDigits<'_>>,
-    ) -> Option<tables::Saved> {
+    fn save_by_tables(&self, palette: &Palette, path: &Path) -> Option<tables::Saved> {
         let tables = self.tables.as_ref()?;
         if self.original.is_empty() {
             return None;
@@ -546,10 +527,7 @@ impl PaletteFile {
             mixed_newlines: self.mixed_newlines,
             no_final_newline: self.no_final_newline,
         };
-        let saved = self.with_save_context(path, |ctx| {
-            let ctx = write::SaveContext { digits, ..*ctx };
-            tables::save(&layout, &self.palette, palette, &ctx)
-        })?;
+        let saved = self.with_save_context(path, |ctx| tables::save(&layout, &self.palette, palette, ctx))?;
         // Debug builds (the tests) also read the whole text back.
         #[cfg(debug_assertions)]
         {

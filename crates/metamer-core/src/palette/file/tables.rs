@@ -233,7 +233,7 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
             for &(i, o, n, span) in run.iter() {
                 out.push_str(layout.text.get(at..span.range.start)?);
                 let before = out.len();
-                entries.push((o.kind, i, rewrite_into(&mut out, layout, span, o, n, i, ctx)?));
+                entries.push((o.kind, i, rewrite_into(&mut out, layout, span, o, n, ctx)?));
                 edits.push((span.range.clone(), (out.len() - before) as isize - span.range.len() as isize));
                 at = span.range.end;
             }
@@ -286,7 +286,6 @@ fn rewrite_into(
     span: &TableSpan,
     old: &SpectrumEntry,
     new: &SpectrumEntry,
-    index: usize,
     ctx: &SaveContext,
 ) -> Option<SpectrumEntry> {
     let range = span.range.clone();
@@ -304,8 +303,7 @@ fn rewrite_into(
             out.push_str(piece.get(..v.start)?);
             match &source {
                 Source::Samples(values) => {
-                    let digits = ctx.digits.and_then(|d| d.of_values(new.kind, index, values));
-                    super::write::push_samples_text(out, values, if layout.crlf { "\r\n" } else { "\n" }, digits)
+                    super::write::push_samples_text(out, values, if layout.crlf { "\r\n" } else { "\n" })
                 }
                 other => {
                     let value = source_text(other);

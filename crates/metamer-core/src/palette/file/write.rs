@@ -25,8 +25,6 @@ pub(super) struct SaveContext<'a> {
     /// Raw samples of CSV sources already read, by path as written.
     pub(crate) csv_raw: &'a HashMap<String, Spectrum>,
     pub(crate) luminance: Samples,
-    /// The new palette's samples formatted ahead ([`super::PaletteFile::prepare_save_as_with`]).
-    pub(crate) digits: Option<&'a super::float_text::PaletteDigits<'a>>,
 }
 
 impl SaveContext<'_> {
@@ -395,7 +393,7 @@ pub(super) fn float_array(values: &[f64]) -> Value {
 /// one string.
 pub(super) fn samples_text(values: &[f64]) -> String {
     let mut w = String::with_capacity(samples_text_bytes(values.len()));
-    push_samples_text(&mut w, values, "\n", None);
+    push_samples_text(&mut w, values, "\n");
     w
 }
 
@@ -406,16 +404,8 @@ pub(super) fn samples_text_bytes(n: usize) -> usize {
 }
 
 /// [`samples_text`] appended to `w`, each line feed written as `newline` (`"\r\n"` for a CRLF file: the
-/// text `samples_text(values).replace('\n', "\r\n")` without a string of its own). `digits`, when given, are
-/// those of `values`, formatted ahead: their text is copied where it is what [`super::float_text::push_f64`]
-/// writes.
-pub(super) fn push_samples_text(
-    w: &mut String,
-    values: &[f64],
-    newline: &str,
-    digits: Option<&super::float_text::SampleDigits<'_>>,
-) {
-    let digits = digits.filter(|d| d.values().len() == values.len());
+/// text `samples_text(values).replace('\n', "\r\n")` without a string of its own).
+pub(super) fn push_samples_text(w: &mut String, values: &[f64], newline: &str) {
     w.push('[');
     for (i, &x) in values.iter().enumerate() {
         match (i > 0, i % 8 == 0) {
@@ -430,10 +420,7 @@ pub(super) fn push_samples_text(
             }
             (true, false) => w.push_str(", "),
         }
-        match digits {
-            Some(d) => super::float_text::push_f64_from(w, x, d, i),
-            None => super::float_text::push_f64(w, x),
-        }
+        super::float_text::push_f64(w, x);
     }
     if !values.is_empty() {
         w.push(',');
@@ -728,7 +715,7 @@ mod tests {
             assert_eq!(text, built(values), "{values:?}");
             // Appended to a text, and with CRLF line endings: the same text, its line feeds CRLF.
             let mut crlf = String::from("samples = ");
-            push_samples_text(&mut crlf, values, "\r\n", None);
+            push_samples_text(&mut crlf, values, "\r\n");
             assert_eq!(crlf, format!("samples = {}", text.replace('\n', "\r\n")));
             // The document value is that text, and reads back as the same numbers.
             let value = samples_array(values);

@@ -63,16 +63,12 @@ fn saving_by_tables_writes_what_the_whole_document_writes() {
         let Ok(file) = PaletteFile::parse(&text, &path) else { continue };
         for every in [1, 2, 1000] {
             let p = solved(&file.palette, every);
-            let Some(s) = file.save_by_tables(&p, &path, None) else { continue };
+            let Some(s) = file.save_by_tables(&p, &path) else { continue };
             by_tables += 1;
             let (document, reread) = file.render(&p, &path).unwrap();
             assert_eq!(s.text(), file.text_of(&document), "{} (every {every})", path.display());
             assert_eq!(s.palette(&file.palette), reread.palette, "{}", path.display());
             assert_eq!(Some(&s.tables), reread.tables.as_ref(), "{}", path.display());
-            // The same save with the samples' digits formatted ahead (for a report too) copies their text.
-            let digits = super::super::PaletteDigits::of(&p);
-            let shared = file.save_by_tables(&p, &path, Some(&digits)).expect("the same save");
-            assert_eq!(shared.text(), s.text(), "{} (every {every}, digits shared)", path.display());
         }
     }
     assert!(by_tables >= 8, "only {by_tables} palettes were saved by tables");
@@ -83,22 +79,22 @@ fn changes_beyond_spectra_go_through_the_whole_document() {
     let (path, text) = texts().remove(texts().len() - 2);
     let file = PaletteFile::parse(&text, &path).unwrap();
     let p = solved(&file.palette, 1);
-    assert!(file.save_by_tables(&p, &path, None).is_some());
+    assert!(file.save_by_tables(&p, &path).is_some());
     let mut renamed = p.clone();
     renamed.reflectances[0].name = "renamed".into();
-    assert!(file.save_by_tables(&renamed, &path, None).is_none());
+    assert!(file.save_by_tables(&renamed, &path).is_none());
     let mut reweighted = p.clone();
     reweighted.colours[0].weight = 3.0;
-    assert!(file.save_by_tables(&reweighted, &path, None).is_none());
+    assert!(file.save_by_tables(&reweighted, &path).is_none());
     // Inline arrays of tables have no table text of their own.
     let text = "lights = [{ name = \"e\", illuminant = \"D65\", design = true }]\nreflectances = [{ name = \"r\", flat = 0.5 }]\n";
     let file = PaletteFile::parse(text, &path).unwrap();
     assert!(file.tables.is_none());
-    assert!(file.save_by_tables(&solved(&file.palette, 1000), &path, None).is_none());
+    assert!(file.save_by_tables(&solved(&file.palette, 1000), &path).is_none());
     // A table whose text holds a sub-table header is written through the whole document.
     let text = "[[lights]]\nname = \"e\"\nilluminant = \"D65\"\ndesign = true\n[lights.note]\nx = 1\n\n[[reflectances]]\nname = \"r\"\nflat = 0.5\n";
     let file = PaletteFile::parse(text, &path).unwrap();
-    assert!(file.save_by_tables(&solved(&file.palette, 1000), &path, None).is_none());
+    assert!(file.save_by_tables(&solved(&file.palette, 1000), &path).is_none());
 }
 
 #[test]
@@ -109,7 +105,7 @@ fn repeated_saves_by_tables_keep_their_places() {
     let mut file = PaletteFile::parse(&text, &path).unwrap();
     for every in [1, 2, 3] {
         let p = solved(&file.palette, every);
-        assert!(file.save_by_tables(&p, &target, None).is_some());
+        assert!(file.save_by_tables(&p, &target).is_some());
         file.save_as(&p, &target).unwrap();
         let reread = PaletteFile::load(&target).unwrap();
         assert_eq!(reread.palette, file.palette);
@@ -125,7 +121,7 @@ fn a_key_the_table_lacks_is_added_in_place() {
     let text = "[[lights]]\nname = \"e\"\nilluminant = \"D65\"\ndesign = true\n# the reflectance\n\n[[reflectances]]\nname = \"r\"\nflat = 0.5\n";
     let file = PaletteFile::parse(text, path).unwrap();
     let p = solved(&file.palette, 1000);
-    let s = file.save_by_tables(&p, path, None).expect("only a spectrum changed");
+    let s = file.save_by_tables(&p, path).expect("only a spectrum changed");
     let (document, _) = file.render(&p, path).unwrap();
     let text = s.text();
     assert_eq!(text, file.text_of(&document));
