@@ -73,8 +73,9 @@ impl Region {
     }
 
     /// `n` zeroed `T`s of the region (fresh anonymous pages are zero, and each byte is handed out once),
-    /// or None when the region has no room left for them.
-    pub(crate) fn take<T: Zeroable>(self: &Arc<Self>, n: usize) -> Option<Chunk<T>> {
+    /// or None when the region has no room left for them. `T: Copy`: a chunk never drops its elements (the
+    /// mapping is unmapped whole), so only types without drop glue are handed out.
+    pub(crate) fn take<T: Zeroable + Copy>(self: &Arc<Self>, n: usize) -> Option<Chunk<T>> {
         let size = std::mem::size_of::<T>().checked_mul(n)?;
         let align = std::mem::align_of::<T>();
         let mut at = self.next.load(Ordering::Relaxed);
@@ -164,7 +165,7 @@ pub(crate) enum Buf<T> {
     Region(Chunk<T>),
 }
 
-impl<T: Zeroable + Clone> Buf<T> {
+impl<T: Zeroable + Copy> Buf<T> {
     /// `n` zeroed `T`s from `region` while it has room, else from the heap.
     pub(crate) fn zeroed(region: Option<&Arc<Region>>, n: usize) -> Buf<T> {
         match region.and_then(|r| r.take(n)) {
