@@ -126,11 +126,25 @@ pub(crate) struct LargeRow {
     pub(crate) peak_note: &'static str,
 }
 
-/// VTK's CPU raycaster on the engine CT against metamer's raycast of the same view.
+/// VTK's CPU raycaster on the engine CT against metamer's raycast of the same view, at the same step.
 #[derive(Clone, Debug)]
 pub(crate) enum VtkRatio {
-    Measured { vtk_s: f64, metamer_s: f64, size: usize, version: String },
+    /// One row per image size (the sweep's, 384² by default as in issue 24, and the raycast table's) and step (voxels: the
+    /// scene's own step, then the script's step 0.5).
+    Measured {
+        rows: Vec<VtkRow>,
+        version: String,
+    },
     NotMeasured(String),
+}
+
+/// VTK's frame and metamer's raycast at one sample distance, both renderers at the same step.
+#[derive(Clone, Debug)]
+pub(crate) struct VtkRow {
+    pub(crate) size: usize,
+    pub(crate) step: f64,
+    pub(crate) vtk_s: f64,
+    pub(crate) metamer_s: f64,
 }
 
 impl RenderBenchReport {
@@ -515,7 +529,10 @@ fn large_volume(
 }
 
 /// VTK's raycast of the engine CT (`benches/vtk_compare.py`, from the working folder) against metamer's
-/// raycast of the same view (`volumes/engine.toml`, headlight shading, as the script's docstring says).
+/// raycast of the same view (`volumes/engine.toml`, headlight shading, as the script's docstring says),
+/// at the sweep's size (384² by default, the size issue 24 names) and the raycast table's, each at the same sample distance: the
+/// scene's own step (what `metamer render volumes/engine.toml` uses) and the script's default, 0.5 voxels. The script's `--step` sets VTK's sample distance, and the
+/// scene's step is set to the same value here, so neither renderer takes more samples than the other.
 fn vtk_ratio(
     options: &RenderBenchOptions,
     engine: Option<&Path>,
@@ -532,36 +549,6 @@ fn vtk_ratio(
     if !script.is_file() || !scene_file.is_file() {
         return VtkRatio::NotMeasured("benches/vtk_compare.py or volumes/engine.toml not in the working folder".into());
     }
-    let size = options.raycast_size;
-    let out = std::process::Command::new("python3")
-        .arg(script)
-        .arg(engine)
-        // The CPU raycaster the page names (the script's default is the GPU mapper, which on a machine
-        // without a GPU runs on software GL and is no fair yardstick).
-        .args(["--mapper", "fixed", "--size", &size.to_string(), "--repeat", &runs.max(3).to_string(), "-o"])
-        .arg(tmp.path().join("vtk.png"))
-        .output();
-    let out = match out {
-        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).into_owned(),
-        Ok(o) => {
-            let err = String::from_utf8_lossy(&o.stderr);
-            let last = err.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("no message");
-            return VtkRatio::NotMeasured(format!(
-                "the script failed (is vtk importable?): {}",
-                crate::fsio::escape(last)
-            ));
-        }
-        Err(e) => return VtkRatio::NotMeasured(format!("python3 did not run: {e}")),
-    };
-    // "VTK 9.7.2 fixed-point CPU raycast 512², step 0.5: median 123.4 ms of 3 …"
-    let parsed = out.lines().find(|l| l.starts_with("VTK ") && l.contains("fixed-point")).and_then(|l| {
-        let version = l.split_whitespace().nth(1)?.to_string();
-        let ms: f64 = l.split("median ").nth(1)?.split_whitespace().next()?.parse().ok()?;
-        Some((version, ms / 1e3))
-    });
-    let Some((version, vtk_s)) = parsed else {
-        return VtkRatio::NotMeasured("the script's output has no `VTK … fixed-point … median … ms` line".into());
-    };
     let scene = match Scene::load_with_volume(scene_file, Some(engine)) {
         Ok(mut s) => {
             s.settings.shading = Shading::Headlight;
@@ -573,10 +560,59 @@ fn vtk_ratio(
         Ok(f) => f,
         Err(e) => return VtkRatio::NotMeasured(e.to_string()),
     };
-    let (timing, _) = time_runs(runs.max(3), || {
-        render_views(&scene, vec![factor.clone()], size, size, Acceleration::default(), None).pop()
-    });
-    VtkRatio::Measured { vtk_s, metamer_s: timing.median, size, version }
+    let mut sizes = vec![options.sweep_size];
+    if options.raycast_size != options.sweep_size {
+        sizes.push(options.raycast_size);
+    }
+    let mut steps = vec![scene.settings.step];
+    if (scene.settings.step - 0.5).abs() > 1e-9 {
+        steps.push(0.5);
+    }
+    let mut rows = Vec::new();
+    let mut version = String::new();
+    for (size, step) in sizes.iter().flat_map(|&size| steps.iter().map(move |&step| (size, step))) {
+        let out = std::process::Command::new("python3")
+            .arg(script)
+            .arg(engine)
+            // The CPU raycaster the page names (the script's default is the GPU mapper, which on a machine
+            // without a GPU runs on software GL and is no fair yardstick).
+            .args(["--mapper", "fixed", "--size", &size.to_string(), "--step", &step.to_string()])
+            .args(["--repeat", &runs.max(3).to_string(), "-o"])
+            .arg(tmp.path().join("vtk.png"))
+            .output();
+        let out = match out {
+            Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).into_owned(),
+            Ok(o) => {
+                let err = String::from_utf8_lossy(&o.stderr);
+                let last = err.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("no message");
+                return VtkRatio::NotMeasured(format!(
+                    "the script failed (is vtk importable?): {}",
+                    crate::fsio::escape(last)
+                ));
+            }
+            Err(e) => return VtkRatio::NotMeasured(format!("python3 did not run: {e}")),
+        };
+        let Some((v, vtk_s)) = parse_vtk_line(&out) else {
+            return VtkRatio::NotMeasured("the script's output has no `VTK … fixed-point … median … ms` line".into());
+        };
+        version = v;
+        let mut at_step = scene.clone();
+        at_step.settings.step = step;
+        let (timing, _) = time_runs(runs.max(3), || {
+            render_views(&at_step, vec![factor.clone()], size, size, Acceleration::default(), None).pop()
+        });
+        rows.push(VtkRow { size, step, vtk_s, metamer_s: timing.median });
+    }
+    VtkRatio::Measured { rows, version }
+}
+
+/// The script's summary line, "VTK 9.7.2 fixed-point CPU raycast 512², step 0.5: median 123.4 ms of 3 …":
+/// VTK's version and its median frame time in seconds.
+fn parse_vtk_line(out: &str) -> Option<(String, f64)> {
+    let l = out.lines().find(|l| l.starts_with("VTK ") && l.contains("fixed-point"))?;
+    let version = l.split_whitespace().nth(1)?.to_string();
+    let ms: f64 = l.split("median ").nth(1)?.split_whitespace().next()?.parse().ok()?;
+    Some((version, ms / 1e3))
 }
 
 fn onoff(b: bool) -> &'static str {
@@ -735,15 +771,31 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
     s += &format!("\nPeak memory: {}.\n", l.peak_note);
     s += "\n## VTK\n\n";
     s += &match &r.vtk {
-        VtkRatio::Measured { vtk_s, metamer_s, size, version } => format!(
-            "VTK {version}'s CPU raycaster (`vtkFixedPointVolumeRayCastMapper`, `benches/vtk_compare.py`) renders one RGB \
-             frame of the engine CT at {size}² in {} (median); metamer's raycast of the same view (`volumes/engine.toml`, \
-             headlight, every quality step on, m channels per pixel) takes {}: {:.2}× VTK's frame. Every further frame \
-             of a sweep is a relight, where VTK renders again.\n",
-            format_seconds(*vtk_s),
-            format_seconds(*metamer_s),
-            metamer_s / vtk_s.max(1e-12)
-        ),
+        VtkRatio::Measured { rows, version } => {
+            let mut t = format!(
+                "VTK {version}'s CPU raycaster (`vtkFixedPointVolumeRayCastMapper`, `benches/vtk_compare.py --mapper fixed \
+                 --step S`) renders one RGB frame of the engine CT (median); metamer's raycast of the same view \
+                 (`volumes/engine.toml`, headlight, every quality step on, m channels per pixel) at the same size and \
+                 step S, in this process (medians). \
+                 Every further frame of a sweep is a relight, where VTK renders again.\n\n"
+            );
+            t += &markdown_table(
+                &["image", "step (voxels)", "VTK frame", "metamer raycast", "metamer / VTK"],
+                &rows
+                    .iter()
+                    .map(|r| {
+                        vec![
+                            format!("{0}×{0}", r.size),
+                            format!("{}", r.step),
+                            format_seconds(r.vtk_s),
+                            format_seconds(r.metamer_s),
+                            format!("{:.2}×", r.metamer_s / r.vtk_s.max(1e-12)),
+                        ]
+                    })
+                    .collect::<Vec<_>>(),
+            );
+            t
+        }
         VtkRatio::NotMeasured(why) => format!("Not measured: {why}.\n"),
     };
     s += &format!(
