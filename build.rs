@@ -6,7 +6,8 @@
 //! pages holding them; linked at a fixed address it has 160, and the same code (the libraries stay
 //! position-independent, and so does where the heap, the stack and the shared libraries sit). Measured on
 //! `metamer --version` (alternated pairs against the position-independent binary): 141 page faults
-//! against 180 and 0.91 of its CPU time; see docs/solve_performance.md ("Start-up and the tables' entries").
+//! against 180 and 0.91 of its CPU time; see docs/solve_performance.md
+//! ("Start-up, and the solved palette's entries").
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     let var = |name: &str| std::env::var(name).unwrap_or_default();
