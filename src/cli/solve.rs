@@ -11,7 +11,7 @@ use crate::design::Fixed;
 use crate::design::{self, Criterion, Solution, SolveOptions};
 use crate::palette::PaletteFile;
 use crate::palette::mixing;
-use crate::palette::{MixSpec, Palette, PaletteError, PreparedSave, SpectrumEntry};
+use crate::palette::{MixSpec, Palette, PaletteError, PreparedEnd, SpectrumEntry};
 use anyhow::Context;
 use nalgebra::Vector3;
 use std::fmt::Write as _;
@@ -118,7 +118,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 return Early::default();
             };
             let (prepared, spectra) = rayon::join(
-                || file.prepare_save_as(solved, out),
+                || file.prepare_save_to_end(solved, out),
                 || {
                     args.report.is_some().then(|| {
                         let bad = Unphysical::of(solved);
@@ -245,7 +245,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// text, and with --report too the report's spectra rows with the flags they were rendered with.
 #[derive(Default)]
 struct Early {
-    prepared: Option<Result<PreparedSave, PaletteError>>,
+    prepared: Option<Result<PreparedEnd, PaletteError>>,
     spectra: Option<(Unphysical, Vec<std::io::Result<Vec<u8>>>)>,
 }
 
@@ -1641,7 +1641,7 @@ mod tests {
         }
     }
 
-    /// The solved palette prepared inside the solve and staged to its end ([`PreparedSave::stage_to_end`],
+    /// The solved palette prepared inside the solve and staged to its end ([`PreparedEnd::stage_to_end`],
     /// what `metamer solve -o` does) is the save staged in place, by tables and through the whole document;
     /// a save that cannot be staged fails and writes nothing.
     #[test]
@@ -1656,7 +1656,7 @@ mod tests {
         let file = crate::palette::PaletteFile::load(&input).unwrap();
         let solved = design::solve(&file.palette, None, &Colorimetry::default(), &SolveOptions::default()).unwrap();
         let to_end = |palette: &crate::palette::Palette, out: &std::path::Path| {
-            file.prepare_save_as(palette, out).and_then(|p| p.stage_to_end(Replace::Writable))
+            file.prepare_save_to_end(palette, out).and_then(|p| p.stage_to_end(Replace::Writable))
         };
         let (here, there) = (dir.path().join("here.toml"), dir.path().join("there.toml"));
         file.stage_save_as(&solved.palette, &here, Replace::Writable)

@@ -15,7 +15,7 @@ pub(crate) mod source;
 
 pub use dial_edit::DialEntry;
 pub use edit::EditError;
-pub use file::{PaletteError, PaletteFile, PreparedSave, StagedEnd, StagedSave};
+pub use file::{PaletteError, PaletteFile, PreparedEnd, PreparedSave, StagedEnd, StagedSave};
 
 use crate::spectrum::{Normalize, Spectrum};
 use nalgebra::Vector3;

@@ -456,7 +456,20 @@ impl PaletteFile {
     /// The first part of [`PaletteFile::stage_save_as`]: the new text rendered and checked, nothing written
     /// ([`PreparedSave::stage`] writes it). A command formats it while other work runs and stages it after.
     pub fn prepare_save_as(&self, palette: &Palette, path: &Path) -> Result<PreparedSave, PaletteError> {
-        let update = match self.save_by_tables(palette, path) {
+        self.prepare(palette, path, true)
+    }
+
+    /// [`PaletteFile::prepare_save_as`] for a command that ends once the save is in place
+    /// ([`PreparedEnd::stage_to_end`]): the same text, without what the file would become. A save by
+    /// tables then builds no entry for the rewritten tables (for a solve's 1200 designs, the copies of
+    /// their samples and entries were about 200 pages of fresh memory, and each spectrum was resolved twice).
+    pub fn prepare_save_to_end(&self, palette: &Palette, path: &Path) -> Result<PreparedEnd, PaletteError> {
+        self.prepare(palette, path, false).map(PreparedEnd)
+    }
+
+    /// The new text, and with `keep_entries` what a save by tables makes of the rewritten tables.
+    fn prepare(&self, palette: &Palette, path: &Path, keep_entries: bool) -> Result<PreparedSave, PaletteError> {
+        let update = match self.save_by_tables(palette, path, keep_entries) {
             Some(saved) => Prepared::Tables(Box::new(saved)),
             None => {
                 let (document, reread) = self.render(palette, path)?;
@@ -514,8 +527,8 @@ impl PaletteFile {
     }
 
     /// The save of `palette` to `path` that rewrites only the changed spectrum tables, when the change
-    /// allows it (see [`tables`]).
-    fn save_by_tables(&self, palette: &Palette, path: &Path) -> Option<tables::Saved> {
+    /// allows it (see [`tables`]); with `keep_entries`, what the rewritten tables read as too.
+    fn save_by_tables(&self, palette: &Palette, path: &Path, keep_entries: bool) -> Option<tables::Saved> {
         let tables = self.tables.as_ref()?;
         if self.original.is_empty() {
             return None;
@@ -527,14 +540,21 @@ impl PaletteFile {
             mixed_newlines: self.mixed_newlines,
             no_final_newline: self.no_final_newline,
         };
-        let saved = self.with_save_context(path, |ctx| tables::save(&layout, &self.palette, palette, ctx))?;
-        // Debug builds (the tests) also read the whole text back.
+        let save = |keep| self.with_save_context(path, |ctx| tables::save(&layout, &self.palette, palette, ctx, keep));
+        let saved = save(keep_entries)?;
+        // Debug builds (the tests) also read the whole text back; a save without its entries is checked
+        // against the same save with them (the same text, and their palette).
         #[cfg(debug_assertions)]
         {
             let reread = PaletteFile::parse(&saved.text(), path);
+            let intended = if keep_entries {
+                Some(saved.palette(&self.palette))
+            } else {
+                save(true).filter(|with| with.pieces == saved.pieces).map(|with| with.palette(&self.palette))
+            };
             debug_assert!(
                 reread.as_ref().is_ok_and(|r| {
-                    r.palette == saved.palette(&self.palette) && r.tables.as_ref() == Some(&saved.tables)
+                    intended.is_some_and(|p| r.palette == p) && r.tables.as_ref() == Some(&saved.tables)
                 }),
                 "a save by tables does not read back as intended"
             );
@@ -596,12 +616,16 @@ impl PreparedSave {
     }
 }
 
-impl PreparedSave {
+/// A palette save rendered for a command that ends once it is in place
+/// ([`PaletteFile::prepare_save_to_end`]): it can only be staged to its end.
+pub struct PreparedEnd(PreparedSave);
+
+impl PreparedEnd {
     /// [`PreparedSave::stage`] for a command that ends once the save is in place ([`StagedEnd`]): the
     /// text's pieces are freed as soon as they are written (before the sync, so that the memory serves
     /// what the command formats next rather than fresh pages), and what the file would become is not kept.
     pub fn stage_to_end(self, replace: crate::fsio::Replace) -> Result<StagedEnd, PaletteError> {
-        let PreparedSave { path, update } = self;
+        let PreparedSave { path, update } = self.0;
         let write_error = |cause| PaletteError::Write { path: path.clone(), cause: Box::new(cause) };
         let staged = match update {
             Prepared::Tables(mut saved) => {
@@ -624,7 +648,7 @@ impl PreparedSave {
 }
 
 /// A palette save written and synced beside its file, for a command that ends once it is in place
-/// ([`PreparedSave::stage_to_end`]): it holds neither the text nor what the file would become.
+/// ([`PreparedEnd::stage_to_end`]): it holds neither the text nor what the file would become.
 pub struct StagedEnd {
     staged: crate::fsio::Staged,
     path: PathBuf,

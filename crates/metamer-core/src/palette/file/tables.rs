@@ -16,7 +16,7 @@
 //! parsed: the table is parsed with a placeholder in its place, at the span the reader saw.
 
 use super::doc::{Doc, TableRef};
-use super::write::{SaveContext, source_text, sync_spectrum, written_source};
+use super::write::{SaveContext, Written, source_text, sync_spectrum, written_source};
 use crate::palette::{Kind, Palette, Source, SpectrumEntry};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -125,7 +125,8 @@ pub(super) struct Saved {
     /// them, formatted on a thread of the pool; written to the file in turn, joined only when the file
     /// keeps its text, [`Saved::text`]).
     pub(crate) pieces: Vec<String>,
-    /// The entries the rewritten tables read as, by list and place (every other entry is the old one).
+    /// The entries the rewritten tables read as, by list and place (every other entry is the old one);
+    /// none when the save was made without them ([`save`]'s `keep_entries`).
     entries: Vec<(Kind, usize, SpectrumEntry)>,
     pub(crate) tables: Tables,
 }
@@ -136,7 +137,7 @@ impl Saved {
         self.pieces.concat()
     }
 
-    /// What the new text says, `old` being what the text saved over said.
+    /// What the new text says, `old` being what the text saved over said (a save made with its entries).
     pub(crate) fn palette(&self, old: &Palette) -> Palette {
         let mut palette = old.clone();
         for (kind, i, entry) in &self.entries {
@@ -167,8 +168,16 @@ fn same_but_spectrum(a: &SpectrumEntry, b: &SpectrumEntry) -> bool {
 const TABLES_A_PIECE: usize = 48;
 
 /// The text of saving `new` to `path` over the file `layout` (which says `old`), or `None` when the change
-/// is more than rewriting some spectrum tables.
-pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveContext) -> Option<Saved> {
+/// is more than rewriting some spectrum tables. With `keep_entries`, also what each rewritten table reads as
+/// ([`Saved::palette`]); a command that ends once the save is in place never asks for it, and without it
+/// no entry is built or copied (the same text, the same `None`s).
+pub(super) fn save(
+    layout: &Layout,
+    old: &Palette,
+    new: &Palette,
+    ctx: &SaveContext,
+    keep_entries: bool,
+) -> Option<Saved> {
     let tables = layout.tables;
     let same_shape = old.name == new.name
         && old.settings == new.settings
@@ -228,12 +237,14 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
                 .sum();
             let mut out = String::with_capacity(to.saturating_sub(from) + samples);
             let mut edits = Vec::with_capacity(run.len());
-            let mut entries = Vec::with_capacity(run.len());
+            let mut entries = Vec::with_capacity(if keep_entries { run.len() } else { 0 });
             let mut at = from;
             for &(i, o, n, span) in run.iter() {
                 out.push_str(layout.text.get(at..span.range.start)?);
                 let before = out.len();
-                entries.push((o.kind, i, rewrite_into(&mut out, layout, span, o, n, ctx)?));
+                if let Some(entry) = rewrite_into(&mut out, layout, span, o, n, ctx, keep_entries)? {
+                    entries.push((o.kind, i, entry));
+                }
                 edits.push((span.range.clone(), (out.len() - before) as isize - span.range.len() as isize));
                 at = span.range.end;
             }
@@ -278,8 +289,8 @@ pub(super) fn save(layout: &Layout, old: &Palette, new: &Palette, ctx: &SaveCont
     Some(Saved { pieces: texts, entries, tables: new_tables })
 }
 
-/// The new text of the table at `span` (which says `old`) saying `new`, appended to `out`, and the entry it
-/// then reads as.
+/// The new text of the table at `span` (which says `old`) saying `new`, appended to `out`, and with `keep`
+/// the entry it then reads as (`Some(None)` without it; `None` when the table cannot be rewritten).
 fn rewrite_into(
     out: &mut String,
     layout: &Layout,
@@ -287,21 +298,23 @@ fn rewrite_into(
     old: &SpectrumEntry,
     new: &SpectrumEntry,
     ctx: &SaveContext,
-) -> Option<SpectrumEntry> {
+    keep: bool,
+) -> Option<Option<SpectrumEntry>> {
     let range = span.range.clone();
     let piece = layout.text.get(range.clone())?;
     // Its own header only: no other table, no inline table (which the cut could split).
     if tables_in(piece, span, old)? != 1 {
         return None;
     }
-    let (source, normalize, scale) = written_source(new, ctx);
+    let Written { source: written, normalize, scale, resolved } = written_source(new, ctx);
+    let source: &Source = &written;
     match &span.source_value {
         // Only the source's value changes (a solve's new samples): what `sync_spectrum` does to the
         // document is to replace that value, keeping the key and the text around it, so the writer's value
         // ([`source_text`]) goes in at the span the reader saw and no document of the table is built.
-        Some(v) if only_the_value_changes(old, new, &source, normalize, scale) => {
+        Some(v) if only_the_value_changes(old, new, source, normalize, scale) => {
             out.push_str(piece.get(..v.start)?);
-            match &source {
+            match source {
                 Source::Samples(values) => {
                     super::write::push_samples_text(out, values, if layout.crlf { "\r\n" } else { "\n" })
                 }
@@ -312,23 +325,31 @@ fn rewrite_into(
             }
             out.push_str(piece.get(v.end..)?);
         }
-        _ => out.push_str(&rewrite_document(layout, span, old, new, ctx, &source)?),
+        _ => out.push_str(&rewrite_document(layout, span, old, new, ctx, source)?),
     }
     // The entry as reading the new table gives it: the written source, resolved as the reader resolves
-    // it (debug builds read the whole text back and compare).
+    // it (debug builds read the whole text back and compare). When that is the resolve `written_source`
+    // made (the entry's own source, normalisation and scale), its spectrum; else resolved here, also when
+    // the entry is not kept: a source that does not resolve makes no save by tables.
     let normalize = if new.kind == Kind::Light { normalize } else { crate::spectrum::Normalize::default() };
-    let spectrum = ctx.resolve(&source, new.kind, normalize, scale)?;
-    Some(SpectrumEntry {
+    let spectrum = match resolved {
+        Some(spectrum) if normalize == new.normalize && scale == new.scale => spectrum,
+        _ => ctx.resolve(source, new.kind, normalize, scale)?,
+    };
+    if !keep {
+        return Some(None);
+    }
+    Some(Some(SpectrumEntry {
         name: new.name.clone(),
         kind: new.kind,
-        source,
+        source: written.into_owned(),
         normalize,
         scale,
         design: new.design,
         bounds: new.bounds,
         dial: new.dial,
         spectrum,
-    })
+    }))
 }
 
 /// The tables (headers and inline tables, [`super::budget::count`]) in `piece`, the text of the table at

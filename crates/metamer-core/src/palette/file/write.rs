@@ -12,6 +12,7 @@ use crate::palette::{
 };
 use crate::spectrum::{Normalize, Samples, Spectrum};
 use nalgebra::Vector3;
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
 use toml_edit::{Array, ArrayOfTables, DocumentMut, InlineTable, Item, Table, TableLike, Value};
@@ -478,32 +479,54 @@ fn sync_settings(root: &mut Table, old: &Settings, new: &Settings) {
     sync_value(t, "light_bounds", Some(old.light_bounds), new.light_bounds, d.light_bounds, bounds_value);
 }
 
+/// How a spectrum is written ([`written_source`]).
+pub(super) struct Written<'e> {
+    /// The entry's own source (borrowed, or rebased for another folder), or its samples.
+    pub(super) source: Cow<'e, Source>,
+    pub(super) normalize: Normalize,
+    pub(super) scale: f64,
+    /// What the entry's own source resolved to (with the entry's kind, normalisation and scale) when it is
+    /// written as it is: a save that needs what the new table reads as takes it rather than resolving the
+    /// same source a second time (a solve's save resolved each changed spectrum twice).
+    pub(super) resolved: Option<Spectrum>,
+}
+
 /// How a spectrum is written: its own source when the samples are what that source resolves to, else
 /// (designed or edited samples) the samples themselves, never normalised or scaled again.
-pub(super) fn written_source(entry: &SpectrumEntry, ctx: &SaveContext) -> (Source, Normalize, f64) {
+pub(super) fn written_source<'e>(entry: &'e SpectrumEntry, ctx: &SaveContext) -> Written<'e> {
     match ctx.resolve(&entry.source, entry.kind, entry.normalize, entry.scale) {
-        Some(r) if spectra_agree(&r, &entry.spectrum) => (rebase_csv(&entry.source, ctx), entry.normalize, entry.scale),
+        Some(r) if spectra_agree(&r, &entry.spectrum) => {
+            let source = rebase_csv(&entry.source, ctx);
+            // A rebased path resolves from another folder: not the resolve made here.
+            let resolved = matches!(source, Cow::Borrowed(_)).then_some(r);
+            Written { source, normalize: entry.normalize, scale: entry.scale, resolved }
+        }
         _ => {
             let normalize = if entry.kind == Kind::Light { Normalize::None } else { entry.normalize };
-            (Source::Samples(entry.spectrum.to_vec()), normalize, 1.0)
+            Written {
+                source: Cow::Owned(Source::Samples(entry.spectrum.to_vec())),
+                normalize,
+                scale: 1.0,
+                resolved: None,
+            }
         }
     }
 }
 
-/// A relative CSV path rewritten for the folder the file is saved into.
-fn rebase_csv(source: &Source, ctx: &SaveContext) -> Source {
-    let Source::Csv(file) = source else { return source.clone() };
+/// A relative CSV path rewritten for the folder the file is saved into (any other source as it is).
+fn rebase_csv<'s>(source: &'s Source, ctx: &SaveContext) -> Cow<'s, Source> {
+    let Source::Csv(file) = source else { return Cow::Borrowed(source) };
     let file_path = Path::new(file);
-    let Some(old_base) = ctx.old_base else { return source.clone() };
+    let Some(old_base) = ctx.old_base else { return Cow::Borrowed(source) };
     if file_path.is_absolute() || same_dir(old_base, ctx.new_base) {
-        return source.clone();
+        return Cow::Borrowed(source);
     }
     let target = old_base.join(file_path);
     let rebased = match (std::fs::canonicalize(&target), std::fs::canonicalize(ctx.new_base)) {
         (Ok(t), Ok(b)) => relative_path(&t, &b).unwrap_or(t),
         _ => std::path::absolute(&target).unwrap_or(target),
     };
-    Source::Csv(rebased.to_string_lossy().into_owned())
+    Cow::Owned(Source::Csv(rebased.to_string_lossy().into_owned()))
 }
 
 pub(super) fn same_dir(a: &Path, b: &Path) -> bool {
@@ -594,8 +617,8 @@ pub(super) fn sync_spectrum(
     if old.map(|o| &o.name) != Some(&new.name) {
         put(t, "name", Value::from(new.name.as_str()));
     }
-    let (source, normalize, scale) = written_source(new, ctx);
-    if old.map(|o| &o.source) != Some(&source) {
+    let Written { source, normalize, scale, .. } = written_source(new, ctx);
+    if old.map(|o| &o.source) != Some(&*source) {
         replace_source(t, &source);
     }
     if new.kind == Kind::Light {
