@@ -231,38 +231,47 @@ impl BrickMap {
         let shift = size.trailing_zeros();
         let d = volume.dims;
         let counts = [0, 1, 2].map(|a| d[a].div_ceil(size));
-        let n = counts[0] * counts[1] * counts[2];
-        let (min, max): (Vec<f32>, Vec<f32>) = (0..n)
+        let r = |b: usize, a: usize| (b * size, ((b + 1) * size).min(d[a] - 1));
+        // A slab of bricks (one brick along y and z, all along x) at a time: the element-wise extremes of its
+        // rows of voxels, whole rows at once (a loop the compiler vectorises), then those over each
+        // brick's stretch along x. Slabs are consecutive runs of the x-fastest brick index. (Brick by brick,
+        // rows of nine voxels compared one at a time, it cost about 4 % of a raycast's instructions.)
+        let slabs: Vec<(Vec<f32>, Vec<f32>)> = (0..counts[1] * counts[2])
             .into_par_iter()
-            .map(|i| {
-                let bx = i % counts[0];
-                let by = (i / counts[0]) % counts[1];
-                let bz = i / (counts[0] * counts[1]);
-                let r = |b: usize, a: usize| (b * size, ((b + 1) * size).min(d[a] - 1));
-                let ((x0, x1), (y0, y1), (z0, z1)) = (r(bx, 0), r(by, 1), r(bz, 2));
+            .map(|s| {
+                let ((y0, y1), (z0, z1)) = (r(s % counts[1], 1), r(s / counts[1], 2));
                 // Compared in the voxels' own type (a volume's values are finite and `to_f32` is monotone,
                 // so the extremes are those of the converted values), converted once: no float
                 // conversion and min/max latency chain per voxel.
                 crate::with_voxels!(&volume.voxels, data => {
-                    let first = data[d[0] * (y0 + d[1] * z0) + x0];
-                    let (mut lo, mut hi) = (first, first);
+                    let first = d[0] * (y0 + d[1] * z0);
+                    let mut lo = data[first..first + d[0]].to_vec();
+                    let mut hi = lo.clone();
                     for z in z0..=z1 {
                         for y in y0..=y1 {
                             let row = d[0] * (y + d[1] * z);
-                            for &v in &data[row + x0..=row + x1] {
-                                if v < lo {
-                                    lo = v;
-                                }
-                                if v > hi {
-                                    hi = v;
-                                }
+                            for ((l, h), &v) in lo.iter_mut().zip(hi.iter_mut()).zip(&data[row..row + d[0]]) {
+                                *l = if v < *l { v } else { *l };
+                                *h = if v > *h { v } else { *h };
                             }
                         }
                     }
-                    (lo.to_f32(), hi.to_f32())
+                    (0..counts[0])
+                        .map(|bx| {
+                            let (x0, x1) = r(bx, 0);
+                            let (mut l, mut h) = (lo[x0], hi[x0]);
+                            for x in x0..=x1 {
+                                l = if lo[x] < l { lo[x] } else { l };
+                                h = if hi[x] > h { hi[x] } else { h };
+                            }
+                            (l.to_f32(), h.to_f32())
+                        })
+                        .unzip::<f32, f32, Vec<f32>, Vec<f32>>()
                 })
             })
-            .unzip();
+            .collect();
+        let min = slabs.iter().flat_map(|(l, _)| l.iter().copied()).collect();
+        let max = slabs.iter().flat_map(|(_, h)| h.iter().copied()).collect();
         BrickMap { size, shift, counts, min, max }
     }
 }

@@ -464,50 +464,57 @@ pub(super) fn raycast_with(
         .map_or(TILE, |r| band_rows(r, reachable.unwrap_or_else(|| fields::brick_count(volume)), &view, volume, w, h));
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(rows);
-    let trace_tile = |t: usize| {
+    // The weights, written in place by the rays: each tile holds its rows' stretches of `data` (rows of
+    // pixels split at the tiles' columns), so no tile needs a buffer of its own to be copied in after
+    // (4 MiB of fresh pages and a serial copy at 384² with seven materials).
+    let mut data = vec![0f32; w * h * n_mat];
+    // Fresh and untouched: faulted in by huge pages where it holds whole ones.
+    crate::region::advise_huge(&mut data);
+    let mut parts: Vec<Vec<&mut [f32]>> = (0..tiles_x * tiles_y).map(|_| Vec::with_capacity(rows)).collect();
+    if n_mat > 0 {
+        for (py, row) in data.chunks_mut(w * n_mat).enumerate() {
+            for (tx, part) in row.chunks_mut(TILE * n_mat).enumerate() {
+                parts[(py / rows) * tiles_x + tx].push(part);
+            }
+        }
+    }
+    let trace_tile = |t: usize, mut tile: Vec<&mut [f32]>| {
         let (tx, ty) = (t % tiles_x, t / tiles_x);
         let mut stats = RaycastStats::default();
-        let mut buf = vec![0f32; TILE * rows * n_mat];
         for j in 0..rows {
             let py = ty * rows + j;
             if py >= h {
                 break;
             }
+            // Without materials there are no weights, but the rays are still traced (their counters).
+            let part: &mut [f32] = match tile.get_mut(j) {
+                Some(p) => p,
+                None => &mut [],
+            };
             for i in 0..TILE {
                 let px = tx * TILE + i;
                 if px >= w {
                     break;
                 }
-                let off = (j * TILE + i) * n_mat;
-                ctx.trace(px, py, &mut buf[off..off + n_mat], &mut stats);
+                ctx.trace(px, py, &mut part[i * n_mat..(i + 1) * n_mat], &mut stats);
             }
         }
-        (buf, stats)
+        stats
     };
-    let tiles: Vec<(Vec<f32>, RaycastStats)> = if room.is_some() {
+    let tiles: Vec<RaycastStats> = if room.is_some() {
+        let mut parts = parts.into_iter();
         (0..tiles_y)
-            .flat_map(|ty| (ty * tiles_x..(ty + 1) * tiles_x).into_par_iter().map(trace_tile).collect::<Vec<_>>())
+            .flat_map(|ty| {
+                let band: Vec<_> = parts.by_ref().take(tiles_x).collect();
+                band.into_par_iter().enumerate().map(|(i, tile)| trace_tile(ty * tiles_x + i, tile)).collect::<Vec<_>>()
+            })
             .collect()
     } else {
-        (0..tiles_x * tiles_y).into_par_iter().map(trace_tile).collect()
+        parts.into_par_iter().enumerate().map(|(t, tile)| trace_tile(t, tile)).collect()
     };
-    let mut data = vec![0f32; w * h * n_mat];
-    // Fresh and untouched: faulted in by huge pages where it holds whole ones.
-    crate::region::advise_huge(&mut data);
     let mut stats = RaycastStats::default();
-    for (t, (buf, s)) in tiles.iter().enumerate() {
+    for s in &tiles {
         stats.add(s);
-        let (tx, ty) = (t % tiles_x, t / tiles_x);
-        for j in 0..rows {
-            let py = ty * rows + j;
-            if py >= h {
-                break;
-            }
-            let cols = TILE.min(w - tx * TILE);
-            let src = &buf[j * TILE * n_mat..(j * TILE + cols) * n_mat];
-            let dst0 = (py * w + tx * TILE) * n_mat;
-            data[dst0..dst0 + cols * n_mat].copy_from_slice(src);
-        }
     }
     if let Some(f) = &fields {
         let u = f.usage();

@@ -694,3 +694,59 @@ fn lanes_classify_every_cell_as_the_scalar_reconstruction_does() {
     }
     assert!(checked > 5 * 40, "{checked} cells");
 }
+
+/// The min/max bricks (`BrickMap::new`, built a slab of bricks at a time) hold, for every brick, the
+/// extremes of the voxels of its cells: those from its first voxel to the one past its last along each
+/// axis (its upper seam), clamped to the grid. Compared with the extremes read brick by brick, on grids
+/// whose sides are not multiples of the brick edge (and one voxel wide along an axis), every voxel type,
+/// bricks of 1 to 16 voxels.
+#[test]
+fn brick_extremes_are_those_of_each_bricks_voxels_and_seam() {
+    let mut checked = 0;
+    for dims in [[11usize, 7, 5], [1, 9, 4], [17, 3, 1], [8, 8, 8]] {
+        let n = dims.iter().product::<usize>();
+        // Scattered values, so that a brick's extremes sit anywhere in it, its seam included.
+        let raw: Vec<f32> = (0..n).map(|i| ((i * 7919 + 13) % 253) as f32).collect();
+        let volume = |name: &str, voxels: crate::volume::Voxels| Volume::new(Path::new(name), dims, [1.0; 3], voxels);
+        let volumes = [
+            volume("u8", raw.iter().map(|v| *v as u8).collect::<Vec<_>>().into()),
+            volume("i8", raw.iter().map(|v| (*v as i16 - 125) as i8).collect::<Vec<_>>().into()),
+            volume("u16", raw.iter().map(|v| (*v as u16) * 250 + 7).collect::<Vec<_>>().into()),
+            volume("i16", raw.iter().map(|v| (*v as i32 * 250 - 30_000) as i16).collect::<Vec<_>>().into()),
+            volume("f32", raw.iter().map(|v| v * 0.37 - 20.0).collect::<Vec<_>>().into()),
+        ];
+        for vol in volumes {
+            let vol = vol.unwrap();
+            let values = vol.voxels.to_f32_vec();
+            for size in [1, 2, 4, 8, 16] {
+                let bm = BrickMap::new(&vol, size);
+                let counts = [0, 1, 2].map(|a| dims[a].div_ceil(size));
+                assert_eq!(bm.counts, counts);
+                assert_eq!(bm.min.len(), counts.iter().product::<usize>());
+                for bz in 0..counts[2] {
+                    for by in 0..counts[1] {
+                        for bx in 0..counts[0] {
+                            let span = |b: usize, a: usize| b * size..=((b + 1) * size).min(dims[a] - 1);
+                            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                            for z in span(bz, 2) {
+                                for y in span(by, 1) {
+                                    for x in span(bx, 0) {
+                                        let v = values[x + dims[0] * (y + dims[1] * z)];
+                                        lo = lo.min(v);
+                                        hi = hi.max(v);
+                                    }
+                                }
+                            }
+                            let i = bx + counts[0] * (by + counts[1] * bz);
+                            let what =
+                                format!("{:?} {dims:?} size {size} brick {:?}", vol.voxels.scalar_type(), [bx, by, bz]);
+                            assert_eq!((bm.min[i], bm.max[i]), (lo, hi), "{what}");
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked} bricks");
+}
