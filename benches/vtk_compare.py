@@ -10,7 +10,7 @@ $METAMER_DATA/volumes/engine.nhdr, or pass the .nhdr path). Run from the crate r
         --pair docs/figures/vtk_compare.png
 
 `--run-metamer` writes target/vtk_compare/engine_step05.toml (volumes/engine.toml with `[render] step = 0.5`,
-`shading = "headlight"`) and renders frame 1 of 3 (the dial's "split" light, where the block, the inner
+`shading = "headlight"`; with `--step 1`, engine_step1.toml at step 1: metamer always runs at VTK's step) and renders frame 1 of 3 (the dial's "split" light, where the block, the inner
 parts and the smoke differ) with `--no-dial`; `--metamer FRAME.png` compares a frame made otherwise.
 
 Sweep: `--sweep 48` (with `--run-metamer`) also times a dial sweep of 48 frames both ways: VTK re-renders
@@ -173,9 +173,15 @@ def match_exposure(ours, theirs, threshold=10):
     return srgb_encode(lin_t * gain), gain
 
 
-def write_scene(here):
-    """target/vtk_compare/engine_step05.toml: volumes/engine.toml at step 0.5 with a headlight (the
-    settings VTK is given); returns (its path, the output folder)."""
+def scene_name(step):
+    """engine_step05.toml for step 0.5, engine_step1.toml for 1, engine_step0.25.toml for 0.25, …"""
+    tag = "05" if step == 0.5 else f"{step:g}"
+    return f"engine_step{tag}.toml"
+
+
+def write_scene(here, step):
+    """target/vtk_compare/engine_step05.toml (or engine_step1.toml, …): volumes/engine.toml at `step`
+    voxels with a headlight (the settings VTK is given); returns (its path, the output folder)."""
     root = os.path.normpath(os.path.join(here, ".."))
     out = os.path.join(root, "target", "vtk_compare")
     os.makedirs(out, exist_ok=True)
@@ -187,19 +193,19 @@ def write_scene(here):
         elif line.startswith("volume = "):
             line = f"volume = {os.path.normpath(os.path.join(root, 'volumes', line.split('=', 1)[1].strip().strip(chr(34))))!r}".replace("'", '"')
         lines.append(line)
-    scene = os.path.join(out, "engine_step05.toml")
+    scene = os.path.join(out, scene_name(step))
     with open(scene, "w") as f:
-        f.write("\n".join(lines) + '\n\n[render]\nstep = 0.5\nshading = "headlight"\n')
+        f.write("\n".join(lines) + f'\n\n[render]\nstep = {step!r}\nshading = "headlight"\n')
     return scene, out
 
 
-def run_metamer(binary, here, size):
-    """Render frame 1 of 3 of volumes/engine.toml at step 0.5 with a headlight; returns (frame path,
+def run_metamer(binary, here, size, step):
+    """Render frame 1 of 3 of volumes/engine.toml at `step` (VTK's) with a headlight; returns (frame path,
     metamer's raycast ms, relight + PNG ms per frame)."""
     import re
     import subprocess
 
-    scene, out = write_scene(here)
+    scene, out = write_scene(here, step)
     frames = os.path.join(out, "metamer")
     cmd = [binary, "render", scene, "--frames", "3", "--frame-range", "1..2", "--size", str(size), "--no-dial", "-o", frames]
     cpu = cpu_seconds(resource.RUSAGE_CHILDREN)
@@ -211,13 +217,13 @@ def run_metamer(binary, here, size):
     return os.path.join(frames, "frame_0001.png"), float(m.group(1)), float(m.group(2)), cpu
 
 
-def metamer_sweep(binary, here, size, frames, repeat):
+def metamer_sweep(binary, here, size, frames, repeat, step):
     """Wall seconds of whole `metamer render` processes writing a sweep of `frames` frames of the
-    step-0.5 headlight scene (`repeat` runs after one warm-up; the median): reading the volume, the one
+    headlight scene at `step` (`repeat` runs after one warm-up; the median): reading the volume, the one
     raycast, every relit frame and its PNG."""
     import subprocess
 
-    scene, out = write_scene(here)
+    scene, out = write_scene(here, step)
     cmd = [binary, "render", scene, "--frames", str(frames), "--size", str(size), "--no-dial", "--force",
            "-o", os.path.join(out, "metamer_sweep")]
     times, cpus = [], []
@@ -293,7 +299,7 @@ def main():
     args = ap.parse_args()
     metamer_ms = None
     if args.run_metamer:
-        args.metamer, raycast_ms, relight_ms, metamer_cpu = run_metamer(args.run_metamer, here, args.size)
+        args.metamer, raycast_ms, relight_ms, metamer_cpu = run_metamer(args.run_metamer, here, args.size, args.step)
         metamer_ms = (raycast_ms, relight_ms)
     setup_start = time.perf_counter()
     data, dims, spacing = read_nhdr(args.nhdr)
@@ -387,7 +393,7 @@ def main():
         if not args.run_metamer:
             raise SystemExit("--sweep needs --run-metamer BINARY")
         vtk_s, vtk_cpu = vtk_sweep(win, colour, args.sweep, os.path.join("target", "vtk_compare", "vtk_sweep"))
-        m_s, m_all, m_cpu = metamer_sweep(args.run_metamer, here, args.size, args.sweep, args.repeat)
+        m_s, m_all, m_cpu = metamer_sweep(args.run_metamer, here, args.size, args.sweep, args.repeat, args.step)
         print(
             f"sweep of {args.sweep} frames at {args.size}², step {args.step}: VTK {vtk_s:.2f} s for the re-renders "
             f"(+ {setup:.2f} s reading the volume and setting up the pipeline) = "
