@@ -91,8 +91,13 @@ impl Colorimetry {
     /// CIEDE2000 between two linear sRGB colours seen under `light` (reference white:
     /// [`Colorimetry::reference_white`]).
     pub fn delta_e00_under(&self, a: &Vector3<f64>, b: &Vector3<f64>, light: &Spectrum) -> f64 {
-        let white = self.reference_white(light);
-        delta_e00(xyz_to_lab(&self.rgb_to_xyz(a), &white), xyz_to_lab(&self.rgb_to_xyz(b), &white))
+        self.delta_e00_against(a, b, &self.reference_white(light))
+    }
+
+    /// [`Colorimetry::delta_e00_under`] with the light's white given (`reference_white(light)`): a caller
+    /// with many colours under few lights finds each white once.
+    pub(crate) fn delta_e00_against(&self, a: &Vector3<f64>, b: &Vector3<f64>, white: &Vector3<f64>) -> f64 {
+        delta_e00(xyz_to_lab(&self.rgb_to_xyz(a), white), xyz_to_lab(&self.rgb_to_xyz(b), white))
     }
 }
 

@@ -282,14 +282,44 @@ pub fn solve_with_then<T: Send>(
     then: impl FnOnce(&Palette) -> T + Send,
 ) -> Result<(Solution, T), DesignError> {
     let started = Instant::now();
+    if parallel {
+        // The whole solve on the pool: its serial parts then run on a worker and its joins and parallel
+        // loops start from there, where a caller outside the pool (a command's main thread) would hand
+        // each of them to the pool and wait for it, a thread woken and one put to sleep each time.
+        rayon::scope(|_| solve_from(palette, basis, colorimetry, options, parallel, then, started))
+    } else {
+        solve_from(palette, basis, colorimetry, options, parallel, then, started)
+    }
+}
+
+/// [`solve_with_then`]'s work, its time counted from `started`.
+fn solve_from<T: Send>(
+    palette: &Palette,
+    basis: Option<&Basis>,
+    colorimetry: &Colorimetry,
+    options: &SolveOptions,
+    parallel: bool,
+    then: impl FnOnce(&Palette) -> T + Send,
+    started: Instant,
+) -> Result<(Solution, T), DesignError> {
     let cancelled = || options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
     if cancelled() {
         return Err(DesignError::Cancelled);
     }
     // Numbers whose products overflow are input errors, named by key (a palette from a file was checked
-    // when read; this covers palettes built or edited in memory).
-    palette.check_scale().map_err(|e| DesignError::Invalid(e.to_string()))?;
-    let design = system::Design::new(palette, basis, colorimetry)?;
+    // when read; this covers palettes built or edited in memory). On the pool the check runs beside the
+    // terms' building, whose result is dropped when the check fails (its error is the one returned, as when
+    // the check runs first; the building does no more than read the palette).
+    let invalid = |e: crate::palette::ScaleError| DesignError::Invalid(e.to_string());
+    let design = if parallel {
+        let (scale, design) =
+            rayon::join(|| palette.check_scale(), || system::Design::new(palette, basis, colorimetry));
+        scale.map_err(invalid)?;
+        design?
+    } else {
+        palette.check_scale().map_err(invalid)?;
+        system::Design::new(palette, basis, colorimetry)?
+    };
     // A huge time limit saturates (it cannot overflow `Instant`).
     let deadline = started.checked_add(options.time_limit).unwrap_or_else(|| far_future(started));
     let limits = joint::JointLimits::new(deadline, options.cancel.clone());
@@ -334,7 +364,16 @@ pub fn solve_with_then<T: Send>(
                 });
             }
         }
-        let objective = design.objective_with(&values, parallel);
+        // The objective and the cells' colours, each on the pool, beside each other (the one's last pieces
+        // beside the other's).
+        let (objective, cells) = if parallel {
+            rayon::join(
+                || design.objective_with(&values, parallel),
+                || report::cell_results(palette, basis, colorimetry, &values),
+            )
+        } else {
+            (design.objective_with(&values, parallel), report::cell_results(palette, basis, colorimetry, &values))
+        };
         if !objective.is_finite() {
             return Err(DesignError::Invalid(format!(
                 "the objective at the solution is {objective}, not a finite number: the palette's values are too \
@@ -342,7 +381,6 @@ pub fn solve_with_then<T: Send>(
             )));
         }
         let kkt_residual = blocks.iter().map(|b| b.kkt).fold(0.0, f64::max);
-        let cells = report::cell_results(palette, basis, colorimetry, &values);
         let mixtures = report::mixture_results(palette, basis, colorimetry, &values);
         let paths = report::path_results(palette, basis, colorimetry, &values);
         diagnostics.extend(report::diagnostics(&design, colorimetry, &values, &cells));

@@ -51,8 +51,21 @@ impl CellResult {
         basis: Option<&Basis>,
         colorimetry: &Colorimetry,
     ) -> CellResult {
+        CellResult::with_white(cell, target, (e, s), &colorimetry.reference_white(e), active, basis, colorimetry)
+    }
+
+    /// [`CellResult::new`] with the white of light `e` given (`colorimetry.reference_white(e)`).
+    fn with_white(
+        cell: usize,
+        target: Vector3<f64>,
+        (e, s): (&Spectrum, &Spectrum),
+        white: &Vector3<f64>,
+        active: bool,
+        basis: Option<&Basis>,
+        colorimetry: &Colorimetry,
+    ) -> CellResult {
         let (rgb_full, _) = pair_colours(e, s, None, colorimetry);
-        let delta_e_full = finite_or(colorimetry.delta_e00_under(&target, &rgb_full, e), f64::MAX);
+        let delta_e_full = finite_or(colorimetry.delta_e00_against(&target, &rgb_full, white), f64::MAX);
         let status = match (active, delta_e_full > MET_DELTA_E) {
             (false, _) => CellStatus::NotUsed,
             (true, false) => CellStatus::Met,
@@ -79,6 +92,8 @@ pub(crate) fn cell_results(
     colorimetry: &Colorimetry,
     v: &Values,
 ) -> Vec<CellResult> {
+    // Each light's white once (a batch has thousands of cells under a few lights), not once a cell.
+    let whites: Vec<Vector3<f64>> = v.lights.iter().map(|e| colorimetry.reference_white(e)).collect();
     palette
         .colours
         .par_iter()
@@ -86,7 +101,7 @@ pub(crate) fn cell_results(
         .map(|(k, c)| {
             let target = c.free.map(|g| v.free[g]).unwrap_or(c.target);
             let pair = (&v.lights[c.light], &v.reflectances[c.reflectance]);
-            CellResult::new(k, target, pair, c.is_active(), basis, colorimetry)
+            CellResult::with_white(k, target, pair, &whites[c.light], c.is_active(), basis, colorimetry)
         })
         .collect()
 }

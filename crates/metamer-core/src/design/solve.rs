@@ -320,6 +320,33 @@ mod tests {
         }
     }
 
+    /// A palette built in memory with a number too large and a cell the design refuses: the solve returns
+    /// the scale check's error, on the pool (where the check runs beside the terms' building) as without it.
+    #[test]
+    fn the_scale_checks_error_comes_first_with_and_without_the_pool() {
+        let col = Colorimetry::default();
+        let mut p = random::batch_palette(30, 10, &col);
+        p.colours[5].weight = 1e300;
+        p.colours[7].target = nalgebra::Vector3::new(f64::NAN, 0.0, 0.0);
+        let options = crate::design::SolveOptions::default();
+        for parallel in [true, false] {
+            match crate::design::solve_with(&p, None, &col, &options, parallel) {
+                Err(crate::design::DesignError::Invalid(e)) => {
+                    assert!(e.starts_with("colours[5].weight"), "{e}")
+                }
+                other => panic!("expected the scale error, got {:?}", other.map(|s| s.objective)),
+            }
+        }
+        // With the number in range, the building's own error is the one returned.
+        p.colours[5].weight = 1.0;
+        for parallel in [true, false] {
+            match crate::design::solve_with(&p, None, &col, &options, parallel) {
+                Err(crate::design::DesignError::Invalid(e)) => assert!(e.contains("colours[7]"), "{e}"),
+                other => panic!("expected the design's error, got {:?}", other.map(|s| s.objective)),
+            }
+        }
+    }
+
     fn bits(v: &DVector<f64>) -> Vec<u64> {
         v.iter().map(|x| x.to_bits()).collect()
     }

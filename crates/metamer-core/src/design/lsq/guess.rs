@@ -17,7 +17,7 @@
 //! is the polish's of that set: the same bits as the finish and polish give when they end there.
 
 use super::finish::{Rows, Work, goes_back, step_to_box, step_variable};
-use super::kernels::{Cholesky, Status, axpy, column};
+use super::kernels::{Cholesky, Status, add_columns};
 use super::*;
 
 /// What the guess shares across the designs with one A: `G = H⁻¹ = A⁺A⁺ᵀ` and the Cholesky factor of all
@@ -125,10 +125,7 @@ impl Work {
                 self.mu.clear();
                 self.mu.extend(self.bound.iter().map(|&i| self.x[i] - xu[i]));
                 self.dual_chol.solve_in_place(&mut self.mu);
-                self.zd.copy_from_slice(xu);
-                for (k, &i) in self.bound.iter().enumerate() {
-                    axpy(self.mu[k], column(g, i), &mut self.zd);
-                }
+                add_columns(g.as_slice(), n, xu, &self.bound, &self.mu, &mut self.zd);
                 if !(self.zd.iter().all(|v| v.is_finite()) && self.mu.iter().all(|v| v.is_finite())) {
                     return Guess::GaveUp;
                 }

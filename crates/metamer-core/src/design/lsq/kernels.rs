@@ -3,6 +3,61 @@
 //! columns for ill-conditioned systems.
 
 use super::*;
+
+/// Whether the kernels marked `wide!` below take their AVX2 build: the processor has AVX2 (asked per call;
+/// the standard library caches the answer) and, in tests, the portable build is not asked for on this
+/// thread ([`portable`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn wide() -> bool {
+    #[cfg(test)]
+    if PORTABLE.with(std::cell::Cell::get) {
+        return false;
+    }
+    std::arch::is_x86_feature_detected!("avx2")
+}
+
+#[cfg(test)]
+thread_local! {
+    static PORTABLE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Run `f` with the kernels' portable build on this thread (tests compare it with the AVX2 build).
+#[cfg(test)]
+pub(crate) fn portable<R>(f: impl FnOnce() -> R) -> R {
+    PORTABLE.with(|p| p.set(true));
+    let r = f();
+    PORTABLE.with(|p| p.set(false));
+    r
+}
+
+/// A kernel built twice from one body: for the baseline processor (SSE2: two `f64` a vector) and for AVX2
+/// (four), the AVX2 build taken where the processor has it. The loops are the same source, so each entry
+/// gets the same operations in the same order (no fused multiply-add: FMA is not enabled, and Rust never
+/// contracts a product and a sum into one), only more entries an instruction: the same bits, fewer
+/// instructions (`A x` and `A⁺b` on the batch: 5.7 M → 2.7 M). Everything the body calls must be inlined
+/// into it (`#[inline(always)]`) to be built for AVX2 too.
+macro_rules! wide {
+    ($(#[$attr:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? $body:block) => {
+        $(#[$attr])*
+        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
+            #[inline(always)]
+            fn body($($arg: $ty),*) $(-> $ret)? $body
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx2")]
+            fn avx2($($arg: $ty),*) $(-> $ret)? {
+                body($($arg),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            if wide() {
+                // SAFETY: the processor has AVX2 (`wide` asked it).
+                return unsafe { avx2($($arg),*) };
+            }
+            body($($arg),*)
+        }
+    };
+}
+
 /// `aᵀb` with four partial sums (vectorises; the rounding is the same order as a plain sum).
 pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
@@ -18,6 +73,19 @@ pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     }
     let tail: f64 = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+wide! {
+/// `z = base + Σ_k μ_k G[:, bound[k]]` (G column-major with `n` rows), the products added in the order of
+/// `bound`: [`axpy`] a column, in one loop built for AVX2 too.
+pub(super) fn add_columns(g: &[f64], n: usize, base: &[f64], bound: &[usize], mu: &[f64], z: &mut [f64]) {
+    z.copy_from_slice(base);
+    for (&m, &i) in mu.iter().zip(bound) {
+        for (t, v) in z.iter_mut().zip(&g[i * n..(i + 1) * n]) {
+            *t += m * v;
+        }
+    }
+}
 }
 
 /// `y += α·x`.
@@ -42,11 +110,13 @@ pub(crate) fn gemv(a: &DMatrix<f64>, x: &[f64], y: &mut [f64]) {
     gemv_columns(a.as_slice(), m, &x[..n], y);
 }
 
+wide! {
 /// y = A x over the columns of A (column-major `s`, `m` rows) that x has entries for, in nalgebra's passes
 /// over y: the first column, then four at a time, then the rest one by one. x is not empty.
-#[inline(always)]
 fn gemv_columns(s: &[f64], m: usize, x: &[f64], y: &mut [f64]) {
     let n = x.len();
+    // y of m entries, like the columns: the row loops below then index without checks and vectorise.
+    let y = &mut y[..m];
     let c0 = &s[..m];
     for (t, &v) in y.iter_mut().zip(c0) {
         *t = v * x[0];
@@ -73,6 +143,7 @@ fn gemv_columns(s: &[f64], m: usize, x: &[f64], y: &mut [f64]) {
         }
         j += 1;
     }
+}
 }
 
 /// [`gemv`] when x ends in exact zeros (a design's right-hand side is zero on its smoothness rows), with the
@@ -190,14 +261,20 @@ pub(crate) fn gemv_tr_zero_chunks(a: &DMatrix<f64>, zero_chunks: &ZeroChunks, v:
     if !v.iter().all(|x| x.is_finite()) {
         return gemv_tr(a, v, out);
     }
-    let s = a.as_slice();
+    zero_chunk_columns(a.as_slice(), m, &zero_chunks.chunks, v, out);
+}
+
+/// The loops of [`gemv_tr_zero_chunks`] (`chunks`: [`ZeroChunks::chunks`], v finite); with AVX2, the
+/// eight partial sums as two vectors of four (each lane's products and sums those of the scalar loop).
+fn zero_chunk_columns(s: &[f64], m: usize, chunks: &[u64], v: &[f64], out: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    if wide() {
+        // SAFETY: the processor has AVX2 (`wide` asked it).
+        return unsafe { zero_chunk_columns_avx2(s, m, chunks, v, out) };
+    }
     let whole = m - m % 8;
-    let nonzero = v[..whole]
-        .chunks_exact(8)
-        .enumerate()
-        .filter(|(_, c)| c.iter().any(|&x| x != 0.0))
-        .fold(0u64, |mask, (c, _)| mask | 1 << c);
-    for ((o, &chunks), col) in out.iter_mut().zip(&zero_chunks.chunks).zip(s.chunks_exact(m)) {
+    let nonzero = nonzero_chunks(&v[..whole]);
+    for ((o, &chunks), col) in out.iter_mut().zip(chunks).zip(s.chunks_exact(m)) {
         let mut acc = [0.0f64; 8];
         let mut left = chunks & nonzero;
         while left != 0 {
@@ -207,6 +284,50 @@ pub(crate) fn gemv_tr_zero_chunks(a: &DMatrix<f64>, zero_chunks: &ZeroChunks, v:
             for k in 0..8 {
                 acc[k] += x[k] * y[k];
             }
+        }
+        *o = dot_nalgebra_end(&acc, &col[whole..], &v[whole..]);
+    }
+}
+
+/// Bit c set when v's chunk c (entries `8c..8c + 8`) holds a nonzero entry.
+#[inline(always)]
+fn nonzero_chunks(v: &[f64]) -> u64 {
+    v.chunks_exact(8).enumerate().filter(|(_, c)| c.iter().any(|&x| x != 0.0)).fold(0u64, |mask, (c, _)| mask | 1 << c)
+}
+
+/// [`zero_chunk_columns`] with AVX2: partial sums 0–3 in one vector and 4–7 in another, each lane
+/// `acc += x·y` (a product, then a sum: no fused multiply-add), so the same bits as the scalar loop.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn zero_chunk_columns_avx2(s: &[f64], m: usize, chunks: &[u64], v: &[f64], out: &mut [f64]) {
+    use std::arch::x86_64::{_mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_setzero_pd, _mm256_storeu_pd};
+    let whole = m - m % 8;
+    let nonzero = nonzero_chunks(&v[..whole]);
+    for ((o, &chunks), col) in out.iter_mut().zip(chunks).zip(s.chunks_exact(m)) {
+        let (mut lo, mut hi) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+        let mut left = chunks & nonzero;
+        while left != 0 {
+            let c = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let (x, y): (&[f64; 8], &[f64; 8]) =
+                match (col[8 * c..8 * c + 8].try_into(), v[8 * c..8 * c + 8].try_into()) {
+                    (Ok(x), Ok(y)) => (x, y),
+                    _ => unreachable!("chunks of eight"),
+                };
+            // SAFETY: x and y hold eight f64 each; the loads read four from each half.
+            unsafe {
+                lo = _mm256_add_pd(lo, _mm256_mul_pd(_mm256_loadu_pd(x.as_ptr()), _mm256_loadu_pd(y.as_ptr())));
+                hi = _mm256_add_pd(
+                    hi,
+                    _mm256_mul_pd(_mm256_loadu_pd(x.as_ptr().add(4)), _mm256_loadu_pd(y.as_ptr().add(4))),
+                );
+            }
+        }
+        let mut acc = [0.0f64; 8];
+        // SAFETY: acc holds eight f64; each store writes four.
+        unsafe {
+            _mm256_storeu_pd(acc.as_mut_ptr(), lo);
+            _mm256_storeu_pd(acc.as_mut_ptr().add(4), hi);
         }
         *o = dot_nalgebra_end(&acc, &col[whole..], &v[whole..]);
     }

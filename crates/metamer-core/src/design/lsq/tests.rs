@@ -220,9 +220,13 @@ fn hand_products_give_nalgebras_bits() {
             let a = DMatrix::from_fn(m, n, |_, _| value(&mut seed));
             let x = DVector::from_fn(n, |_, _| value(&mut seed));
             let v = DVector::from_fn(m, |_, _| value(&mut seed));
-            let mut y = DVector::from_element(m, f64::NAN);
-            kernels::gemv(&a, x.as_slice(), y.as_mut_slice());
-            assert_eq!(bits(&y), bits(&(&a * &x)), "A x, {m} × {n}");
+            for y in both(|| {
+                let mut y = DVector::from_element(m, f64::NAN);
+                kernels::gemv(&a, x.as_slice(), y.as_mut_slice());
+                y
+            }) {
+                assert_eq!(bits(&y), bits(&(&a * &x)), "A x, {m} × {n}");
+            }
             let mut t = DVector::from_element(n, f64::NAN);
             kernels::gemv_tr(&a, v.as_slice(), t.as_mut_slice());
             assert_eq!(bits(&t), bits(&a.tr_mul(&v)), "Aᵀ v, {m} × {n}");
@@ -244,9 +248,13 @@ fn hand_products_give_nalgebras_bits() {
                         0.0
                     }
                 });
-                let mut y = DVector::from_element(m, f64::NAN);
-                kernels::gemv_trailing_zeros(&az, xz.as_slice(), y.as_mut_slice());
-                assert_eq!(bits(&y), bits(&(&az * &xz)), "A x with zeros from {cut} on, {m} × {n}");
+                for y in both(|| {
+                    let mut y = DVector::from_element(m, f64::NAN);
+                    kernels::gemv_trailing_zeros(&az, xz.as_slice(), y.as_mut_slice());
+                    y
+                }) {
+                    assert_eq!(bits(&y), bits(&(&az * &xz)), "A x with zeros from {cut} on, {m} × {n}");
+                }
             }
             for cut in 0..=m {
                 let vz = DVector::from_fn(m, |i, _| {
@@ -296,9 +304,13 @@ fn products_without_the_zero_chunks_give_nalgebras_bits() {
                     3 => v.fill(-0.0),
                     _ => {}
                 }
-                let mut t = DVector::from_element(n, f64::NAN);
-                kernels::gemv_tr_zero_chunks(&a, &chunks, v.as_slice(), t.as_mut_slice());
-                assert_eq!(bits(&t), bits(&a.tr_mul(&v)), "Aᵀ v, {m} × {n}, {dense} dense rows, case {case}");
+                for t in both(|| {
+                    let mut t = DVector::from_element(n, f64::NAN);
+                    kernels::gemv_tr_zero_chunks(&a, &chunks, v.as_slice(), t.as_mut_slice());
+                    t
+                }) {
+                    assert_eq!(bits(&t), bits(&a.tr_mul(&v)), "Aᵀ v, {m} × {n}, {dense} dense rows, case {case}");
+                }
             }
         }
     }
@@ -307,10 +319,36 @@ fn products_without_the_zero_chunks_give_nalgebras_bits() {
     let chunks = kernels::ZeroChunks::of(&sys.a).expect("a finite matrix");
     let v = DVector::from_fn(sys.a.nrows(), |_, _| value(&mut seed));
     for v in [&sys.b, &v] {
-        let mut t = DVector::from_element(sys.a.ncols(), f64::NAN);
-        kernels::gemv_tr_zero_chunks(&sys.a, &chunks, v.as_slice(), t.as_mut_slice());
-        assert_eq!(bits(&t), bits(&sys.a.tr_mul(v)));
+        for t in both(|| {
+            let mut t = DVector::from_element(sys.a.ncols(), f64::NAN);
+            kernels::gemv_tr_zero_chunks(&sys.a, &chunks, v.as_slice(), t.as_mut_slice());
+            t
+        }) {
+            assert_eq!(bits(&t), bits(&sys.a.tr_mul(v)));
+        }
     }
+}
+
+/// `f` run with the kernels' AVX2 build (where the processor has it) and with their portable build.
+fn both<R>(f: impl Fn() -> R) -> [R; 2] {
+    [f(), kernels::portable(&f)]
+}
+
+#[test]
+fn the_kernels_avx2_build_gives_the_portable_builds_bits_on_whole_solves() {
+    // Every batch design (random targets, most pressing on the bounds, and reachable ones) solved with the
+    // kernels built for AVX2 and for the baseline processor: the same solution, objective and KKT residual
+    // to the bit (the guess's steps, the factors' rows and the products all run in both builds). Where the
+    // processor has no AVX2 both runs are the portable build's.
+    let mut bounded = 0;
+    for sys in batch_systems(40, 11).iter().chain(&reachable_systems(40, 12)) {
+        let [wide, portable] = both(|| solve_system(sys));
+        assert_eq!(bits(&wide.x), bits(&portable.x));
+        assert_eq!(wide.objective.to_bits(), portable.objective.to_bits());
+        assert_eq!(wide.kkt.to_bits(), portable.kkt.to_bits());
+        bounded += usize::from(wide.bounds_active);
+    }
+    assert!(bounded >= 40, "{bounded} designs pressed on their bounds");
 }
 
 /// The guessed start against the finish's own steps from the clamped solution (`Start::ClampedUnguessed`,

@@ -73,3 +73,23 @@ fn fixed_prints_as_the_standard_formatter() {
         assert_eq!(format!("{:>9}", Fixed(x, 2)), format!("{x:>9.2}"));
     }
 }
+
+/// The cells' colours with each light's white found once are each cell's own [`CellResult::new`], to the
+/// bit, on a palette whose cells sit under three different lights (a white taken from the wrong light
+/// changes their ΔE00).
+#[test]
+fn cell_results_with_the_whites_once_are_each_cells_own() {
+    let col = Colorimetry::default();
+    let palette = crate::palette::random::batch_palette(40, 9, &col);
+    assert!(palette.colours.iter().any(|c| c.light != palette.colours[0].light), "cells under several lights");
+    let design = Design::new(&palette, None, &col).expect("valid");
+    let v = design.start_values();
+    let cells = cell_results(&palette, None, &col, &v);
+    assert_eq!(cells.len(), palette.colours.len());
+    for (k, (got, c)) in cells.iter().zip(&palette.colours).enumerate() {
+        let pair = (&v.lights[c.light], &v.reflectances[c.reflectance]);
+        let own = CellResult::new(k, c.target, pair, c.is_active(), None, &col);
+        assert_eq!(got.delta_e_full.to_bits(), own.delta_e_full.to_bits(), "cell {k}");
+        assert_eq!(got, &own, "cell {k}");
+    }
+}
