@@ -641,16 +641,7 @@ fn lanes_classify_every_cell_as_the_scalar_reconstruction_does() {
     for dims in [[5usize, 4, 3], [2, 3, 2], [7, 1, 3], [1, 4, 3], [9, 2, 1]] {
         let n = dims.iter().product::<usize>();
         let raw: Vec<f32> = (0..n).map(|i| ((i * 73 + 11) % 251) as f32).collect();
-        let volume = |name: &str, voxels: crate::volume::Voxels| Volume::new(Path::new(name), dims, [1.0; 3], voxels);
-        let volumes = [
-            volume("u8", raw.iter().map(|v| *v as u8).collect::<Vec<_>>().into()),
-            volume("i8", raw.iter().map(|v| (*v as i16 - 125) as i8).collect::<Vec<_>>().into()),
-            volume("u16", raw.iter().map(|v| (*v as u16) * 250 + 7).collect::<Vec<_>>().into()),
-            volume("i16", raw.iter().map(|v| (*v as i32 * 250 - 30_000) as i16).collect::<Vec<_>>().into()),
-            volume("f32", raw.iter().map(|v| v * 0.37 - 20.0).collect::<Vec<_>>().into()),
-        ];
-        for vol in volumes {
-            let vol = vol.unwrap();
+        for vol in volumes_of_every_type(dims, &raw) {
             let [lo, hi] = vol.value_range;
             let mats = [MaterialClass::new([lo, 0.5 * (lo + hi)], 0.5), MaterialClass::new([0.5 * (lo + hi), hi], 0.5)];
             let classifier = classify::Classifier::new(&vol, &mats, 0.5, 2);
@@ -707,16 +698,7 @@ fn brick_extremes_are_those_of_each_bricks_voxels_and_seam() {
         let n = dims.iter().product::<usize>();
         // Scattered values, so that a brick's extremes sit anywhere in it, its seam included.
         let raw: Vec<f32> = (0..n).map(|i| ((i * 7919 + 13) % 253) as f32).collect();
-        let volume = |name: &str, voxels: crate::volume::Voxels| Volume::new(Path::new(name), dims, [1.0; 3], voxels);
-        let volumes = [
-            volume("u8", raw.iter().map(|v| *v as u8).collect::<Vec<_>>().into()),
-            volume("i8", raw.iter().map(|v| (*v as i16 - 125) as i8).collect::<Vec<_>>().into()),
-            volume("u16", raw.iter().map(|v| (*v as u16) * 250 + 7).collect::<Vec<_>>().into()),
-            volume("i16", raw.iter().map(|v| (*v as i32 * 250 - 30_000) as i16).collect::<Vec<_>>().into()),
-            volume("f32", raw.iter().map(|v| v * 0.37 - 20.0).collect::<Vec<_>>().into()),
-        ];
-        for vol in volumes {
-            let vol = vol.unwrap();
+        for vol in volumes_of_every_type(dims, &raw) {
             let values = vol.voxels.to_f32_vec();
             for size in [1, 2, 4, 8, 16] {
                 let bm = BrickMap::new(&vol, size);
@@ -749,4 +731,18 @@ fn brick_extremes_are_those_of_each_bricks_voxels_and_seam() {
         }
     }
     assert!(checked > 1000, "{checked} bricks");
+}
+
+/// The same values (whole numbers below 256, as `f32`) as a volume of each voxel type, spread over its range.
+fn volumes_of_every_type(dims: [usize; 3], raw: &[f32]) -> Vec<Volume> {
+    let volume = |name: &str, voxels: crate::volume::Voxels| {
+        Volume::new(Path::new(name), dims, [1.0; 3], voxels).expect("a valid test volume")
+    };
+    vec![
+        volume("u8", raw.iter().map(|v| *v as u8).collect::<Vec<_>>().into()),
+        volume("i8", raw.iter().map(|v| (*v as i16 - 125) as i8).collect::<Vec<_>>().into()),
+        volume("u16", raw.iter().map(|v| (*v as u16) * 250 + 7).collect::<Vec<_>>().into()),
+        volume("i16", raw.iter().map(|v| (*v as i32 * 250 - 30_000) as i16).collect::<Vec<_>>().into()),
+        volume("f32", raw.iter().map(|v| v * 0.37 - 20.0).collect::<Vec<_>>().into()),
+    ]
 }
