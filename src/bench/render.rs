@@ -549,7 +549,7 @@ fn vtk_ratio(
     if !script.is_file() || !scene_file.is_file() {
         return VtkRatio::NotMeasured("benches/vtk_compare.py or volumes/engine.toml not in the working folder".into());
     }
-    let scene = match Scene::load_with_volume(scene_file, Some(engine)) {
+    let mut scene = match Scene::load_with_volume(scene_file, Some(engine)) {
         Ok(mut s) => {
             s.settings.shading = Shading::Headlight;
             s
@@ -596,10 +596,9 @@ fn vtk_ratio(
             return VtkRatio::NotMeasured("the script's output has no `VTK … fixed-point … median … ms` line".into());
         };
         version = v;
-        let mut at_step = scene.clone();
-        at_step.settings.step = step;
+        scene.settings.step = step;
         let (timing, _) = time_runs(runs.max(3), || {
-            render_views(&at_step, vec![factor.clone()], size, size, Acceleration::default(), None).pop()
+            render_views(&scene, vec![factor.clone()], size, size, Acceleration::default(), None).pop()
         });
         rows.push(VtkRow { size, step, vtk_s, metamer_s: timing.median });
     }
