@@ -193,8 +193,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         folders.sync();
         Ok(())
     };
+    // The table is formatted on a thread of its own, but only once the report's text is written (or at once
+    // without a report): formatting it (12 M instructions for 3600 cells) while the report's cells rows render
+    // and both outputs are copied into the page cache took a core from the outputs' path, and the report's
+    // fsync, the renames and the folder's fsync leave both cores idle for longer than it takes.
+    let report_written = Gate::default();
     let (committed, table) = std::thread::scope(|scope| {
-        let saved = beside(scope, || {
+        // Opens the gate however the report's staging ends (written, failed, or a panic unwinding).
+        let opens = report_written.opener();
+        if args.report.is_none() {
+            opens.open();
+        }
+        let saved = beside(scope, |_| {
             let prepared = prepared.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
             match (prepared, &args.output) {
                 (Some(prepared), Some(out)) => {
@@ -203,7 +213,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 _ => Ok(None),
             }
         });
-        let table = beside(scope, || {
+        let table = beside(scope, |own_thread| {
+            // Run here and now (no thread could be started), it must not wait for what follows it.
+            if own_thread {
+                report_written.wait();
+            }
             let mut t = table_text(&solution, &unphysical, &notes, basis_warning.as_deref(), args.quiet);
             for f in feasibility.iter().flatten() {
                 let _ = writeln!(t, "feasibility: {}", f.line);
@@ -223,11 +237,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 if let Some(pieces) = spectra_pieces.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {
                     report.spectra.rendered(pieces);
                 }
-                // Serialised straight into the staged file (its long arrays in pieces, in parallel).
-                stage_report(path, replace, &report).map(Some)
+                // Serialised straight into the staged file (its long arrays in pieces, in parallel); the
+                // table starts once the text is written, while the file syncs.
+                stage_report(path, replace, &report, || opens.open()).map(Some)
             }
             None => Ok(None),
         };
+        drop(opens);
         // The outputs are put in place while the table may still be rendered (it is printed after them).
         let committed = commit(saved.join(), report);
         (committed, table.join())
@@ -265,14 +281,57 @@ impl<T> Beside<'_, T> {
     }
 }
 
-/// `work` on a thread of its own in `scope`, or here and now when no thread can be started.
+/// `work` on a thread of its own in `scope`, or here and now when no thread can be started; `work` is told
+/// which (`true`: its own thread).
 fn beside<'scope, T: Send + 'scope>(
     scope: &'scope std::thread::Scope<'scope, '_>,
-    work: impl FnOnce() -> T + Send + Copy + 'scope,
+    work: impl FnOnce(bool) -> T + Send + Copy + 'scope,
 ) -> Beside<'scope, T> {
-    match std::thread::Builder::new().spawn_scoped(scope, work) {
+    match std::thread::Builder::new().spawn_scoped(scope, move || work(true)) {
         Ok(handle) => Beside::Thread(handle),
-        Err(_) => Beside::Done(work()),
+        Err(_) => Beside::Done(work(false)),
+    }
+}
+
+/// A one-way gate: [`Gate::wait`] returns once [`Gate::open`] was called (at once after).
+#[derive(Default)]
+struct Gate {
+    open: std::sync::Mutex<bool>,
+    opened: std::sync::Condvar,
+}
+
+impl Gate {
+    fn open(&self) {
+        *self.open.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = true;
+        self.opened.notify_all();
+    }
+
+    fn wait(&self) {
+        let mut open = self.open.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        while !*open {
+            open = self.opened.wait(open).unwrap_or_else(std::sync::PoisonError::into_inner);
+        }
+    }
+
+    /// Opens the gate when told to or, at the latest, when dropped (an error or a panic on the way), so
+    /// that a thread waiting for it is never left waiting.
+    fn opener(&self) -> GateOpener<'_> {
+        GateOpener(self)
+    }
+}
+
+/// See [`Gate::opener`].
+struct GateOpener<'a>(&'a Gate);
+
+impl GateOpener<'_> {
+    fn open(&self) {
+        self.0.open();
+    }
+}
+
+impl Drop for GateOpener<'_> {
+    fn drop(&mut self) {
+        self.0.open();
     }
 }
 
@@ -591,10 +650,21 @@ fn rendering<T>(report: &Report, write: impl FnOnce(&Report) -> T) -> T {
 }
 
 /// The report staged at `path` ([`crate::fsio::stage_writing`]): its pieces start rendering before the
-/// staged file is made (its checks and creation, 0.1 ms to a few under load, overlap them).
-fn stage_report(path: &Path, replace: crate::fsio::Replace, report: &Report) -> anyhow::Result<crate::fsio::Staged> {
+/// staged file is made (its checks and creation, 0.1 ms to a few under load, overlap them). `written` is
+/// called once the whole text is in the staged file, before its sync (not when the writing failed).
+fn stage_report(
+    path: &Path,
+    replace: crate::fsio::Replace,
+    report: &Report,
+    written: impl FnOnce(),
+) -> anyhow::Result<crate::fsio::Staged> {
     rendering(report, |report| {
-        crate::fsio::stage_writing(path, crate::fsio::Name::User, replace, |w| write_report_value(w, report))
+        crate::fsio::stage_writing(path, crate::fsio::Name::User, replace, |w| {
+            write_report_value(w, report)?;
+            std::io::Write::flush(w)?;
+            written();
+            Ok(())
+        })
     })
     .context("cannot write the report")
 }
@@ -1644,6 +1714,67 @@ mod tests {
     /// The solved palette prepared inside the solve and staged to its end ([`PreparedEnd::stage_to_end`],
     /// what `metamer solve -o` does) is the save staged in place, by tables and through the whole document;
     /// a save that cannot be staged fails and writes nothing.
+    #[test]
+    fn a_gate_lets_its_waiter_through_when_opened_or_when_its_opener_is_dropped() {
+        let through = |open: &dyn Fn(super::GateOpener<'_>)| {
+            let gate = super::Gate::default();
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::scope(|scope| {
+                let opener = gate.opener();
+                let gate = &gate;
+                scope.spawn(move || {
+                    gate.wait();
+                    let _ = tx.send(());
+                });
+                assert!(rx.recv_timeout(std::time::Duration::from_millis(50)).is_err(), "the waiter waits");
+                open(opener);
+                let passed = rx.recv_timeout(std::time::Duration::from_secs(20)).is_ok();
+                // A waiter left waiting would hold the scope: let it through before failing.
+                gate.open();
+                passed
+            })
+        };
+        assert!(through(&|opener| opener.open()), "opened");
+        assert!(through(&|opener| drop(opener)), "its opener dropped (an error or a panic on the way)");
+        // Once open, a later wait returns at once.
+        let gate = super::Gate::default();
+        gate.opener().open();
+        gate.wait();
+    }
+
+    #[test]
+    fn the_reports_text_is_whole_in_its_staged_file_when_the_table_is_let_through() {
+        use crate::colorimetry::Colorimetry;
+        use crate::design::{self, SolveOptions};
+        let colorimetry = Colorimetry::default();
+        let palette = crate::palette::random::batch_palette(300, 11, &colorimetry);
+        let solution = design::solve(&palette, None, &colorimetry, &SolveOptions::default()).unwrap();
+        let bad = super::Unphysical::of(&solution.palette);
+        let mut whole = Vec::new();
+        super::write_report(&mut whole, &super::Report::new(&solution, &bad, 0.25)).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.json");
+        let report = super::Report::new(&solution, &bad, 0.25);
+        // The staged file's content when `written` is called: the whole report, not yet in place.
+        let mut seen = None;
+        let staged = super::stage_report(&path, crate::fsio::Replace::Writable, &report, || {
+            let staged: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().path()).collect();
+            assert_eq!(staged.len(), 1, "{staged:?}");
+            seen = Some(std::fs::read(&staged[0]).unwrap());
+        })
+        .unwrap();
+        assert!(!path.exists(), "staged, not in place");
+        assert!(whole.len() > 100_000, "a report of several pieces");
+        assert!(seen.as_ref() == Some(&whole), "the report's text is whole in the staged file when written is called");
+        staged.commit().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), whole);
+        // A report that cannot be staged never calls it.
+        let nowhere = dir.path().join("no such folder").join("r.json");
+        let mut called = false;
+        assert!(super::stage_report(&nowhere, crate::fsio::Replace::Writable, &report, || called = true).is_err());
+        assert!(!called);
+    }
+
     #[test]
     fn a_save_staged_to_its_end_is_the_save_and_a_failed_one_writes_nothing() {
         use crate::colorimetry::Colorimetry;
