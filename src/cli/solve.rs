@@ -1711,9 +1711,6 @@ mod tests {
         }
     }
 
-    /// The solved palette prepared inside the solve and staged to its end ([`PreparedEnd::stage_to_end`],
-    /// what `metamer solve -o` does) is the save staged in place, by tables and through the whole document;
-    /// a save that cannot be staged fails and writes nothing.
     #[test]
     fn a_gate_lets_its_waiter_through_when_opened_or_when_its_opener_is_dropped() {
         let through = |open: &dyn Fn(super::GateOpener<'_>)| {
@@ -1775,6 +1772,9 @@ mod tests {
         assert!(!called);
     }
 
+    /// The solved palette prepared inside the solve and staged to its end ([`PreparedEnd::stage_to_end`],
+    /// what `metamer solve -o` does) is the save staged in place, by tables and through the whole document;
+    /// a save that cannot be staged fails and writes nothing.
     #[test]
     fn a_save_staged_to_its_end_is_the_save_and_a_failed_one_writes_nothing() {
         use crate::colorimetry::Colorimetry;
