@@ -406,27 +406,20 @@ impl<'a> Fields<'a> {
     /// (field units per voxel).
     #[inline(always)]
     pub(crate) fn gradient(&self, block: &Block, base: usize, f: [f32; 3]) -> [f32; 3] {
-        match Self::corners(block, base) {
-            Some(c) => self.gradient_at(&c, f),
-            None => self.gradient_unpadded(block, base, f),
-        }
-    }
-
-    /// The gradient corners of the cell at local index `base` of a value block, as [`Self::gradient_at`]
-    /// interpolates them; None where the block has no padding entry after the cell (label blocks: read
-    /// by [`Self::gradient_unpadded`]). Split from the interpolation so that samples in one cell can
-    /// read the corners once (the refinement substeps, `march.rs`): the same corners give the same bits.
-    #[inline(always)]
-    pub(crate) fn corners(block: &Block, base: usize) -> Option<Corners> {
         // The cell's corners in one slice of components: one bounds check instead of eight. It reaches one
         // component past the last corner's triple (value blocks hold a padding entry for it), so that each
         // corner is read as four lanes in one load: its triple and the next entry's first component, a
         // lane whose interpolation is discarded.
         let flat = block.grad.as_flattened();
-        let g = flat.get(3 * base..3 * (base + CELL) + 1)?;
+        let Some(g) = flat.get(3 * base..3 * (base + CELL) + 1) else {
+            return self.gradient_unpadded(block, base, f);
+        };
         #[cfg(target_arch = "x86_64")]
         {
-            use std::arch::x86_64::{_mm_cvtepi32_ps, _mm_cvtsi64_si128, _mm_srai_epi32, _mm_unpacklo_epi16};
+            use std::arch::x86_64::{
+                __m128, _mm_add_ps, _mm_cvtepi32_ps, _mm_cvtsi64_si128, _mm_mul_ps, _mm_set1_ps, _mm_srai_epi32,
+                _mm_storeu_ps, _mm_sub_ps, _mm_unpacklo_epi16,
+            };
             // SSE2 (x86-64's baseline) spelled out: without SSE4.1's widening load the compiler widened the
             // four lanes one by one. A corner's four components as one 64-bit word (one load), widened to
             // 32 bits by interleaving with themselves and shifting back, converted to f32.
@@ -434,37 +427,17 @@ impl<'a> Fields<'a> {
                 let s = &g[3 * CORNERS[c]..][..4];
                 // SAFETY: `s` holds four i16, the eight bytes read (x86-64 reads unaligned words).
                 let w = unsafe { s.as_ptr().cast::<u64>().read_unaligned() };
-                // SAFETY: SSE2 is part of x86-64's baseline, so its intrinsics run on any x86-64
-                // processor; these read and write registers only.
+                // SAFETY (here and below): SSE2 is part of x86-64's baseline, so its intrinsics run on any
+                // x86-64 processor; these read and write registers only.
                 unsafe {
                     let v = _mm_cvtsi64_si128(w as i64);
                     _mm_cvtepi32_ps(_mm_srai_epi32(_mm_unpacklo_epi16(v, v), 16))
                 }
             };
-            Some([corner(0), corner(1), corner(2), corner(3), corner(4), corner(5), corner(6), corner(7)])
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let corner = |c: usize| {
-                let v: [i16; 4] = g[3 * CORNERS[c]..][..4].try_into().unwrap_or([0; 4]);
-                v.map(|q| i32::from(q) as f32)
-            };
-            Some([corner(0), corner(1), corner(2), corner(3), corner(4), corner(5), corner(6), corner(7)])
-        }
-    }
-
-    /// The gradient interpolated from a cell's [`Self::corners`] at fractions `f`: seven lerps along x,
-    /// then y, then z, times the field's scale.
-    #[inline(always)]
-    pub(crate) fn gradient_at(&self, c: &Corners, f: [f32; 3]) -> [f32; 3] {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{__m128, _mm_add_ps, _mm_mul_ps, _mm_set1_ps, _mm_storeu_ps, _mm_sub_ps};
-            // SAFETY (here and below): SSE2 is part of x86-64's baseline; these read and write registers only.
             let lerp = |a: __m128, b: __m128, t: __m128| unsafe { _mm_add_ps(a, _mm_mul_ps(t, _mm_sub_ps(b, a))) };
             let [fx, fy, fz] = f.map(|t| unsafe { _mm_set1_ps(t) });
-            let c0 = lerp(lerp(c[0], c[1], fx), lerp(c[2], c[3], fx), fy);
-            let c1 = lerp(lerp(c[4], c[5], fx), lerp(c[6], c[7], fx), fy);
+            let c0 = lerp(lerp(corner(0), corner(1), fx), lerp(corner(2), corner(3), fx), fy);
+            let c1 = lerp(lerp(corner(4), corner(5), fx), lerp(corner(6), corner(7), fx), fy);
             let mut out = [0f32; 4];
             // SAFETY: `out` holds four f32, the bytes an unaligned store of one __m128 writes.
             unsafe { _mm_storeu_ps(out.as_mut_ptr(), lerp(c0, c1, fz)) };
@@ -472,7 +445,11 @@ impl<'a> Fields<'a> {
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            self.interpolate(|i| c[i], f)
+            let corner = |c: usize| {
+                let v: [i16; 4] = g[3 * CORNERS[c]..][..4].try_into().unwrap_or([0; 4]);
+                v.map(|q| i32::from(q) as f32)
+            };
+            self.interpolate(corner, f)
         }
     }
 
@@ -680,13 +657,6 @@ pub(super) fn corner_weights(f: [f32; 3]) -> [f32; 8] {
 pub(super) const CORNERS: [usize; 8] = [0, 1, S, S + 1, S * S, S * S + 1, S * S + S, S * S + S + 1];
 /// Entries from a block cell's first corner to its last, inclusive.
 pub(super) const CELL: usize = S * S + S + 2;
-
-/// A cell's eight gradient corners ([`Fields::corners`]), each its triple and a discarded fourth lane.
-#[cfg(target_arch = "x86_64")]
-pub(crate) type Corners = [std::arch::x86_64::__m128; 8];
-/// A cell's eight gradient corners ([`Fields::corners`]), each its triple and a discarded fourth lane.
-#[cfg(not(target_arch = "x86_64"))]
-pub(crate) type Corners = [[f32; 4]; 8];
 
 #[cfg(test)]
 mod tests {

@@ -2,7 +2,7 @@
 
 use super::block::{FIELD_BRICK, S3};
 use super::classify::{BrickMap, Classifier, EMPTY, LUT_BINS, MIXED};
-use super::fields::{BlockRef, CELL, CORNERS, Corners, Cursor, Fields, corner_weights};
+use super::fields::{BlockRef, CELL, CORNERS, Cursor, Fields, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 #[cfg(target_arch = "x86_64")]
 use super::lanes;
@@ -39,11 +39,6 @@ impl Cell {
         [dx, dy, dz]
     }
 }
-
-/// Tests: the refinement substeps read every cell's voxels and gradient corners afresh (no value kept
-/// from the substep before), the reference the kept values must reproduce bit for bit.
-#[cfg(test)]
-pub(super) static SUBSTEPS_IN_FULL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// Length (voxels of the smallest in-plane spacing) a refined step's substeps aim at.
 ///
@@ -348,9 +343,27 @@ impl<'a> RayContext<'a> {
     }
 
     /// Composite a value sample of material `material` (index + 1, 0 = none) in bin `bin` at `at` with
-    /// opacities `alpha` (per bin, for the step it stands for), the shading of the smooth gradient given by
-    /// `smooth` (called only when the sample is shaded by it): adds its material's weight, returns the
+    /// opacities `alpha` (per bin, for the step it stands for): adds its material's weight, returns the
     /// opacity it absorbs.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn composite_value<T: Voxel>(
+        &self,
+        data: &[T],
+        (material, bin): (u8, usize),
+        at: Located,
+        alpha: &[f32],
+        transmittance: f32,
+        out: &mut [f32],
+        cursor: &mut Cursor<'a>,
+    ) -> f32 {
+        self.composite_value_by(data, (material, bin), at, alpha, transmittance, out, || {
+            self.shade(self.smooth_gradient(at, cursor))
+        })
+    }
+
+    /// [`Self::composite_value`] with the shading of the smooth gradient given by `smooth` (called only
+    /// when the sample is shaded by it).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn composite_value_by<T: Voxel>(
@@ -783,11 +796,7 @@ impl<'a> RayContext<'a> {
     /// the loop keeps its state in registers. Scalar even where the loop's samples are taken in lanes:
     /// refined steps mostly come alone, so a batch of eight consecutive substeps would serve about one
     /// refined step and cost about what these do (tried on the engine CT: 488 k batches for 556 k
-    /// refined steps at step 1). A substep in the cell of the substep before it takes that cell's voxels
-    /// and gradient corners as they were read (the same values, so the same bits) instead of reading them
-    /// again: at step 1 (four substeps a quarter of a voxel apart) on the engine CT, 43 % of the substeps'
-    /// voxel reads and 38 % of their corner reads. Returns the substeps taken and whether early
-    /// termination stopped the ray.
+    /// refined steps at step 1). Returns the substeps taken and whether early termination stopped the ray.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn value_substeps<T: Voxel>(
@@ -803,13 +812,6 @@ impl<'a> RayContext<'a> {
         let Ray { origin, dir, t0, .. } = *ray;
         let n = self.substeps as f64;
         let mut samples = 0;
-        let trilinear = self.options.interpolation == Interpolation::Trilinear;
-        // The last cell whose voxels were read (its first voxel, usize::MAX: none yet) and its voxels, and
-        // the last cell whose gradient corners were read and its corners: substeps a quarter of a voxel
-        // apart (step 1) fall in the cell of the substep before them about half the time (43 % on the
-        // engine CT), and the same voxels and corners give the same bits.
-        let mut voxels = (usize::MAX, [0f32; 8]);
-        let mut corners: Option<(usize, Corners)> = None;
         for j in 1..self.substeps {
             let tj = t - 1.0 + j as f64 / n;
             if tj < t0 {
@@ -819,36 +821,8 @@ impl<'a> RayContext<'a> {
             samples += 1;
             // A substep may lie in the brick before this sample's: reconstruct it in full.
             let at = self.locate(pj);
-            #[cfg(test)]
-            if SUBSTEPS_IN_FULL.load(std::sync::atomic::Ordering::Relaxed) {
-                (voxels.0, corners) = (usize::MAX, None);
-            }
-            let s = if trilinear {
-                if voxels.0 != at.b {
-                    voxels = (at.b, self.cell(data, at.b));
-                }
-                let bin = self.classifier.bin(Cell::value(&voxels.1, at.f));
-                (self.classifier.material[bin], bin)
-            } else {
-                self.classify(data, pj, at)
-            };
-            let smooth = || {
-                let Some(fields) = self.fields else { return self.shade([0.0; 3]) };
-                let c = match corners {
-                    Some((b, c)) if b == at.b => c,
-                    _ => {
-                        let (block, base) = fields.block(at.i, cursor);
-                        let Some(c) = Fields::corners(block, base) else {
-                            return self.shade(fields.gradient(block, base, at.f));
-                        };
-                        corners = Some((at.b, c));
-                        c
-                    }
-                };
-                self.shade(fields.gradient_at(&c, at.f))
-            };
-            let absorbed =
-                self.composite_value_by(data, s, at, &self.classifier.alpha_sub, *transmittance, out, smooth);
+            let s = self.classify(data, pj, at);
+            let absorbed = self.composite_value(data, s, at, &self.classifier.alpha_sub, *transmittance, out, cursor);
             if self.attenuate(absorbed, transmittance, stats) {
                 return (samples, true);
             }

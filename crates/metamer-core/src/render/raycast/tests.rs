@@ -627,63 +627,6 @@ fn samples_taken_in_lanes_give_the_portable_frame_bit_for_bit() {
     );
 }
 
-/// The refinement substeps that take the voxels and gradient corners of the substep before them (in the
-/// same cell) give the frame of substeps that read every cell afresh, bit for bit: on each voxel type, at
-/// steps of four, five and twelve substeps, shaded by the smooth or the cell gradient or unshaded,
-/// trilinear or nearest, with a gradient-dependent material, in lanes and in the portable loop.
-#[test]
-fn substeps_sharing_a_cell_give_the_frame_of_substeps_read_in_full() {
-    use super::march::SUBSTEPS_IN_FULL;
-    use std::sync::atomic::Ordering::Relaxed;
-    let engine = crate::volume::generate::engine_like_u16([37, 30, 26]);
-    let raw: Vec<f32> = engine.voxels.to_f32_vec().iter().map(|v| v / 257.0).collect();
-    let volumes = volumes_of_every_type(engine.dims, &raw);
-    let cameras =
-        [Camera::default(), Camera { azimuth_deg: 37.0, elevation_deg: -61.0, zoom: 1.7, fit_materials: true }];
-    let base = RaycastOptions { width: 40, height: 34, shading: Shading::Headlight, ..Default::default() };
-    let settings = [
-        RaycastOptions { step: 1.0, ..base.clone() },
-        RaycastOptions { step: 1.3, shading: Shading::Key, ..base.clone() },
-        RaycastOptions { step: 3.1, gradient: Gradient::Cell, ..base.clone() },
-        RaycastOptions { step: 1.0, shading: Shading::Unshaded, ..base.clone() },
-        RaycastOptions { step: 1.3, interpolation: Interpolation::Nearest, ..base.clone() },
-    ];
-    let mut refined = 0;
-    for vol in &volumes {
-        let lo = vol.voxels.to_f32_vec().iter().fold(f32::INFINITY, |m, v| m.min(*v));
-        let hi = vol.voxels.to_f32_vec().iter().fold(f32::NEG_INFINITY, |m, v| m.max(*v));
-        let at = |q: f32| lo + q * (hi - lo);
-        let mut mats = vec![
-            MaterialClass::new([at(0.07), at(0.29)], 0.05),
-            MaterialClass::new([at(0.41), at(0.68)], 0.3),
-            MaterialClass::new([at(0.78), hi], 0.9),
-        ];
-        for fading in [false, true] {
-            mats[0].max_gradient = fading.then_some(0.2 * (at(0.29) - at(0.07)));
-            for cam in &cameras {
-                for opts in &settings {
-                    for lanes in [true, false] {
-                        SUBSTEPS_IN_FULL.store(false, Relaxed);
-                        let (kept, s_kept) = raycast_with(vol, &mats, None, cam, opts, lanes);
-                        SUBSTEPS_IN_FULL.store(true, Relaxed);
-                        let (full, s_full) = raycast_with(vol, &mats, None, cam, opts, lanes);
-                        SUBSTEPS_IN_FULL.store(false, Relaxed);
-                        let what =
-                            format!("{:?} {cam:?} {opts:?} fading {fading} lanes {lanes}", vol.voxels.scalar_type());
-                        assert!(kept.data.iter().zip(&full.data).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}");
-                        assert_eq!(s_kept, s_full, "{what}");
-                        refined += usize::from(full.data.iter().any(|v| *v > 0.0) && s_full.samples > 0);
-                    }
-                }
-            }
-        }
-    }
-    assert!(
-        refined >= volumes.len() * 2 * cameras.len() * settings.len() * 2 * 9 / 10,
-        "{refined} frames showed a material"
-    );
-}
-
 /// The lanes' trilinear bins (`lanes::classify`: one- and two-byte voxels read as x-neighbour pairs in
 /// four gathers, the others and the cells whose pair words would end past the voxels in eight) equal the
 /// scalar reconstruction's at every cell of small grids of each voxel type, the first and the last cells
