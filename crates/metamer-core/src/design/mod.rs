@@ -364,16 +364,10 @@ fn solve_from<T: Send>(
                 });
             }
         }
-        // The objective and the cells' colours, each on the pool, beside each other (the one's last pieces
-        // beside the other's).
-        let (objective, cells) = if parallel {
-            rayon::join(
-                || design.objective_with(&values, parallel),
-                || report::cell_results(palette, basis, colorimetry, &values),
-            )
-        } else {
-            (design.objective_with(&values, parallel), report::cell_results(palette, basis, colorimetry, &values))
-        };
+        // The cells' colours, then the objective, each on the pool: the objective takes the cells' full
+        // colours from them (the same products, with the same matrix) instead of making them again.
+        let cells = report::cell_results(palette, basis, colorimetry, &values);
+        let objective = design.objective_with_colours(&values, parallel, &|k| cells.get(k).map(|c| c.rgb_full));
         if !objective.is_finite() {
             return Err(DesignError::Invalid(format!(
                 "the objective at the solution is {objective}, not a finite number: the palette's values are too \

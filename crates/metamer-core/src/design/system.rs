@@ -271,10 +271,20 @@ impl<'a> Design<'a> {
 
     /// The colour residual `ω/√3 (T(E,S) − c)` and the error residual of one term.
     pub(crate) fn term_residuals(&self, t: &CellTerm, v: &Values) -> (Vector3<f64>, Vector3<f64>) {
+        self.term_residuals_with(t, v, None)
+    }
+
+    /// [`Design::term_residuals`] with the term's colour `apply(t.form, E, S)` given when it is known.
+    fn term_residuals_with(
+        &self,
+        t: &CellTerm,
+        v: &Values,
+        applied: Option<Vector3<f64>>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
         let e = &self.term_light(t, v);
         let s = &v.reflectances[t.reflectance];
         let c = t.free.map(|g| v.free[g]).unwrap_or(t.target);
-        let colour = (self.apply(t.form, e, s) - c) * t.scale;
+        let colour = (applied.unwrap_or_else(|| self.apply(t.form, e, s)) - c) * t.scale;
         let error = if t.error_scale > 0.0 { self.apply(Form::Error, e, s) * t.error_scale } else { Vector3::zeros() };
         (colour, error)
     }
@@ -288,8 +298,26 @@ impl<'a> Design<'a> {
     /// are many of them; they are summed in order on the calling thread either way, so the result has the
     /// same bits.
     pub(crate) fn objective_with(&self, v: &Values, parallel: bool) -> f64 {
+        self.objective_with_colours(v, parallel, &|_| None)
+    }
+
+    /// [`Design::objective_with`] (the same bits) taking the full colour of cell k (`palette.colours[k]`)
+    /// at `v` from `cell_colour(k)` where it gives one: a cell's term in full ([`Form::Full`]) is the
+    /// product `Q_rgb (E ∘ S)` of the cell's light and reflectance, which the cells' pass makes with the
+    /// same matrix ([`crate::colorimetry::Colorimetry::rgb`], [`super::CellResult::rgb_full`]); taken from
+    /// there it is not made twice (a batch's 3600 cells: 1.8 M instructions).
+    pub(crate) fn objective_with_colours(
+        &self,
+        v: &Values,
+        parallel: bool,
+        cell_colour: &(dyn Fn(usize) -> Option<Vector3<f64>> + Sync),
+    ) -> f64 {
         let term = |t: &CellTerm| {
-            let (c, e) = self.term_residuals(t, v);
+            let applied = match (t.origin, t.form) {
+                (Origin::Cell(k), Form::Full) => cell_colour(k),
+                _ => None,
+            };
+            let (c, e) = self.term_residuals_with(t, v, applied);
             c.norm_squared() + e.norm_squared()
         };
         let mut f = 0.0;
