@@ -364,10 +364,17 @@ fn solve_from<T: Send>(
                 });
             }
         }
-        // The cells' colours, then the objective, each on the pool: the objective takes the cells' full
-        // colours from them (the same products, with the same matrix) instead of making them again.
-        let cells = report::cell_results(palette, basis, colorimetry, &values);
-        let objective = design.objective_with_colours(&values, parallel, &|k| cells.get(k).map(|c| c.rgb_full));
+        // The cells' colours beside the objective's smoothness part, then its terms' part, which takes the
+        // cells' full colours from them (the same products, with the same matrix) instead of making them
+        // again: what is left of it is a residual a term, summed in order.
+        let cells_pass = || report::cell_results(palette, basis, colorimetry, &values);
+        let (cells, smoothness) = if parallel {
+            rayon::join(cells_pass, || design.smoothness_objective(&values, parallel))
+        } else {
+            (cells_pass(), design.smoothness_objective(&values, parallel))
+        };
+        let objective =
+            design.terms_objective_with_colours(&values, parallel, &|k| cells.get(k).map(|c| c.rgb_full)) + smoothness;
         if !objective.is_finite() {
             return Err(DesignError::Invalid(format!(
                 "the objective at the solution is {objective}, not a finite number: the palette's values are too \
