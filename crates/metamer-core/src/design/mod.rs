@@ -364,16 +364,17 @@ fn solve_from<T: Send>(
                 });
             }
         }
-        // The objective and the cells' colours, each on the pool, beside each other (the one's last pieces
-        // beside the other's).
-        let (objective, cells) = if parallel {
-            rayon::join(
-                || design.objective_with(&values, parallel),
-                || report::cell_results(palette, basis, colorimetry, &values),
-            )
+        // The cells' colours beside the objective's smoothness part, then its terms' part, which takes the
+        // cells' full colours from them (the same products, with the same matrix) instead of making them
+        // again: what is left of it is a residual a term, summed in order.
+        let cells_pass = || report::cell_results(palette, basis, colorimetry, &values);
+        let (cells, smoothness) = if parallel {
+            rayon::join(cells_pass, || design.smoothness_objective(&values, parallel))
         } else {
-            (design.objective_with(&values, parallel), report::cell_results(palette, basis, colorimetry, &values))
+            (cells_pass(), design.smoothness_objective(&values, parallel))
         };
+        let objective =
+            design.terms_objective_with_colours(&values, parallel, &|k| cells.get(k).map(|c| c.rgb_full)) + smoothness;
         if !objective.is_finite() {
             return Err(DesignError::Invalid(format!(
                 "the objective at the solution is {objective}, not a finite number: the palette's values are too \

@@ -271,11 +271,23 @@ impl<'a> Design<'a> {
 
     /// The colour residual `ω/√3 (T(E,S) − c)` and the error residual of one term.
     pub(crate) fn term_residuals(&self, t: &CellTerm, v: &Values) -> (Vector3<f64>, Vector3<f64>) {
-        let e = &self.term_light(t, v);
+        self.term_residuals_with(t, v, None)
+    }
+
+    /// [`Design::term_residuals`] with the term's colour `apply(t.form, E, S)` given when it is known.
+    fn term_residuals_with(
+        &self,
+        t: &CellTerm,
+        v: &Values,
+        applied: Option<Vector3<f64>>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        // The light (a copy of a spectrum) only when a product needs it.
+        let e = || self.term_light(t, v);
         let s = &v.reflectances[t.reflectance];
         let c = t.free.map(|g| v.free[g]).unwrap_or(t.target);
-        let colour = (self.apply(t.form, e, s) - c) * t.scale;
-        let error = if t.error_scale > 0.0 { self.apply(Form::Error, e, s) * t.error_scale } else { Vector3::zeros() };
+        let colour = (applied.unwrap_or_else(|| self.apply(t.form, &e(), s)) - c) * t.scale;
+        let error =
+            if t.error_scale > 0.0 { self.apply(Form::Error, &e(), s) * t.error_scale } else { Vector3::zeros() };
         (colour, error)
     }
 
@@ -288,12 +300,43 @@ impl<'a> Design<'a> {
     /// are many of them; they are summed in order on the calling thread either way, so the result has the
     /// same bits.
     pub(crate) fn objective_with(&self, v: &Values, parallel: bool) -> f64 {
+        self.objective_with_colours(v, parallel, &|_| None)
+    }
+
+    /// [`Design::objective_with`] (the same bits) taking the full colour of cell k (`palette.colours[k]`)
+    /// at `v` from `cell_colour(k)` where it gives one: a cell's term in full ([`Form::Full`]) is the
+    /// product `Q_rgb (E ∘ S)` of the cell's light and reflectance, which the cells' pass makes with the
+    /// same matrix ([`crate::colorimetry::Colorimetry::rgb`], [`super::CellResult::rgb_full`]); taken from
+    /// there it is not made twice (a batch's 3600 cells: 1.8 M instructions).
+    pub(crate) fn objective_with_colours(
+        &self,
+        v: &Values,
+        parallel: bool,
+        cell_colour: &(dyn Fn(usize) -> Option<Vector3<f64>> + Sync),
+    ) -> f64 {
+        self.terms_objective_with_colours(v, parallel, cell_colour) + self.smoothness_objective(v, parallel)
+    }
+
+    /// The terms' part of [`Design::objective_with_colours`] (without the smoothness part). A term whose
+    /// colour is given costs a residual only, so the terms go to the pool only when many have none (a
+    /// batch's cells all have theirs: a pass on the pool would cost more in hand-overs than it shares).
+    pub(crate) fn terms_objective_with_colours(
+        &self,
+        v: &Values,
+        parallel: bool,
+        cell_colour: &(dyn Fn(usize) -> Option<Vector3<f64>> + Sync),
+    ) -> f64 {
+        let given = |t: &CellTerm| match (t.origin, t.form) {
+            (Origin::Cell(k), Form::Full) => cell_colour(k),
+            _ => None,
+        };
         let term = |t: &CellTerm| {
-            let (c, e) = self.term_residuals(t, v);
+            let (c, e) = self.term_residuals_with(t, v, given(t));
             c.norm_squared() + e.norm_squared()
         };
         let mut f = 0.0;
-        if parallel && self.terms.len() >= PARALLEL_MIN {
+        let made = || self.terms.iter().filter(|t| given(t).is_none()).count();
+        if parallel && self.terms.len() >= PARALLEL_MIN && made() >= PARALLEL_MIN {
             let parts: Vec<f64> = self.terms.par_iter().with_min_len(PARALLEL_MIN / 2).map(term).collect();
             for x in parts {
                 f += x;
@@ -303,11 +346,11 @@ impl<'a> Design<'a> {
                 f += term(t);
             }
         }
-        f + self.smoothness_objective(v, parallel)
+        f
     }
 
     /// The smoothness part of the objective.
-    fn smoothness_objective(&self, v: &Values, parallel: bool) -> f64 {
+    pub(crate) fn smoothness_objective(&self, v: &Values, parallel: bool) -> f64 {
         if self.smoothness <= 0.0 {
             return 0.0;
         }

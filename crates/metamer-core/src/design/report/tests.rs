@@ -93,3 +93,36 @@ fn cell_results_with_the_whites_once_are_each_cells_own() {
         assert_eq!(got, &own, "cell {k}");
     }
 }
+
+/// The objective taking the cells' full colours from the cells' pass is the objective's own to the bit —
+/// at the start and at the solution, on the pool and off it, on batches whose cells include some with no
+/// term (a fixed reflectance's) and some of another weight — and it does use them: colours taken from the
+/// neighbouring cell change it.
+#[test]
+fn the_objective_with_the_cells_colours_is_the_objectives_own() {
+    let col = Colorimetry::default();
+    let mut mixed = crate::palette::random::reachable_batch_palette(200, 12, &col);
+    mixed.reflectances[5].design = false;
+    mixed.colours[7].weight = 3.0;
+    for palette in [crate::palette::random::batch_palette(200, 11, &col), mixed] {
+        let design = Design::new(&palette, None, &col).expect("valid");
+        let start = design.start_values();
+        let options = crate::design::SolveOptions::default();
+        let solved = crate::design::solve_with(&palette, None, &col, &options, true).expect("solved");
+        let mut at_solution = start.clone();
+        for (to, from) in at_solution.reflectances.iter_mut().zip(&solved.palette.reflectances) {
+            *to = from.spectrum;
+        }
+        for v in [&start, &at_solution] {
+            let cells = cell_results(&palette, None, &col, v);
+            for parallel in [false, true] {
+                let own = design.objective_with(v, parallel);
+                let taken = design.objective_with_colours(v, parallel, &|k| cells.get(k).map(|c| c.rgb_full));
+                assert_eq!(taken.to_bits(), own.to_bits());
+                let shifted = design.objective_with_colours(v, parallel, &|k| cells.get(k + 1).map(|c| c.rgb_full));
+                assert_ne!(shifted.to_bits(), own.to_bits(), "the colours given are used");
+            }
+        }
+        assert_eq!(solved.objective.to_bits(), design.objective_with(&at_solution, true).to_bits());
+    }
+}
