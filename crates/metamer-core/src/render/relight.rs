@@ -206,6 +206,19 @@ pub(crate) fn relight_linear(image: &ChannelImage, frame: &FrameMatrix) -> Vec<f
     out
 }
 
+/// Per pixel the brightest channel of its linear RGB (as [`relight_linear`] gives it), NaN and infinite
+/// pixels left out, into `out` (cleared first). Without the intermediate RGB image: the exposure looks at
+/// up to 17 frames, and each one's fresh 3-float-per-pixel buffer was faulted in page by page.
+pub(crate) fn relight_peaks(image: &ChannelImage, frame: &FrameMatrix, out: &mut Vec<f32>) {
+    out.clear();
+    relight_with(image, frame, |_, c| {
+        let v = c[0].max(c[1]).max(c[2]);
+        if v.is_finite() {
+            out.push(v);
+        }
+    });
+}
+
 /// Apply a frame matrix to every pixel and sRGB-encode into `out` (3 bytes per pixel).
 pub fn relight_srgb8(image: &ChannelImage, frame: &FrameMatrix, lut: &SrgbLut, out: &mut [u8]) {
     assert_eq!(image.channels, frame.channels, "image and frame matrix disagree on the channel count");
