@@ -570,6 +570,7 @@ fn fit_text(label: &str, width: u32) -> String {
 mod tests {
     use super::*;
     use crate::render::dial::{DialLight, DialState};
+    use crate::render::relight::relight_linear;
 
     fn dial() -> Dial {
         let lights = vec![
