@@ -206,22 +206,55 @@ pub(crate) fn relight_linear(image: &ChannelImage, frame: &FrameMatrix) -> Vec<f
     out
 }
 
+/// Per pixel the brightest channel of its linear RGB (as [`relight_linear`] gives it), NaN and infinite
+/// pixels left out, into `out` (cleared first). Without the intermediate RGB image: the exposure looks at
+/// up to 17 frames, and each one's fresh 3-float-per-pixel buffer was faulted in page by page.
+pub(crate) fn relight_peaks(image: &ChannelImage, frame: &FrameMatrix, out: &mut Vec<f32>) {
+    out.clear();
+    relight_with(image, frame, |_, c| {
+        let v = c[0].max(c[1]).max(c[2]);
+        if v.is_finite() {
+            out.push(v);
+        }
+    });
+}
+
 /// Apply a frame matrix to every pixel and sRGB-encode into `out` (3 bytes per pixel).
 pub fn relight_srgb8(image: &ChannelImage, frame: &FrameMatrix, lut: &SrgbLut, out: &mut [u8]) {
     assert_eq!(image.channels, frame.channels, "image and frame matrix disagree on the channel count");
     match image.channels {
-        3 => encode_kernel::<3>(image, frame, lut, out),
-        5 => encode_kernel::<5>(image, frame, lut, out),
-        6 => encode_kernel::<6>(image, frame, lut, out),
-        7 => encode_kernel::<7>(image, frame, lut, out),
-        8 => encode_kernel::<8>(image, frame, lut, out),
-        SAMPLES => encode_kernel::<SAMPLES>(image, frame, lut, out),
+        3 => encode_kernel::<3>(image, frame, lut, out, lanes8()),
+        5 => encode_kernel::<5>(image, frame, lut, out, lanes8()),
+        6 => encode_kernel::<6>(image, frame, lut, out, lanes8()),
+        7 => encode_kernel::<7>(image, frame, lut, out, lanes8()),
+        8 => encode_kernel::<8>(image, frame, lut, out, lanes8()),
+        SAMPLES => encode_kernel::<SAMPLES>(image, frame, lut, out, lanes8()),
         _ => relight_with(image, frame, |i, rgb| out[3 * i..3 * i + 3].copy_from_slice(&lut.encode_rgb(rgb))),
     }
 }
 
-/// The relight + encode loop for K channels, free of per-pixel bounds checks.
-fn encode_kernel<const K: usize>(image: &ChannelImage, frame: &FrameMatrix, lut: &SrgbLut, out: &mut [u8]) {
+/// Whether [`encode_kernel`] may relight eight pixels at once in AVX2 lanes (runtime detection: the
+/// portable build runs anywhere).
+fn lanes8() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The relight + encode loop for K channels, free of per-pixel bounds checks. With `lanes8` (AVX2
+/// present) whole runs are relit eight pixels at once ([`avx2::encode_run`]), to the same bytes.
+fn encode_kernel<const K: usize>(
+    image: &ChannelImage,
+    frame: &FrameMatrix,
+    lut: &SrgbLut,
+    out: &mut [u8],
+    lanes8: bool,
+) {
     // The frame matrix by columns, its three rows in four lanes (the fourth 0): a pixel's colour is K
     // multiply-adds of a column by one channel on four lanes at once (the compiler's vector
     // instructions), each lane added up in the order of its row's dot product, so the colour is the
@@ -246,17 +279,36 @@ fn encode_kernel<const K: usize>(image: &ChannelImage, frame: &FrameMatrix, lut:
     // run holding a pixel brighter than white is encoded again with its hue kept (`encode_rgb`). The
     // common pixel so pays three maxima, not a per-pixel test and reciprocal.
     const RUN: usize = 64;
-    for (run, o_run) in image.data.chunks(K * RUN).zip(out.chunks_mut(3 * RUN)) {
+    #[cfg(target_arch = "x86_64")]
+    let rows: [[f32; K]; 3] = std::array::from_fn(|r| std::array::from_fn(|c| frame.m[r * K + c]));
+    for (i, (run, o_run)) in image.data.chunks(K * RUN).zip(out.chunks_mut(3 * RUN)).enumerate() {
         // Per lane the brightest value of the run (a NaN never replaces it, as with `f32::max`).
         let mut hi = [0f32; 4];
-        for (px, o) in run.chunks_exact(K).zip(o_run.chunks_exact_mut(3)) {
-            let rgb = relit(px);
-            for (h, v) in hi.iter_mut().zip(rgb) {
-                *h = if v > *h { v } else { *h };
+        // The eight-pixel loads read up to `avx2::SLACK` floats past a run's last pixel: the run is
+        // taken in lanes only when they are inside the image.
+        #[cfg(target_arch = "x86_64")]
+        let in_lanes = lanes8
+            && run.len() == K * RUN
+            && o_run.len() == 3 * RUN
+            && (i + 1) * K * RUN + avx2::slack(K) <= image.data.len();
+        #[cfg(not(target_arch = "x86_64"))]
+        let in_lanes = false && lanes8 && i == 0;
+        if in_lanes {
+            #[cfg(target_arch = "x86_64")]
+            {
+                // SAFETY: AVX2 is present (`lanes8`), the run is whole and its loads stay in the image.
+                hi[0] = unsafe { avx2::encode_run::<K>(&rows, &image.data[i * K * RUN..], lut, o_run) };
             }
-            o[0] = lut.encode(rgb[0]);
-            o[1] = lut.encode(rgb[1]);
-            o[2] = lut.encode(rgb[2]);
+        } else {
+            for (px, o) in run.chunks_exact(K).zip(o_run.chunks_exact_mut(3)) {
+                let rgb = relit(px);
+                for (h, v) in hi.iter_mut().zip(rgb) {
+                    *h = if v > *h { v } else { *h };
+                }
+                o[0] = lut.encode(rgb[0]);
+                o[1] = lut.encode(rgb[1]);
+                o[2] = lut.encode(rgb[2]);
+            }
         }
         if hi[0].max(hi[1]).max(hi[2]) > 1.0 {
             for (px, o) in run.chunks_exact(K).zip(o_run.chunks_exact_mut(3)) {
@@ -264,6 +316,126 @@ fn encode_kernel<const K: usize>(image: &ChannelImage, frame: &FrameMatrix, lut:
                 o.copy_from_slice(&lut.encode_rgb([c[0], c[1], c[2]]));
             }
         }
+    }
+}
+
+/// Eight pixels at a time in AVX2 lanes, lane j holding pixel j: each lane does its pixel's K
+/// multiply-adds in the portable kernel's order (a product then a sum, no fused multiply-add), so every
+/// colour is the same to the bit; the pixels' channels come from eight unaligned loads and an 8×8
+/// transpose per block of eight channels, instead of one pixel's channels on four lanes.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::SrgbLut;
+    use std::arch::x86_64::*;
+
+    /// How many floats past the last pixel of a group the loads of K channels read (the last pixel's
+    /// last block of eight channels).
+    pub(super) const fn slack(k: usize) -> usize {
+        k.div_ceil(8) * 8 - k
+    }
+
+    /// Relight and encode the 64 pixels at the start of `data` (64·K floats, then at least `slack(K)`
+    /// more) into `out` (192 bytes); returns the brightest linear value of the run (NaN left out, 0 at
+    /// least), which the caller compares with 1 as it does the portable kernel's.
+    ///
+    /// # Safety
+    /// AVX2 must be present; `data.len() >= 64·K + slack(K)` and `out.len() >= 192`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn encode_run<const K: usize>(
+        rows: &[[f32; K]; 3],
+        data: &[f32],
+        lut: &SrgbLut,
+        out: &mut [u8],
+    ) -> f32 {
+        debug_assert!(data.len() >= 64 * K + slack(K) && out.len() >= 192);
+        let zero = _mm256_setzero_ps();
+        let mut hi = [zero; 3];
+        let p = data.as_ptr();
+        for g in 0..8 {
+            // SAFETY: group g's loads end at 8g·K + 7K + 8·⌈K/8⌉ ≤ 64·K + slack(K) ≤ data.len().
+            let acc = unsafe { relit8::<K>(rows, p.add(g * 8 * K)) };
+            let mut idx = [[0i32; 8]; 3];
+            for ((h, a), ix) in hi.iter_mut().zip(acc).zip(idx.iter_mut()) {
+                // `max(v, h)` keeps h when v is NaN or not larger: the portable `if v > h { v } else { h }`.
+                *h = _mm256_max_ps(a, *h);
+                let i = index8(a);
+                // SAFETY: `ix` is eight i32.
+                unsafe { _mm256_storeu_si256(ix.as_mut_ptr().cast(), i) };
+            }
+            let o = &mut out[g * 24..g * 24 + 24];
+            for j in 0..8 {
+                for r in 0..3 {
+                    o[3 * j + r] = lut.table[idx[r][j] as usize & (SrgbLut::N - 1)];
+                }
+            }
+        }
+        let mut lanes = [[0f32; 8]; 3];
+        for (l, h) in lanes.iter_mut().zip(hi) {
+            // SAFETY: `l` is eight f32.
+            unsafe { _mm256_storeu_ps(l.as_mut_ptr(), h) };
+        }
+        lanes.iter().flatten().fold(0f32, |m, v| if *v > m { *v } else { m })
+    }
+
+    /// The linear colours of the eight pixels at `p` (K channels each), row by row: lane j is pixel j's
+    /// `Σ_c m[r][c] · px[c]` summed from c = 0 with a product and a sum rounded apart, as the portable
+    /// kernel does.
+    ///
+    /// # Safety
+    /// AVX2 must be present; `p` must be readable for `7·K + 8·⌈K/8⌉` floats.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn relit8<const K: usize>(rows: &[[f32; K]; 3], p: *const f32) -> [__m256; 3] {
+        let mut acc = [_mm256_setzero_ps(); 3];
+        for b in 0..K.div_ceil(8) {
+            // SAFETY: pixel j's block b ends at j·K + 8b + 8 ≤ 7·K + 8·⌈K/8⌉.
+            let r: [__m256; 8] = std::array::from_fn(|j| unsafe { _mm256_loadu_ps(p.add(j * K + 8 * b)) });
+            let t0 = _mm256_unpacklo_ps(r[0], r[1]);
+            let t1 = _mm256_unpackhi_ps(r[0], r[1]);
+            let t2 = _mm256_unpacklo_ps(r[2], r[3]);
+            let t3 = _mm256_unpackhi_ps(r[2], r[3]);
+            let t4 = _mm256_unpacklo_ps(r[4], r[5]);
+            let t5 = _mm256_unpackhi_ps(r[4], r[5]);
+            let t6 = _mm256_unpacklo_ps(r[6], r[7]);
+            let t7 = _mm256_unpackhi_ps(r[6], r[7]);
+            let s0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+            let s1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+            let s2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+            let s3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+            let s4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+            let s5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+            let s6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+            let s7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+            // Channel 8b + j of the eight pixels.
+            let ch = [
+                _mm256_permute2f128_ps::<0x20>(s0, s4),
+                _mm256_permute2f128_ps::<0x20>(s1, s5),
+                _mm256_permute2f128_ps::<0x20>(s2, s6),
+                _mm256_permute2f128_ps::<0x20>(s3, s7),
+                _mm256_permute2f128_ps::<0x31>(s0, s4),
+                _mm256_permute2f128_ps::<0x31>(s1, s5),
+                _mm256_permute2f128_ps::<0x31>(s2, s6),
+                _mm256_permute2f128_ps::<0x31>(s3, s7),
+            ];
+            for (j, v) in ch.iter().enumerate().take(K.saturating_sub(8 * b).min(8)) {
+                let c = 8 * b + j;
+                for (a, row) in acc.iter_mut().zip(rows) {
+                    *a = _mm256_add_ps(*a, _mm256_mul_ps(_mm256_set1_ps(row[c]), *v));
+                }
+            }
+        }
+        acc
+    }
+
+    /// [`SrgbLut::index`] in lanes: max and min with the operand order that sends NaN to 0 (`maxps`
+    /// returns its second operand when either is NaN), a product and a sum rounded apart, truncation and
+    /// the mask.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) fn index8(v: __m256) -> __m256i {
+        let x = _mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(1.0));
+        let x = _mm256_add_ps(_mm256_mul_ps(x, _mm256_set1_ps((SrgbLut::N - 1) as f32)), _mm256_set1_ps(0.5));
+        _mm256_and_si256(_mm256_cvttps_epi32(x), _mm256_set1_epi32((SrgbLut::N - 1) as i32))
     }
 }
 
@@ -393,6 +565,110 @@ mod tests {
             relight_srgb8(&image, &frame, &lut, &mut out);
             let want: Vec<u8> = linear.chunks(3).flat_map(|p| lut.encode_rgb([p[0], p[1], p[2]])).collect();
             assert_eq!(out, want, "K = {k}");
+        }
+    }
+
+    /// The eight-lane kernel against the portable one, byte for byte, on every K it is built for, on
+    /// images of odd sizes (partial runs, runs whose loads would leave the image) with values below 0,
+    /// above 1 (runs encoded again with the hue kept), NaN and infinities.
+    #[test]
+    fn the_eight_lane_kernel_gives_the_portable_bytes() {
+        if !lanes8() {
+            eprintln!("no AVX2 here: only the portable kernel runs");
+            return;
+        }
+        let lut = SrgbLut::new();
+        // One K's kernel, with or without the lanes.
+        type Kernel<'a> = dyn Fn(&ChannelImage, &FrameMatrix, &mut [u8], bool) + 'a;
+        let check = |k: usize, n: usize, seed: u64, run: &Kernel| {
+            let mut x = seed;
+            let mut next = move || {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (x >> 40) as f32 / (1u64 << 24) as f32
+            };
+            // Most runs of 64 pixels stay below white (so the lanes' bytes are what is compared); one
+            // pixel in every other run is NaN, infinite or too bright, which sends its run to the
+            // hue-keeping encoding; channels below 0 anywhere.
+            let data: Vec<f32> = (0..k * n)
+                .map(|i| {
+                    let (p, c) = (i / k, i % k);
+                    match ((p / 64) % 8, p % 64 == 17 && c == 0) {
+                        (1, true) => f32::NAN,
+                        (3, true) => f32::INFINITY,
+                        (5, true) => 9.0,
+                        _ if i % 97 == 41 => -0.5,
+                        _ => next(),
+                    }
+                })
+                .collect();
+            let image = ChannelImage { width: n, height: 1, channels: k, data };
+            let frame = FrameMatrix { channels: k, m: (0..3 * k).map(|_| (next() - 0.2) / k as f32).collect() };
+            let (mut a, mut b) = (vec![0u8; 3 * n], vec![1u8; 3 * n]);
+            run(&image, &frame, &mut a, false);
+            run(&image, &frame, &mut b, true);
+            assert_eq!(a, b, "K = {k}, {n} pixels");
+        };
+        for n in [1usize, 63, 64, 65, 128, 130, 1000, 4096 + 7] {
+            for seed in 0..3 {
+                check(3, n, seed, &|i, f, o, l| encode_kernel::<3>(i, f, &lut, o, l));
+                check(5, n, seed, &|i, f, o, l| encode_kernel::<5>(i, f, &lut, o, l));
+                check(6, n, seed, &|i, f, o, l| encode_kernel::<6>(i, f, &lut, o, l));
+                check(7, n, seed, &|i, f, o, l| encode_kernel::<7>(i, f, &lut, o, l));
+                check(8, n, seed, &|i, f, o, l| encode_kernel::<8>(i, f, &lut, o, l));
+                check(SAMPLES, n, seed, &|i, f, o, l| encode_kernel::<SAMPLES>(i, f, &lut, o, l));
+            }
+        }
+    }
+
+    /// The lanes' linear colours are the portable kernel's to the bit (the bytes alone would hide a
+    /// fused multiply-add: the table's steps are coarser than one rounding), on every K, and the lanes'
+    /// table index is `SrgbLut::index` on every kind of value.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_eight_lanes_relight_and_index_to_the_portable_bits() {
+        use std::arch::x86_64::*;
+        if !lanes8() {
+            eprintln!("no AVX2 here: only the portable kernel runs");
+            return;
+        }
+        fn check<const K: usize>() {
+            let n = 24;
+            let data: Vec<f32> = (0..K * n + 8).map(|i| ((i * 7919 + 13) % 1009) as f32 / 997.0 - 0.1).collect();
+            let m: Vec<f32> = (0..3 * K).map(|i| ((i * 31 + 7) % 17) as f32 / (13.0 * K as f32) - 0.01).collect();
+            let rows: [[f32; K]; 3] = std::array::from_fn(|r| std::array::from_fn(|c| m[r * K + c]));
+            let image = ChannelImage { width: n, height: 1, channels: K, data: data[..K * n].to_vec() };
+            let want = relight_linear(&image, &FrameMatrix { channels: K, m });
+            for g in 0..n / 8 {
+                // SAFETY: AVX2 is present; 8 spare floats follow the last pixel.
+                let acc = unsafe { avx2::relit8::<K>(&rows, data.as_ptr().add(g * 8 * K)) };
+                for (r, a) in acc.iter().enumerate() {
+                    let mut lanes = [0f32; 8];
+                    // SAFETY: eight f32.
+                    unsafe { _mm256_storeu_ps(lanes.as_mut_ptr(), *a) };
+                    for (j, v) in lanes.iter().enumerate() {
+                        assert_eq!(v.to_bits(), want[3 * (8 * g + j) + r].to_bits(), "K = {K}, pixel {}", 8 * g + j);
+                    }
+                }
+            }
+        }
+        check::<3>();
+        check::<5>();
+        check::<6>();
+        check::<7>();
+        check::<8>();
+        check::<SAMPLES>();
+        let mut values = vec![f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0, 0.0, 1.0, -1.0, 7.0, f32::MIN_POSITIVE];
+        values.extend((0..200_000).map(|i| i as f32 / 180_000.0 - 0.05));
+        for chunk in values.chunks_exact(8) {
+            let mut got = [0i32; 8];
+            // SAFETY: AVX2 is present; eight f32 in, eight i32 out.
+            unsafe {
+                let v = _mm256_loadu_ps(chunk.as_ptr());
+                _mm256_storeu_si256(got.as_mut_ptr().cast(), avx2::index8(v));
+            }
+            for (g, v) in got.iter().zip(chunk) {
+                assert_eq!(*g as usize, SrgbLut::index(*v), "{v}");
+            }
         }
     }
 
