@@ -291,8 +291,12 @@ fn encode_kernel<const K: usize>(
             && run.len() == K * RUN
             && o_run.len() == 3 * RUN
             && (i + 1) * K * RUN + avx2::slack(K) <= image.data.len();
+        // Elsewhere the portable loop only (`lanes8` is false there, `i` unused).
         #[cfg(not(target_arch = "x86_64"))]
-        let in_lanes = false && lanes8 && i == 0;
+        let in_lanes = {
+            let _ = (lanes8, i);
+            false
+        };
         if in_lanes {
             #[cfg(target_arch = "x86_64")]
             {
