@@ -8,6 +8,7 @@ pub mod basis;
 pub mod bench;
 pub mod check;
 pub mod design;
+mod heap;
 pub mod out;
 pub mod render;
 pub mod solve;
@@ -54,6 +55,7 @@ pub fn main() -> ExitCode {
     tune_allocator();
     size_pool();
     let cli = Cli::parse();
+    heap::build_pool();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         // A closed pipe (`metamer check p.toml | head -1`): the reader has what it wanted.
@@ -73,7 +75,7 @@ pub fn main() -> ExitCode {
 /// pad, set before any other thread exists, grows (and trims) a heap 8 MiB at a time instead; pages are still
 /// taken only when first written, so what is resident does not grow with it (docs/solve_performance.md, "The
 /// allocator's top pad").
-fn tune_allocator() {
+pub(crate) fn tune_allocator() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: `mallopt` sets one parameter of the allocator under the allocator's own lock; it moves and
     // frees nothing.
