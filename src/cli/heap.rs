@@ -9,10 +9,11 @@
 //! it is read from the environment when the process starts, so a program cannot set it for itself.
 //!
 //! What: each pool thread, first thing (rayon's start handler), allocates once so that its arena exists,
-//! advises its heap's whole mapping `MADV_HUGEPAGE`, and asks the kernel to collapse the heap's first 2 MiB,
-//! which the arena's own header has already touched in 4 KiB pages, into one huge page (`MADV_COLLAPSE`,
-//! Linux 6.1). From then on the heap's pages arrive 2 MiB at a time. Measured in
-//! docs/solve_performance.md ("The pool threads' heaps in huge pages").
+//! advises its heap's whole mapping `MADV_HUGEPAGE`, and takes the rest of the heap's first 2 MiB, which the
+//! arena's own header has already touched in 4 KiB pages, with blocks it holds for good (2 MiB of address
+//! space and about 17 touched pages a worker; collapsing that range into a huge page instead,
+//! `MADV_COLLAPSE`, cost 0.3–1.1 ms a worker and needs Linux 6.1). From then on the heap's pages arrive
+//! 2 MiB at a time. Measured in docs/solve_performance.md ("The pool threads' heaps in huge pages").
 //!
 //! How a thread's heap is found: glibc maps a thread arena's heap at an address aligned to `HEAP_MAX_SIZE`
 //! (64 MiB on 64-bit targets: twice `DEFAULT_MMAP_THRESHOLD_MAX`) and finds a chunk's heap by rounding its
@@ -41,6 +42,11 @@ pub(crate) fn advise_this_threads_heap() -> Option<usize> {
     const HEAP_MAX: usize = 64 << 20;
     /// The transparent huge page size on x86-64 and the common arm64 configuration.
     const HUGE: usize = 2 << 20;
+    /// A block that fills the heap's first huge page: under glibc's initial mapping threshold (128 KiB),
+    /// so it comes from the heap; about 17 of them reach the 2 MiB boundary.
+    const FILLER: usize = 120 << 10;
+    /// At most this many (3.75 MiB) are asked for, whatever the heap does.
+    const MAX_FILLERS: usize = 32;
     // SAFETY: `sbrk(0)` moves nothing; it returns the current program break.
     let brk = unsafe { libc::sbrk(0) } as usize;
     // A block from this thread's arena, created by this thread's first allocation. The very first block a
@@ -51,12 +57,29 @@ pub(crate) fn advise_this_threads_heap() -> Option<usize> {
     let at = [addr(&first), addr(&second)].into_iter().find(|&at| at >= brk)?;
     drop((first, second));
     let base = at & !(HEAP_MAX - 1);
-    // SAFETY: `madvise` with these two advices changes only how the range's pages are backed (whether they
-    // may be, or now become, transparent huge pages), never what they hold; the range is page-aligned.
-    // Parts of it that are not mapped make the call fail without effect there.
-    unsafe {
-        libc::madvise(base as *mut libc::c_void, HEAP_MAX, libc::MADV_HUGEPAGE);
-        libc::madvise(base as *mut libc::c_void, HUGE, libc::MADV_COLLAPSE);
+    // SAFETY: `madvise(MADV_HUGEPAGE)` changes only whether the range's pages may be transparent huge pages
+    // when first touched, never what they hold; the range is page-aligned. Parts of it that are not mapped
+    // make the call fail without effect there.
+    unsafe { libc::madvise(base as *mut libc::c_void, HEAP_MAX, libc::MADV_HUGEPAGE) };
+    // The heap's first 2 MiB were touched in 4 KiB pages before the advice (the arena's own header), so a
+    // huge page can no longer be put there: the rest of that range is taken by blocks held for good, and
+    // the thread's memory comes from the huge pages past it. Each block, asked for below glibc's mapping
+    // threshold, is cut from the top of the heap; only its header's page is touched.
+    for _ in 0..MAX_FILLERS {
+        // SAFETY: a plain allocation; it is freed below if it did not come from this heap, and otherwise
+        // held for the thread's (the pool's) lifetime.
+        let filler = unsafe { libc::malloc(FILLER) } as usize;
+        if filler == 0 {
+            break;
+        }
+        if !(base..base + HEAP_MAX).contains(&filler) {
+            // SAFETY: `filler` came from `malloc` above and is not used again.
+            unsafe { libc::free(filler as *mut libc::c_void) };
+            break;
+        }
+        if filler + FILLER >= base + HUGE {
+            break;
+        }
     }
     Some(base)
 }
@@ -94,19 +117,31 @@ mod tests {
         kb
     }
 
-    /// A thread fills 24 MiB of its heap in 64 KiB blocks (below glibc's mapping threshold, so from its
-    /// arena), with or without the advice first, and reports its heap's mapping and the huge pages in it.
-    /// Both threads of a test stay alive until both have looked, so that each has an arena of its own (a
-    /// thread that exits hands its arena to the next new one).
-    fn fill_a_threads_heap(advise: bool, both: Arc<Barrier>) -> std::thread::JoinHandle<(usize, Option<usize>, u64)> {
+    /// A thread fills its heap in 64 KiB blocks (below glibc's mapping threshold, so from its arena), with or
+    /// without the advice first, and reports its heap's mapping, what the advice returned, and the huge pages
+    /// in the heap's mapping after its first 1 MiB of blocks and after 24 MiB. Both threads of a test stay
+    /// alive until both have looked, so that each has an arena of its own (a thread that exits hands its
+    /// arena to the next new one).
+    fn fill_a_threads_heap(
+        advise: bool,
+        both: Arc<Barrier>,
+    ) -> std::thread::JoinHandle<(usize, Option<usize>, u64, u64)> {
         std::thread::spawn(move || {
             let advised = if advise { advise_this_threads_heap() } else { None };
-            let blocks: Vec<Vec<u8>> = (0..384).map(|i| vec![i as u8 | 1; 64 << 10]).collect();
+            let mut blocks: Vec<Vec<u8>> = Vec::with_capacity(384);
+            let mut first_mib = 0;
+            for i in 0..384 {
+                blocks.push(vec![i as u8 | 1; 64 << 10]);
+                if i == 15 {
+                    let at = blocks[0].as_ptr() as usize & !(HEAP_MAX - 1);
+                    first_mib = huge_kb_in(at, at + HEAP_MAX);
+                }
+            }
             assert!(blocks.iter().all(|b| b[1000] != 0));
             let base = blocks[192].as_ptr() as usize & !(HEAP_MAX - 1);
             let huge = huge_kb_in(base, base + HEAP_MAX);
             both.wait();
-            (base, advised, huge)
+            (base, advised, first_mib, huge)
         })
     }
 
@@ -126,10 +161,12 @@ mod tests {
         let both = Arc::new(Barrier::new(2));
         let advised = fill_a_threads_heap(true, both.clone());
         let plain = fill_a_threads_heap(false, both);
-        let (base, advised_base, huge) = advised.join().expect("the advised thread panicked");
-        let (plain_base, _, plain_huge) = plain.join().expect("the plain thread panicked");
+        let (base, advised_base, first_mib, huge) = advised.join().expect("the advised thread panicked");
+        let (plain_base, _, _, plain_huge) = plain.join().expect("the plain thread panicked");
         assert_eq!(advised_base, Some(base), "the advice found the heap its blocks came from");
         assert_ne!(base, plain_base, "the two threads had one heap");
+        // The heap's first 2 MiB, touched before the advice, are taken: the first blocks are in a huge page.
+        assert!(first_mib >= 2 << 10, "the advised heap's first 1 MiB of blocks are in {first_mib} kB of huge pages");
         assert!(huge >= 8 << 10, "the advised heap holds {huge} kB of huge pages for 24 MiB of blocks");
         if mode.contains("[madvise]") {
             assert_eq!(plain_huge, 0, "without the advice a heap holds no huge pages in madvise mode");
