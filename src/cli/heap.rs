@@ -23,15 +23,19 @@
 //! heap's place changes which pages may be huge, never what memory holds, and a kernel or allocator without
 //! these calls ignores them (their errors are not needed).
 
-/// Build rayon's global pool (its size as before: `RAYON_NUM_THREADS`, set by `size_pool`) with each
-/// worker's heap advised for huge pages. Called once the command line is parsed, so `--help` and
-/// `--version` start no threads; if a pool exists already (a test calling `run` twice), it is kept.
-pub(crate) fn build_pool() {
-    let _ = rayon::ThreadPoolBuilder::new()
-        .start_handler(|_| {
-            advise_this_threads_heap();
-        })
-        .build_global();
+/// Build rayon's global pool with `threads` workers (`None`: rayon's own choice, which reads
+/// `RAYON_NUM_THREADS`), each worker's heap advised for huge pages. Called once the command line is parsed, so
+/// `--help` and `--version` start no threads; if a pool exists already (a test calling `run` twice), it is
+/// kept.
+pub(crate) fn build_pool(threads: Option<usize>) {
+    let builder = rayon::ThreadPoolBuilder::new().start_handler(|_| {
+        advise_this_threads_heap();
+    });
+    let _ = match threads {
+        Some(n) => builder.num_threads(n),
+        None => builder,
+    }
+    .build_global();
 }
 
 /// Advise the calling thread's glibc heap for transparent huge pages (see the module's documentation).

@@ -53,9 +53,8 @@ pub(crate) enum Command {
 /// Parse the process arguments, run, and report any error on stderr with a non-zero exit.
 pub fn main() -> ExitCode {
     tune_allocator();
-    size_pool();
     let cli = Cli::parse();
-    heap::build_pool();
+    heap::build_pool(pool_size());
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         // A closed pipe (`metamer check p.toml | head -1`): the reader has what it wanted.
@@ -84,21 +83,16 @@ pub(crate) fn tune_allocator() {
     }
 }
 
-/// rayon's global pool gets one worker more than the machine's available parallelism, unless
-/// `RAYON_NUM_THREADS` says otherwise. The pool is still built by its first use (building it earlier, beside
-/// the read, made `metamer solve` slower: its idle workers took the cores from the read), so its size is
-/// given the one way rayon reads it then, its environment variable. Measured on 2 cores, 1200 reachable
-/// designs, `metamer solve r.toml -o OUT --report R.json` (docs/solve_performance.md, "The pool's size"):
-/// three workers against two, whole process 0.87-0.90 of the time and the solve's own 0.64; with a busy
-/// loop on one core 0.91-0.96; a raycast unchanged (1.01).
-fn size_pool() {
+/// The size of rayon's global pool ([`heap::build_pool`]): one worker more than the machine's available
+/// parallelism, unless `RAYON_NUM_THREADS` says otherwise (then `None`: rayon's builder reads it). Measured on
+/// 2 cores, 1200 reachable designs, `metamer solve r.toml -o OUT --report R.json` (docs/solve_performance.md,
+/// "The pool's size"): three workers against two, whole process 0.87-0.90 of the time and the solve's own
+/// 0.64; with a busy loop on one core 0.91-0.96; a raycast unchanged (1.01).
+fn pool_size() -> Option<usize> {
     if std::env::var_os("RAYON_NUM_THREADS").is_some() {
-        return;
+        return None;
     }
-    let Ok(n) = std::thread::available_parallelism() else { return };
-    // SAFETY: called first thing in `main`, before any thread of this process exists (the standard
-    // library's runtime starts none), so nothing can read the environment while it is changed.
-    unsafe { std::env::set_var("RAYON_NUM_THREADS", (n.get() + 1).to_string()) };
+    std::thread::available_parallelism().ok().map(|n| n.get() + 1)
 }
 
 /// Run a parsed command line.
