@@ -38,12 +38,14 @@ pub(crate) fn build_pool(threads: Option<usize>) {
     .build_global();
 }
 
+/// glibc's `HEAP_MAX_SIZE` on 64-bit targets: a thread arena's heap is mapped at an address aligned to it.
+#[cfg(all(target_os = "linux", target_env = "gnu", target_pointer_width = "64"))]
+const HEAP_MAX: usize = 64 << 20;
+
 /// Advise the calling thread's glibc heap for transparent huge pages (see the module's documentation).
 /// Returns where the heap's mapping starts when it advised one.
 #[cfg(all(target_os = "linux", target_env = "gnu", target_pointer_width = "64"))]
 pub(crate) fn advise_this_threads_heap() -> Option<usize> {
-    /// glibc's `HEAP_MAX_SIZE` on 64-bit targets.
-    const HEAP_MAX: usize = 64 << 20;
     /// The transparent huge page size on x86-64 and the common arm64 configuration.
     const HUGE: usize = 2 << 20;
     /// A block that fills the heap's first huge page: under glibc's initial mapping threshold (128 KiB),
@@ -96,10 +98,8 @@ pub(crate) fn advise_this_threads_heap() -> Option<usize> {
 
 #[cfg(all(test, target_os = "linux", target_env = "gnu", target_pointer_width = "64"))]
 mod tests {
-    use super::advise_this_threads_heap;
+    use super::{HEAP_MAX, advise_this_threads_heap};
     use std::sync::{Arc, Barrier};
-
-    const HEAP_MAX: usize = 64 << 20;
 
     /// The kB of anonymous huge pages in the mappings that lie in `[from, to)`, from `/proc/self/smaps`.
     fn huge_kb_in(from: usize, to: usize) -> u64 {
