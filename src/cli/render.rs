@@ -400,7 +400,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         crate::bench::render::peak_memory_bytes().map_or("unknown".into(), |b| format!("{:.0} MiB", b as f64 / MIB))
     ));
     summary.push_str(&format!(
-        "skipped: {} steps over {} empty-brick crossings ({} of {} bricks empty for this transfer function); {} samples in \
+        "skipped: {} steps in {} jumps over empty bricks or groups of them ({} of {} bricks empty for this transfer function); {} samples in \
          {} single-material bricks taken without reconstruction; {} rays stopped at transmittance < {}; derived fields {} \
          blocks built, {:.1} MiB, at most {:.1} MiB resident of a {:.0} MiB cap ({} evicted), {}\n",
         st.skipped,

@@ -1,7 +1,7 @@
 //! Marching one ray: sample reconstruction, classification, shading and front-to-back compositing.
 
 use super::block::{FIELD_BRICK, S3};
-use super::classify::{BrickMap, Classifier, EMPTY, LUT_BINS, MIXED};
+use super::classify::{BrickMap, Classifier, EMPTY, LUT_BINS, MIXED, Spans};
 use super::fields::{BlockRef, CELL, CORNERS, Cursor, Fields, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 #[cfg(target_arch = "x86_64")]
@@ -239,6 +239,8 @@ pub(super) struct RayContext<'a> {
     pub(crate) fields: Option<&'a Fields<'a>>,
     /// The min/max bricks and their table for this transfer function ([`EMPTY`], a material, [`MIXED`]).
     pub(crate) bricks: Option<(&'a BrickMap, &'a [u8])>,
+    /// The bricks' empty groups ([`Spans`]), with `bricks`.
+    pub(crate) spans: Option<&'a Spans>,
     pub(crate) view: &'a View,
     pub(crate) grid: Grid,
     pub(crate) options: &'a RaycastOptions,
@@ -607,6 +609,8 @@ impl<'a> RayContext<'a> {
         // The lanes' shaded composite (below): shaded in the lanes, no gradient-dependent material.
         let shade_fast = shade_lanes.filter(|_| !classifier.gradient_dependent);
         let mut k = (t0 - jitter).ceil();
+        // The ray's last whole step (its last sample at `last + jitter` ≤ t1).
+        let last = (t1 - jitter).floor();
         let mut transmittance = 1.0f32;
         let mut prev = Edge::EMPTY;
         // The step after a refined entry into a dense material is refined as well.
@@ -681,13 +685,40 @@ impl<'a> RayContext<'a> {
                 };
                 uniform = table[bi];
                 if uniform == EMPTY {
-                    let b = brick(at_!());
+                    let mut b = brick(at_!());
                     prev = Edge::EMPTY;
                     carry = false;
-                    let next = brick_exit(origin, dir, b, bm.size, jitter, k);
-                    skipped += (next - k) as u64;
-                    skipped_bricks += 1;
-                    k = next;
+                    // Step over this brick and every empty one the ray lands in after it: each landing
+                    // sample is located here, as the portable loop locates it, so the batch of eight lanes
+                    // is filled only where the ray lands in a brick that is not empty (one lane of a fresh
+                    // batch per empty brick crossed cost more than the crossing itself).
+                    loop {
+                        // A group of empty bricks is left in one jump: every whole step before its far
+                        // faces lies in it, so in one of its empty bricks, which the jumps brick by brick
+                        // would each have stepped over (the same next sample either way).
+                        let next = match self.spans.and_then(|spans| spans.empty_around(b)) {
+                            Some((group, span)) => brick_exit(origin, dir, group, bm.size * span, jitter, k),
+                            None => brick_exit(origin, dir, b, bm.size, jitter, k),
+                        };
+                        // The steps jumped over, up to the ray's last (a jump may end past it).
+                        skipped += (next.min(last + 1.0) - k) as u64;
+                        skipped_bricks += 1;
+                        k = next;
+                        if k + jitter > t1 {
+                            break;
+                        }
+                        // The landing sample's point, as `p!` makes it (that macro reads the loop's `t`).
+                        let tl = k + jitter;
+                        let landed = brick(self.locate([
+                            origin[0] + tl * dir[0],
+                            origin[1] + tl * dir[1],
+                            origin[2] + tl * dir[2],
+                        ]));
+                        if table[landed[0] + bm.counts[0] * (landed[1] + bm.counts[1] * landed[2])] != EMPTY {
+                            break;
+                        }
+                        b = landed;
+                    }
                     continue;
                 }
             }

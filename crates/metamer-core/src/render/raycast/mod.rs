@@ -1,8 +1,9 @@
 //! The raycaster: orthographic rays through the volume, trilinear, nearest or smoothed-label
 //! sampling, a spectral transfer function of materials (value range → opacity), front-to-back
 //! emission–absorption compositing under a flat white light with a scalar diffuse shading term, early
-//! ray termination and empty-space skipping from min/max bricks (both switchable for benchmarking),
-//! rayon over 16×16 pixel tiles.
+//! ray termination and empty-space skipping from min/max bricks (both switchable for benchmarking; a ray
+//! jumps over a whole group of 8³, 4³ or 2³ empty bricks at once where the group is all empty, value
+//! modes), rayon over 16×16 pixel tiles.
 //!
 //! Files: this one holds the public types and [`raycast`] (setup and tiles); `classify` the transfer
 //! function's lookup tables, the min/max [`BrickMap`] and the framed voxels (their runs along x, which
@@ -292,9 +293,10 @@ pub struct RaycastStats {
     /// Of the samples, those in single-material bricks: classified by the brick table, with no value
     /// reconstructed and no transfer-function lookup.
     pub uniform: u64,
-    /// Steps jumped over inside empty bricks.
+    /// Steps jumped over inside empty bricks (up to each ray's last step).
     pub skipped: u64,
-    /// Empty bricks stepped over whole (one per ray and brick).
+    /// Jumps over empty space: each over one empty brick or one group of empty bricks
+    /// ([`classify::Spans`]), one per ray and jump.
     pub skipped_bricks: u64,
     /// Rays stopped early by low transmittance.
     pub terminated: u64,
@@ -359,7 +361,7 @@ pub fn raycast(
     camera: &Camera,
     options: &RaycastOptions,
 ) -> (MaterialWeights, RaycastStats) {
-    raycast_with(volume, materials, bricks, camera, options, lanes_detected())
+    raycast_with(volume, materials, bricks, camera, options, lanes_detected(), true)
 }
 
 /// Whether this processor can take value samples several at a time (x86-64 with AVX2).
@@ -379,7 +381,8 @@ fn lanes_fit(volume: &Volume) -> bool {
 }
 
 /// [`raycast`], with the value samples taken several at a time (`lanes`, only where
-/// [`lanes_detected`]) or one by one: the same frame either way (tests compare them).
+/// [`lanes_detected`]) or one by one, and empty space jumped over in groups of bricks where they are all
+/// empty (`groups`, [`classify::Spans`]) or brick by brick: the same frame either way (tests compare them).
 pub(super) fn raycast_with(
     volume: &Volume,
     materials: &[MaterialClass],
@@ -387,6 +390,7 @@ pub(super) fn raycast_with(
     camera: &Camera,
     options: &RaycastOptions,
     lanes: bool,
+    groups: bool,
 ) -> (MaterialWeights, RaycastStats) {
     let lanes = lanes && lanes_detected();
     let n_mat = materials.len().min(MAX_MATERIALS);
@@ -442,6 +446,7 @@ pub(super) fn raycast_with(
         classifier: &classifier,
         fields: fields.as_ref(),
         bricks: bricks.zip(table.as_ref()).map(|(b, t)| (b, t.class.as_slice())),
+        spans: table.as_ref().map(|t| &t.spans).filter(|_| groups),
         view: &view,
         grid: march::Grid::new(volume),
         options,

@@ -610,8 +610,8 @@ fn samples_taken_in_lanes_give_the_portable_frame_bit_for_bit() {
             mats[1].absorbs = !emissive;
             for cam in &cameras {
                 for opts in &settings {
-                    let (lanes, s_lanes) = raycast_with(vol, &mats, None, cam, opts, true);
-                    let (portable, s_portable) = raycast_with(vol, &mats, None, cam, opts, false);
+                    let (lanes, s_lanes) = raycast_with(vol, &mats, None, cam, opts, true, true);
+                    let (portable, s_portable) = raycast_with(vol, &mats, None, cam, opts, false, true);
                     let what =
                         format!("{:?} {cam:?} {opts:?} fading {fading} emissive {emissive}", vol.voxels.scalar_type());
                     assert!(lanes.data.iter().zip(&portable.data).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}");
@@ -745,4 +745,99 @@ fn volumes_of_every_type(dims: [usize; 3], raw: &[f32]) -> Vec<Volume> {
         volume("i16", raw.iter().map(|v| (*v as i32 * 250 - 30_000) as i16).collect::<Vec<_>>().into()),
         volume("f32", raw.iter().map(|v| v * 0.37 - 20.0).collect::<Vec<_>>().into()),
     ]
+}
+
+/// A 128³ scene of large empty regions and scattered ones: a ball, a plate far from it and single voxels of
+/// smoke spread through the box, 30 of them (a linear congruential sequence, so the test is the same every run).
+fn sparse_scene() -> Volume {
+    let n = 128;
+    let mut data = vec![0f32; n * n * n];
+    let at = |x: usize, y: usize, z: usize| x + n * (y + n * z);
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let d2 = |c: [f64; 3]| (0..3).map(|a| ([x, y, z][a] as f64 - c[a]).powi(2)).sum::<f64>();
+                if d2([40.0, 70.0, 60.0]) < 18.0 * 18.0 {
+                    data[at(x, y, z)] = 120.0;
+                }
+                if (100..103).contains(&z) && (80..120).contains(&x) && (10..60).contains(&y) {
+                    data[at(x, y, z)] = 220.0;
+                }
+            }
+        }
+    }
+    let mut seed = 12345u64;
+    for _ in 0..30 {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let i = (seed >> 33) as usize % (n * n * n);
+        data[i] = 70.0;
+    }
+    Volume::new(Path::new("sparse"), [n, n, n], [1.0; 3], data).unwrap()
+}
+
+#[test]
+fn groups_of_empty_bricks_are_jumped_with_the_frame_of_brick_by_brick_skipping() {
+    let vol = sparse_scene();
+    let mats = [
+        MaterialClass::new([50.0, 90.0], 0.05),
+        MaterialClass::new([100.0, 150.0], 0.3),
+        MaterialClass::new([200.0, 255.0], 0.8),
+    ];
+    let (mut jumps_grouped, mut jumps_brick) = (0, 0);
+    // Face-on (rays along an axis: two direction components zero), oblique from above and below, and
+    // almost straight down; the framed box and the whole box.
+    for (azimuth_deg, elevation_deg, fit_materials) in
+        [(0.0, 0.0, true), (90.0, 0.0, false), (30.0, 20.0, true), (135.0, -40.0, false), (10.0, 80.0, true)]
+    {
+        let cam = Camera { azimuth_deg, elevation_deg, zoom: 1.0, fit_materials };
+        let opts = RaycastOptions { width: 96, height: 80, ..Default::default() };
+        for lanes in [true, false] {
+            let (grouped, s_grouped) = raycast_with(&vol, &mats, None, &cam, &opts, lanes, true);
+            let (brick, s_brick) = raycast_with(&vol, &mats, None, &cam, &opts, lanes, false);
+            let what = format!("azimuth {azimuth_deg}, elevation {elevation_deg}, lanes {lanes}");
+            assert!(
+                grouped.data.iter().zip(&brick.data).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "the frame changed: {what}"
+            );
+            assert!(grouped.data.iter().any(|v| *v > 0.0), "nothing drawn: {what}");
+            // The same samples taken and the same steps jumped over, in fewer jumps.
+            assert_eq!(
+                (s_grouped.samples, s_grouped.skipped, s_grouped.terminated),
+                (s_brick.samples, s_brick.skipped, s_brick.terminated),
+                "{what}"
+            );
+            assert!(s_grouped.skipped_bricks <= s_brick.skipped_bricks, "{what}");
+            jumps_grouped += s_grouped.skipped_bricks;
+            jumps_brick += s_brick.skipped_bricks;
+        }
+    }
+    eprintln!("{jumps_grouped} jumps grouped against {jumps_brick} brick by brick");
+    assert!(jumps_grouped * 2 < jumps_brick, "{jumps_grouped} jumps grouped against {jumps_brick} brick by brick");
+}
+
+#[test]
+fn a_group_is_empty_only_when_all_its_bricks_are_and_the_largest_is_found_first() {
+    use classify::{SPANS, Spans};
+    // 20 × 9 × 5 bricks (groups at the far faces hold fewer), all empty but two.
+    let counts = [20, 9, 5];
+    let mut class = vec![classify::EMPTY; counts.iter().product()];
+    let at = |b: [usize; 3]| b[0] + counts[0] * (b[1] + counts[1] * b[2]);
+    class[at([3, 1, 1])] = classify::MIXED;
+    class[at([19, 8, 4])] = 1;
+    let spans = Spans::new_for_test(&class, counts);
+    assert_eq!(SPANS, [8, 4, 2]);
+    // The brick's own 8-group holds [3, 1, 1]: its 4-group too; its 2-group [1, 0, 0] (bricks 2–3, 0–1,
+    // 0–1) too; so no empty group holds it.
+    assert_eq!(spans.empty_around([2, 0, 0]), None);
+    // [5, 0, 0]: 8-group 0 is not empty, 4-group [1, 0, 0] (bricks 4–7, 0–3, 0–3) is.
+    assert_eq!(spans.empty_around([5, 0, 0]), Some(([1, 0, 0], 4)));
+    // [0, 2, 2]: 4-group [0, 0, 0] holds [3, 1, 1]; 2-group [0, 1, 1] (bricks 0–1, 2–3, 2–3) is empty.
+    assert_eq!(spans.empty_around([0, 2, 2]), Some(([0, 1, 1], 2)));
+    // [10, 0, 0]: the 8-group [1, 0, 0] (bricks 8–15, 0–7, 0–4) is empty.
+    assert_eq!(spans.empty_around([10, 0, 0]), Some(([1, 0, 0], 8)));
+    // The far corner's partial groups hold [19, 8, 4]; its neighbour [18, 8, 4] shares the 2-group.
+    assert_eq!(spans.empty_around([19, 8, 4]), None);
+    assert_eq!(spans.empty_around([18, 8, 4]), None);
+    // [16, 8, 4]: the 8-group [2, 1, 0] and the 4-group [4, 2, 1] hold [19, 8, 4]; the 2-group [8, 4, 2] is empty.
+    assert_eq!(spans.empty_around([16, 8, 4]), Some(([8, 4, 2], 2)));
 }
