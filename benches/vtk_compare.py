@@ -11,7 +11,8 @@ $METAMER_DATA/volumes/engine.nhdr, or pass the .nhdr path). Run from the crate r
 
 `--run-metamer` writes target/vtk_compare/engine_step05.toml (volumes/engine.toml with `[render] step = 0.5`,
 `shading = "headlight"`; with `--step 1`, engine_step1.toml at step 1: metamer always runs at VTK's step) and renders frame 1 of 3 (the dial's "split" light, where the block, the inner
-parts and the smoke differ) with `--no-dial`; `--metamer FRAME.png` compares a frame made otherwise.
+parts and the smoke differ) with `--no-dial`, timed as VTK's frame is (one warm-up, then `--repeat` runs,
+the median raycast; each run a whole process); `--metamer FRAME.png` compares a frame made otherwise.
 
 Sweep: `--sweep 48` (with `--run-metamer`) also times a dial sweep of 48 frames both ways: VTK re-renders
 the view 48 times, the materials' colours moved between two sets from frame to frame (VTK has no relight,
@@ -199,22 +200,35 @@ def write_scene(here, step):
     return scene, out
 
 
-def run_metamer(binary, here, size, step):
-    """Render frame 1 of 3 of volumes/engine.toml at `step` (VTK's) with a headlight; returns (frame path,
-    metamer's raycast ms, relight + PNG ms per frame)."""
+def run_metamer(binary, here, size, step, repeat):
+    """Render frame 1 of 3 of volumes/engine.toml at `step` (VTK's) with a headlight, as VTK's frame is
+    timed: one warm-up run, then `repeat` runs, each a whole process (the volume read, its own raycast with
+    its field blocks built, where VTK's warm-up builds its gradient tables once for all its frames).
+    Returns (frame path, metamer's median raycast ms, median relight + PNG ms per frame, median CPU s of
+    the whole process)."""
     import re
     import subprocess
 
     scene, out = write_scene(here, step)
     frames = os.path.join(out, "metamer")
-    cmd = [binary, "render", scene, "--frames", "3", "--frame-range", "1..2", "--size", str(size), "--no-dial", "-o", frames]
-    cpu = cpu_seconds(resource.RUSAGE_CHILDREN)
-    run = subprocess.run(cmd, capture_output=True, text=True, check=True)
-    cpu = cpu_seconds(resource.RUSAGE_CHILDREN) - cpu
+    cmd = [binary, "render", scene, "--frames", "3", "--frame-range", "1..2", "--size", str(size), "--no-dial",
+           "--force", "-o", frames]
+    raycasts, relights, cpus = [], [], []
+    for i in range(max(1, repeat) + 1):
+        cpu = cpu_seconds(resource.RUSAGE_CHILDREN)
+        run = subprocess.run(cmd, capture_output=True, text=True, check=True)
+        cpu = cpu_seconds(resource.RUSAGE_CHILDREN) - cpu
+        m = re.search(r"raycast ([0-9.]+) ms.*\(([0-9.]+) ms/frame\)", run.stdout)
+        if i > 0:
+            raycasts.append(float(m.group(1)))
+            relights.append(float(m.group(2)))
+            cpus.append(cpu)
     print(run.stdout.strip().splitlines()[1])
-    print(f"metamer's whole process (volume read, raycast, one frame): {cpu:.2f} s CPU")
-    m = re.search(r"raycast ([0-9.]+) ms.*\(([0-9.]+) ms/frame\)", run.stdout)
-    return os.path.join(frames, "frame_0001.png"), float(m.group(1)), float(m.group(2)), cpu
+    raycast, cpu = statistics.median(raycasts), statistics.median(cpus)
+    print(f"metamer's raycast: median {raycast:.1f} ms of {len(raycasts)} processes after one warm-up "
+          f"({', '.join(f'{r:.1f}' for r in raycasts)}); whole process (volume read, raycast, one frame): "
+          f"median {cpu:.2f} s CPU")
+    return os.path.join(frames, "frame_0001.png"), raycast, statistics.median(relights), cpu
 
 
 def metamer_sweep(binary, here, size, frames, repeat, step):
@@ -299,7 +313,9 @@ def main():
     args = ap.parse_args()
     metamer_ms = None
     if args.run_metamer:
-        args.metamer, raycast_ms, relight_ms, metamer_cpu = run_metamer(args.run_metamer, here, args.size, args.step)
+        args.metamer, raycast_ms, relight_ms, metamer_cpu = run_metamer(
+            args.run_metamer, here, args.size, args.step, args.repeat
+        )
         metamer_ms = (raycast_ms, relight_ms)
     setup_start = time.perf_counter()
     data, dims, spacing = read_nhdr(args.nhdr)
