@@ -180,57 +180,53 @@ pub(super) struct BrickTable {
     pub(super) class: Vec<u8>,
     pub(super) empty: usize,
     pub(super) uniform: usize,
-    /// The bricks grouped [`SPAN`] a side ([`Spans`]): which groups hold no brick a ray must sample.
+    /// The bricks in groups ([`Spans`]): which groups hold no brick a ray must sample.
     pub(super) spans: Spans,
 }
 
-/// Bricks per side of the [`Spans`] groups, coarsest first.
-pub(super) const SPANS: [usize; 3] = [8, 4, 2];
+/// Bricks per side of the [`Spans`] groups, coarsest first, as powers of two: 8, 4 and 2.
+pub(super) const SPAN_SHIFTS: [u32; 3] = [3, 2, 1];
 
-/// The empty bricks of a [`BrickTable`] in groups of [`SPANS`]³ bricks (64³, 32³ and 16³ voxels with the
+/// The empty bricks of a [`BrickTable`] in groups of 8³, 4³ and 2³ bricks ([`SPAN_SHIFTS`]; 64³, 32³ and 16³ voxels with the
 /// default 8-voxel bricks): a group all of whose bricks are empty is crossed by a ray in one jump, where
 /// brick by brick it took one per brick (each a located landing sample and an exit computed), so runs of
 /// empty space cost a few jumps (the marcher, [`super::march`]). Groups at the volume's far faces hold
 /// fewer bricks.
 pub(super) struct Spans {
-    /// Per level of [`SPANS`], per group (x fastest): every brick of it is empty.
+    /// Per level of [`SPAN_SHIFTS`], per group (x fastest): every brick of it is empty.
     empty: [Vec<bool>; 3],
     counts: [[usize; 3]; 3],
 }
 
 impl Spans {
-    fn new(class: &[u8], counts: [usize; 3]) -> Spans {
-        let level = |span: usize| {
-            let groups = counts.map(|c| c.div_ceil(span));
+    /// The groups of a brick table's classes (`class`, x fastest, `counts` bricks a side).
+    pub(super) fn new(class: &[u8], counts: [usize; 3]) -> Spans {
+        let level = |shift: u32| {
+            let groups = counts.map(|c| c.div_ceil(1 << shift));
             let mut empty = vec![true; groups.iter().product()];
             for z in 0..counts[2] {
                 for y in 0..counts[1] {
                     for x in 0..counts[0] {
                         if class[x + counts[0] * (y + counts[1] * z)] != EMPTY {
-                            empty[x / span + groups[0] * (y / span + groups[1] * (z / span))] = false;
+                            empty[(x >> shift) + groups[0] * ((y >> shift) + groups[1] * (z >> shift))] = false;
                         }
                     }
                 }
             }
             (empty, groups)
         };
-        let [(e0, c0), (e1, c1), (e2, c2)] = SPANS.map(level);
+        let [(e0, c0), (e1, c1), (e2, c2)] = SPAN_SHIFTS.map(level);
         Spans { empty: [e0, e1, e2], counts: [c0, c1, c2] }
-    }
-
-    #[cfg(test)]
-    pub(super) fn new_for_test(class: &[u8], counts: [usize; 3]) -> Spans {
-        Spans::new(class, counts)
     }
 
     /// The largest empty group holding brick `b` (brick coordinates): its coordinates and its edge in bricks.
     #[inline(always)]
     pub(super) fn empty_around(&self, b: [usize; 3]) -> Option<([usize; 3], usize)> {
-        for (l, span) in SPANS.into_iter().enumerate() {
-            let g = b.map(|c| c / span);
+        for (l, shift) in SPAN_SHIFTS.into_iter().enumerate() {
+            let g = b.map(|c| c >> shift);
             let n = self.counts[l];
             if self.empty[l][g[0] + n[0] * (g[1] + n[1] * g[2])] {
-                return Some((g, span));
+                return Some((g, 1 << shift));
             }
         }
         None

@@ -817,15 +817,15 @@ fn groups_of_empty_bricks_are_jumped_with_the_frame_of_brick_by_brick_skipping()
 
 #[test]
 fn a_group_is_empty_only_when_all_its_bricks_are_and_the_largest_is_found_first() {
-    use classify::{SPANS, Spans};
+    use classify::{SPAN_SHIFTS, Spans};
     // 20 × 9 × 5 bricks (groups at the far faces hold fewer), all empty but two.
     let counts = [20, 9, 5];
     let mut class = vec![classify::EMPTY; counts.iter().product()];
     let at = |b: [usize; 3]| b[0] + counts[0] * (b[1] + counts[1] * b[2]);
     class[at([3, 1, 1])] = classify::MIXED;
     class[at([19, 8, 4])] = 1;
-    let spans = Spans::new_for_test(&class, counts);
-    assert_eq!(SPANS, [8, 4, 2]);
+    let spans = Spans::new(&class, counts);
+    assert_eq!(SPAN_SHIFTS.map(|s| 1 << s), [8, 4, 2]);
     // The brick's own 8-group holds [3, 1, 1]: its 4-group too; its 2-group [1, 0, 0] (bricks 2–3, 0–1,
     // 0–1) too; so no empty group holds it.
     assert_eq!(spans.empty_around([2, 0, 0]), None);
