@@ -622,8 +622,12 @@ impl<'a> RayContext<'a> {
             // The sample's point and where it falls, taken where they are used: the lanes hold them already
             // (their common path reads neither).
             macro_rules! p {
-                () => {
+                ($t:expr) => {{
+                    let t = $t;
                     [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]]
+                }};
+                () => {
+                    p!(t)
                 };
             }
             #[cfg(target_arch = "x86_64")]
@@ -674,13 +678,14 @@ impl<'a> RayContext<'a> {
                 // Written out: `[0, 1, 2].map` is not always inlined, and this runs at every sample.
                 let sh = bm.shift;
                 let brick = |at: Located| [at.i[0] >> sh, at.i[1] >> sh, at.i[2] >> sh];
+                let index = |b: [usize; 3]| b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2]);
                 let bi = match (lane, at_portable) {
                     #[cfg(target_arch = "x86_64")]
                     (Some(j), _) => batch.brick[j] as usize,
                     (_, at) => {
                         let b = brick(at.unwrap_or_else(|| self.locate(p!())));
                         debug_assert!((0..3).all(|a| b[a] < bm.counts[a]), "{b:?} {:?}", bm.counts);
-                        b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2])
+                        index(b)
                     }
                 };
                 uniform = table[bi];
@@ -707,14 +712,8 @@ impl<'a> RayContext<'a> {
                         if k + jitter > t1 {
                             break;
                         }
-                        // The landing sample's point, as `p!` makes it (that macro reads the loop's `t`).
-                        let tl = k + jitter;
-                        let landed = brick(self.locate([
-                            origin[0] + tl * dir[0],
-                            origin[1] + tl * dir[1],
-                            origin[2] + tl * dir[2],
-                        ]));
-                        if table[landed[0] + bm.counts[0] * (landed[1] + bm.counts[1] * landed[2])] != EMPTY {
+                        let landed = brick(self.locate(p!(k + jitter)));
+                        if table[index(landed)] != EMPTY {
                             break;
                         }
                         b = landed;
