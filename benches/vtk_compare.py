@@ -200,6 +200,20 @@ def write_scene(here, step):
     return scene, out
 
 
+def timed_runs(cmd, repeat):
+    """`cmd` run as one warm-up, then `repeat` timed runs (at least one), each a whole process: the timed
+    runs' (wall seconds, CPU seconds of user + system over all threads, stdout)."""
+    import subprocess
+
+    runs = []
+    for i in range(max(1, repeat) + 1):
+        t, c = time.perf_counter(), cpu_seconds(resource.RUSAGE_CHILDREN)
+        run = subprocess.run(cmd, capture_output=True, text=True, check=True)
+        if i > 0:
+            runs.append((time.perf_counter() - t, cpu_seconds(resource.RUSAGE_CHILDREN) - c, run.stdout))
+    return runs
+
+
 def run_metamer(binary, here, size, step, repeat):
     """Render frame 1 of 3 of volumes/engine.toml at `step` (VTK's) with a headlight, as VTK's frame is
     timed: one warm-up run, then `repeat` runs, each a whole process (the volume read, its own raycast with
@@ -207,48 +221,34 @@ def run_metamer(binary, here, size, step, repeat):
     Returns (frame path, metamer's median raycast ms, median relight + PNG ms per frame, median CPU s of
     the whole process)."""
     import re
-    import subprocess
 
     scene, out = write_scene(here, step)
     frames = os.path.join(out, "metamer")
     cmd = [binary, "render", scene, "--frames", "3", "--frame-range", "1..2", "--size", str(size), "--no-dial",
            "--force", "-o", frames]
-    raycasts, relights, cpus = [], [], []
-    for i in range(max(1, repeat) + 1):
-        cpu = cpu_seconds(resource.RUSAGE_CHILDREN)
-        run = subprocess.run(cmd, capture_output=True, text=True, check=True)
-        cpu = cpu_seconds(resource.RUSAGE_CHILDREN) - cpu
-        m = re.search(r"raycast ([0-9.]+) ms.*\(([0-9.]+) ms/frame\)", run.stdout)
-        if i > 0:
-            raycasts.append(float(m.group(1)))
-            relights.append(float(m.group(2)))
-            cpus.append(cpu)
-    print(run.stdout.strip().splitlines()[1])
-    raycast, cpu = statistics.median(raycasts), statistics.median(cpus)
+    runs = timed_runs(cmd, repeat)
+    found = [re.search(r"raycast ([0-9.]+) ms.*\(([0-9.]+) ms/frame\)", stdout) for _, _, stdout in runs]
+    raycasts = [float(m.group(1)) for m in found]
+    print(runs[-1][2].strip().splitlines()[1])
+    raycast, cpu = statistics.median(raycasts), statistics.median(c for _, c, _ in runs)
     print(f"metamer's raycast: median {raycast:.1f} ms of {len(raycasts)} processes after one warm-up "
           f"({', '.join(f'{r:.1f}' for r in raycasts)}); whole process (volume read, raycast, one frame): "
           f"median {cpu:.2f} s CPU")
-    return os.path.join(frames, "frame_0001.png"), raycast, statistics.median(relights), cpu
+    relight = statistics.median(float(m.group(2)) for m in found)
+    return os.path.join(frames, "frame_0001.png"), raycast, relight, cpu
 
 
 def metamer_sweep(binary, here, size, frames, repeat, step):
     """Wall seconds of whole `metamer render` processes writing a sweep of `frames` frames of the
     headlight scene at `step` (`repeat` runs after one warm-up; the median): reading the volume, the one
     raycast, every relit frame and its PNG."""
-    import subprocess
-
     scene, out = write_scene(here, step)
     cmd = [binary, "render", scene, "--frames", str(frames), "--size", str(size), "--no-dial", "--force",
            "-o", os.path.join(out, "metamer_sweep")]
-    times, cpus = [], []
-    for i in range(max(1, repeat) + 1):
-        t, c = time.perf_counter(), cpu_seconds(resource.RUSAGE_CHILDREN)
-        run = subprocess.run(cmd, capture_output=True, text=True, check=True)
-        if i > 0:
-            times.append(time.perf_counter() - t)
-            cpus.append(cpu_seconds(resource.RUSAGE_CHILDREN) - c)
-    print(run.stdout.strip().splitlines()[1])
-    return statistics.median(times), times, statistics.median(cpus)
+    runs = timed_runs(cmd, repeat)
+    print(runs[-1][2].strip().splitlines()[1])
+    times = [w for w, _, _ in runs]
+    return statistics.median(times), times, statistics.median(c for _, c, _ in runs)
 
 
 def vtk_sweep(win, colour, frames, out_dir):
