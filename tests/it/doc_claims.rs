@@ -2,7 +2,7 @@
 //! every `DESIGN_SPEC §N` citation in code and docs names a section of docs/DESIGN_SPEC.md, and every key the
 //! scene reader accepts is documented in docs/formats/scene.md (dial keyframe keys in dial.md), and the test
 //! build resolves every shared crate as the release build does; the core warns on missing docs and has no
-//! `#[path]` modules.
+//! `#[path]` modules; every `#anchor` a doc links to is made by a heading of the page it names.
 
 use metamer_core::render::Scene;
 use std::path::{Path, PathBuf};
@@ -149,6 +149,88 @@ fn every_design_spec_citation_resolves() {
     }
     assert!(citations > 20, "only {citations} citations found: the scan is broken");
     assert!(bad.is_empty(), "citations of sections docs/DESIGN_SPEC.md does not have:\n{}", bad.join("\n"));
+}
+
+/// The anchors of a markdown page as GitHub makes them from its headings (fenced code skipped): the heading's
+/// text lower-cased, inline code and links reduced to their text, every character but letters, digits, `_`,
+/// `-` and spaces dropped, spaces turned into `-`; a repeated anchor gets `-1`, `-2`, …
+fn anchors(text: &str) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    let mut fenced = false;
+    for line in text.lines() {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+            continue;
+        }
+        let Some(heading) = line.strip_prefix('#').map(|l| l.trim_start_matches('#')).filter(|l| l.starts_with(' '))
+        else {
+            continue;
+        };
+        if fenced {
+            continue;
+        }
+        // A link's text stands for the link: `[text](target)` → `text`.
+        let mut plain = String::new();
+        let mut rest = heading.trim();
+        while let Some(open) = rest.find("](") {
+            plain.push_str(&rest[..open]);
+            rest = rest[open + 2..].split_once(')').map_or("", |(_, r)| r);
+        }
+        plain.push_str(rest);
+        let slug: String = plain
+            .to_lowercase()
+            .chars()
+            .filter(|c| c.is_alphanumeric() || matches!(c, '_' | '-' | ' '))
+            .map(|c| if c == ' ' { '-' } else { c })
+            .collect();
+        let repeats = out
+            .iter()
+            .filter(|a| {
+                **a == slug
+                    || a.strip_prefix(&slug).is_some_and(|r| r.starts_with('-') && r[1..].parse::<u32>().is_ok())
+            })
+            .count();
+        out.push(if repeats == 0 { slug } else { format!("{slug}-{repeats}") });
+    }
+    out
+}
+
+#[test]
+fn every_anchor_the_docs_link_to_exists() {
+    let mut docs = vec![root().join("README.md")];
+    markdown(&root().join("docs"), &mut docs);
+    let mut checked = 0;
+    let mut broken = Vec::new();
+    for doc in &docs {
+        let text = std::fs::read_to_string(doc).expect("a doc is readable");
+        for (at, _) in text.match_indices("](") {
+            let target = text[at + 2..].split([')', ' ', '\n']).next().unwrap_or_default();
+            let Some((file, anchor)) = target.split_once('#') else { continue };
+            if file.contains("://") || file.contains('<') {
+                continue;
+            }
+            let page = if file.is_empty() { doc.clone() } else { doc.parent().unwrap_or(root()).join(file) };
+            let Ok(page_text) = std::fs::read_to_string(&page) else {
+                broken.push(format!("{}: {target} (no such page)", doc.strip_prefix(root()).unwrap_or(doc).display()));
+                continue;
+            };
+            checked += 1;
+            if !anchors(&page_text).iter().any(|a| a == anchor) {
+                broken.push(format!("{}: {target}", doc.strip_prefix(root()).unwrap_or(doc).display()));
+            }
+        }
+    }
+    assert!(checked > 40, "only {checked} anchors linked: the scan is broken");
+    assert!(broken.is_empty(), "links to anchors no heading makes:\n{}", broken.join("\n"));
+}
+
+#[test]
+fn anchors_are_made_as_github_makes_them() {
+    let page = "# Where it stands (2026-12-07, session 53)\n```\n# not a heading\n```\n## `Fields::build` and [links](x.md)\n## Twice\n### Twice\n## A–B: ≥ 20×, 384²\n";
+    assert_eq!(
+        anchors(page),
+        ["where-it-stands-2026-12-07-session-53", "fieldsbuild-and-links", "twice", "twice-1", "ab--20-384²"]
+    );
 }
 
 /// The keys the scene reader accepts in one table: what it names when it refuses an unknown key there.
