@@ -16,6 +16,7 @@ checks that both reach the same objective (sum over designs) within 1e-6 relativ
 Needs numpy and scipy (`pip install scipy`); not part of `cargo test`.
 """
 import argparse, json, math, os, subprocess, sys, tempfile, time, tomllib
+from statistics import median
 import numpy as np
 from scipy.optimize import lsq_linear
 
@@ -86,12 +87,6 @@ def scipy_pass(systems, lo, hi):
         res = lsq_linear(A, b, bounds=(lo, hi), method="bvls")
         total += float(np.sum((A @ res.x - b) ** 2))
     return time.perf_counter() - t, total
-
-
-def median(xs):
-    xs = sorted(xs)
-    n = len(xs)
-    return xs[n // 2] if n % 2 else 0.5 * (xs[n // 2 - 1] + xs[n // 2])
 
 
 def main():
