@@ -12,7 +12,9 @@ $METAMER_DATA/volumes/engine.nhdr, or pass the .nhdr path). Run from the crate r
 `--run-metamer` writes target/vtk_compare/engine_step05.toml (volumes/engine.toml with `[render] step = 0.5`,
 `shading = "headlight"`; with `--step 1`, engine_step1.toml at step 1: metamer always runs at VTK's step) and renders frame 1 of 3 (the dial's "split" light, where the block, the inner
 parts and the smoke differ) with `--no-dial`, timed as VTK's frame is (one warm-up, then `--repeat` runs,
-the median raycast; each run a whole process); `--metamer FRAME.png` compares a frame made otherwise.
+the median raycast; each run a whole process), the two taking turns (a metamer process, then a VTK frame, each
+round), with each round's ratio printed besides the medians; `--metamer FRAME.png` compares a frame made
+otherwise.
 
 Sweep: `--sweep 48` (with `--run-metamer`) also times a dial sweep of 48 frames both ways: VTK re-renders
 the view 48 times, the materials' colours moved between two sets from frame to frame (VTK has no relight,
@@ -214,28 +216,27 @@ def timed_runs(cmd, repeat):
     return runs
 
 
-def run_metamer(binary, here, size, step, repeat):
-    """Render frame 1 of 3 of volumes/engine.toml at `step` (VTK's) with a headlight, as VTK's frame is
-    timed: one warm-up run, then `repeat` runs, each a whole process (the volume read, its own raycast with
-    its field blocks built, where VTK's warm-up builds its gradient tables once for all its frames).
-    Returns (frame path, metamer's median raycast ms, median relight + PNG ms per frame, median CPU s of
-    the whole process)."""
-    import re
-
+def metamer_frame_cmd(binary, here, size, step):
+    """The command rendering frame 1 of 3 of volumes/engine.toml at `step` (VTK's) with a headlight, and the
+    frame it writes. Each run is a whole process: the volume read, its own raycast with its field blocks built
+    (where VTK's warm-up builds its gradient tables once for all its frames)."""
     scene, out = write_scene(here, step)
     frames = os.path.join(out, "metamer")
     cmd = [binary, "render", scene, "--frames", "3", "--frame-range", "1..2", "--size", str(size), "--no-dial",
            "--force", "-o", frames]
-    runs = timed_runs(cmd, repeat)
-    found = [re.search(r"raycast ([0-9.]+) ms.*\(([0-9.]+) ms/frame\)", stdout) for _, _, stdout in runs]
-    raycasts = [float(m.group(1)) for m in found]
-    print(runs[-1][2].strip().splitlines()[1])
-    raycast, cpu = statistics.median(raycasts), statistics.median(c for _, c, _ in runs)
-    print(f"metamer's raycast: median {raycast:.1f} ms of {len(raycasts)} processes after one warm-up "
-          f"({', '.join(f'{r:.1f}' for r in raycasts)}); whole process (volume read, raycast, one frame): "
-          f"median {cpu:.2f} s CPU")
-    relight = statistics.median(float(m.group(2)) for m in found)
-    return os.path.join(frames, "frame_0001.png"), raycast, relight, cpu
+    return cmd, os.path.join(frames, "frame_0001.png")
+
+
+def metamer_frame(cmd):
+    """One timed `metamer_frame_cmd` process: (its summary's raycast ms, its relight + PNG ms per frame, its CPU
+    seconds, its stdout)."""
+    import re
+    import subprocess
+
+    c = cpu_seconds(resource.RUSAGE_CHILDREN)
+    run = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    m = re.search(r"raycast ([0-9.]+) ms.*\(([0-9.]+) ms/frame\)", run.stdout)
+    return float(m.group(1)), float(m.group(2)), cpu_seconds(resource.RUSAGE_CHILDREN) - c, run.stdout
 
 
 def metamer_sweep(binary, here, size, frames, repeat, step):
@@ -319,10 +320,8 @@ def main():
     # spread over the sweep.
     sweep_frame_ms = None
     if args.run_metamer:
-        args.metamer, raycast_ms, relight_ms, metamer_cpu = run_metamer(
-            args.run_metamer, here, args.size, args.step, args.repeat
-        )
-        metamer_ms = (raycast_ms, relight_ms)
+        metamer_cmd, args.metamer = metamer_frame_cmd(args.run_metamer, here, args.size, args.step)
+        metamer_frame(metamer_cmd)  # warm-up
     setup_start = time.perf_counter()
     data, dims, spacing = read_nhdr(args.nhdr)
     centre, eye, up, scale, (lo, hi) = metamer_view(dims, spacing, material_mask(data, dims))
@@ -386,13 +385,35 @@ def main():
     ren.ResetCameraClippingRange()
     setup = time.perf_counter() - setup_start
     win.Render()  # warm-up (builds the mapper's gradient tables)
-    times = []
-    cpu = cpu_seconds()
+    # With --run-metamer the two renderers take turns, metamer's processes then VTK's frames in each round, so
+    # that a machine whose speed drifts over seconds (a shared or virtual one: VTK's median here moved from
+    # 126 to 183 ms between runs minutes apart) weighs on both alike; each round's own ratio is printed too.
+    # In a round each renderer runs once untimed before its timed run, so that the timed one follows its own
+    # kind as in a run of either alone (without it, 9 rounds: VTK's frame 189.6 ms, metamer's raycast 143.1 ms;
+    # with it, minutes later: 127.2 and 119.1 ms).
+    times, vtk_cpus, metamer_runs = [], [], []
     for _ in range(max(1, args.repeat)):
-        t = time.perf_counter()
+        if args.run_metamer:
+            metamer_frame(metamer_cmd)
+            metamer_runs.append(metamer_frame(metamer_cmd))
+            win.Render()
+        t, cpu = time.perf_counter(), cpu_seconds()
         win.Render()
         times.append(time.perf_counter() - t)
-    vtk_cpu = (cpu_seconds() - cpu) / len(times)
+        vtk_cpus.append(cpu_seconds() - cpu)
+    vtk_cpu = statistics.mean(vtk_cpus)
+    if args.run_metamer:
+        raycasts = [r[0] for r in metamer_runs]
+        print(metamer_runs[-1][3].strip().splitlines()[1])
+        metamer_ms = (statistics.median(raycasts), statistics.median(r[1] for r in metamer_runs))
+        metamer_cpu = statistics.median(r[2] for r in metamer_runs)
+        ratios = [r / (t * 1e3) for r, t in zip(raycasts, times)]
+        print(f"metamer's raycast: median {metamer_ms[0]:.1f} ms of {len(raycasts)} processes after one warm-up "
+              f"({', '.join(f'{r:.1f}' for r in raycasts)}); whole process (volume read, raycast, one frame): "
+              f"median {metamer_cpu:.2f} s CPU")
+        print(f"paired: metamer's raycast / VTK's frame in each of {len(ratios)} alternated rounds: median "
+              f"{statistics.median(ratios):.2f}×, {min(ratios):.2f}–{max(ratios):.2f}×; medians' ratio "
+              f"{metamer_ms[0] / (statistics.median(times) * 1e3):.2f}×")
     grab = vtk.vtkWindowToImageFilter()
     grab.SetInput(win)
     grab.Update()
