@@ -202,18 +202,27 @@ def write_scene(here, step):
     return scene, out
 
 
-def timed_runs(cmd, repeat):
-    """`cmd` run as one warm-up, then `repeat` timed runs (at least one), each a whole process: the timed
-    runs' (wall seconds, CPU seconds of user + system over all threads, stdout)."""
+def timed_process(cmd):
+    """`cmd` run once as a whole process: (wall seconds, CPU seconds of user + system over all its threads,
+    its stdout)."""
     import subprocess
 
-    runs = []
-    for i in range(max(1, repeat) + 1):
-        t, c = time.perf_counter(), cpu_seconds(resource.RUSAGE_CHILDREN)
-        run = subprocess.run(cmd, capture_output=True, text=True, check=True)
-        if i > 0:
-            runs.append((time.perf_counter() - t, cpu_seconds(resource.RUSAGE_CHILDREN) - c, run.stdout))
-    return runs
+    t, c = time.perf_counter(), cpu_seconds(resource.RUSAGE_CHILDREN)
+    run = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    return time.perf_counter() - t, cpu_seconds(resource.RUSAGE_CHILDREN) - c, run.stdout
+
+
+def timed_runs(cmd, repeat):
+    """`cmd` run as one warm-up, then `repeat` timed runs (at least one): the timed runs' `timed_process`."""
+    return [timed_process(cmd) for _ in range(max(1, repeat) + 1)][1:]
+
+
+def summary_ms(stdout):
+    """A `metamer render` summary's raycast ms and relight + PNG ms per frame."""
+    import re
+
+    m = re.search(r"raycast ([0-9.]+) ms.*\(([0-9.]+) ms/frame\)", stdout)
+    return float(m.group(1)), float(m.group(2))
 
 
 def metamer_frame_cmd(binary, here, size, step):
@@ -230,28 +239,21 @@ def metamer_frame_cmd(binary, here, size, step):
 def metamer_frame(cmd):
     """One timed `metamer_frame_cmd` process: (its summary's raycast ms, its relight + PNG ms per frame, its CPU
     seconds, its stdout)."""
-    import re
-    import subprocess
-
-    c = cpu_seconds(resource.RUSAGE_CHILDREN)
-    run = subprocess.run(cmd, capture_output=True, text=True, check=True)
-    m = re.search(r"raycast ([0-9.]+) ms.*\(([0-9.]+) ms/frame\)", run.stdout)
-    return float(m.group(1)), float(m.group(2)), cpu_seconds(resource.RUSAGE_CHILDREN) - c, run.stdout
+    _, cpu, out = timed_process(cmd)
+    return (*summary_ms(out), cpu, out)
 
 
 def metamer_sweep(binary, here, size, frames, repeat, step):
     """Wall seconds of whole `metamer render` processes writing a sweep of `frames` frames of the
     headlight scene at `step` (`repeat` runs after one warm-up; the median): reading the volume, the one
     raycast, every relit frame and its PNG. Also returns the median of the summaries' relight + PNG per frame."""
-    import re
-
     scene, out = write_scene(here, step)
     cmd = [binary, "render", scene, "--frames", str(frames), "--size", str(size), "--no-dial", "--force",
            "-o", os.path.join(out, "metamer_sweep")]
     runs = timed_runs(cmd, repeat)
     print(runs[-1][2].strip().splitlines()[1])
     times = [w for w, _, _ in runs]
-    per_frame = statistics.median(float(re.search(r"\(([0-9.]+) ms/frame\)", out).group(1)) for _, _, out in runs)
+    per_frame = statistics.median(summary_ms(out)[1] for _, _, out in runs)
     return statistics.median(times), times, statistics.median(c for _, c, _ in runs), per_frame
 
 
