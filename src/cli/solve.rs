@@ -1693,16 +1693,21 @@ mod tests {
         assert_eq!(written.iter().filter(|&&b| b == b'0').count(), 3 * super::Rows::<Boom>::PIECE);
     }
 
+    /// A random batch of `designs` bounded designs (seed `seed`) solved, and its unphysical entries.
+    fn solved_batch(designs: usize, seed: u64) -> (crate::design::Solution, super::Unphysical) {
+        let colorimetry = crate::colorimetry::Colorimetry::default();
+        let palette = crate::palette::random::batch_palette(designs, seed, &colorimetry);
+        let solution =
+            crate::design::solve(&palette, None, &colorimetry, &crate::design::SolveOptions::default()).unwrap();
+        let bad = super::Unphysical::of(&solution.palette);
+        (solution, bad)
+    }
+
     /// The table's cell rows formatted in pieces are the rows formatted in one pass: pieces of 7 and of the
     /// command's size over a batch of 900 cells.
     #[test]
     fn the_tables_rows_in_pieces_are_the_rows_in_one_pass() {
-        use crate::colorimetry::Colorimetry;
-        use crate::design::{self, SolveOptions};
-        let colorimetry = Colorimetry::default();
-        let palette = crate::palette::random::batch_palette(300, 5, &colorimetry);
-        let solution = design::solve(&palette, None, &colorimetry, &SolveOptions::default()).unwrap();
-        let bad = super::Unphysical::of(&solution.palette);
+        let (solution, bad) = solved_batch(300, 5);
         assert!(solution.cells.len() > super::TABLE_PIECE, "{} cells", solution.cells.len());
         let one = super::cell_rows(&solution.palette, &solution.cells, &bad, usize::MAX);
         assert_eq!(one.lines().count(), solution.cells.len());
@@ -1780,12 +1785,7 @@ mod tests {
 
     #[test]
     fn the_reports_text_is_whole_in_its_staged_file_when_the_table_is_let_through() {
-        use crate::colorimetry::Colorimetry;
-        use crate::design::{self, SolveOptions};
-        let colorimetry = Colorimetry::default();
-        let palette = crate::palette::random::batch_palette(300, 11, &colorimetry);
-        let solution = design::solve(&palette, None, &colorimetry, &SolveOptions::default()).unwrap();
-        let bad = super::Unphysical::of(&solution.palette);
+        let (solution, bad) = solved_batch(300, 11);
         let mut whole = Vec::new();
         super::write_report(&mut whole, &super::Report::new(&solution, &bad, 0.25)).unwrap();
         let dir = tempfile::tempdir().unwrap();
