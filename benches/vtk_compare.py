@@ -225,14 +225,14 @@ def summary_ms(stdout):
     return float(m.group(1)), float(m.group(2))
 
 
-def metamer_frame_cmd(binary, here, size, step):
-    """The command rendering frame 1 of 3 of volumes/engine.toml at `step` (VTK's) with a headlight, and the
-    frame it writes. Each run is a whole process: the volume read, its own raycast with its field blocks built
+def metamer_frame_cmd(binary, here, size, step, volume):
+    """The command rendering frame 1 of 3 of volumes/engine.toml at `step` (VTK's) with a headlight, of the
+    volume VTK reads (`volume`), and the frame it writes. Each run is a whole process: the volume read, its own raycast with its field blocks built
     (where VTK's warm-up builds its gradient tables once for all its frames)."""
     scene, out = write_scene(here, step)
     frames = os.path.join(out, "metamer")
-    cmd = [binary, "render", scene, "--frames", "3", "--frame-range", "1..2", "--size", str(size), "--no-dial",
-           "--force", "-o", frames]
+    cmd = [binary, "render", scene, "--volume", volume, "--frames", "3", "--frame-range", "1..2", "--size",
+           str(size), "--no-dial", "--force", "-o", frames]
     return cmd, os.path.join(frames, "frame_0001.png")
 
 
@@ -243,13 +243,13 @@ def metamer_frame(cmd):
     return (*summary_ms(out), cpu, out)
 
 
-def metamer_sweep(binary, here, size, frames, repeat, step):
+def metamer_sweep(binary, here, size, frames, repeat, step, volume):
     """Wall seconds of whole `metamer render` processes writing a sweep of `frames` frames of the
     headlight scene at `step` (`repeat` runs after one warm-up; the median): reading the volume, the one
     raycast, every relit frame and its PNG. Also returns the median of the summaries' relight + PNG per frame."""
     scene, out = write_scene(here, step)
-    cmd = [binary, "render", scene, "--frames", str(frames), "--size", str(size), "--no-dial", "--force",
-           "-o", os.path.join(out, "metamer_sweep")]
+    cmd = [binary, "render", scene, "--volume", volume, "--frames", str(frames), "--size", str(size), "--no-dial",
+           "--force", "-o", os.path.join(out, "metamer_sweep")]
     runs = timed_runs(cmd, repeat)
     print(runs[-1][2].strip().splitlines()[1])
     times = [w for w, _, _ in runs]
@@ -322,7 +322,7 @@ def main():
     # spread over the sweep.
     sweep_frame_ms = None
     if args.run_metamer:
-        metamer_cmd, args.metamer = metamer_frame_cmd(args.run_metamer, here, args.size, args.step)
+        metamer_cmd, args.metamer = metamer_frame_cmd(args.run_metamer, here, args.size, args.step, args.nhdr)
         metamer_frame(metamer_cmd)  # warm-up
     setup_start = time.perf_counter()
     data, dims, spacing = read_nhdr(args.nhdr)
@@ -438,7 +438,9 @@ def main():
         if not args.run_metamer:
             raise SystemExit("--sweep needs --run-metamer BINARY")
         vtk_s, vtk_cpu = vtk_sweep(win, colour, args.sweep, os.path.join("target", "vtk_compare", "vtk_sweep"))
-        m_s, m_all, m_cpu, sweep_frame_ms = metamer_sweep(args.run_metamer, here, args.size, args.sweep, args.repeat, args.step)
+        m_s, m_all, m_cpu, sweep_frame_ms = metamer_sweep(
+            args.run_metamer, here, args.size, args.sweep, args.repeat, args.step, args.nhdr
+        )
         print(
             f"sweep of {args.sweep} frames at {args.size}², step {args.step}: VTK {vtk_s:.2f} s for the re-renders "
             f"(+ {setup:.2f} s reading the volume and setting up the pipeline) = "

@@ -159,6 +159,19 @@ impl Timing {
     }
 }
 
+/// The `metamer` binary to time as a whole process (the scripts comparing it with scipy and VTK run it): this
+/// process when it is `metamer`, else one beside it or one level up (`target/release/deps/…` for cargo's bench
+/// harness).
+pub(crate) fn metamer_binary() -> Option<std::path::PathBuf> {
+    let exe = std::env::current_exe().ok()?;
+    let name = format!("metamer{}", std::env::consts::EXE_SUFFIX);
+    if exe.file_name().is_some_and(|n| n == name.as_str()) {
+        return Some(exe);
+    }
+    let dir = exe.parent()?;
+    [dir.join(&name), dir.parent()?.join(&name)].into_iter().find(|p| p.is_file())
+}
+
 /// Time `f` `runs` times (after one warm-up call) and summarise. The closure's result is returned from the
 /// last run so the work cannot be optimised away.
 pub(crate) fn time_runs<T>(runs: usize, mut f: impl FnMut() -> T) -> (Timing, T) {

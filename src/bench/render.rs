@@ -138,13 +138,18 @@ pub(crate) enum VtkRatio {
     NotMeasured(String),
 }
 
-/// VTK's frame and metamer's raycast at one sample distance, both renderers at the same step.
-#[derive(Clone, Debug)]
+/// VTK's frame and metamer's raycast at one sample distance, both renderers at the same step, timed in
+/// alternated rounds by the script.
+#[derive(Clone, Debug, PartialEq)]
 pub(crate) struct VtkRow {
     pub(crate) size: usize,
     pub(crate) step: f64,
+    /// VTK's frames, median.
     pub(crate) vtk_s: f64,
+    /// metamer's raycasts (each a whole `metamer render` process's summary), median.
     pub(crate) metamer_s: f64,
+    /// Each round's metamer raycast over VTK's frame: median, least, greatest.
+    pub(crate) paired: [f64; 3],
 }
 
 impl RenderBenchReport {
@@ -436,7 +441,7 @@ pub fn run(options: &RenderBenchOptions) -> Result<RenderBenchReport, RenderErro
 
     let accuracy = compare_models(&scene, &col, options.accuracy_size, options.accuracy_frames)?;
     let large = large_volume(options, &col, &tmp)?;
-    let vtk = vtk_ratio(options, volume_path.as_deref(), &col, runs, &tmp);
+    let vtk = vtk_ratio(options, volume_path.as_deref(), runs, &tmp);
 
     let mut report = RenderBenchReport {
         volume: volume_name,
@@ -530,17 +535,12 @@ fn large_volume(
 
 /// VTK's raycast of the engine CT (`benches/vtk_compare.py`, from the working folder) against metamer's
 /// raycast of the same view (`volumes/engine.toml`, headlight shading, as the script's docstring says),
-/// at the sweep's size (384² by default, the size issue 24 names) and the raycast table's, each at the same sample distance: the
-/// scene's own step (what `metamer render volumes/engine.toml` uses) and the script's default, 0.5 voxels. The script's `--step` sets VTK's sample distance, and the
-/// scene's step is set to the same value here, so neither renderer takes more samples than the other.
-fn vtk_ratio(
-    options: &RenderBenchOptions,
-    engine: Option<&Path>,
-    col: &Colorimetry,
-    runs: usize,
-    tmp: &tempfile::TempDir,
-) -> VtkRatio {
-    use crate::render::Shading;
+/// at the sweep's size (384² by default, the size issue 24 names) and the raycast table's, each at the same
+/// sample distance: the scene's own step (what `metamer render volumes/engine.toml` uses) and the script's
+/// default, 0.5 voxels. The script renders both (`--run-metamer`, this binary, at VTK's step, of the volume
+/// VTK reads) in alternated rounds, so that a machine whose speed drifts weighs on both alike: each round a
+/// whole `metamer render` process and a VTK frame, each after an untimed run of its own kind.
+fn vtk_ratio(options: &RenderBenchOptions, engine: Option<&Path>, runs: usize, tmp: &tempfile::TempDir) -> VtkRatio {
     let script = Path::new("benches/vtk_compare.py");
     let scene_file = Path::new("volumes/engine.toml");
     let Some(engine) = engine.filter(|p| p.extension().is_some_and(|e| e == "nhdr")) else {
@@ -549,23 +549,19 @@ fn vtk_ratio(
     if !script.is_file() || !scene_file.is_file() {
         return VtkRatio::NotMeasured("benches/vtk_compare.py or volumes/engine.toml not in the working folder".into());
     }
-    let mut scene = match Scene::load_with_volume(scene_file, Some(engine)) {
-        Ok(mut s) => {
-            s.settings.shading = Shading::Headlight;
-            s
-        }
-        Err(e) => return VtkRatio::NotMeasured(format!("volumes/engine.toml: {e}")),
+    let Some(metamer) = super::metamer_binary() else {
+        return VtkRatio::NotMeasured("the metamer binary was not found".into());
     };
-    let factor = match colour_model(&scene, Mode::Factor, col) {
-        Ok(f) => f,
-        Err(e) => return VtkRatio::NotMeasured(e.to_string()),
+    let scene_step = match Scene::load_with_volume(scene_file, Some(engine)) {
+        Ok(s) => s.settings.step,
+        Err(e) => return VtkRatio::NotMeasured(format!("volumes/engine.toml: {e}")),
     };
     let mut sizes = vec![options.sweep_size];
     if options.raycast_size != options.sweep_size {
         sizes.push(options.raycast_size);
     }
-    let mut steps = vec![scene.settings.step];
-    if (scene.settings.step - 0.5).abs() > 1e-9 {
+    let mut steps = vec![scene_step];
+    if (scene_step - 0.5).abs() > 1e-9 {
         steps.push(0.5);
     }
     let mut rows = Vec::new();
@@ -577,7 +573,9 @@ fn vtk_ratio(
             // The CPU raycaster the page names (the script's default is the GPU mapper, which on a machine
             // without a GPU runs on software GL and is no fair yardstick).
             .args(["--mapper", "fixed", "--size", &size.to_string(), "--step", &step.to_string()])
-            .args(["--repeat", &runs.max(3).to_string(), "-o"])
+            .args(["--repeat", &runs.max(3).to_string(), "--run-metamer"])
+            .arg(&metamer)
+            .arg("-o")
             .arg(tmp.path().join("vtk.png"))
             .output();
         let out = match out {
@@ -592,15 +590,15 @@ fn vtk_ratio(
             }
             Err(e) => return VtkRatio::NotMeasured(format!("python3 did not run: {e}")),
         };
-        let Some((v, vtk_s)) = parse_vtk_line(&out) else {
-            return VtkRatio::NotMeasured("the script's output has no `VTK … fixed-point … median … ms` line".into());
+        let Some(((v, vtk_s), (metamer_s, paired))) = parse_vtk_line(&out).zip(parse_paired_lines(&out)) else {
+            return VtkRatio::NotMeasured(
+                "the script's output lacks its `VTK … fixed-point … median … ms`, `metamer's raycast: median … ms` \
+                 or `paired: … median …×, …–…×` line"
+                    .into(),
+            );
         };
         version = v;
-        scene.settings.step = step;
-        let (timing, _) = time_runs(runs.max(3), || {
-            render_views(&scene, vec![factor.clone()], size, size, Acceleration::default(), None).pop()
-        });
-        rows.push(VtkRow { size, step, vtk_s, metamer_s: timing.median });
+        rows.push(VtkRow { size, step, vtk_s, metamer_s, paired });
     }
     VtkRatio::Measured { rows, version }
 }
@@ -612,6 +610,21 @@ fn parse_vtk_line(out: &str) -> Option<(String, f64)> {
     let version = l.split_whitespace().nth(1)?.to_string();
     let ms: f64 = l.split("median ").nth(1)?.split_whitespace().next()?.parse().ok()?;
     Some((version, ms / 1e3))
+}
+
+/// The script's lines for metamer's side, "metamer's raycast: median 119.1 ms of 9 processes …" and "paired:
+/// metamer's raycast / VTK's frame in each of 9 alternated rounds: median 0.94×, 0.62–1.19×; …": metamer's
+/// median raycast in seconds and the rounds' ratios (median, least, greatest).
+fn parse_paired_lines(out: &str) -> Option<(f64, [f64; 3])> {
+    let raycast = out.lines().find_map(|l| l.strip_prefix("metamer's raycast: median "))?;
+    let ms: f64 = raycast.split_whitespace().next()?.parse().ok()?;
+    let paired = out.lines().find_map(|l| l.strip_prefix("paired: "))?;
+    let rest = paired.split(": median ").nth(1)?;
+    let (median, rest) = rest.split_once("×, ")?;
+    let (least, rest) = rest.split_once('–')?;
+    let greatest = rest.split('×').next()?;
+    let number = |t: &str| t.trim().parse::<f64>().ok();
+    Some((ms / 1e3, [number(median)?, number(least)?, number(greatest)?]))
 }
 
 fn onoff(b: bool) -> &'static str {
@@ -773,22 +786,33 @@ fn markdown(r: &RenderBenchReport, o: &RenderBenchOptions) -> String {
         VtkRatio::Measured { rows, version } => {
             let mut t = format!(
                 "VTK {version}'s CPU raycaster (`vtkFixedPointVolumeRayCastMapper`, `benches/vtk_compare.py --mapper fixed \
-                 --step S`) renders one RGB frame of the engine CT (median); metamer's raycast of the same view \
+                 --step S --run-metamer BIN`) renders one RGB frame of the engine CT; metamer renders the same view \
                  (`volumes/engine.toml`, headlight, every quality step on, m channels per pixel) at the same size and \
-                 step S, in this process (medians). \
+                 step S, each run a whole `metamer render` process whose summary gives the raycast. The two take turns \
+                 (a metamer process, then a VTK frame, each after an untimed run of its own kind), so that a machine \
+                 whose speed drifts weighs on both alike: medians, and each round's own ratio. \
                  Every further frame of a sweep is a relight, where VTK renders again.\n\n"
             );
             t += &markdown_table(
-                &["image", "step (voxels)", "VTK frame", "metamer raycast", "metamer / VTK"],
+                &[
+                    "image",
+                    "step (voxels)",
+                    "VTK frame",
+                    "metamer raycast",
+                    "metamer / VTK",
+                    "per round: median (range)",
+                ],
                 &rows
                     .iter()
                     .map(|r| {
+                        let [median, least, greatest] = r.paired;
                         vec![
                             format!("{0}×{0}", r.size),
                             format!("{}", r.step),
                             format_seconds(r.vtk_s),
                             format_seconds(r.metamer_s),
                             format!("{:.2}×", r.metamer_s / r.vtk_s.max(1e-12)),
+                            format!("{median:.2}× ({least:.2}–{greatest:.2}×)"),
                         ]
                     })
                     .collect::<Vec<_>>(),
@@ -979,4 +1003,31 @@ fn plots(r: &RenderBenchReport, dir: &Path) -> Result<(), RenderError> {
     )
     .map_err(|e| plot_err(&p, e))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The lines `benches/vtk_compare.py --run-metamer` prints (copied from a run), read into the page's row:
+    /// VTK's median frame, metamer's median raycast and the rounds' ratios; a line missing or cut short
+    /// reads as nothing.
+    #[test]
+    fn the_vtk_scripts_alternated_figures_are_read() {
+        let out = "material bounds [57, 21, 0]..[212, 222, 107]; focal point [132.23, 120.74, 55.05]\n\
+                   raycast 118.1 ms at 384² (5735216 samples, 2481194 skipped), exposure 1.597\n\
+                   metamer's raycast: median 119.1 ms of 9 processes after one warm-up (117.4, 124.0); whole \
+                   process (volume read, raycast, one frame): median 0.27 s CPU\n\
+                   paired: metamer's raycast / VTK's frame in each of 9 alternated rounds: median 0.94×, \
+                   0.62–1.19×; medians' ratio 0.94×\n\
+                   VTK 9.7.2 fixed-point CPU raycast 384², step 1.0: median 127.2 ms of 9 (min 122.8), 245 ms CPU \
+                   per render (mean), load 0.8 -> /tmp/vtk_engine.png\n";
+        assert_eq!(parse_vtk_line(out), Some(("9.7.2".to_string(), 0.1272)));
+        let (ms, paired) = parse_paired_lines(out).expect("both lines read");
+        assert!((ms - 0.1191).abs() < 1e-12, "{ms}");
+        assert_eq!(paired, [0.94, 0.62, 1.19]);
+        let without_pairs: String = out.lines().filter(|l| !l.starts_with("paired:")).collect::<Vec<_>>().join("\n");
+        assert_eq!(parse_paired_lines(&without_pairs), None);
+        assert_eq!(parse_paired_lines(&out.replace("0.62–1.19×", "0.62")), None);
+    }
 }

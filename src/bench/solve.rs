@@ -447,18 +447,6 @@ pub(crate) fn seeds_text(solved: usize, asked: u64) -> String {
     }
 }
 
-/// The `metamer` binary to time: this process when it is `metamer`, else one beside it or one level up
-/// (`target/release/deps/…` for cargo's bench harness).
-fn metamer_binary() -> Option<std::path::PathBuf> {
-    let exe = std::env::current_exe().ok()?;
-    let name = format!("metamer{}", std::env::consts::EXE_SUFFIX);
-    if exe.file_name().is_some_and(|n| n == name.as_str()) {
-        return Some(exe);
-    }
-    let dir = exe.parent()?;
-    [dir.join(&name), dir.parent()?.join(&name)].into_iter().find(|p| p.is_file())
-}
-
 /// Time the whole `metamer solve` process on a file of `designs` bounded single-reflectance designs against
 /// scipy's BVLS solving them one by one (benches/scipy_bvls.py, which also checks the objectives agree).
 pub(crate) fn versus_scipy(designs: usize, reachable: bool) -> VersusScipy {
@@ -468,7 +456,7 @@ pub(crate) fn versus_scipy(designs: usize, reachable: bool) -> VersusScipy {
     if !script.is_file() {
         return skip(format!("{} not found (run the bench from the repository's folder)", script.display()));
     }
-    let Some(metamer) = metamer_binary() else { return skip("the metamer binary was not found".into()) };
+    let Some(metamer) = super::metamer_binary() else { return skip("the metamer binary was not found".into()) };
     let Ok(dir) = tempfile::tempdir() else { return skip("no temporary folder".into()) };
     let path = dir.path().join("batch.toml");
     let col = Colorimetry::default();
