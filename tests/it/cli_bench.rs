@@ -49,14 +49,15 @@ fn quick_report_of_every_suite_is_complete() {
     ] {
         assert!(render.contains(needle), "missing `{needle}` in\n{render}");
     }
-    // VTK's frame against metamer's raycast, both at the same step: the scene's own and 0.5 voxels.
+    // VTK's frame against metamer's raycast, both at the same step: the scene's own and 0.5 voxels, each row
+    // ending with the alternated rounds' ratios, `median× (least–greatest×)`.
     let vtk_rows: Vec<&str> = render
         .split("## VTK")
         .nth(1)
         .unwrap_or("")
         .lines()
         .take_while(|l| !l.starts_with("## "))
-        .filter(|l| l.starts_with("| ") && l.ends_with("× |"))
+        .filter(|l| l.starts_with("| ") && l.ends_with("×) |"))
         .collect();
     assert!(
         render.contains("Not measured: ")
