@@ -11,10 +11,9 @@ $METAMER_DATA/volumes/engine.nhdr, or pass the .nhdr path). Run from the crate r
 
 `--run-metamer` writes target/vtk_compare/engine_step05.toml (volumes/engine.toml with `[render] step = 0.5`,
 `shading = "headlight"`; with `--step 1`, engine_step1.toml at step 1: metamer always runs at VTK's step) and renders frame 1 of 3 (the dial's "split" light, where the block, the inner
-parts and the smoke differ) with `--no-dial`, timed as VTK's frame is (one warm-up, then `--repeat` runs,
-the median raycast; each run a whole process), the two taking turns (a metamer process, then a VTK frame, each
-round), with each round's ratio printed besides the medians; `--metamer FRAME.png` compares a frame made
-otherwise.
+parts and the smoke differ) with `--no-dial`, timed as VTK's frame is: `--repeat` rounds, each an untimed
+then a timed metamer process, then an untimed then a timed VTK frame; the medians and each round's ratio are
+printed. `--metamer FRAME.png` compares a frame made otherwise.
 
 Sweep: `--sweep 48` (with `--run-metamer`) also times a dial sweep of 48 frames both ways: VTK re-renders
 the view 48 times, the materials' colours moved between two sets from frame to frame (VTK has no relight,
@@ -227,8 +226,9 @@ def summary_ms(stdout):
 
 def metamer_frame_cmd(binary, here, size, step, volume):
     """The command rendering frame 1 of 3 of volumes/engine.toml at `step` (VTK's) with a headlight, of the
-    volume VTK reads (`volume`), and the frame it writes. Each run is a whole process: the volume read, its own raycast with its field blocks built
-    (where VTK's warm-up builds its gradient tables once for all its frames)."""
+    volume VTK reads (`volume`), and the frame it writes. Each run is a whole process: the volume read, its own
+    raycast with its field blocks built (where VTK's warm-up builds its gradient tables once for all its
+    frames)."""
     scene, out = write_scene(here, step)
     frames = os.path.join(out, "metamer")
     cmd = [binary, "render", scene, "--volume", volume, "--frames", "3", "--frame-range", "1..2", "--size",
@@ -323,7 +323,6 @@ def main():
     sweep_frame_ms = None
     if args.run_metamer:
         metamer_cmd, args.metamer = metamer_frame_cmd(args.run_metamer, here, args.size, args.step, args.nhdr)
-        metamer_frame(metamer_cmd)  # warm-up
     setup_start = time.perf_counter()
     data, dims, spacing = read_nhdr(args.nhdr)
     centre, eye, up, scale, (lo, hi) = metamer_view(dims, spacing, material_mask(data, dims))
@@ -410,7 +409,7 @@ def main():
         metamer_ms = (statistics.median(raycasts), statistics.median(r[1] for r in metamer_runs))
         metamer_cpu = statistics.median(r[2] for r in metamer_runs)
         ratios = [r / (t * 1e3) for r, t in zip(raycasts, times)]
-        print(f"metamer's raycast: median {metamer_ms[0]:.1f} ms of {len(raycasts)} processes after one warm-up "
+        print(f"metamer's raycast: median {metamer_ms[0]:.1f} ms of {len(raycasts)} processes, each after an untimed one "
               f"({', '.join(f'{r:.1f}' for r in raycasts)}); whole process (volume read, raycast, one frame): "
               f"median {metamer_cpu:.2f} s CPU")
         print(f"paired: metamer's raycast / VTK's frame in each of {len(ratios)} alternated rounds: median "

@@ -1016,7 +1016,7 @@ mod tests {
     fn the_vtk_scripts_alternated_figures_are_read() {
         let out = "material bounds [57, 21, 0]..[212, 222, 107]; focal point [132.23, 120.74, 55.05]\n\
                    raycast 118.1 ms at 384² (5735216 samples, 2481194 skipped), exposure 1.597\n\
-                   metamer's raycast: median 119.1 ms of 9 processes after one warm-up (117.4, 124.0); whole \
+                   metamer's raycast: median 119.1 ms of 9 processes, each after an untimed one (117.4, 124.0); whole \
                    process (volume read, raycast, one frame): median 0.27 s CPU\n\
                    paired: metamer's raycast / VTK's frame in each of 9 alternated rounds: median 0.94×, \
                    0.62–1.19×; medians' ratio 0.94×\n\
