@@ -18,7 +18,7 @@
 
 use super::block::{S, S3, SHIFT};
 use super::classify::Classifier;
-use crate::volume::Volume;
+use crate::volume::{Volume, Voxel};
 
 /// Standard deviation (voxels, in-plane) of the Gaussian that smooths each slice's signed distance.
 pub const LABEL_SIGMA: f32 = 1.0;
@@ -85,20 +85,14 @@ pub(super) fn build(volume: &Volume, classifier: &Classifier, b: [usize; 3], gra
         (b[2] << SHIFT) as isize - mz as isize,
     ];
     let coord = |a: usize, j: usize| (o[a] + j as isize).clamp(0, d[a] as isize - 1) as usize;
-    let mut labels = vec![0u8; nx * ny * nz];
-    crate::with_voxels!(&volume.voxels, data => {
-        for z in 0..nz {
-            let vz = coord(2, z);
-            for y in 0..ny {
-                let row = d[0] * (coord(1, y) + d[1] * vz);
-                let src = &data[row..row + d[0]];
-                let dst = &mut labels[nx * (y + ny * z)..][..nx];
-                for (x, l) in dst.iter_mut().enumerate() {
-                    *l = classifier.material[classifier.bin(src[coord(0, x)].to_f32())];
-                }
-            }
-        }
-    });
+    // The region's voxels by material, in one pass: per material code, slice and row, the bit mask of
+    // the row's pixels of that material (`masks[(code · nz + z) · ny + y]`, bit x for pixel x).
+    let rows = nz * ny;
+    let mut masks = vec![0u32; (classifier.materials + 1) * rows];
+    let xs: Vec<usize> = (0..nx).map(|x| coord(0, x)).collect();
+    let region_rows = (0..nz).flat_map(|z| (0..ny).map(move |y| (z, y)));
+    let starts = region_rows.map(|(z, y)| d[0] * (coord(1, y) + d[1] * coord(2, z)));
+    crate::with_voxels!(&volume.voxels, data => classify_rows(data, classifier, starts, &xs, rows, &mut masks));
     // The blurred distance is read over the block and its one-voxel rim (G³); the unblurred one over
     // that grown by the blur (W per axis), whose window starts at (x0, y0) in the region.
     const G: usize = S + 2;
@@ -106,18 +100,16 @@ pub(super) fn build(volume: &Volume, classifier: &Classifier, b: [usize; 3], gra
     let (x0, y0) = (mx - 1 - R, my - 1 - R);
     // Only materials within reach of the block's occupancy matter: a labelled voxel in the window
     // grown by the ramp's half width and a cell.
-    let mut present: Vec<u8> = Vec::new();
-    for z in 0..nz {
-        for y in y0.saturating_sub(2)..(y0 + W + 2).min(ny) {
-            let row = &labels[nx * (y + ny * z)..][..nx];
-            for &m in &row[x0.saturating_sub(2)..(x0 + W + 2).min(nx)] {
-                if m != 0 && !present.contains(&m) {
-                    present.push(m);
-                }
-            }
-        }
-    }
-    present.sort_unstable();
+    let (xa, xb) = (x0.saturating_sub(2), (x0 + W + 2).min(nx));
+    let columns = (u32::MAX >> (32 - (xb - xa))) << xa;
+    let (ya, yb) = (y0.saturating_sub(2), (y0 + W + 2).min(ny));
+    let present: Vec<u8> = (1..=classifier.materials)
+        .filter(|&code| {
+            let of = &masks[code * rows..][..rows];
+            (0..nz).any(|z| of[z * ny + ya..z * ny + yb].iter().any(|&r| r & columns != 0))
+        })
+        .map(|code| code as u8)
+        .collect();
 
     let kernel = gaussian_kernel();
     let mut edt = Edt::new();
@@ -125,16 +117,13 @@ pub(super) fn build(volume: &Volume, classifier: &Classifier, b: [usize; 3], gra
     let mut unblurred = vec![0f32; W * W * nz];
     let mut bxy = vec![0f32; G * G * nz];
     let mut field = vec![0f32; G * G * G];
-    let mut inside = vec![false; nx * ny];
     let window = Window { x0, y0, n: W };
     for &m in &present {
         for z in 0..nz {
-            let lab = &labels[nx * ny * z..nx * ny * (z + 1)];
-            for (i, l) in inside.iter_mut().zip(lab) {
-                *i = *l == m;
-            }
+            // The slice's pixels of this material, a bit mask per row.
+            let inside = &masks[(usize::from(m) * nz + z) * ny..][..ny];
             let slice = &mut unblurred[W * W * z..W * W * (z + 1)];
-            if let Some(c) = edt.signed(&inside, nx, ny, wx, wy, window, slice) {
+            if let Some(c) = edt.signed(inside, nx, wx, wy, window, slice) {
                 // All on one side: the blur keeps the constant.
                 bxy[G * G * z..G * G * (z + 1)].iter_mut().for_each(|v| *v = c);
                 continue;
@@ -216,25 +205,68 @@ struct Window {
 /// Far: larger than any squared distance within the clamp.
 const FAR: f32 = 1e20;
 
+/// The widest slice region a block reads (pixels a row): the block's edge and, each side, the clamp's
+/// reach in pixels of the finer in-plane spacing (at most [`LABEL_REACH`]), the blur and one more
+/// (`build`'s margins), so that a row of it is one `u32` bit mask.
+const MAX_ROW: usize = S + 2 * (LABEL_REACH as usize + LABEL_RADIUS + 1);
+const _: () = assert!(MAX_ROW <= 32);
+
+/// Classify a slice region's rows (each row's first voxel at one of `starts`, its pixels at columns
+/// `xs` of it) into `masks`: for the region's row `r` and a pixel of material `code` at `x`, bit x of
+/// `masks[code · rows + r]` (code 0, no material, included). One-byte voxels take their code from a
+/// table of their 256 values, built once here instead of a bin computed per voxel.
+fn classify_rows<T: Voxel>(
+    data: &[T],
+    classifier: &Classifier,
+    starts: impl Iterator<Item = usize>,
+    xs: &[usize],
+    rows: usize,
+    masks: &mut [u32],
+) {
+    debug_assert!(xs.len() <= MAX_ROW);
+    let code_of = |v: T| classifier.material[classifier.bin(v.to_f32())];
+    let bytes: Option<[u8; 256]> = (std::mem::size_of::<T>() == 1)
+        .then(|| std::array::from_fn(|b| bytemuck::try_cast::<u8, T>(b as u8).map_or(0, code_of)));
+    for (r, start) in starts.enumerate() {
+        let src = &data[start..];
+        // The run of one code being read, its bits gathered here and stored when the code changes (label
+        // rows are long runs of one material): no store and reload of the same mask at every voxel.
+        let (mut run, mut bits) = (0u8, 0u32);
+        for (x, &at) in xs.iter().enumerate() {
+            let v = src[at];
+            let code = match &bytes {
+                Some(table) => table[usize::from(bytemuck::cast::<T, u8>(v))],
+                None => code_of(v),
+            };
+            if code != run {
+                masks[usize::from(run) * rows + r] |= bits;
+                (run, bits) = (code, 0);
+            }
+            bits |= 1 << x;
+        }
+        masks[usize::from(run) * rows + r] |= bits;
+    }
+}
+
 /// Scratch space of the bounded squared Euclidean distance transform: exact distances along each row
-/// (two scans), then along the columns a minimum over the rows within the clamp. Exact up to
-/// [`LABEL_REACH`], which is all the clamped distance needs.
+/// (the nearest boundary pixel either side, found in the row's bit mask), then along the columns a
+/// minimum over the rows within the clamp. Exact up to [`LABEL_REACH`], which is all the clamped
+/// distance needs.
 struct Edt {
     /// Squared distance along x to the nearest feature of the row, per row and window column.
     rows: Vec<f32>,
-    edge: Vec<bool>,
-    hor_or: Vec<bool>,
-    hor_and: Vec<bool>,
+    /// Per row, the boundary pixels (bit x for pixel x).
+    edge: Vec<u32>,
 }
 
 impl Edt {
     fn new() -> Edt {
-        Edt { rows: Vec::new(), edge: Vec::new(), hor_or: Vec::new(), hor_and: Vec::new() }
+        Edt { rows: Vec::new(), edge: Vec::new() }
     }
 
     /// Signed distance (in-plane voxels of length 1 for weight 1; positive outside), over `window`,
-    /// of the pixels of an `nx × ny` slice to the boundary of `inside`, half a voxel past the
-    /// boundary pixels' centres, clamped to ±REACH.
+    /// of the pixels of a slice of `nx` pixels a row (`inside`: one bit mask a row) to the boundary of
+    /// the pixels inside, half a voxel past the boundary pixels' centres, clamped to ±REACH.
     ///
     /// One transform serves both signs: its features are the boundary pixels (those with a neighbour,
     /// diagonals included, on the other side). The pixel on the other side nearest to any pixel is such a boundary pixel
@@ -243,9 +275,119 @@ impl Edt {
     /// and `k` from the other's, and `±(distance + ½)` is its distance to the boundary between pixel
     /// centres (exact along the axes, within a fraction of a voxel elsewhere, before the blur).
     /// Returns the value when the whole slice lies on one side (every pixel ±REACH).
-    #[allow(clippy::too_many_arguments)]
-    fn signed(
-        &mut self,
+    fn signed(&mut self, inside: &[u32], nx: usize, wx: f32, wy: f32, window: Window, out: &mut [f32]) -> Option<f32> {
+        assert!((1..=32).contains(&nx), "a slice region of {nx} pixels a row (at most {MAX_ROW} in `build`)");
+        let ny = inside.len();
+        let full = u32::MAX >> (32 - nx);
+        if inside.iter().all(|&r| r == 0) || inside.iter().all(|&r| r == full) {
+            let s = if inside[0] == 0 { LABEL_REACH } else { -LABEL_REACH };
+            out.iter_mut().for_each(|o| *o = s);
+            return Some(s);
+        }
+        let Window { x0, y0, n } = window;
+        // A pixel is on the boundary when its 3×3 neighbourhood (clamped at the region's edge) is not all
+        // on its side: separably, the neighbourhood's OR (dilation) and AND (erosion), row then column.
+        // Along a row: the pixel before (the first pixel its own) and after (the last its own).
+        let along = |r: u32| {
+            let before = (r << 1 | r & 1) & full;
+            let after = r >> 1 | r & (1 << (nx - 1));
+            (before | r | after, before & r & after)
+        };
+        let edge = &mut self.edge;
+        edge.clear();
+        for y in 0..ny {
+            let (a, c, b) = (along(inside[y.saturating_sub(1)]), along(inside[y]), along(inside[(y + 1).min(ny - 1)]));
+            let (or, and) = (a.0 | c.0 | b.0, a.1 & c.1 & b.1);
+            let i = inside[y];
+            edge.push((i & !and | !i & or) & full);
+        }
+        // Along x: the nearest feature at or before, and at or after, each window column.
+        let rows = &mut self.rows;
+        rows.clear();
+        rows.resize(ny * n, FAR);
+        for (e, r) in edge.iter().zip(rows.chunks_exact_mut(n)) {
+            if *e == 0 {
+                continue;
+            }
+            for (xw, v) in r.iter_mut().enumerate() {
+                let x = x0 + xw;
+                // Features at pixels 0..=x, and at x.. (x < nx ≤ 32).
+                let before = *e & (u32::MAX >> (31 - x));
+                if before != 0 {
+                    let dx = (x - (31 - before.leading_zeros() as usize)) as f32;
+                    *v = wx * dx * dx;
+                }
+                let after = *e >> x;
+                if after != 0 {
+                    let dx = after.trailing_zeros() as f32;
+                    *v = v.min(wx * dx * dx);
+                }
+            }
+        }
+        // Along y: the nearest row within the clamp.
+        let reach = (LABEL_REACH / wy.sqrt()).ceil() as usize + 1;
+        let half = 0.5 * wx.min(wy).sqrt();
+        let mut best = vec![FAR; n];
+        for yw in 0..n {
+            let y = y0 + yw;
+            best.iter_mut().for_each(|b| *b = FAR);
+            for yy in y.saturating_sub(reach)..(y + reach + 1).min(ny) {
+                let dy = yy as f32 - y as f32;
+                let c = wy * dy * dy;
+                for (b, r) in best.iter_mut().zip(&rows[n * yy..n * (yy + 1)]) {
+                    *b = b.min(r + c);
+                }
+            }
+            for (xw, b) in best.iter().enumerate() {
+                let d = b.sqrt() + half;
+                let is_inside = inside[y] >> (x0 + xw) & 1 == 1;
+                out[xw + n * yw] = if is_inside { -d } else { d }.clamp(-LABEL_REACH, LABEL_REACH);
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The bit masks of a slice given pixel by pixel.
+    fn masks(inside: &[bool], nx: usize) -> Vec<u32> {
+        inside.chunks_exact(nx).map(|r| r.iter().enumerate().fold(0, |m, (x, &i)| m | (u32::from(i) << x))).collect()
+    }
+
+    #[test]
+    fn signed_distance_matches_brute_force_on_a_small_grid() {
+        let (nx, ny) = (7usize, 5usize);
+        let mut inside = vec![false; nx * ny];
+        inside[3 + nx * 2] = true;
+        inside[4 + nx * 2] = true;
+        let mut e = Edt::new();
+        let n = ny;
+        let mut out = vec![0f32; n * n];
+        e.signed(&masks(&inside, nx), nx, 1.0, 1.0, Window { x0: 1, y0: 0, n }, &mut out);
+        for y in 0..n {
+            for x in 1..1 + n {
+                let brute = (0..nx * ny)
+                    .filter(|i| inside[*i])
+                    .map(|i| {
+                        let (px, py) = ((i % nx) as f32, (i / nx) as f32);
+                        ((x as f32 - px).powi(2) + (y as f32 - py).powi(2)).sqrt()
+                    })
+                    .fold(f32::INFINITY, f32::min);
+                let got = out[(x - 1) + n * y];
+                let want = if inside[x + nx * y] { -0.5 } else { brute - 0.5 };
+                // Exact along the axis through the pixels, within half a voxel off it.
+                let tol = if y == 2 { 1e-5 } else { 0.5 };
+                assert!((got - want).abs() <= tol, "({x}, {y}): {got} vs {want}");
+            }
+        }
+    }
+
+    /// The transform as it was first written, pixel by pixel over `bool`s (two scans a row, the
+    /// neighbourhoods as vectors of flags): the reference the bit-mask transform must equal exactly.
+    fn reference_signed(
         inside: &[bool],
         nx: usize,
         ny: usize,
@@ -263,9 +405,7 @@ impl Edt {
         let Window { x0, y0, n } = window;
         // A pixel is on the boundary when its 3×3 neighbourhood (clamped at the region's edge) is not all
         // on its side: separably, the neighbourhood's OR (dilation) and AND (erosion), row then column.
-        let (hor_or, hor_and) = (&mut self.hor_or, &mut self.hor_and);
-        hor_or.clear();
-        hor_and.clear();
+        let (mut hor_or, mut hor_and) = (Vec::new(), Vec::new());
         for y in 0..ny {
             let r = &inside[nx * y..nx * (y + 1)];
             for x in 0..nx {
@@ -274,8 +414,7 @@ impl Edt {
                 hor_and.push(a & b & c);
             }
         }
-        let edge = &mut self.edge;
-        edge.clear();
+        let mut edge = Vec::new();
         for y in 0..ny {
             let (ya, yb) = (nx * y.saturating_sub(1), nx * (y + 1).min(ny - 1));
             let yc = nx * y;
@@ -286,9 +425,7 @@ impl Edt {
             }
         }
         // Along x: the nearest feature left and right of each window column.
-        let rows = &mut self.rows;
-        rows.clear();
-        rows.resize(ny * n, FAR);
+        let mut rows = vec![FAR; ny * n];
         for y in 0..ny {
             let e = &edge[nx * y..nx * (y + 1)];
             let r = &mut rows[n * y..n * (y + 1)];
@@ -335,37 +472,108 @@ impl Edt {
         }
         None
     }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
 
     #[test]
-    fn signed_distance_matches_brute_force_on_a_small_grid() {
-        let (nx, ny) = (7usize, 5usize);
-        let mut inside = vec![false; nx * ny];
-        inside[3 + nx * 2] = true;
-        inside[4 + nx * 2] = true;
+    fn the_bit_mask_transform_equals_the_pixel_by_pixel_one_exactly() {
+        // Regions as `build` makes them (30 × 30 at the frog's spacing, narrower with a coarser x or y
+        // spacing), blobs and stripes of every density, in-plane weights of square and oblong pixels.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
         let mut e = Edt::new();
-        let n = ny;
-        let mut out = vec![0f32; n * n];
-        e.signed(&inside, nx, ny, 1.0, 1.0, Window { x0: 1, y0: 0, n }, &mut out);
-        for y in 0..n {
-            for x in 1..1 + n {
-                let brute = (0..nx * ny)
-                    .filter(|i| inside[*i])
-                    .map(|i| {
-                        let (px, py) = ((i % nx) as f32, (i / nx) as f32);
-                        ((x as f32 - px).powi(2) + (y as f32 - py).powi(2)).sqrt()
-                    })
-                    .fold(f32::INFINITY, f32::min);
-                let got = out[(x - 1) + n * y];
-                let want = if inside[x + nx * y] { -0.5 } else { brute - 0.5 };
-                // Exact along the axis through the pixels, within half a voxel off it.
-                let tol = if y == 2 { 1e-5 } else { 0.5 };
-                assert!((got - want).abs() <= tol, "({x}, {y}): {got} vs {want}");
+        let mut cases = 0;
+        for (nx, ny, wx, wy) in
+            [(30, 30, 1.0, 1.0), (30, 22, 1.0, 4.0), (18, 30, 2.25, 1.0), (9, 5, 1.0, 1.0), (32, 32, 1.0, 1.0)]
+        {
+            let n = (nx.min(ny) - 2).min(14);
+            let window = Window { x0: (nx - n) / 2, y0: (ny - n) / 2, n };
+            for density in [0u64, 1, 8, 32, 64, 128, 200, 255, 256] {
+                for _ in 0..40 {
+                    let inside: Vec<bool> = (0..nx * ny).map(|_| next() % 256 < density).collect();
+                    let mut want = vec![0f32; n * n];
+                    let mut got = vec![1f32; n * n];
+                    let a = reference_signed(&inside, nx, ny, wx, wy, window, &mut want);
+                    let b = e.signed(&masks(&inside, nx), nx, wx, wy, window, &mut got);
+                    assert_eq!(a, b, "{nx}×{ny} density {density}");
+                    let same = want.iter().zip(&got).all(|(p, q)| p.to_bits() == q.to_bits());
+                    assert!(same, "{nx}×{ny} density {density}: {want:?} against {got:?}");
+                    cases += 1;
+                }
             }
+        }
+        assert_eq!(cases, 5 * 9 * 40);
+    }
+
+    /// The region's rows classified into masks in one pass ([`classify_rows`], one-byte voxels by their
+    /// table) are each material's pixels as the classifier gives them voxel by voxel, on every voxel type,
+    /// with columns clamped at the grid's edge as `build` clamps them (repeated first and last columns).
+    #[test]
+    fn rows_classified_into_masks_are_the_classifiers_materials_voxel_by_voxel() {
+        use super::super::MaterialClass;
+        use crate::volume::Voxels;
+        let (dx, dy, dz) = (23usize, 5usize, 3usize);
+        let n = dx * dy * dz;
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        // Runs of one value (as label volumes have) and single voxels between them.
+        let mut raw = Vec::with_capacity(n);
+        while raw.len() < n {
+            let (v, run) = (next() % 40, 1 + next() % 9);
+            raw.extend(std::iter::repeat_n(v, run as usize));
+        }
+        raw.truncate(n);
+        let volumes: Vec<(&str, Voxels)> = vec![
+            ("u8", raw.iter().map(|&v| v as u8).collect::<Vec<u8>>().into()),
+            ("i8", raw.iter().map(|&v| v as i8 - 20).collect::<Vec<i8>>().into()),
+            ("u16", raw.iter().map(|&v| (v * 300) as u16).collect::<Vec<u16>>().into()),
+            ("f32", raw.iter().map(|&v| v as f32 * 0.5).collect::<Vec<f32>>().into()),
+        ];
+        for (name, voxels) in volumes {
+            let vol = Volume::new(std::path::Path::new(name), [dx, dy, dz], [1.0; 3], voxels).expect("a volume");
+            let [lo, hi] = vol.value_range;
+            let w = hi - lo;
+            let mats = [
+                MaterialClass::new([lo + 0.1 * w, lo + 0.3 * w], 0.5),
+                MaterialClass::new([lo + 0.35 * w, lo + 0.38 * w], 0.5),
+                MaterialClass::new([lo + 0.6 * w, hi], 0.5),
+                MaterialClass::new([lo + 0.4 * w, lo + 0.5 * w], 0.0),
+            ];
+            let classifier = Classifier::new(&vol, &mats, 0.5, 1);
+            // 30 columns from x = −4 (clamped to 0) to 25 (clamped to 22), as a brick's region at the edge.
+            let xs: Vec<usize> = (-4isize..26).map(|x| x.clamp(0, dx as isize - 1) as usize).collect();
+            let starts: Vec<usize> = (0..dz).flat_map(|z| (0..dy).map(move |y| dx * (y + dy * z))).collect();
+            let rows = starts.len();
+            let mut masks = vec![0u32; (classifier.materials + 1) * rows];
+            crate::with_voxels!(&vol.voxels, data => {
+                classify_rows(data, &classifier, starts.iter().copied(), &xs, rows, &mut masks)
+            });
+            let mut coded = [0usize; 5];
+            for (r, &start) in starts.iter().enumerate() {
+                for (x, &at) in xs.iter().enumerate() {
+                    let (ix, rest) = ((start + at) % dx, (start + at) / dx);
+                    let want = usize::from(classifier.material[classifier.bin(vol.at(ix, rest % dy, rest / dy))]);
+                    coded[want] += 1;
+                    for code in 0..=classifier.materials {
+                        let bit = masks[code * rows + r] >> x & 1 == 1;
+                        assert_eq!(
+                            bit,
+                            code == want,
+                            "{name}: row {r}, column {x}: code {code}, the classifier {want}"
+                        );
+                    }
+                }
+            }
+            // Every material but the transparent one, and no material, are met.
+            assert!(coded[..4].iter().all(|&c| c > 0) && coded[4] == 0, "{name}: codes met {coded:?}");
         }
     }
 
