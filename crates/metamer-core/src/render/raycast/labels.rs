@@ -213,8 +213,12 @@ const _: () = assert!(MAX_ROW <= 32);
 
 /// Classify a slice region's rows (each row's first voxel at one of `starts`, its pixels at columns
 /// `xs` of it) into `masks`: for the region's row `r` and a pixel of material `code` at `x`, bit x of
-/// `masks[code · rows + r]` (code 0, no material, included). One-byte voxels take their code from a
-/// table of their 256 values, built once here instead of a bin computed per voxel.
+/// `masks[code · rows + r]` (code 0, no material, is set only where read voxel by voxel: `build` never
+/// reads it).
+/// One-byte voxels take their code from a table of their 256 values, built once here instead of a bin
+/// computed per voxel; where a row's columns are consecutive voxels (every brick but those at the grid's
+/// x edges) they are compared 16 at a time with the table's runs of bytes of one material instead
+/// ([`ByteRuns`]).
 fn classify_rows<T: Voxel>(
     data: &[T],
     classifier: &Classifier,
@@ -223,11 +227,19 @@ fn classify_rows<T: Voxel>(
     rows: usize,
     masks: &mut [u32],
 ) {
-    debug_assert!(xs.len() <= MAX_ROW);
+    assert!(xs.len() <= 32, "a row of {} pixels in one u32 mask", xs.len());
     let code_of = |v: T| classifier.material[classifier.bin(v.to_f32())];
     let bytes: Option<[u8; 256]> = (std::mem::size_of::<T>() == 1)
         .then(|| std::array::from_fn(|b| bytemuck::try_cast::<u8, T>(b as u8).map_or(0, code_of)));
+    let consecutive = xs.windows(2).all(|w| w[1] == w[0] + 1);
+    let runs = bytes.as_ref().filter(|_| consecutive).and_then(ByteRuns::of);
     for (r, start) in starts.enumerate() {
+        if let (Some(runs), Some(&first)) = (&runs, xs.first())
+            && let Some(row) = bytemuck::cast_slice::<T, u8>(data).get(start + first..start + first + 32)
+        {
+            runs.classify(row, xs.len(), |code, bits| masks[usize::from(code) * rows + r] |= bits);
+            continue;
+        }
         let src = &data[start..];
         // The run of one code being read, its bits gathered here and stored when the code changes (label
         // rows are long runs of one material): no store and reload of the same mask at every voxel.
@@ -245,6 +257,69 @@ fn classify_rows<T: Voxel>(
             bits |= 1 << x;
         }
         masks[usize::from(run) * rows + r] |= bits;
+    }
+}
+
+/// A one-byte voxel table's materials as runs of consecutive byte values of one material code:
+/// `(first byte, last − first, code)`. Label volumes map a few ranges of label numbers to materials, so a
+/// row of bytes is classified by a few range comparisons instead of a table read per byte.
+struct ByteRuns(Vec<(u8, u8, u8)>);
+
+impl ByteRuns {
+    /// The runs of `table`'s nonzero codes, or None when there are more than [`ByteRuns::MAX`] (a table
+    /// read per byte is then as cheap).
+    fn of(table: &[u8; 256]) -> Option<ByteRuns> {
+        let mut runs: Vec<(u8, u8, u8)> = Vec::new();
+        for (b, &code) in table.iter().enumerate() {
+            match runs.last_mut() {
+                Some((first, span, c)) if *c == code && usize::from(*first) + usize::from(*span) + 1 == b => *span += 1,
+                _ if code != 0 => runs.push((b as u8, 0, code)),
+                _ => {}
+            }
+        }
+        (runs.len() <= Self::MAX).then_some(ByteRuns(runs))
+    }
+
+    const MAX: usize = 24;
+
+    /// For each run, `found(code, bits)` with bit x set for each of the first `n` bytes of `row` in the run
+    /// (`row` holds 32 bytes; `n` ≤ 32). Nothing is reported for bytes of no material.
+    #[inline]
+    fn classify(&self, row: &[u8], n: usize, mut found: impl FnMut(u8, u32)) {
+        let row: &[u8; 32] = row.try_into().expect("32 bytes of a row");
+        let within = u32::MAX >> (32 - n);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{
+                _mm_cmpeq_epi8, _mm_loadu_si128, _mm_max_epu8, _mm_movemask_epi8, _mm_set1_epi8, _mm_sub_epi8,
+            };
+            // SAFETY: SSE2 is part of x86-64's baseline; the loads read the 32 bytes of `row` (two unaligned
+            // 16-byte loads), the rest works on registers.
+            unsafe {
+                let (lo, hi) = (_mm_loadu_si128(row.as_ptr().cast()), _mm_loadu_si128(row.as_ptr().add(16).cast()));
+                for &(first, span, code) in &self.0 {
+                    // In the run: byte − first ≤ span, unsigned (max(d, span) == span).
+                    let (f, s) = (_mm_set1_epi8(first as i8), _mm_set1_epi8(span as i8));
+                    let inside = |v| {
+                        let d = _mm_sub_epi8(v, f);
+                        _mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(d, s), s)) as u32 & 0xffff
+                    };
+                    let bits = (inside(lo) | inside(hi) << 16) & within;
+                    if bits != 0 {
+                        found(code, bits);
+                    }
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        for &(first, span, code) in &self.0 {
+            let bits =
+                row.iter().enumerate().fold(0u32, |m, (x, &b)| m | (u32::from(b.wrapping_sub(first) <= span) << x));
+            let bits = bits & within;
+            if bits != 0 {
+                found(code, bits);
+            }
+        }
     }
 }
 
@@ -508,14 +583,15 @@ mod tests {
         assert_eq!(cases, 5 * 9 * 40);
     }
 
-    /// The region's rows classified into masks in one pass ([`classify_rows`], one-byte voxels by their
-    /// table) are each material's pixels as the classifier gives them voxel by voxel, on every voxel type,
-    /// with columns clamped at the grid's edge as `build` clamps them (repeated first and last columns).
+    /// The region's rows classified into masks in one pass ([`classify_rows`]: one-byte voxels by their
+    /// table, or by its runs where a row's columns are consecutive) are each material's pixels as the
+    /// classifier gives them voxel by voxel, on every voxel type, with columns clamped at the grid's edge
+    /// as `build` clamps them (repeated first columns) and consecutive ones.
     #[test]
     fn rows_classified_into_masks_are_the_classifiers_materials_voxel_by_voxel() {
         use super::super::MaterialClass;
         use crate::volume::Voxels;
-        let (dx, dy, dz) = (23usize, 5usize, 3usize);
+        let (dx, dy, dz) = (40usize, 5usize, 3usize);
         let n = dx * dy * dz;
         let mut seed = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = move || {
@@ -548,32 +624,38 @@ mod tests {
                 MaterialClass::new([lo + 0.4 * w, lo + 0.5 * w], 0.0),
             ];
             let classifier = Classifier::new(&vol, &mats, 0.5, 1);
-            // 30 columns from x = −4 (clamped to 0) to 25 (clamped to 22), as a brick's region at the edge.
-            let xs: Vec<usize> = (-4isize..26).map(|x| x.clamp(0, dx as isize - 1) as usize).collect();
-            let starts: Vec<usize> = (0..dz).flat_map(|z| (0..dy).map(move |y| dx * (y + dy * z))).collect();
-            let rows = starts.len();
-            let mut masks = vec![0u32; (classifier.materials + 1) * rows];
-            crate::with_voxels!(&vol.voxels, data => {
-                classify_rows(data, &classifier, starts.iter().copied(), &xs, rows, &mut masks)
-            });
-            let mut coded = [0usize; 5];
-            for (r, &start) in starts.iter().enumerate() {
-                for (x, &at) in xs.iter().enumerate() {
-                    let (ix, rest) = ((start + at) % dx, (start + at) / dx);
-                    let want = usize::from(classifier.material[classifier.bin(vol.at(ix, rest % dy, rest / dy))]);
-                    coded[want] += 1;
-                    for code in 0..=classifier.materials {
-                        let bit = masks[code * rows + r] >> x & 1 == 1;
-                        assert_eq!(
-                            bit,
-                            code == want,
-                            "{name}: row {r}, column {x}: code {code}, the classifier {want}"
-                        );
+            // 30 columns from x = −4 (clamped to 0) to 25, as a brick's region at the grid's edge; 30
+            // consecutive ones inside (the last rows' 32 bytes run past the voxels: read voxel by voxel).
+            let edge: Vec<usize> = (-4isize..26).map(|x| x.clamp(0, dx as isize - 1) as usize).collect();
+            let inner: Vec<usize> = (9..39).collect();
+            for xs in [edge, inner] {
+                let starts: Vec<usize> = (0..dz).flat_map(|z| (0..dy).map(move |y| dx * (y + dy * z))).collect();
+                let rows = starts.len();
+                let mut masks = vec![0u32; (classifier.materials + 1) * rows];
+                crate::with_voxels!(&vol.voxels, data => {
+                    classify_rows(data, &classifier, starts.iter().copied(), &xs, rows, &mut masks)
+                });
+                let mut coded = [0usize; 5];
+                for (r, &start) in starts.iter().enumerate() {
+                    for (x, &at) in xs.iter().enumerate() {
+                        let (ix, rest) = ((start + at) % dx, (start + at) / dx);
+                        let want = classifier.material[classifier.bin(vol.at(ix, rest % dy, rest / dy))];
+                        let want = usize::from(want);
+                        coded[want] += 1;
+                        // Code 0 (no material) is not read: a run of bytes leaves it unset.
+                        for code in 1..=classifier.materials {
+                            let bit = masks[code * rows + r] >> x & 1 == 1;
+                            assert_eq!(
+                                bit,
+                                code == want,
+                                "{name}: row {r}, column {x}: code {code}, the classifier {want}"
+                            );
+                        }
                     }
                 }
+                // Every material but the transparent one, and no material, are met.
+                assert!(coded[..4].iter().all(|&c| c > 0) && coded[4] == 0, "{name}: codes met {coded:?}");
             }
-            // Every material but the transparent one, and no material, are met.
-            assert!(coded[..4].iter().all(|&c| c > 0) && coded[4] == 0, "{name}: codes met {coded:?}");
         }
     }
 
