@@ -103,6 +103,14 @@ pub(super) struct Cursor<'a> {
     block: Option<BlockRef<'a>>,
 }
 
+impl Cursor<'_> {
+    /// The block of the brick the cursor was last moved to ([`Fields::block`]), with that brick's index.
+    #[inline(always)]
+    pub(super) fn held(&self) -> Option<(&Block, usize)> {
+        self.block.as_deref().map(|b| (b, self.brick))
+    }
+}
+
 /// A block as a ray holds it: borrowed from a [`Fields`] that never evicts (no reference count to
 /// touch, so threads sharing a block share no written cache line), or counted while evictions may
 /// drop it from the cache.

@@ -2,7 +2,7 @@
 
 use super::block::{FIELD_BRICK, S3};
 use super::classify::{BrickMap, Classifier, EMPTY, LUT_BINS, MIXED, Spans};
-use super::fields::{BlockRef, CELL, CORNERS, Cursor, Fields, corner_weights};
+use super::fields::{CELL, CORNERS, Cursor, Fields, corner_weights};
 use super::labels::{self, LABEL_REACH, SDF_UNIT};
 #[cfg(target_arch = "x86_64")]
 use super::lanes;
@@ -83,10 +83,13 @@ struct Located {
     f: [f32; 3],
 }
 
-/// A label sample before compositing.
-struct LabelSample<'a> {
-    /// Held here: the substeps before this sample's composite may move the ray's cursor.
-    block: Option<BlockRef<'a>>,
+/// A label sample before compositing. Its block is the one the cursor it was taken with holds: nothing
+/// moves that cursor before the sample is composited ([`RayContext::march`] takes the substeps before it
+/// with a cursor of their own), so the sample holds no block of its own (a counted block's reference count
+/// was touched twice a sample).
+struct LabelSample {
+    /// The field brick of the sample's block (`usize::MAX`: no fields).
+    brick: usize,
     base: usize,
     f: [f32; 3],
     /// Occupancy per material of the block (normalised to sum at most 1).
@@ -161,7 +164,7 @@ trait Sampler<'a> {
 struct Labels;
 
 impl<'a> Sampler<'a> for Labels {
-    type Sample = LabelSample<'a>;
+    type Sample = LabelSample;
     #[inline(always)]
     fn sample(
         ctx: &RayContext<'a>,
@@ -169,11 +172,11 @@ impl<'a> Sampler<'a> for Labels {
         at: Located,
         _: u8,
         cursor: &mut Cursor<'a>,
-    ) -> Result<LabelSample<'a>, [usize; 3]> {
+    ) -> Result<LabelSample, [usize; 3]> {
         ctx.label_sample(at, cursor)
     }
     #[inline(always)]
-    fn edge(s: &LabelSample<'a>) -> Edge {
+    fn edge(s: &LabelSample) -> Edge {
         Edge { near: s.near, material: 0, level: s.total }
     }
     #[inline(always)]
@@ -188,14 +191,15 @@ impl<'a> Sampler<'a> for Labels {
     #[inline(always)]
     fn composite(
         ctx: &RayContext<'a>,
-        s: &LabelSample<'a>,
+        s: &LabelSample,
         sub: bool,
         transmittance: f32,
         out: &mut [f32],
-        _: &mut Cursor<'a>,
+        cursor: &mut Cursor<'a>,
     ) -> f32 {
         let c = ctx.classifier;
-        ctx.composite_labels(s, if sub { &c.material_alpha_sub } else { &c.material_alpha }, transmittance, out)
+        let alpha = if sub { &c.material_alpha_sub } else { &c.material_alpha };
+        ctx.composite_labels(s, alpha, transmittance, out, cursor)
     }
 }
 
@@ -406,10 +410,10 @@ impl<'a> RayContext<'a> {
     /// Label sample: every nearby material's signed distance, interpolated trilinearly and turned into
     /// an occupancy ([`labels::ramp`]). `Err` names the field brick when no material reaches it.
     #[inline(always)]
-    fn label_sample(&self, at: Located, cursor: &mut Cursor<'a>) -> Result<LabelSample<'a>, [usize; 3]> {
+    fn label_sample(&self, at: Located, cursor: &mut Cursor<'a>) -> Result<LabelSample, [usize; 3]> {
         let Some(fields) = self.fields else {
             return Ok(LabelSample {
-                block: None,
+                brick: usize::MAX,
                 base: 0,
                 f: [0.0; 3],
                 occ: [0.0; MAX_MATERIALS],
@@ -450,15 +454,24 @@ impl<'a> RayContext<'a> {
             occ[..n].iter_mut().for_each(|o| *o /= sum);
             sum = 1.0;
         }
-        Ok(LabelSample { block: Some(block.clone()), base, f, occ, total: sum, near })
+        let brick = cursor.held().map_or(usize::MAX, |(_, brick)| brick);
+        Ok(LabelSample { brick, base, f, occ, total: sum, near })
     }
 
     /// Composite a label sample with per-material opacities `alpha` (for the step it stands for): each
     /// material's occupancy times its opacity, shaded by its own distance gradient. Adds their weights,
     /// returns the opacity absorbed.
     #[inline(always)]
-    fn composite_labels(&self, s: &LabelSample<'a>, alpha: &[f32], transmittance: f32, out: &mut [f32]) -> f32 {
-        let (Some(block), Some(fields)) = (s.block.as_deref(), self.fields) else { return 0.0 };
+    fn composite_labels(
+        &self,
+        s: &LabelSample,
+        alpha: &[f32],
+        transmittance: f32,
+        out: &mut [f32],
+        cursor: &Cursor<'a>,
+    ) -> f32 {
+        let (Some((block, brick)), Some(fields)) = (cursor.held(), self.fields) else { return 0.0 };
+        debug_assert_eq!(brick, s.brick, "the cursor moved between the sample and its composite");
         if s.total <= 0.0 {
             return 0.0;
         }
@@ -869,6 +882,8 @@ impl<'a> RayContext<'a> {
         // The step after a refined entry into a dense material is refined as well.
         let mut carry = false;
         let mut cursor = Cursor::default();
+        // The substeps' own: a sample is composited with the block its cursor holds, after the substeps.
+        let mut sub_cursor = Cursor::default();
         while k + jitter <= t1 {
             let t = k + jitter;
             let p = [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
@@ -926,8 +941,8 @@ impl<'a> RayContext<'a> {
                     let pj = [origin[0] + tj * dir[0], origin[1] + tj * dir[1], origin[2] + tj * dir[2]];
                     stats.samples += 1;
                     // A substep may lie in the brick before this sample's: reconstruct it in full.
-                    let Ok(sj) = K::sample(self, pj, self.locate(pj), MIXED, &mut cursor) else { continue };
-                    let absorbed = K::composite(self, &sj, true, transmittance, out, &mut cursor);
+                    let Ok(sj) = K::sample(self, pj, self.locate(pj), MIXED, &mut sub_cursor) else { continue };
+                    let absorbed = K::composite(self, &sj, true, transmittance, out, &mut sub_cursor);
                     if self.attenuate(absorbed, &mut transmittance, stats) {
                         return;
                     }
