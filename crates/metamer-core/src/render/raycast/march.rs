@@ -99,6 +99,12 @@ struct LabelSample {
     near: bool,
 }
 
+impl Default for LabelSample {
+    fn default() -> LabelSample {
+        LabelSample { brick: usize::MAX, base: 0, f: [0.0; 3], occ: [0.0; MAX_MATERIALS], total: 0.0, near: false }
+    }
+}
+
 /// What the refinement test compares at the two ends of a step.
 #[derive(Clone, Copy)]
 struct Edge {
@@ -132,17 +138,20 @@ impl Edge {
 /// it (label mode; value classes have their own loop, [`RayContext::march_values`], generic over the
 /// voxel type instead).
 trait Sampler<'a> {
-    type Sample;
-    /// The sample at index-space point `p`, or the field brick no material reaches (label mode).
-    /// `uniform`: the material (index + 1) every value of the sample's brick maps to, or
-    /// [`MIXED`] (value classes only; label mode always passes `MIXED`).
+    /// Held by the marcher and filled in place for each sample (a label sample's occupancies are an array
+    /// of [`MAX_MATERIALS`]: returned by value, it was copied several times a sample).
+    type Sample: Default;
+    /// The sample at index-space point `p` into `into`, or the field brick no material reaches (label
+    /// mode; `into` then unchanged). `uniform`: the material (index + 1) every value of the sample's brick
+    /// maps to, or [`MIXED`] (value classes only; label mode always passes `MIXED`).
     fn sample(
         ctx: &RayContext<'a>,
         p: [f64; 3],
         at: Located,
         uniform: u8,
         cursor: &mut Cursor<'a>,
-    ) -> Result<Self::Sample, [usize; 3]>;
+        into: &mut Self::Sample,
+    ) -> Result<(), [usize; 3]>;
     fn edge(s: &Self::Sample) -> Edge;
     /// Whether the step between samples with these edges is refined.
     fn refine(a: &Edge, b: &Edge) -> bool;
@@ -172,8 +181,9 @@ impl<'a> Sampler<'a> for Labels {
         at: Located,
         _: u8,
         cursor: &mut Cursor<'a>,
-    ) -> Result<LabelSample, [usize; 3]> {
-        ctx.label_sample(at, cursor)
+        into: &mut LabelSample,
+    ) -> Result<(), [usize; 3]> {
+        ctx.label_sample(at, cursor, into)
     }
     #[inline(always)]
     fn edge(s: &LabelSample) -> Edge {
@@ -410,16 +420,10 @@ impl<'a> RayContext<'a> {
     /// Label sample: every nearby material's signed distance, interpolated trilinearly and turned into
     /// an occupancy ([`labels::ramp`]). `Err` names the field brick when no material reaches it.
     #[inline(always)]
-    fn label_sample(&self, at: Located, cursor: &mut Cursor<'a>) -> Result<LabelSample, [usize; 3]> {
+    fn label_sample(&self, at: Located, cursor: &mut Cursor<'a>, into: &mut LabelSample) -> Result<(), [usize; 3]> {
         let Some(fields) = self.fields else {
-            return Ok(LabelSample {
-                brick: usize::MAX,
-                base: 0,
-                f: [0.0; 3],
-                occ: [0.0; MAX_MATERIALS],
-                total: 0.0,
-                near: false,
-            });
+            *into = LabelSample::default();
+            return Ok(());
         };
         let Located { i, f, .. } = at;
         let (block, base) = fields.block(i, cursor);
@@ -428,10 +432,11 @@ impl<'a> RayContext<'a> {
             return Err(fields.brick_of(i));
         }
         let w = corner_weights(f);
-        let mut occ = [0f32; MAX_MATERIALS];
+        // Only the block's materials' entries are written and read.
+        let occ = &mut into.occ[..n];
         let mut sum = 0.0;
         let mut near = false;
-        for (j, o) in occ[..n].iter_mut().enumerate() {
+        for (j, o) in occ.iter_mut().enumerate() {
             let q = &block.sdf[j * S3 + base..][..CELL];
             let mut v = 0.0;
             let (mut lo, mut hi) = (u16::MAX, 0u16);
@@ -451,11 +456,12 @@ impl<'a> RayContext<'a> {
         }
         // Where three materials meet, the occupancies may sum a little above 1.
         if sum > 1.0 {
-            occ[..n].iter_mut().for_each(|o| *o /= sum);
+            occ.iter_mut().for_each(|o| *o /= sum);
             sum = 1.0;
         }
-        let brick = cursor.held().map_or(usize::MAX, |(_, brick)| brick);
-        Ok(LabelSample { brick, base, f, occ, total: sum, near })
+        into.brick = cursor.held().map_or(usize::MAX, |(_, brick)| brick);
+        (into.base, into.f, into.total, into.near) = (base, f, sum, near);
+        Ok(())
     }
 
     /// Composite a label sample with per-material opacities `alpha` (for the step it stands for): each
@@ -884,6 +890,8 @@ impl<'a> RayContext<'a> {
         let mut cursor = Cursor::default();
         // The substeps' own: a sample is composited with the block its cursor holds, after the substeps.
         let mut sub_cursor = Cursor::default();
+        // The samples, filled in place: the step's and a substep's.
+        let (mut sample, mut sub) = (K::Sample::default(), K::Sample::default());
         while k + jitter <= t1 {
             let t = k + jitter;
             let p = [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
@@ -907,8 +915,8 @@ impl<'a> RayContext<'a> {
             }
             stats.samples += 1;
             stats.uniform += u64::from(uniform != MIXED);
-            let sample = match K::sample(self, p, at, uniform, &mut cursor) {
-                Ok(s) => s,
+            match K::sample(self, p, at, uniform, &mut cursor, &mut sample) {
+                Ok(()) => {}
                 // No material reaches this field brick: with skipping on, jump over it.
                 Err(b) => {
                     prev = Edge::EMPTY;
@@ -923,7 +931,7 @@ impl<'a> RayContext<'a> {
                     }
                     continue;
                 }
-            };
+            }
             let edge = K::edge(&sample);
             let crossing = self.substeps > 1 && K::refine(&prev, &edge);
             let refine = crossing || carry;
@@ -941,8 +949,10 @@ impl<'a> RayContext<'a> {
                     let pj = [origin[0] + tj * dir[0], origin[1] + tj * dir[1], origin[2] + tj * dir[2]];
                     stats.samples += 1;
                     // A substep may lie in the brick before this sample's: reconstruct it in full.
-                    let Ok(sj) = K::sample(self, pj, self.locate(pj), MIXED, &mut sub_cursor) else { continue };
-                    let absorbed = K::composite(self, &sj, true, transmittance, out, &mut sub_cursor);
+                    let Ok(()) = K::sample(self, pj, self.locate(pj), MIXED, &mut sub_cursor, &mut sub) else {
+                        continue;
+                    };
+                    let absorbed = K::composite(self, &sub, true, transmittance, out, &mut sub_cursor);
                     if self.attenuate(absorbed, &mut transmittance, stats) {
                         return;
                     }
