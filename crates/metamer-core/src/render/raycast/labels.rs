@@ -263,7 +263,12 @@ fn classify_rows<T: Voxel>(
 /// A one-byte voxel table's materials as runs of consecutive byte values of one material code:
 /// `(first byte, last − first, code)`. Label volumes map a few ranges of label numbers to materials, so a
 /// row of bytes is classified by a few range comparisons instead of a table read per byte.
-struct ByteRuns(Vec<(u8, u8, u8)>);
+struct ByteRuns {
+    runs: Vec<(u8, u8, u8)>,
+    /// Per run, its first byte and its span in every byte lane, made once rather than per row.
+    #[cfg(target_arch = "x86_64")]
+    lanes: Vec<[std::arch::x86_64::__m128i; 2]>,
+}
 
 impl ByteRuns {
     /// The runs of `table`'s nonzero codes, or None when there are more than [`ByteRuns::MAX`] (a table
@@ -277,7 +282,23 @@ impl ByteRuns {
                 _ => {}
             }
         }
-        (runs.len() <= Self::MAX).then_some(ByteRuns(runs))
+        if runs.len() > Self::MAX {
+            return None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        let lanes = runs
+            .iter()
+            .map(|&(first, span, _)| {
+                use std::arch::x86_64::_mm_set1_epi8;
+                // SAFETY: SSE2 is part of x86-64's baseline; this only fills registers.
+                unsafe { [_mm_set1_epi8(first as i8), _mm_set1_epi8(span as i8)] }
+            })
+            .collect();
+        Some(ByteRuns {
+            runs,
+            #[cfg(target_arch = "x86_64")]
+            lanes,
+        })
     }
 
     const MAX: usize = 24;
@@ -290,16 +311,13 @@ impl ByteRuns {
         let within = u32::MAX >> (32 - n);
         #[cfg(target_arch = "x86_64")]
         {
-            use std::arch::x86_64::{
-                _mm_cmpeq_epi8, _mm_loadu_si128, _mm_max_epu8, _mm_movemask_epi8, _mm_set1_epi8, _mm_sub_epi8,
-            };
+            use std::arch::x86_64::{_mm_cmpeq_epi8, _mm_loadu_si128, _mm_max_epu8, _mm_movemask_epi8, _mm_sub_epi8};
             // SAFETY: SSE2 is part of x86-64's baseline; the loads read the 32 bytes of `row` (two unaligned
             // 16-byte loads), the rest works on registers.
             unsafe {
                 let (lo, hi) = (_mm_loadu_si128(row.as_ptr().cast()), _mm_loadu_si128(row.as_ptr().add(16).cast()));
-                for &(first, span, code) in &self.0 {
+                for (&(_, _, code), &[f, s]) in self.runs.iter().zip(&self.lanes) {
                     // In the run: byte − first ≤ span, unsigned (max(d, span) == span).
-                    let (f, s) = (_mm_set1_epi8(first as i8), _mm_set1_epi8(span as i8));
                     let inside = |v| {
                         let d = _mm_sub_epi8(v, f);
                         _mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(d, s), s)) as u32 & 0xffff
@@ -312,7 +330,7 @@ impl ByteRuns {
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
-        for &(first, span, code) in &self.0 {
+        for &(first, span, code) in &self.runs {
             let bits =
                 row.iter().enumerate().fold(0u32, |m, (x, &b)| m | (u32::from(b.wrapping_sub(first) <= span) << x));
             let bits = bits & within;
