@@ -270,9 +270,9 @@ pub enum FieldStore {
     /// Every block the raycast can build fits the cap: each built once, never evicted, read without a
     /// lock.
     Pinned,
-    /// Capped, the block whose last pixel row comes soonest evicted first; the rows of tiles traced one
-    /// after another, `rows` pixel rows each, so an evicted block is one the rays have passed.
-    Capped { rows: usize },
+    /// Capped, the block whose last pixel row comes soonest evicted first; bands of tile rows traced one
+    /// after another, `least` to `most` pixel rows each, so an evicted block is one the rays have passed.
+    Capped { least: usize, most: usize },
 }
 
 impl std::fmt::Display for FieldStore {
@@ -280,7 +280,12 @@ impl std::fmt::Display for FieldStore {
         match self {
             FieldStore::None => write!(f, "no store"),
             FieldStore::Pinned => write!(f, "pinned store"),
-            FieldStore::Capped { rows } => write!(f, "capped store, tile rows of {rows} px traced in turn"),
+            FieldStore::Capped { least, most } if least == most => {
+                write!(f, "capped store, bands of {most} px rows traced in turn")
+            }
+            FieldStore::Capped { least, most } => {
+                write!(f, "capped store, bands of {least}–{most} px rows traced in turn")
+            }
         }
     }
 }
@@ -460,15 +465,11 @@ pub(super) fn raycast_with(
         height: h,
     };
 
-    // Tiles of TILE columns × `rows` rows. While field blocks may be evicted, the rows of tiles are traced
-    // one after another (each row's tiles in parallel), so the blocks in use at once are those under one
-    // row of tiles and the brick projections reaching into the next: a block leaves the cache once the
-    // rays past it are done, and is not needed again.
-    let room = fields.as_ref().and_then(Fields::room);
-    let rows = room
-        .map_or(TILE, |r| band_rows(r, reachable.unwrap_or_else(|| fields::brick_count(volume)), &view, volume, w, h));
-    let tiles_x = w.div_ceil(TILE);
-    let tiles_y = h.div_ceil(rows);
+    // Tiles of TILE columns × `rows` rows. While field blocks may be evicted, bands of rows of tiles are
+    // traced one after another (each band's tiles in parallel), so the blocks in use at once are those
+    // under one band and the brick projections reaching into the next: a block leaves the cache once the
+    // rays past it are done, and is not needed again. A band's height is set from the blocks built so far
+    // ([`Bands`]).
     // The weights, written in place by the rays: each tile holds its rows' stretches of `data` (rows of
     // pixels split at the tiles' columns), so no tile needs a buffer of its own to be copied in after
     // (4 MiB of fresh pages and a serial copy at 384² with seven materials).
@@ -476,24 +477,14 @@ pub(super) fn raycast_with(
     // pages in while they trace, and with the advice the step-1 engine scene's raycast was 1.04 of the
     // advised-and-copied form's time with two threads against 1.01 without it (41 pairs, session 50).
     let mut data = vec![0f32; w * h * n_mat];
-    let mut parts: Vec<Vec<&mut [f32]>> = (0..tiles_x * tiles_y).map(|_| Vec::with_capacity(rows)).collect();
-    if n_mat > 0 {
-        for (py, row) in data.chunks_mut(w * n_mat).enumerate() {
-            for (tx, part) in row.chunks_mut(TILE * n_mat).enumerate() {
-                parts[(py / rows) * tiles_x + tx].push(part);
-            }
-        }
-    }
-    let trace_tile = |t: usize, mut tile: Vec<&mut [f32]>| {
-        let (tx, ty) = (t % tiles_x, t / tiles_x);
+    let tiles_x = w.div_ceil(TILE);
+    let split = |band, y0, rows| Tile::split(band, y0, rows, w, n_mat);
+    let trace_tile = |Tile { tx, y0, rows, mut parts }: Tile<'_>| {
         let mut stats = RaycastStats::default();
         for j in 0..rows {
-            let py = ty * rows + j;
-            if py >= h {
-                break;
-            }
+            let py = y0 + j;
             // Without materials there are no weights, but the rays are still traced (their counters).
-            let part: &mut [f32] = match tile.get_mut(j) {
+            let part: &mut [f32] = match parts.get_mut(j) {
                 Some(p) => p,
                 None => &mut [],
             };
@@ -507,17 +498,32 @@ pub(super) fn raycast_with(
         }
         stats
     };
-    let tiles: Vec<RaycastStats> = if room.is_some() {
-        let mut parts = parts.into_iter();
-        (0..tiles_y)
-            .flat_map(|ty| {
-                let band: Vec<_> = parts.by_ref().take(tiles_x).collect();
-                band.into_par_iter().enumerate().map(|(i, tile)| trace_tile(ty * tiles_x + i, tile)).collect::<Vec<_>>()
-            })
-            .collect()
-    } else {
-        parts.into_par_iter().enumerate().map(|(t, tile)| trace_tile(t, tile)).collect()
-    };
+    let mut tiles: Vec<RaycastStats> = Vec::with_capacity(tiles_x * h.div_ceil(TILE));
+    let mut band_range: Option<(usize, usize)> = None;
+    match fields.as_ref().filter(|f| f.room().is_some()) {
+        Some(f) => {
+            let mut bands = Bands::new(reachable.unwrap_or_else(|| fields::brick_count(volume)), &view, volume, w, h);
+            let (mut rest, mut y0) = (&mut data[..], 0);
+            while y0 < h {
+                let rows = bands.next(f.room_now()).min(h - y0);
+                band_range = Some(band_range.map_or((rows, rows), |(lo, hi)| (lo.min(rows), hi.max(rows))));
+                let (band, tail) = std::mem::take(&mut rest).split_at_mut(rows * w * n_mat);
+                rest = tail;
+                tiles.extend(split(band, y0, rows).into_par_iter().map(trace_tile).collect::<Vec<_>>());
+                y0 += rows;
+            }
+        }
+        None => {
+            let (mut rest, mut parts) = (&mut data[..], Vec::with_capacity(tiles_x * h.div_ceil(TILE)));
+            for y0 in (0..h).step_by(TILE) {
+                let rows = TILE.min(h - y0);
+                let (band, tail) = std::mem::take(&mut rest).split_at_mut(rows * w * n_mat);
+                rest = tail;
+                parts.extend(split(band, y0, rows));
+            }
+            tiles = parts.into_par_iter().map(trace_tile).collect();
+        }
+    }
     let mut stats = RaycastStats::default();
     for s in &tiles {
         stats.add(s);
@@ -526,7 +532,10 @@ pub(super) fn raycast_with(
         let u = f.usage();
         (stats.field_blocks, stats.field_bytes, stats.field_evicted, stats.field_cap, stats.field_peak) =
             (u.built, u.built_bytes, u.evicted, u.cap, u.peak);
-        stats.field_store = if room.is_some() { FieldStore::Capped { rows } } else { FieldStore::Pinned };
+        stats.field_store = match band_range {
+            Some((least, most)) => FieldStore::Capped { least, most },
+            None => FieldStore::Pinned,
+        };
     }
     if let Some(t) = &table {
         (stats.bricks, stats.empty_bricks, stats.uniform_bricks) =
@@ -535,26 +544,69 @@ pub(super) fn raycast_with(
     (MaterialWeights { width: w, height: h, materials: n_mat, data }, stats)
 }
 
-/// Tile edge in pixels (columns; rows too unless [`band_rows`] makes them fewer).
+/// A tile's place (column of tiles `tx`, `rows` pixel rows from `y0`) and its rows' stretches of the
+/// weights.
+struct Tile<'d> {
+    tx: usize,
+    y0: usize,
+    rows: usize,
+    parts: Vec<&'d mut [f32]>,
+}
+
+impl<'d> Tile<'d> {
+    /// The tiles of the `rows` pixel rows from `y0` of a `w`-pixel-wide image, `band` their weights.
+    fn split(band: &'d mut [f32], y0: usize, rows: usize, w: usize, n_mat: usize) -> Vec<Tile<'d>> {
+        let mut tiles: Vec<Tile<'d>> =
+            (0..w.div_ceil(TILE)).map(|tx| Tile { tx, y0, rows, parts: Vec::with_capacity(rows) }).collect();
+        if n_mat > 0 {
+            for row in band.chunks_mut(w * n_mat) {
+                for (tx, part) in row.chunks_mut(TILE * n_mat).enumerate() {
+                    tiles[tx].parts.push(part);
+                }
+            }
+        }
+        tiles
+    }
+}
+
+/// Tile edge in pixels (columns; rows too unless [`Bands`] makes them fewer).
 const TILE: usize = 16;
 
-/// Rows per tile while field blocks may be evicted (the tile rows then traced one after another): the
-/// most of 16, 8, 4, 2, 1 whose blocks in use at once fit half the cap's `room` (in blocks). Those are
-/// estimated as the `bricks` that can be reached, spread evenly over the image's height, that project
-/// onto one row of tiles or reach into it from the next (a brick's projection is at most its diagonal).
-/// The other half leaves room for rows that cross more bricks than the average.
-fn band_rows(room: u64, bricks: usize, view: &View, volume: &Volume, w: usize, h: usize) -> usize {
-    let s = volume.spacing;
-    // World units per pixel, the image's height, a brick's diagonal.
-    let pixel = 2.0 * view.half_extent / w as f64;
-    let image = pixel * h as f64;
-    let brick = block::FIELD_BRICK as f64 * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
-    let per_height = bricks as f64 / (image + brick);
-    let mut rows = TILE;
-    while rows > 1 && per_height * (rows as f64 * pixel + brick) > room as f64 / 2.0 {
-        rows /= 2;
+/// The heights of the bands of tile rows traced in turn while field blocks may be evicted: per band, the
+/// most of 16, 8, 4, 2, 1 rows whose blocks in use at once fit half the cap's room (in blocks, from the
+/// blocks' mean size so far: [`Fields::room_now`]), and at most twice the band before. The blocks in use
+/// are estimated as the `bricks` that can be reached, spread evenly over the image's height, that project
+/// onto one band or reach into it from the next (a brick's projection is at most its diagonal). The other
+/// half of the room is for bands that cross more bricks than the average; the doubling, for blocks that
+/// grow larger than the first ones. Only the time depends on it: eviction counts the blocks' real bytes.
+struct Bands {
+    /// Reachable bricks per world unit of the image's height.
+    per_height: f64,
+    /// World units per pixel row; a brick's diagonal.
+    pixel: f64,
+    brick: f64,
+    /// The band before's height (none yet: 1, so the first band may have 2 rows).
+    last: usize,
+}
+
+impl Bands {
+    fn new(bricks: usize, view: &View, volume: &Volume, w: usize, h: usize) -> Bands {
+        let s = volume.spacing;
+        let pixel = 2.0 * view.half_extent / w as f64;
+        let image = pixel * h as f64;
+        let brick = block::FIELD_BRICK as f64 * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+        Bands { per_height: bricks as f64 / (image + brick), pixel, brick, last: 1 }
     }
-    rows
+
+    /// The next band's height for a cap of `room` blocks.
+    fn next(&mut self, room: u64) -> usize {
+        let mut rows = TILE.min(2 * self.last);
+        while rows > 1 && self.per_height * (rows as f64 * self.pixel + self.brick) > room as f64 / 2.0 {
+            rows /= 2;
+        }
+        self.last = rows;
+        rows
+    }
 }
 
 /// Per field brick (x fastest), the last pixel row whose ray can reach it: the lowest row its box

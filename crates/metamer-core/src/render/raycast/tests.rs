@@ -378,7 +378,10 @@ fn a_capped_field_cache_traced_in_bands_builds_each_block_about_once() {
     // The stats name the store: pinned when everything fits, capped (rows traced in turn) otherwise, none
     // when no field is needed.
     assert_eq!(s_whole.field_store, FieldStore::Pinned);
-    assert!(matches!(s.field_store, FieldStore::Capped { rows } if (1..=16).contains(&rows)), "{s:?}");
+    assert!(
+        matches!(s.field_store, FieldStore::Capped { least, most } if 1 <= least && least <= most && most <= 16),
+        "{s:?}"
+    );
     let (_, s_flat) = raycast(&engine, &thin, None, &cam, &RaycastOptions { shading: Shading::Unshaded, ..base });
     assert_eq!((s_flat.field_store, s_flat.field_blocks), (FieldStore::None, 0));
 }
@@ -840,4 +843,31 @@ fn a_group_is_empty_only_when_all_its_bricks_are_and_the_largest_is_found_first(
     assert_eq!(spans.empty_around([18, 8, 4]), None);
     // [16, 8, 4]: the 8-group [2, 1, 0] and the 4-group [4, 2, 1] hold [19, 8, 4]; the 2-group [8, 4, 2] is empty.
     assert_eq!(spans.empty_around([16, 8, 4]), Some(([8, 4, 2], 2)));
+}
+
+#[test]
+fn capped_label_blocks_are_traced_in_bands_sized_by_the_blocks_built() {
+    // Eight labels in slabs of the x axis: a block holds one or two of them, while the store's worst case
+    // (the one it must assume before any is built) holds all eight. A cap that fits an eighth of the
+    // blocks of that worst case starts with bands of one pixel row; the blocks built show they are far
+    // smaller, so the bands grow, and no block is built twice, and the image is the pinned store's.
+    let n = 64;
+    let mut data = vec![0f32; n * n * n];
+    for (i, v) in data.iter_mut().enumerate() {
+        *v = (1 + (i % n) / 8) as f32;
+    }
+    let vol = Volume::new(Path::new("slabs"), [n, n, n], [1.0; 3], data).unwrap();
+    let mats: Vec<_> = (1..=8).map(|k| MaterialClass::new([k as f32, k as f32], 0.01)).collect();
+    let cam = Camera { azimuth_deg: 30.0, elevation_deg: 40.0, ..Camera::default() };
+    let base = RaycastOptions { width: 96, height: 96, interpolation: Interpolation::Labels, ..Default::default() };
+    let (whole, s_whole) = raycast(&vol, &mats, None, &cam, &base);
+    assert_eq!((s_whole.field_store, s_whole.field_evicted), (FieldStore::Pinned, 0));
+    let slots = s_whole.field_peak - s_whole.field_bytes;
+    let largest = (8 * 8 * 729 + 8 + 128) as u64;
+    let cap = slots + s_whole.field_blocks * largest / 8;
+    let (img, s) = raycast(&vol, &mats, None, &cam, &RaycastOptions { field_cache: Some(cap), ..base });
+    assert!(img.data == whole.data, "the cap changed the image");
+    assert!(matches!(s.field_store, FieldStore::Capped { least: 1, most } if most > 2), "{s:?}");
+    assert_eq!(s.field_blocks, s_whole.field_blocks, "a block was built twice: {s:?}");
+    assert!(s.field_peak <= cap + largest, "{} resident, cap {cap}", s.field_peak);
 }
