@@ -653,7 +653,7 @@ impl<'a> Fields<'a> {
 /// callers clamp to ±32767 first; the truncation is then the plain conversion instruction instead of
 /// the saturating `as` (a range and NaN test per entry: a quarter of a gradient block's build).
 #[inline(always)]
-fn round_half_away(c: f32) -> i32 {
+pub(super) fn round_half_away(c: f32) -> i32 {
     debug_assert!(c.is_nan() || c.abs() <= 32767.0, "{c}");
     // NaN (0 · ∞ where a field's span underflows) becomes 0, as the saturating cast made it.
     let c = if c.is_nan() { 0.0 } else { c };
