@@ -232,8 +232,8 @@ const _: () = assert!(MAX_ROW <= 32);
 /// reads it).
 /// One-byte voxels take their code from a table of their 256 values, built once here instead of a bin
 /// computed per voxel; where a row's columns are consecutive voxels (every brick but those at the grid's
-/// x edges) they are compared 16 at a time with the table's runs of bytes of one material instead
-/// ([`ByteRuns`]).
+/// x edges) they are compared 16 at a time with each distinct byte of the row instead
+/// ([`classify_bytes`]).
 fn classify_rows<T: Voxel>(
     data: &[T],
     classifier: &Classifier,
@@ -247,12 +247,12 @@ fn classify_rows<T: Voxel>(
     let bytes: Option<[u8; 256]> = (std::mem::size_of::<T>() == 1)
         .then(|| std::array::from_fn(|b| bytemuck::try_cast::<u8, T>(b as u8).map_or(0, code_of)));
     let consecutive = xs.windows(2).all(|w| w[1] == w[0] + 1);
-    let runs = bytes.as_ref().filter(|_| consecutive).and_then(ByteRuns::of);
+    let rows_of_bytes = bytes.as_ref().filter(|_| consecutive);
     for (r, start) in starts.enumerate() {
-        if let (Some(runs), Some(&first)) = (&runs, xs.first())
+        if let (Some(table), Some(&first)) = (rows_of_bytes, xs.first())
             && let Some(row) = bytemuck::cast_slice::<T, u8>(data).get(start + first..start + first + 32)
         {
-            runs.classify(row, xs.len(), |code, bits| masks[usize::from(code) * rows + r] |= bits);
+            classify_bytes(row, xs.len(), table, |code, bits| masks[usize::from(code) * rows + r] |= bits);
             continue;
         }
         let src = &data[start..];
@@ -275,83 +275,43 @@ fn classify_rows<T: Voxel>(
     }
 }
 
-/// A one-byte voxel table's materials as runs of consecutive byte values of one material code:
-/// `(first byte, last − first, code)`. Label volumes map a few ranges of label numbers to materials, so a
-/// row of bytes is classified by a few range comparisons instead of a table read per byte.
-struct ByteRuns {
-    runs: Vec<(u8, u8, u8)>,
-    /// Per run, its first byte and its span in every byte lane, made once rather than per row.
+/// For each distinct byte among the first `n` of `row` (32 bytes; `n` ≤ 32) whose `table` code is a
+/// material, `found(code, bits)` with bit x set for each of those bytes equal to it. A label row holds few
+/// distinct values (long runs of one label), so this takes one comparison of the row per value, 16 bytes
+/// at a time, instead of a comparison per range of labels of one material (the frog's table has more
+/// ranges than a row has values) or a table read per byte.
+#[inline]
+fn classify_bytes(row: &[u8], n: usize, table: &[u8; 256], mut found: impl FnMut(u8, u32)) {
+    let row: &[u8; 32] = row.try_into().expect("32 bytes of a row");
+    let mut rest = u32::MAX >> (32 - n);
     #[cfg(target_arch = "x86_64")]
-    lanes: Vec<[std::arch::x86_64::__m128i; 2]>,
-}
-
-impl ByteRuns {
-    /// The runs of `table`'s nonzero codes, or None when there are more than [`ByteRuns::MAX`] (a table
-    /// read per byte is then as cheap).
-    fn of(table: &[u8; 256]) -> Option<ByteRuns> {
-        let mut runs: Vec<(u8, u8, u8)> = Vec::new();
-        for (b, &code) in table.iter().enumerate() {
-            match runs.last_mut() {
-                Some((first, span, c)) if *c == code && usize::from(*first) + usize::from(*span) + 1 == b => *span += 1,
-                _ if code != 0 => runs.push((b as u8, 0, code)),
-                _ => {}
-            }
-        }
-        if runs.len() > Self::MAX {
-            return None;
-        }
-        #[cfg(target_arch = "x86_64")]
-        let lanes = runs
-            .iter()
-            .map(|&(first, span, _)| {
-                use std::arch::x86_64::_mm_set1_epi8;
-                // SAFETY: SSE2 is part of x86-64's baseline; this only fills registers.
-                unsafe { [_mm_set1_epi8(first as i8), _mm_set1_epi8(span as i8)] }
-            })
-            .collect();
-        Some(ByteRuns {
-            runs,
-            #[cfg(target_arch = "x86_64")]
-            lanes,
-        })
-    }
-
-    const MAX: usize = 24;
-
-    /// For each run, `found(code, bits)` with bit x set for each of the first `n` bytes of `row` in the run
-    /// (`row` holds 32 bytes; `n` ≤ 32). Nothing is reported for bytes of no material.
-    #[inline]
-    fn classify(&self, row: &[u8], n: usize, mut found: impl FnMut(u8, u32)) {
-        let row: &[u8; 32] = row.try_into().expect("32 bytes of a row");
-        let within = u32::MAX >> (32 - n);
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_mm_cmpeq_epi8, _mm_loadu_si128, _mm_max_epu8, _mm_movemask_epi8, _mm_sub_epi8};
-            // SAFETY: SSE2 is part of x86-64's baseline; the loads read the 32 bytes of `row` (two unaligned
-            // 16-byte loads), the rest works on registers.
-            unsafe {
-                let (lo, hi) = (_mm_loadu_si128(row.as_ptr().cast()), _mm_loadu_si128(row.as_ptr().add(16).cast()));
-                for (&(_, _, code), &[f, s]) in self.runs.iter().zip(&self.lanes) {
-                    // In the run: byte − first ≤ span, unsigned (max(d, span) == span).
-                    let inside = |v| {
-                        let d = _mm_sub_epi8(v, f);
-                        _mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(d, s), s)) as u32 & 0xffff
-                    };
-                    let bits = (inside(lo) | inside(hi) << 16) & within;
-                    if bits != 0 {
-                        found(code, bits);
-                    }
+    {
+        use std::arch::x86_64::{_mm_cmpeq_epi8, _mm_loadu_si128, _mm_movemask_epi8, _mm_set1_epi8};
+        // SAFETY: SSE2 is part of x86-64's baseline; the loads read the 32 bytes of `row` (two unaligned
+        // 16-byte loads), the rest works on registers.
+        unsafe {
+            let (lo, hi) = (_mm_loadu_si128(row.as_ptr().cast()), _mm_loadu_si128(row.as_ptr().add(16).cast()));
+            while rest != 0 {
+                let v = row[rest.trailing_zeros() as usize];
+                let splat = _mm_set1_epi8(v as i8);
+                let eq = |half| _mm_movemask_epi8(_mm_cmpeq_epi8(half, splat)) as u32 & 0xffff;
+                let bits = (eq(lo) | eq(hi) << 16) & rest;
+                rest &= !bits;
+                let code = table[usize::from(v)];
+                if code != 0 {
+                    found(code, bits);
                 }
             }
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        for &(first, span, code) in &self.runs {
-            let bits =
-                row.iter().enumerate().fold(0u32, |m, (x, &b)| m | (u32::from(b.wrapping_sub(first) <= span) << x));
-            let bits = bits & within;
-            if bits != 0 {
-                found(code, bits);
-            }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    while rest != 0 {
+        let v = row[rest.trailing_zeros() as usize];
+        let bits = row.iter().enumerate().fold(0u32, |m, (x, &b)| m | (u32::from(b == v) << x)) & rest;
+        rest &= !bits;
+        let code = table[usize::from(v)];
+        if code != 0 {
+            found(code, bits);
         }
     }
 }
@@ -637,7 +597,7 @@ mod tests {
     }
 
     /// The region's rows classified into masks in one pass ([`classify_rows`]: one-byte voxels by their
-    /// table, or by its runs where a row's columns are consecutive) are each material's pixels as the
+    /// table, or by its distinct bytes where a row's columns are consecutive) are each material's pixels as the
     /// classifier gives them voxel by voxel, on every voxel type, with columns clamped at the grid's edge
     /// as `build` clamps them (repeated first columns) and consecutive ones.
     #[test]
@@ -695,7 +655,7 @@ mod tests {
                         let want = classifier.material[classifier.bin(vol.at(ix, rest % dy, rest / dy))];
                         let want = usize::from(want);
                         coded[want] += 1;
-                        // Code 0 (no material) is not read: a run of bytes leaves it unset.
+                        // Code 0 (no material) is not read: the rows compared byte value by value leave it unset.
                         for code in 1..=classifier.materials {
                             let bit = masks[code * rows + r] >> x & 1 == 1;
                             assert_eq!(
