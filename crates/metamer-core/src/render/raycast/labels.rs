@@ -66,6 +66,13 @@ pub(super) const GRAD_SCALE: f32 = LABEL_REACH / i16::MAX as f32;
 
 /// Build the label fields of brick `b`, each voxel's material (index + 1, 0 for none) by `classifier`.
 pub(super) fn build(volume: &Volume, classifier: &Classifier, b: [usize; 3], gradients: bool) -> LabelBlock {
+    build_with(volume, classifier, b, gradients, 0)
+}
+
+/// [`build`], transforming the materials with a voxel within `margin` voxels more than it needs (any
+/// margin gives the same block: the tests compare them).
+#[inline(always)]
+fn build_with(volume: &Volume, classifier: &Classifier, b: [usize; 3], gradients: bool, margin: usize) -> LabelBlock {
     const R: usize = LABEL_RADIUS;
     let d = volume.dims;
     let sp = volume.spacing;
@@ -98,15 +105,22 @@ pub(super) fn build(volume: &Volume, classifier: &Classifier, b: [usize; 3], gra
     const G: usize = S + 2;
     const W: usize = G + 2 * LABEL_RADIUS;
     let (x0, y0) = (mx - 1 - R, my - 1 - R);
-    // Only materials within reach of the block's occupancy matter: a labelled voxel in the window
-    // grown by the ramp's half width and a cell.
-    let (xa, xb) = (x0.saturating_sub(2), (x0 + W + 2).min(nx));
+    // Only materials that can be stored matter (some voxel of the block with a blurred distance below
+    // the ramp's outer edge, 1 voxel: `any` below). The blur averages over ±R per axis, so a blurred
+    // distance below 1 needs an unblurred one below 1 within ±R, which only a voxel of the material or
+    // one next to it in its slice has (any other is a whole voxel from the nearest boundary pixel, at
+    // distance ≥ 1.5). So a material with no voxel within ±(R + 1) in-plane and ±R across slices of the
+    // block's voxels is never stored: it is not transformed at all. That window is the unblurred one
+    // (W columns and rows from (x0, y0)) and the slices 1..nz − 1. (`margin` widens it, for the test
+    // that checks the blocks do not change.)
+    let (xa, xb) = (x0.saturating_sub(margin), (x0 + W + margin).min(nx));
     let columns = (u32::MAX >> (32 - (xb - xa))) << xa;
-    let (ya, yb) = (y0.saturating_sub(2), (y0 + W + 2).min(ny));
+    let (ya, yb) = (y0.saturating_sub(margin), (y0 + W + margin).min(ny));
+    let (za, zb) = (1usize.saturating_sub(margin), (nz - 1 + margin).min(nz));
     let present: Vec<u8> = (1..=classifier.materials)
         .filter(|&code| {
             let of = &masks[code * rows..][..rows];
-            (0..nz).any(|z| of[z * ny + ya..z * ny + yb].iter().any(|&r| r & columns != 0))
+            (za..zb).any(|z| of[z * ny + ya..z * ny + yb].iter().any(|&r| r & columns != 0))
         })
         .map(|code| code as u8)
         .collect();
@@ -594,6 +608,61 @@ mod tests {
             }
         }
         assert_eq!(cases, 5 * 9 * 40);
+    }
+
+    /// Materials with no voxel near enough to be stored are not transformed ([`build`]'s window): the
+    /// blocks are the ones of a window wide enough to take every material of the region, for every brick
+    /// of label volumes with blobs, slabs and lone voxels of five materials, on square and on unequal
+    /// in-plane spacings (the frog's 1 × 1 × 1.5; 1 × 1.6 × 2, whose x and y clamps differ).
+    #[test]
+    fn materials_skipped_as_out_of_reach_would_not_have_been_stored() {
+        use super::super::MaterialClass;
+        let (dx, dy, dz) = (44usize, 37usize, 29usize);
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut data = vec![0u8; dx * dy * dz];
+        // Blobs (balls of radius 1–6) of labels 1–5, then lone voxels.
+        for _ in 0..40 {
+            let c = [next() % dx as u64, next() % dy as u64, next() % dz as u64].map(|v| v as f64);
+            let (r, label) = (1.0 + (next() % 6) as f64, 1 + (next() % 5) as u8);
+            for (i, v) in data.iter_mut().enumerate() {
+                let p = [(i % dx) as f64, ((i / dx) % dy) as f64, (i / (dx * dy)) as f64];
+                if (0..3).map(|a| (p[a] - c[a]).powi(2)).sum::<f64>() <= r * r {
+                    *v = label;
+                }
+            }
+        }
+        for _ in 0..60 {
+            let i = (next() % data.len() as u64) as usize;
+            data[i] = 1 + (next() % 5) as u8;
+        }
+        let mats: Vec<_> = (1..=5).map(|k| MaterialClass::new([k as f32, k as f32], 0.5)).collect();
+        let (mut blocks, mut stored) = (0, 0);
+        for spacing in [[1.0, 1.0, 1.5], [1.0, 1.6, 2.0]] {
+            let vol =
+                Volume::new(std::path::Path::new("blobs"), [dx, dy, dz], spacing, data.clone()).expect("a volume");
+            let classifier = Classifier::new(&vol, &mats, 0.5, 1);
+            let counts = [dx, dy, dz].map(|n| n.div_ceil(1 << SHIFT));
+            for b in (0..counts.iter().product())
+                .map(|i| [i % counts[0], (i / counts[0]) % counts[1], i / (counts[0] * counts[1])])
+            {
+                for gradients in [true, false] {
+                    let (tight, wide) =
+                        (build(&vol, &classifier, b, gradients), build_with(&vol, &classifier, b, gradients, 32));
+                    assert_eq!(tight.mats, wide.mats, "brick {b:?} spacing {spacing:?}");
+                    assert!(tight.sdf == wide.sdf && tight.grad == wide.grad, "brick {b:?} spacing {spacing:?}");
+                    blocks += 1;
+                    stored += tight.mats.len();
+                }
+            }
+        }
+        // The volumes exercise it: most blocks hold some material, and some more than one.
+        assert!(blocks > 200 && stored > blocks / 2, "{stored} materials stored in {blocks} blocks");
     }
 
     /// The region's rows classified into masks in one pass ([`classify_rows`]: one-byte voxels by their
