@@ -99,7 +99,7 @@ fn build_with(volume: &Volume, classifier: &Classifier, b: [usize; 3], gradients
     let xs: Vec<usize> = (0..nx).map(|x| coord(0, x)).collect();
     let region_rows = (0..nz).flat_map(|z| (0..ny).map(move |y| (z, y)));
     let starts = region_rows.map(|(z, y)| d[0] * (coord(1, y) + d[1] * coord(2, z)));
-    crate::with_voxels!(&volume.voxels, data => classify_rows(data, classifier, starts, &xs, rows, &mut masks));
+    crate::with_voxels!(&volume.voxels, data => classify_rows(data, classifier, starts, &xs, rows, &mut masks, ByteRows::Choose));
     // The blurred distance is read over the block and its one-voxel rim (G³); the unblurred one over
     // that grown by the blur (W per axis), whose window starts at (x0, y0) in the region.
     const G: usize = S + 2;
@@ -246,8 +246,9 @@ const _: () = assert!(MAX_ROW <= 32);
 /// reads it).
 /// One-byte voxels take their code from a table of their 256 values, built once here instead of a bin
 /// computed per voxel; where a row's columns are consecutive voxels (every brick but those at the grid's
-/// x edges) they are compared 16 at a time with each distinct byte of the row instead
-/// ([`classify_bytes`]).
+/// x edges) they are compared 16 at a time with each distinct byte of the row ([`classify_bytes`]), or
+/// with the table's runs of one material ([`ByteRuns`]) when the first rows hold more distinct bytes than
+/// the table has runs (`choice` forces either, for the tests).
 fn classify_rows<T: Voxel>(
     data: &[T],
     classifier: &Classifier,
@@ -255,6 +256,7 @@ fn classify_rows<T: Voxel>(
     xs: &[usize],
     rows: usize,
     masks: &mut [u32],
+    choice: ByteRows,
 ) {
     assert!(xs.len() <= 32, "a row of {} pixels in one u32 mask", xs.len());
     let code_of = |v: T| classifier.material[classifier.bin(v.to_f32())];
@@ -262,11 +264,27 @@ fn classify_rows<T: Voxel>(
         .then(|| std::array::from_fn(|b| bytemuck::try_cast::<u8, T>(b as u8).map_or(0, code_of)));
     let consecutive = xs.windows(2).all(|w| w[1] == w[0] + 1);
     let rows_of_bytes = bytes.as_ref().filter(|_| consecutive);
+    let runs = rows_of_bytes.and_then(ByteRuns::of).filter(|_| choice != ByteRows::Values);
+    // Distinct bytes compared in the first PROBE rows: more than the table's runs a row, and the rest are
+    // compared with the runs.
+    const PROBE: usize = 16;
+    let mut probed = 0;
     for (r, start) in starts.enumerate() {
         if let (Some(table), Some(&first)) = (rows_of_bytes, xs.first())
             && let Some(row) = bytemuck::cast_slice::<T, u8>(data).get(start + first..start + first + 32)
         {
-            classify_bytes(row, xs.len(), table, |code, bits| masks[usize::from(code) * rows + r] |= bits);
+            let mut found = |code: u8, bits| masks[usize::from(code) * rows + r] |= bits;
+            match &runs {
+                Some(runs) if choice == ByteRows::Runs || (r >= PROBE && probed > runs.runs.len() * PROBE) => {
+                    runs.classify(row, xs.len(), found)
+                }
+                _ => {
+                    let values = classify_bytes(row, xs.len(), table, &mut found);
+                    if r < PROBE {
+                        probed += values;
+                    }
+                }
+            }
             continue;
         }
         let src = &data[start..];
@@ -289,15 +307,110 @@ fn classify_rows<T: Voxel>(
     }
 }
 
+/// A one-byte voxel table's materials as runs of consecutive byte values of one material code:
+/// `(first byte, last − first, code)`. Label volumes map a few ranges of label numbers to materials, so a
+/// row of bytes is classified by a few range comparisons instead of a table read per byte.
+struct ByteRuns {
+    runs: Vec<(u8, u8, u8)>,
+    /// Per run, its first byte and its span in every byte lane, made once rather than per row.
+    #[cfg(target_arch = "x86_64")]
+    lanes: Vec<[std::arch::x86_64::__m128i; 2]>,
+}
+
+impl ByteRuns {
+    /// The runs of `table`'s nonzero codes, or None when there are more than [`ByteRuns::MAX`] (a table
+    /// read per byte is then as cheap).
+    fn of(table: &[u8; 256]) -> Option<ByteRuns> {
+        let mut runs: Vec<(u8, u8, u8)> = Vec::new();
+        for (b, &code) in table.iter().enumerate() {
+            match runs.last_mut() {
+                Some((first, span, c)) if *c == code && usize::from(*first) + usize::from(*span) + 1 == b => *span += 1,
+                _ if code != 0 => runs.push((b as u8, 0, code)),
+                _ => {}
+            }
+        }
+        if runs.len() > Self::MAX {
+            return None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        let lanes = runs
+            .iter()
+            .map(|&(first, span, _)| {
+                use std::arch::x86_64::_mm_set1_epi8;
+                // SAFETY: SSE2 is part of x86-64's baseline; this only fills registers.
+                unsafe { [_mm_set1_epi8(first as i8), _mm_set1_epi8(span as i8)] }
+            })
+            .collect();
+        Some(ByteRuns {
+            runs,
+            #[cfg(target_arch = "x86_64")]
+            lanes,
+        })
+    }
+
+    const MAX: usize = 24;
+
+    /// For each run, `found(code, bits)` with bit x set for each of the first `n` bytes of `row` in the run
+    /// (`row` holds 32 bytes; `n` ≤ 32). Nothing is reported for bytes of no material.
+    #[inline]
+    fn classify(&self, row: &[u8], n: usize, mut found: impl FnMut(u8, u32)) {
+        let row: &[u8; 32] = row.try_into().expect("32 bytes of a row");
+        let within = u32::MAX >> (32 - n);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_cmpeq_epi8, _mm_loadu_si128, _mm_max_epu8, _mm_movemask_epi8, _mm_sub_epi8};
+            // SAFETY: SSE2 is part of x86-64's baseline; the loads read the 32 bytes of `row` (two unaligned
+            // 16-byte loads), the rest works on registers.
+            unsafe {
+                let (lo, hi) = (_mm_loadu_si128(row.as_ptr().cast()), _mm_loadu_si128(row.as_ptr().add(16).cast()));
+                for (&(_, _, code), &[f, s]) in self.runs.iter().zip(&self.lanes) {
+                    // In the run: byte − first ≤ span, unsigned (max(d, span) == span).
+                    let inside = |v| {
+                        let d = _mm_sub_epi8(v, f);
+                        _mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(d, s), s)) as u32 & 0xffff
+                    };
+                    let bits = (inside(lo) | inside(hi) << 16) & within;
+                    if bits != 0 {
+                        found(code, bits);
+                    }
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        for &(first, span, code) in &self.runs {
+            let bits =
+                row.iter().enumerate().fold(0u32, |m, (x, &b)| m | (u32::from(b.wrapping_sub(first) <= span) << x));
+            let bits = bits & within;
+            if bits != 0 {
+                found(code, bits);
+            }
+        }
+    }
+}
+
+/// How [`classify_rows`] compares rows of consecutive one-byte voxels.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum ByteRows {
+    /// By their distinct bytes, or by the table's runs when the first rows have more bytes than runs.
+    Choose,
+    /// By their distinct bytes.
+    Values,
+    /// By the table's runs (where there are at most [`ByteRuns::MAX`]).
+    Runs,
+}
+
 /// For each distinct byte among the first `n` of `row` (32 bytes; `n` ≤ 32) whose `table` code is a
-/// material, `found(code, bits)` with bit x set for each of those bytes equal to it. A label row holds few
+/// material, `found(code, bits)` with bit x set for each of those bytes equal to it; how many distinct
+/// bytes there were. A label row holds few
 /// distinct values (long runs of one label), so this takes one comparison of the row per value, 16 bytes
 /// at a time, instead of a comparison per range of labels of one material (the frog's table has more
-/// ranges than a row has values) or a table read per byte.
+/// ranges than a row has values) or a table read per byte. A noisy volume (a CT read as labels) has many
+/// values a row, and its rows are compared with the ranges instead ([`classify_rows`] chooses).
 #[inline]
-fn classify_bytes(row: &[u8], n: usize, table: &[u8; 256], mut found: impl FnMut(u8, u32)) {
+fn classify_bytes(row: &[u8], n: usize, table: &[u8; 256], mut found: impl FnMut(u8, u32)) -> usize {
     let row: &[u8; 32] = row.try_into().expect("32 bytes of a row");
     let mut rest = u32::MAX >> (32 - n);
+    let mut values = 0;
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_cmpeq_epi8, _mm_loadu_si128, _mm_movemask_epi8, _mm_set1_epi8};
@@ -311,6 +424,7 @@ fn classify_bytes(row: &[u8], n: usize, table: &[u8; 256], mut found: impl FnMut
                 let eq = |half| _mm_movemask_epi8(_mm_cmpeq_epi8(half, splat)) as u32 & 0xffff;
                 let bits = (eq(lo) | eq(hi) << 16) & rest;
                 rest &= !bits;
+                values += 1;
                 let code = table[usize::from(v)];
                 if code != 0 {
                     found(code, bits);
@@ -323,11 +437,13 @@ fn classify_bytes(row: &[u8], n: usize, table: &[u8; 256], mut found: impl FnMut
         let v = row[rest.trailing_zeros() as usize];
         let bits = row.iter().enumerate().fold(0u32, |m, (x, &b)| m | (u32::from(b == v) << x)) & rest;
         rest &= !bits;
+        values += 1;
         let code = table[usize::from(v)];
         if code != 0 {
             found(code, bits);
         }
     }
+    values
 }
 
 /// The smaller of two squared distances (never NaN, never −0): `f32::min` without its NaN handling, which
@@ -710,12 +826,13 @@ mod tests {
             // consecutive ones inside (the last rows' 32 bytes run past the voxels: read voxel by voxel).
             let edge: Vec<usize> = (-4isize..26).map(|x| x.clamp(0, dx as isize - 1) as usize).collect();
             let inner: Vec<usize> = (9..39).collect();
-            for xs in [edge, inner] {
+            let choices = [ByteRows::Choose, ByteRows::Values, ByteRows::Runs];
+            for (xs, choice) in [edge, inner].into_iter().flat_map(|xs| choices.map(|c| (xs.clone(), c))) {
                 let starts: Vec<usize> = (0..dz).flat_map(|z| (0..dy).map(move |y| dx * (y + dy * z))).collect();
                 let rows = starts.len();
                 let mut masks = vec![0u32; (classifier.materials + 1) * rows];
                 crate::with_voxels!(&vol.voxels, data => {
-                    classify_rows(data, &classifier, starts.iter().copied(), &xs, rows, &mut masks)
+                    classify_rows(data, &classifier, starts.iter().copied(), &xs, rows, &mut masks, choice)
                 });
                 let mut coded = [0usize; 5];
                 for (r, &start) in starts.iter().enumerate() {
@@ -730,7 +847,7 @@ mod tests {
                             assert_eq!(
                                 bit,
                                 code == want,
-                                "{name}: row {r}, column {x}: code {code}, the classifier {want}"
+                                "{name} {choice:?}: row {r}, column {x}: code {code}, the classifier {want}"
                             );
                         }
                     }
