@@ -201,8 +201,9 @@ fn build_with(volume: &Volume, classifier: &Classifier, b: [usize; 3], gradients
     out
 }
 
-/// `c.round()` for `c` in [0, 65535] (NaN: 0; a float just above 65535 gives 65535, as the saturating `as u16` did), without the library call `round` is on x86-64's baseline
-/// (`roundf` was 2 % of the frog's render): the fraction `c − trunc(c)` is exact there.
+/// `c.round()` for `c` in [0, 65535] (NaN: 0; a float just above 65535 gives 65535, as the saturating
+/// `as u16` did), without the library call `round` is on x86-64's baseline (`roundf` was 2 % of the frog's
+/// render): the fraction `c − trunc(c)` is exact there.
 #[inline(always)]
 fn round_half_up(c: f32) -> u32 {
     debug_assert!(c.is_nan() || (0.0..=65536.0).contains(&c), "{c}");
@@ -400,12 +401,12 @@ enum ByteRows {
 }
 
 /// For each distinct byte among the first `n` of `row` (32 bytes; `n` ≤ 32) whose `table` code is a
-/// material, `found(code, bits)` with bit x set for each of those bytes equal to it; how many distinct
-/// bytes there were. A label row holds few
-/// distinct values (long runs of one label), so this takes one comparison of the row per value, 16 bytes
-/// at a time, instead of a comparison per range of labels of one material (the frog's table has more
-/// ranges than a row has values) or a table read per byte. A noisy volume (a CT read as labels) has many
-/// values a row, and its rows are compared with the ranges instead ([`classify_rows`] chooses).
+/// material, `found(code, bits)` with bit x set for each of those bytes equal to it; returns how many
+/// distinct bytes there were. A label row holds few distinct values (long runs of one label), so this
+/// takes one comparison of the row per value, 16 bytes at a time, instead of a comparison per range of
+/// labels of one material (the frog's table has more ranges than a row has values) or a table read per
+/// byte. A noisy volume (a CT read as labels) has many values a row, and its rows are compared with the
+/// ranges instead ([`classify_rows`] chooses).
 #[inline]
 fn classify_bytes(row: &[u8], n: usize, table: &[u8; 256], mut found: impl FnMut(u8, u32)) -> usize {
     let row: &[u8; 32] = row.try_into().expect("32 bytes of a row");
@@ -532,9 +533,9 @@ impl Edt {
         // Along y: the nearest row within the clamp.
         let half = 0.5 * wx.min(wy).sqrt();
         // Only the rows nearer than the clamp: a row `k` away adds c = wy·k² to each of its candidates
-        // (r + c ≥ c, as r ≥ 0), so where √c + half already reaches the clamp (computed as below) the
-        // distance from it is clamped whichever candidate wins, and no nearer row's can be farther. At
-        // unit spacing that is 7 rows either side instead of 9.
+        // (r + c ≥ c, as r ≥ 0). Where √c + half already reaches the clamp (computed with the operations
+        // below), a distance through that row is clamped, and leaving the row out can only raise a
+        // minimum that is clamped anyway: the same output. At unit spacing, 7 rows either side instead of 9.
         let mut reach = 0;
         while reach < ny {
             let k = (reach + 1) as f32;
