@@ -234,7 +234,6 @@ impl<'a> Fields<'a> {
         // Room for every block the raycast can build (each is built once when pinned); only the pages
         // touched become resident.
         let region = (pinned && kind != Kind::Labels).then(|| Region::new((S3 + 1) * 6 * reach as usize)).flatten();
-        let room_bytes = cap.saturating_sub(pinned_bytes);
         let (store, slot_bytes, room) = if pinned {
             (Store::Pinned((0..n).map(|_| OnceLock::new()).collect()), pinned_bytes, None)
         } else {
@@ -259,7 +258,7 @@ impl<'a> Fields<'a> {
             scale,
             avx2: false,
             room,
-            room_bytes: if pinned { room_bytes } else { cap.saturating_sub(slot_bytes) },
+            room_bytes: cap.saturating_sub(slot_bytes),
             last_rows: Vec::new(),
             admitted: AtomicU64::new(0),
             region,

@@ -498,32 +498,27 @@ pub(super) fn raycast_with(
         }
         stats
     };
+    // Bands of TILE rows, all traced at once when nothing is evicted; else each traced before the next is
+    // sized.
+    let mut bands = fields
+        .as_ref()
+        .filter(|f| f.room().is_some())
+        .map(|f| (f, Bands::new(reachable.unwrap_or_else(|| fields::brick_count(volume)), &view, volume, w, h)));
     let mut tiles: Vec<RaycastStats> = Vec::with_capacity(tiles_x * h.div_ceil(TILE));
     let mut band_range: Option<(usize, usize)> = None;
-    match fields.as_ref().filter(|f| f.room().is_some()) {
-        Some(f) => {
-            let mut bands = Bands::new(reachable.unwrap_or_else(|| fields::brick_count(volume)), &view, volume, w, h);
-            let (mut rest, mut y0) = (&mut data[..], 0);
-            while y0 < h {
-                let rows = bands.next(f.room_now()).min(h - y0);
-                band_range = Some(band_range.map_or((rows, rows), |(lo, hi)| (lo.min(rows), hi.max(rows))));
-                let (band, tail) = std::mem::take(&mut rest).split_at_mut(rows * w * n_mat);
-                rest = tail;
-                tiles.extend(split(band, y0, rows).into_par_iter().map(trace_tile).collect::<Vec<_>>());
-                y0 += rows;
-            }
+    let (mut rest, mut y0, mut pending) = (&mut data[..], 0, Vec::new());
+    while y0 < h {
+        let rows = bands.as_mut().map_or(TILE, |(f, b)| b.next(f.room_now())).min(h - y0);
+        let (band, tail) = std::mem::take(&mut rest).split_at_mut(rows * w * n_mat);
+        rest = tail;
+        pending.extend(split(band, y0, rows));
+        if bands.is_some() {
+            band_range = Some(band_range.map_or((rows, rows), |(lo, hi)| (lo.min(rows), hi.max(rows))));
+            tiles.extend(std::mem::take(&mut pending).into_par_iter().map(trace_tile).collect::<Vec<_>>());
         }
-        None => {
-            let (mut rest, mut parts) = (&mut data[..], Vec::with_capacity(tiles_x * h.div_ceil(TILE)));
-            for y0 in (0..h).step_by(TILE) {
-                let rows = TILE.min(h - y0);
-                let (band, tail) = std::mem::take(&mut rest).split_at_mut(rows * w * n_mat);
-                rest = tail;
-                parts.extend(split(band, y0, rows));
-            }
-            tiles = parts.into_par_iter().map(trace_tile).collect();
-        }
+        y0 += rows;
     }
+    tiles.extend(pending.into_par_iter().map(trace_tile).collect::<Vec<_>>());
     let mut stats = RaycastStats::default();
     for s in &tiles {
         stats.add(s);
