@@ -68,18 +68,25 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// The allocator's top pad: what glibc maps beyond a request when it makes a thread's heap or grows the main
+/// one, and keeps when it trims either.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+pub(crate) const TOP_PAD: usize = 8 << 20;
+
 /// glibc's allocator grows each pool thread's heap by the pages a request needs, one `mprotect` a growth, and
 /// each `mprotect` holds the process's memory map while the other threads' page faults wait for it: a
 /// 1200-design `metamer solve` made about 1200 of them, and its pool threads stalled on each other's. A top
-/// pad, set before any other thread exists, grows (and trims) a heap 8 MiB at a time instead; pages are still
-/// taken only when first written, so what is resident does not grow with it (docs/solve_performance.md, "The
-/// allocator's top pad").
+/// pad, set before any other thread exists, makes each thread's heap with [`TOP_PAD`] mapped from the start
+/// (and the main arena grow by as much); past that a thread's heap still grows by what each request needs
+/// (glibc's `sysmalloc` pads only a new heap), but the solve's workers stay inside their first 8 MiB. Pages
+/// are still taken only when first written, so what is resident does not grow with the pad
+/// (docs/solve_performance.md, "The allocator's top pad").
 pub(crate) fn tune_allocator() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: `mallopt` sets one parameter of the allocator under the allocator's own lock; it moves and
     // frees nothing.
     unsafe {
-        libc::mallopt(libc::M_TOP_PAD, 8 << 20);
+        libc::mallopt(libc::M_TOP_PAD, TOP_PAD as libc::c_int);
     }
 }
 
