@@ -901,15 +901,41 @@ impl<'a> RayContext<'a> {
                 // The brick of the sample's cell (it bounds the cell's eight voxels).
                 // Written out: `[0, 1, 2].map` is not always inlined, and this runs at every sample.
                 let (c, sh) = (&bm.counts, bm.shift);
-                let b = [(at.i[0] >> sh).min(c[0] - 1), (at.i[1] >> sh).min(c[1] - 1), (at.i[2] >> sh).min(c[2] - 1)];
-                uniform = table[b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2])];
+                let brick = |at: Located| {
+                    [(at.i[0] >> sh).min(c[0] - 1), (at.i[1] >> sh).min(c[1] - 1), (at.i[2] >> sh).min(c[2] - 1)]
+                };
+                let index = |b: [usize; 3]| b[0] + c[0] * (b[1] + c[1] * b[2]);
+                let mut b = brick(at);
+                uniform = table[index(b)];
                 if uniform == EMPTY {
                     prev = Edge::EMPTY;
                     carry = false;
-                    let next = brick_exit(origin, dir, b, bm.size, jitter, k);
-                    stats.skipped += (next - k) as u64;
-                    stats.skipped_bricks += 1;
-                    k = next;
+                    // As in the value loop: a group of empty bricks is left in one jump, and the bricks the
+                    // ray lands in are checked here, each landing sample located as the loop locates it. The
+                    // steps jumped over are counted up to the ray's last (a jump may end past it).
+                    let last = (t1 - jitter).floor();
+                    loop {
+                        let next = match self.spans.and_then(|spans| spans.empty_around(b)) {
+                            Some((group, span)) => brick_exit(origin, dir, group, bm.size * span, jitter, k),
+                            None => brick_exit(origin, dir, b, bm.size, jitter, k),
+                        };
+                        stats.skipped += (next.min(last + 1.0) - k) as u64;
+                        stats.skipped_bricks += 1;
+                        k = next;
+                        if k + jitter > t1 {
+                            break;
+                        }
+                        let t = k + jitter;
+                        let landed = brick(self.locate([
+                            origin[0] + t * dir[0],
+                            origin[1] + t * dir[1],
+                            origin[2] + t * dir[2],
+                        ]));
+                        if table[index(landed)] != EMPTY {
+                            break;
+                        }
+                        b = landed;
+                    }
                     continue;
                 }
             }
