@@ -569,6 +569,16 @@ impl Edt {
 mod tests {
     use super::*;
 
+    /// A xorshift64 sequence from `seed`: the tests' data is the same every run.
+    fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        }
+    }
+
     #[test]
     fn rounding_a_stored_distance_without_the_library_call_is_round() {
         for i in 0..=262_140 {
@@ -707,13 +717,7 @@ mod tests {
     fn the_bit_mask_transform_equals_the_pixel_by_pixel_one_exactly() {
         // Regions as `build` makes them (30 × 30 at the frog's spacing, narrower with a coarser x or y
         // spacing), blobs and stripes of every density, in-plane weights of square and oblong pixels.
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         let mut e = Edt::new();
         let mut cases = 0;
         for (nx, ny, wx, wy) in
@@ -746,13 +750,7 @@ mod tests {
     fn materials_skipped_as_out_of_reach_would_not_have_been_stored() {
         use super::super::MaterialClass;
         let (dx, dy, dz) = (44usize, 37usize, 29usize);
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         let mut data = vec![0u8; dx * dy * dz];
         // Blobs (balls of radius 1–6) of labels 1–5, then lone voxels.
         for _ in 0..40 {
@@ -803,13 +801,7 @@ mod tests {
         use crate::volume::Voxels;
         let (dx, dy, dz) = (40usize, 5usize, 3usize);
         let n = dx * dy * dz;
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         // Runs of one value (as label volumes have) and single voxels between them.
         let mut raw = Vec::with_capacity(n);
         while raw.len() < n {
