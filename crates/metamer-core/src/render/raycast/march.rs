@@ -628,8 +628,6 @@ impl<'a> RayContext<'a> {
         // The lanes' shaded composite (below): shaded in the lanes, no gradient-dependent material.
         let shade_fast = shade_lanes.filter(|_| !classifier.gradient_dependent);
         let mut k = (t0 - jitter).ceil();
-        // The ray's last whole step (its last sample at `last + jitter` ≤ t1).
-        let last = (t1 - jitter).floor();
         let mut transmittance = 1.0f32;
         let mut prev = Edge::EMPTY;
         // The step after a refined entry into a dense material is refined as well.
@@ -709,34 +707,14 @@ impl<'a> RayContext<'a> {
                 };
                 uniform = table[bi];
                 if uniform == EMPTY {
-                    let mut b = brick(at_!());
                     prev = Edge::EMPTY;
                     carry = false;
-                    // Step over this brick and every empty one the ray lands in after it: each landing
-                    // sample is located here, as the portable loop locates it, so the batch of eight lanes
-                    // is filled only where the ray lands in a brick that is not empty (one lane of a fresh
-                    // batch per empty brick crossed cost more than the crossing itself).
-                    loop {
-                        // A group of empty bricks is left in one jump: every whole step before its far
-                        // faces lies in it, so in one of its empty bricks, which the jumps brick by brick
-                        // would each have stepped over (the same next sample either way).
-                        let next = match self.spans.and_then(|spans| spans.empty_around(b)) {
-                            Some((group, span)) => brick_exit(origin, dir, group, bm.size * span, jitter, k),
-                            None => brick_exit(origin, dir, b, bm.size, jitter, k),
-                        };
-                        // The steps jumped over, up to the ray's last (a jump may end past it).
-                        skipped += (next.min(last + 1.0) - k) as u64;
-                        skipped_bricks += 1;
-                        k = next;
-                        if k + jitter > t1 {
-                            break;
-                        }
-                        let landed = brick(self.locate(p!(k + jitter)));
-                        if table[index(landed)] != EMPTY {
-                            break;
-                        }
-                        b = landed;
-                    }
+                    // Each landing sample is located in the crossing, as the portable loop locates it, so the
+                    // batch of eight lanes is filled only where the ray lands in a brick that is not empty
+                    // (one lane of a fresh batch per empty brick crossed cost more than the crossing itself).
+                    let jumped = self.cross_empty(ray, brick(at_!()), k, (bm, table), brick, &mut skipped);
+                    skipped_bricks += jumped.1;
+                    k = jumped.0;
                     continue;
                 }
             }
@@ -879,6 +857,48 @@ impl<'a> RayContext<'a> {
         (samples, false)
     }
 
+    /// Cross the empty brick `b` (of `bricks`, the map and its table) that the sample at step `k` falls in,
+    /// and every empty brick the ray lands in after it; `brick`: the brick of a located sample, as the
+    /// calling loop finds it. A group of empty bricks ([`classify::Spans`]) is left in one jump: every whole
+    /// step before its far faces lies in it, so in one of its empty bricks, which the jumps brick by brick
+    /// would each have stepped over (the same next sample either way). Each landing sample is located here
+    /// and its brick looked up, without a pass through the loop. Adds the steps jumped over, up to the ray's
+    /// last (a jump may end past it), to `skipped`; returns the step to sample next (past the ray's end when
+    /// it ends in empty space) and the jumps taken.
+    #[inline(always)]
+    fn cross_empty(
+        &self,
+        ray: &Ray,
+        mut b: [usize; 3],
+        mut k: f64,
+        (bm, table): (&BrickMap, &[u8]),
+        brick: impl Fn(Located) -> [usize; 3],
+        skipped: &mut u64,
+    ) -> (f64, u64) {
+        let Ray { origin, dir, t1, jitter, .. } = *ray;
+        let last = (t1 - jitter).floor();
+        let index = |b: [usize; 3]| b[0] + bm.counts[0] * (b[1] + bm.counts[1] * b[2]);
+        let mut jumps = 0;
+        loop {
+            let next = match self.spans.and_then(|spans| spans.empty_around(b)) {
+                Some((group, span)) => brick_exit(origin, dir, group, bm.size * span, jitter, k),
+                None => brick_exit(origin, dir, b, bm.size, jitter, k),
+            };
+            *skipped += (next.min(last + 1.0) - k) as u64;
+            jumps += 1;
+            k = next;
+            if k + jitter > t1 {
+                return (k, jumps);
+            }
+            let t = k + jitter;
+            let landed = brick(self.locate([origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]]));
+            if table[index(landed)] != EMPTY {
+                return (k, jumps);
+            }
+            b = landed;
+        }
+    }
+
     #[inline(always)]
     fn march<K: Sampler<'a>>(&self, ray: &Ray, out: &mut [f32], stats: &mut RaycastStats) {
         let Ray { origin, dir, t0, t1, jitter } = *ray;
@@ -904,38 +924,14 @@ impl<'a> RayContext<'a> {
                 let brick = |at: Located| {
                     [(at.i[0] >> sh).min(c[0] - 1), (at.i[1] >> sh).min(c[1] - 1), (at.i[2] >> sh).min(c[2] - 1)]
                 };
-                let index = |b: [usize; 3]| b[0] + c[0] * (b[1] + c[1] * b[2]);
-                let mut b = brick(at);
-                uniform = table[index(b)];
+                let b = brick(at);
+                uniform = table[b[0] + c[0] * (b[1] + c[1] * b[2])];
                 if uniform == EMPTY {
                     prev = Edge::EMPTY;
                     carry = false;
-                    // As in the value loop: a group of empty bricks is left in one jump, and the bricks the
-                    // ray lands in are checked here, each landing sample located as the loop locates it. The
-                    // steps jumped over are counted up to the ray's last (a jump may end past it).
-                    let last = (t1 - jitter).floor();
-                    loop {
-                        let next = match self.spans.and_then(|spans| spans.empty_around(b)) {
-                            Some((group, span)) => brick_exit(origin, dir, group, bm.size * span, jitter, k),
-                            None => brick_exit(origin, dir, b, bm.size, jitter, k),
-                        };
-                        stats.skipped += (next.min(last + 1.0) - k) as u64;
-                        stats.skipped_bricks += 1;
-                        k = next;
-                        if k + jitter > t1 {
-                            break;
-                        }
-                        let t = k + jitter;
-                        let landed = brick(self.locate([
-                            origin[0] + t * dir[0],
-                            origin[1] + t * dir[1],
-                            origin[2] + t * dir[2],
-                        ]));
-                        if table[index(landed)] != EMPTY {
-                            break;
-                        }
-                        b = landed;
-                    }
+                    let jumped = self.cross_empty(ray, b, k, (bm, table), brick, &mut stats.skipped);
+                    stats.skipped_bricks += jumped.1;
+                    k = jumped.0;
                     continue;
                 }
             }
