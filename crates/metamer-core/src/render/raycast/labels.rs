@@ -410,33 +410,27 @@ enum ByteRows {
 #[inline]
 fn classify_bytes(row: &[u8], n: usize, table: &[u8; 256], mut found: impl FnMut(u8, u32)) -> usize {
     let row: &[u8; 32] = row.try_into().expect("32 bytes of a row");
-    let mut rest = u32::MAX >> (32 - n);
-    let mut values = 0;
+    // The bit mask of the row's bytes equal to `v` (bit x for byte x).
     #[cfg(target_arch = "x86_64")]
-    {
+    let equal = {
         use std::arch::x86_64::{_mm_cmpeq_epi8, _mm_loadu_si128, _mm_movemask_epi8, _mm_set1_epi8};
         // SAFETY: SSE2 is part of x86-64's baseline; the loads read the 32 bytes of `row` (two unaligned
         // 16-byte loads), the rest works on registers.
-        unsafe {
-            let (lo, hi) = (_mm_loadu_si128(row.as_ptr().cast()), _mm_loadu_si128(row.as_ptr().add(16).cast()));
-            while rest != 0 {
-                let v = row[rest.trailing_zeros() as usize];
-                let splat = _mm_set1_epi8(v as i8);
-                let eq = |half| _mm_movemask_epi8(_mm_cmpeq_epi8(half, splat)) as u32 & 0xffff;
-                let bits = (eq(lo) | eq(hi) << 16) & rest;
-                rest &= !bits;
-                values += 1;
-                let code = table[usize::from(v)];
-                if code != 0 {
-                    found(code, bits);
-                }
-            }
+        let (lo, hi) = unsafe { (_mm_loadu_si128(row.as_ptr().cast()), _mm_loadu_si128(row.as_ptr().add(16).cast())) };
+        // SAFETY: as above, SSE2 instructions on registers only.
+        move |v: u8| unsafe {
+            let splat = _mm_set1_epi8(v as i8);
+            let eq = |half| _mm_movemask_epi8(_mm_cmpeq_epi8(half, splat)) as u32 & 0xffff;
+            eq(lo) | eq(hi) << 16
         }
-    }
+    };
     #[cfg(not(target_arch = "x86_64"))]
+    let equal = |v: u8| row.iter().enumerate().fold(0u32, |m, (x, &b)| m | (u32::from(b == v) << x));
+    let mut rest = u32::MAX >> (32 - n);
+    let mut values = 0;
     while rest != 0 {
         let v = row[rest.trailing_zeros() as usize];
-        let bits = row.iter().enumerate().fold(0u32, |m, (x, &b)| m | (u32::from(b == v) << x)) & rest;
+        let bits = equal(v) & rest;
         rest &= !bits;
         values += 1;
         let code = table[usize::from(v)];
