@@ -9,7 +9,9 @@
 //! **Writes** ([`write_atomic`], or [`stage`] then [`Staged::commit`] for outputs written together) go to a temporary file in the target's folder, are synced, renamed over the
 //! target and the folder is synced: a reader (or a crash, or a full disk) sees the old file or the new one,
 //! never a mix. Outputs committed together ([`Staged::commit_in`]) are renamed in turn and each distinct
-//! folder is then synced once ([`FolderSync`]), after the last rename into it. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused, and so
+//! folder is then synced once ([`FolderSync`]), after the last rename into it. A file staged without its
+//! sync ([`stage_unsynced`], for a thread that commits what others produce) is synced by its commit, before
+//! its rename. A target that exists and is not a regular file (FIFO, device: `-o /dev/null`) is refused, and so
 //! is one whose mode gives no write permission (read-only) unless the caller passes [`Replace::Force`]; a
 //! symbolic link to a regular file is followed, so the target is rewritten and the link kept. New files follow
 //! the umask (the temporary file is created `0666 & !umask`); an in-place save keeps the old file's mode and,
@@ -811,6 +813,9 @@ pub struct Staged {
     /// Whether the content was checksummed as written; when not, a target read since is checksummed at the
     /// commit from the staged file ([`Staged::commit_in`]).
     checksummed: bool,
+    /// Whether the temporary file was synced when it was staged; when not ([`stage_unsynced`]), the commit
+    /// syncs it before its rename.
+    synced: bool,
 }
 
 impl Staged {
@@ -825,9 +830,13 @@ impl Staged {
     /// [`Staged::commit`] whose folder sync is left to `folders`: a command committing several outputs
     /// renames each in turn and syncs each distinct folder once, after the last rename ([`FolderSync`]).
     pub fn commit_in(self, folders: &mut FolderSync) -> Result<(), FsError> {
-        let Staged { tmp, path, target, dir, replace, crc, checksummed } = self;
+        let Staged { tmp, path, target, dir, replace, crc, checksummed, synced } = self;
         if replace < Replace::Changed && changed_since_read(&target) {
             return Err(FsError::Changed { path });
+        }
+        // The content is on disk before its name is: a file staged without its sync is synced here.
+        if !synced {
+            tmp.as_file().sync_all().map_err(|source| FsError::Write { path: path.clone(), source })?;
         }
         // A target first read while this output was staged (not seen in any command so far): the content's
         // checksum from the staged file, so that the next check compares contents as for any file read.
@@ -887,6 +896,14 @@ impl FolderSync {
     /// Sync every folder added (best effort: some file systems refuse to sync a directory).
     pub fn sync(mut self) {
         self.sync_pending();
+    }
+
+    /// Close the files the commits so far replaced, now and on this thread (freeing their blocks), instead
+    /// of holding them to the folder sync: for a thread that commits many outputs one after another and
+    /// syncs their folder once at the end (a sweep's frames), which would otherwise hold every replaced
+    /// frame open and start a thread per frame to close them.
+    pub fn close_replaced(&mut self) {
+        self.replaced.clear();
     }
 
     fn sync_pending(&mut self) {
@@ -949,15 +966,34 @@ pub fn stage_as(path: &Path, bytes: &[u8], name: Name, replace: Replace) -> Resu
     stage_writing(path, name, replace, |w| w.write_all(bytes))
 }
 
+/// [`stage_as`] without the temporary file's sync, which [`Staged::commit_in`] then makes before the rename:
+/// for a caller that hands the staged file to a thread of its own to commit (a sweep's frames), so that the
+/// thread producing the content does not wait for the disk. The same checks and refusals; the content is
+/// synced before its rename all the same.
+pub fn stage_unsynced(path: &Path, bytes: &[u8], name: Name, replace: Replace) -> Result<Staged, FsError> {
+    stage_impl(path, name, replace, |w| w.write_all(bytes), false)
+}
+
 /// The staged file's content as it is produced: `write` writes it into a [`StagedWriter`] (buffered, its
 /// checksum computed as written), so a large output (a solve's report) is never held whole in memory.
-/// An error from `write` removes the temporary file and leaves the target as it was. The one place the
-/// rules of the module docs are applied.
+/// An error from `write` removes the temporary file and leaves the target as it was.
 pub fn stage_writing(
     path: &Path,
     name: Name,
     replace: Replace,
     write: impl FnOnce(&mut StagedWriter<'_>) -> std::io::Result<()>,
+) -> Result<Staged, FsError> {
+    stage_impl(path, name, replace, write, true)
+}
+
+/// [`stage_writing`], the temporary file synced when `sync` (else at the commit, [`stage_unsynced`]). The one
+/// place the rules of the module docs are applied.
+fn stage_impl(
+    path: &Path,
+    name: Name,
+    replace: Replace,
+    write: impl FnOnce(&mut StagedWriter<'_>) -> std::io::Result<()>,
+    sync: bool,
 ) -> Result<Staged, FsError> {
     let err = |source| FsError::Write { path: path.to_path_buf(), source };
     if name == Name::Chosen {
@@ -1022,9 +1058,11 @@ pub fn stage_writing(
             let _ = file.set_permissions(meta.permissions());
         }
     }
-    tmp.as_file().sync_all().map_err(err)?;
+    if sync {
+        tmp.as_file().sync_all().map_err(err)?;
+    }
     let crc = crc.filter(|_| len <= CHECKSUM_CAP);
-    Ok(Staged { tmp, path: path.to_path_buf(), target, dir, replace, crc, checksummed })
+    Ok(Staged { tmp, path: path.to_path_buf(), target, dir, replace, crc, checksummed, synced: sync })
 }
 
 /// The write buffer of a [`StagedWriter`].
@@ -1467,6 +1505,36 @@ mod tests {
         folders.replaced[0].read_to_string(&mut old).unwrap();
         assert_eq!(old, "old a");
         folders.sync();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2, "no temporary file is left");
+    }
+
+    /// A file staged without its sync: nothing at the target changes until the commit (which syncs it
+    /// first), dropping it removes it, and a replaced file closed at once is no longer held.
+    #[cfg(unix)]
+    #[test]
+    fn a_file_staged_unsynced_is_committed_or_dropped_like_any_other() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.png");
+        std::fs::write(&a, "old").unwrap();
+        let dropped = stage_unsynced(&a, b"never", Name::Chosen, Replace::Writable).unwrap();
+        assert!(!dropped.synced);
+        drop(dropped);
+        assert_eq!(std::fs::read(&a).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "the dropped temporary file is gone");
+        let staged = stage_unsynced(&a, b"new", Name::Chosen, Replace::Writable).unwrap();
+        assert_eq!(std::fs::read(&a).unwrap(), b"old", "staged, not in place");
+        let mut folders = FolderSync::default();
+        staged.commit_in(&mut folders).unwrap();
+        assert_eq!(std::fs::read(&a).unwrap(), b"new");
+        assert_eq!(folders.replaced.len(), 1);
+        folders.close_replaced();
+        assert!(folders.replaced.is_empty());
+        assert_eq!(folders.pending(), [dir.path().to_path_buf()], "the folder still waits for its sync");
+        folders.sync();
+        // A name the command chose that is a symbolic link is refused as when staged with the sync.
+        std::os::unix::fs::symlink("a.png", dir.path().join("l.png")).unwrap();
+        let refused = stage_unsynced(&dir.path().join("l.png"), b"x", Name::Chosen, Replace::Writable);
+        assert!(matches!(refused, Err(FsError::ChosenLink { .. })), "{refused:?}");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2, "no temporary file is left");
     }
 

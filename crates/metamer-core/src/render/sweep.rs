@@ -1,6 +1,7 @@
 //! A light-dial sweep written as PNG frames: per frame, mix the dial's lights at the frame's position,
 //! build the model's 3×K matrix (exposure folded in), relight every pixel, sRGB-encode, write
-//! `DIR/frame_0000.png …`. Frames are relit and encoded in parallel. Frame numbers and positions are
+//! `DIR/frame_0000.png …`. Frames are relit and encoded in parallel, and committed (synced, renamed into
+//! place) on a thread of their own while the next ones are relit. Frame numbers and positions are
 //! global (frame k of N sits at k/(N−1) whatever range is rendered), and the exposure depends only on
 //! the scene and N, so runs over split frame ranges combine into one sweep.
 //!
@@ -316,47 +317,82 @@ pub fn write_sweep(
     // The dial is drawn into each tile at the tile's size (legible names), in the frames' corner.
     let tile_overlay =
         options.overlay.as_ref().zip(layout.as_ref()).map(|(o, l)| o.for_size(l.tile_w as usize, l.tile_h as usize));
-    type Written = (PathBuf, Option<RgbImage>);
-    let results: Vec<Result<Written, RenderError>> = range
-        .clone()
-        .into_par_iter()
-        // Each worker keeps its frame and PNG buffers from frame to frame: allocated anew, they came from
-        // the thread's arena as fresh pages (the arena gives them back when they are freed), ~120 page
-        // faults a frame at 384² with two threads.
-        .map_init(
-            || (Vec::new(), Vec::new()),
-            |(rgb, png), k| {
-                frame_srgb8_into(image, model, dial, (k, options.frames), options.exposure, &lut, rgb);
-                let path = options.out_dir.join(frame_name(k));
-                let bad = |reason: String| RenderError::Output { path: path.clone(), reason };
-                // The tile is shrunk from the frame without its dial; the tile gets its own.
-                let thumb = match &layout {
-                    Some(l) => {
-                        let mut t =
-                            l.thumbnail(rgb, image.width, image.height).ok_or_else(|| bad("cannot shrink".into()))?;
-                        if let Some(o) = &tile_overlay {
-                            let (tw, th) = (t.width() as usize, t.height() as usize);
-                            o.draw_frame(&mut t, tw, th, dial, k, options.frames);
-                        }
-                        Some(t)
-                    }
-                    None => None,
-                };
-                if let Some(o) = &options.overlay {
-                    o.draw_frame(rgb, image.width, image.height, dial, k, options.frames);
+    let output_error =
+        |path: &Path, e: crate::fsio::FsError| RenderError::Output { path: path.to_path_buf(), reason: e.to_string() };
+    // The frames are committed (synced, renamed into place) on a thread of their own, while the workers relight
+    // and encode the next ones: a frame's sync is mostly a wait for the disk, about a third of a frame's time
+    // when the workers made it themselves. The folder is synced once, after the last rename into it.
+    let (to_commit, staged) = std::sync::mpsc::channel::<(usize, PathBuf, crate::fsio::Staged)>();
+    let (results, committed) = std::thread::scope(|scope| {
+        let committer = scope.spawn(move || {
+            let mut folders = crate::fsio::FolderSync::default();
+            let mut committed = Vec::new();
+            for (k, path, frame) in staged {
+                let done = frame.commit_in(&mut folders).map_err(|e| output_error(&path, e));
+                // The replaced frame is freed here, not held to the folder sync.
+                folders.close_replaced();
+                if done.is_ok() {
+                    progress();
                 }
-                encode_png_into(rgb, image.width, image.height, options.compression, png).map_err(bad)?;
-                write_file(&path, png, crate::fsio::Name::Chosen, options.replace)?;
-                progress();
-                Ok((path, thumb))
-            },
-        )
-        .collect();
-    let mut written = Vec::with_capacity(results.len());
-    let mut thumbs = Vec::new();
+                committed.push((k, done.map(|()| path)));
+            }
+            folders.sync();
+            committed
+        });
+        let results: Vec<Result<(usize, Option<RgbImage>), RenderError>> = range
+            .clone()
+            .into_par_iter()
+            // Each worker keeps its frame and PNG buffers from frame to frame: allocated anew, they came from
+            // the thread's arena as fresh pages (the arena gives them back when they are freed), ~120 page
+            // faults a frame at 384² with two threads.
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(rgb, png), k| {
+                    frame_srgb8_into(image, model, dial, (k, options.frames), options.exposure, &lut, rgb);
+                    let path = options.out_dir.join(frame_name(k));
+                    let bad = |reason: String| RenderError::Output { path: path.clone(), reason };
+                    // The tile is shrunk from the frame without its dial; the tile gets its own.
+                    let thumb = match &layout {
+                        Some(l) => {
+                            let mut t = l
+                                .thumbnail(rgb, image.width, image.height)
+                                .ok_or_else(|| bad("cannot shrink".into()))?;
+                            if let Some(o) = &tile_overlay {
+                                let (tw, th) = (t.width() as usize, t.height() as usize);
+                                o.draw_frame(&mut t, tw, th, dial, k, options.frames);
+                            }
+                            Some(t)
+                        }
+                        None => None,
+                    };
+                    if let Some(o) = &options.overlay {
+                        o.draw_frame(rgb, image.width, image.height, dial, k, options.frames);
+                    }
+                    encode_png_into(rgb, image.width, image.height, options.compression, png).map_err(bad)?;
+                    let frame = crate::fsio::stage_unsynced(&path, png, crate::fsio::Name::Chosen, options.replace)
+                        .map_err(|e| output_error(&path, e))?;
+                    to_commit.send((k, path.clone(), frame)).map_err(|_| bad("the frames' writer stopped".into()))?;
+                    Ok((k, thumb))
+                },
+            )
+            .collect();
+        // Every frame is sent: the writer's loop ends when the last sender is gone.
+        drop(to_commit);
+        let committed = committer.join().map_err(|_| RenderError::Invalid("the frames' writer failed".into()));
+        (results, committed)
+    });
+    // The first error in frame order, whether the frame failed in its worker or in its commit: a frame its
+    // worker staged was sent and so committed, so the committed frames in order are the workers' in order.
+    let mut committed = committed?;
+    committed.sort_unstable_by_key(|(k, _)| *k);
+    let mut committed = committed.into_iter();
+    let (mut written, mut thumbs) = (Vec::with_capacity(results.len()), Vec::new());
     for r in results {
-        let (p, thumb) = r?;
-        written.push(p);
+        let (k, thumb) = r?;
+        match committed.next() {
+            Some((c, done)) if c == k => written.push(done?),
+            _ => return Err(RenderError::Invalid(format!("frame {k} was staged and not committed"))),
+        }
         thumbs.extend(thumb);
     }
     if let (Some(sheet), Some(layout)) = (&options.contact_sheet, &layout) {
@@ -623,6 +659,66 @@ mod tests {
             }
         }
         assert_eq!(downsample(&big, 1), big);
+    }
+
+    /// The frames committed by the writer thread: each whole and in place, reported in frame order and
+    /// counted once each; a rerun replaces them; a frame that cannot be written is named in the error, in
+    /// frame order, while the others are written; no temporary file is left behind.
+    #[test]
+    fn frames_are_committed_whole_in_frame_order_and_a_failed_one_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let frames = dir.path().join("frames");
+        let (w, h) = (24usize, 16usize);
+        let data: Vec<f32> = (0..w * h * 3).map(|i| (i % 11) as f32 * 0.05).collect();
+        let img = ChannelImage { width: w, height: h, channels: 3, data };
+        let lut = SrgbLut::with_gamma(1.0);
+        let expected = |k: usize, exposure: f64| {
+            let rgb = frame_srgb8(&img, &rgb_model(), &dial(), k, 6, exposure, &lut);
+            encode_png(&rgb, w, h, PngCompression::Fast).unwrap()
+        };
+        let temporaries = || {
+            std::fs::read_dir(&frames)
+                .unwrap()
+                .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().ends_with(".tmp"))
+                .count()
+        };
+        for exposure in [1.0, 0.5] {
+            let count = std::sync::atomic::AtomicUsize::new(0);
+            let opts = SweepOptions::new(6, exposure, frames.clone());
+            let report = write_sweep(&img, &rgb_model(), &dial(), &opts, &|| {
+                count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            })
+            .unwrap();
+            let names: Vec<PathBuf> = (0..6).map(|k| frames.join(frame_name(k))).collect();
+            assert_eq!(report.written, names, "in frame order");
+            assert_eq!(count.into_inner(), 6, "each frame counted once");
+            for (k, path) in names.iter().enumerate() {
+                assert_eq!(std::fs::read(path).unwrap(), expected(k, exposure), "frame {k} at exposure {exposure}");
+            }
+            assert_eq!(temporaries(), 0);
+        }
+        assert_ne!(expected(1, 1.0), expected(1, 0.5), "the rerun replaced the frames with other content");
+        // Frames 2 and 4 cannot be written (folders stand at their names): the first in frame order is named,
+        // the others are written, and every temporary file is gone.
+        for k in [2, 4] {
+            let blocked = frames.join(frame_name(k));
+            std::fs::remove_file(&blocked).unwrap();
+            std::fs::create_dir(&blocked).unwrap();
+        }
+        let count = std::sync::atomic::AtomicUsize::new(0);
+        let opts = SweepOptions::new(6, 0.8, frames.clone());
+        let failed = write_sweep(&img, &rgb_model(), &dial(), &opts, &|| {
+            count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        });
+        match failed {
+            Err(RenderError::Output { path, .. }) => assert_eq!(path, frames.join(frame_name(2))),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(count.into_inner(), 4);
+        for k in [0, 1, 3, 5] {
+            assert_eq!(std::fs::read(frames.join(frame_name(k))).unwrap(), expected(k, 0.8), "frame {k}");
+        }
+        assert_eq!(temporaries(), 0);
     }
 
     #[test]
