@@ -306,7 +306,8 @@ def main():
     ap.add_argument("nhdr", nargs="?", default=os.path.join(data_dir, "volumes", "engine.nhdr"))
     ap.add_argument("--size", type=int, default=1024)
     ap.add_argument("--repeat", type=int, default=5, help="timed renders after one warm-up (median reported)")
-    ap.add_argument("-o", "--output", default="vtk_engine.png")
+    ap.add_argument("-o", "--output", default=os.path.join(here, "..", "target", "vtk_compare", "vtk_engine.png"),
+                    help="VTK's frame (default target/vtk_compare/vtk_engine.png, beside the scenes it writes)")
     ap.add_argument("--metamer", help="metamer's frame of the same view: compare the covered-pixel boxes")
     ap.add_argument("--run-metamer", metavar="BINARY", help="render metamer's frame with this binary (see above)")
     ap.add_argument("--mapper", choices=["gpu", "smart", "fixed"], default="gpu")
@@ -419,6 +420,7 @@ def main():
     grab.SetInput(win)
     grab.Update()
     writer = vtk.vtkPNGWriter()
+    os.makedirs(os.path.dirname(os.path.abspath(args.output)), exist_ok=True)
     writer.SetFileName(args.output)
     writer.SetInputConnection(grab.GetOutputPort())
     writer.Write()
