@@ -389,3 +389,32 @@ fn scene_volume_from_the_command_line_or_the_data_folder_and_a_missing_one_says_
     assert!(frame(&out, 1).exists());
     ok(&render(&[], Some(&data.join("volumes"))));
 }
+
+/// A long sweep whose frames come faster than the disk takes them: the frames wait for the thread that
+/// commits them in a bounded queue, each holding its temporary file open, so the sweep needs a fixed number
+/// of file descriptors, not one per frame waiting (600 tiny frames under a limit of 40 open files: an
+/// unbounded queue ran out of them after 10–20 frames on this project's machines).
+#[cfg(unix)]
+#[test]
+fn a_long_sweep_holds_a_bounded_number_of_files_open() {
+    use std::os::unix::process::CommandExt;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("frames");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_metamer"));
+    cmd.args(["render", "--frames", "600", "--size", "32", "--builtin-volume-size", "24", "--no-dial", "-o"]);
+    cmd.arg(&out);
+    // SAFETY: the closure runs in the child between fork and exec and calls only `setrlimit`, which is
+    // async-signal-safe; it reads nothing of the parent's state.
+    unsafe {
+        cmd.pre_exec(|| {
+            let limit = libc::rlimit { rlim_cur: 40, rlim_max: 40 };
+            if libc::setrlimit(libc::RLIMIT_NOFILE, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = cmd.output().expect("the binary runs");
+    ok(&o);
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 600, "every frame and nothing else");
+}

@@ -67,6 +67,10 @@ pub enum RenderError {
         /// Why: the file system's or the image encoder's message.
         reason: String,
     },
+    /// A frame or the contact sheet refused or not written by the one atomic writer ([`crate::fsio`]), whose
+    /// message names the file.
+    #[error(transparent)]
+    File(#[from] crate::fsio::FsError),
     /// Anything else the renderer refuses (no basis for the factor model, an empty frame range, …): the
     /// whole message.
     #[error("{0}")]

@@ -317,18 +317,19 @@ pub fn write_sweep(
     // The dial is drawn into each tile at the tile's size (legible names), in the frames' corner.
     let tile_overlay =
         options.overlay.as_ref().zip(layout.as_ref()).map(|(o, l)| o.for_size(l.tile_w as usize, l.tile_h as usize));
-    let output_error =
-        |path: &Path, e: crate::fsio::FsError| RenderError::Output { path: path.to_path_buf(), reason: e.to_string() };
     // The frames are committed (synced, renamed into place) on a thread of their own, while the workers relight
     // and encode the next ones: a frame's sync is mostly a wait for the disk, about a third of a frame's time
-    // when the workers made it themselves. The folder is synced once, after the last rename into it.
-    let (to_commit, staged) = std::sync::mpsc::channel::<(usize, PathBuf, crate::fsio::Staged)>();
+    // when the workers made it themselves. The folder is synced once, after the last rename into it. At most
+    // `COMMIT_QUEUE` frames wait for their commit: on a disk slower than the workers, a worker then waits for a
+    // place in the queue instead of holding ever more staged frames (each an open file) — a long sweep would
+    // otherwise run out of file descriptors.
+    let (to_commit, staged) = std::sync::mpsc::sync_channel::<(usize, PathBuf, crate::fsio::Staged)>(COMMIT_QUEUE);
     let (results, committed) = std::thread::scope(|scope| {
         let committer = scope.spawn(move || {
             let mut folders = crate::fsio::FolderSync::default();
             let mut committed = Vec::new();
             for (k, path, frame) in staged {
-                let done = frame.commit_in(&mut folders).map_err(|e| output_error(&path, e));
+                let done = frame.commit_in(&mut folders).map_err(RenderError::File);
                 // The replaced frame is freed here, not held to the folder sync.
                 folders.close_replaced();
                 if done.is_ok() {
@@ -369,8 +370,7 @@ pub fn write_sweep(
                         o.draw_frame(rgb, image.width, image.height, dial, k, options.frames);
                     }
                     encode_png_into(rgb, image.width, image.height, options.compression, png).map_err(bad)?;
-                    let frame = crate::fsio::stage_unsynced(&path, png, crate::fsio::Name::Chosen, options.replace)
-                        .map_err(|e| output_error(&path, e))?;
+                    let frame = crate::fsio::stage_unsynced(&path, png, crate::fsio::Name::Chosen, options.replace)?;
                     to_commit.send((k, path.clone(), frame)).map_err(|_| bad("the frames' writer stopped".into()))?;
                     Ok((k, thumb))
                 },
@@ -402,6 +402,10 @@ pub fn write_sweep(
     }
     Ok(SweepReport { written, seconds: start.elapsed().as_secs_f64() })
 }
+
+/// How many staged frames may wait for the committer thread of [`write_sweep`] (each holds its temporary
+/// file open).
+const COMMIT_QUEUE: usize = 16;
 
 /// The contact sheet of frames already written to `dir` (frames `range` of an N = `frames` sweep, e.g. by
 /// `--frame-range` runs on several machines), read back through the one bounded reader, shrunk to tiles
@@ -464,9 +468,7 @@ fn write_file(
     name: crate::fsio::Name,
     replace: crate::fsio::Replace,
 ) -> Result<(), RenderError> {
-    crate::fsio::stage_as(path, bytes, name, replace)
-        .and_then(crate::fsio::Staged::commit)
-        .map_err(|e| RenderError::Output { path: path.to_path_buf(), reason: e.to_string() })
+    crate::fsio::stage_as(path, bytes, name, replace).and_then(crate::fsio::Staged::commit).map_err(RenderError::File)
 }
 
 /// The two-line label of frame k of N on a contact sheet: `frame 12 · t 0.26` and the light mix
@@ -711,7 +713,9 @@ mod tests {
             count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         });
         match failed {
-            Err(RenderError::Output { path, .. }) => assert_eq!(path, frames.join(frame_name(2))),
+            Err(RenderError::File(crate::fsio::FsError::NotRegularOutput { path, .. })) => {
+                assert_eq!(path, frames.join(frame_name(2)))
+            }
             other => panic!("{other:?}"),
         }
         assert_eq!(count.into_inner(), 4);
