@@ -459,9 +459,10 @@ pub fn contact_sheet_from_frames(
     Ok(tiles.len())
 }
 
-/// Every frame and the contact sheet go through the one atomic writer ([`crate::fsio::stage_as`]):
-/// a FIFO or device in the output folder is refused, an interrupted sweep leaves whole frames only, a
-/// frame (a name the renderer chose) that is a symbolic link is not written through.
+/// The contact sheet written by the one atomic writer ([`crate::fsio::stage_as`]), as the frames are
+/// ([`crate::fsio::stage_unsynced`], committed by [`write_sweep`]'s committer thread): a FIFO or device in
+/// the output folder is refused, an interrupted sweep leaves whole files only, a name the renderer chose
+/// that is a symbolic link is not written through.
 fn write_file(
     path: &Path,
     bytes: &[u8],
