@@ -62,10 +62,25 @@ pub fn main() -> ExitCode {
         Err(e) => {
             // Every message may quote user text (names, paths, file contents): control characters are
             // shown escaped, never sent to the terminal.
-            eprintln!("error: {}", crate::fsio::escape_lines(&format!("{e:#}")));
+            eprintln!("error: {}", crate::fsio::escape_lines(&message(&e)));
             ExitCode::FAILURE
         }
     }
+}
+
+/// An error and its causes, `a: b: c` as anyhow's `{:#}` writes them, except a cause whose text the message
+/// already ends with: an error that quotes its source in its own message (the atomic writer's "cannot write:
+/// {source}") would otherwise print it twice.
+fn message(e: &anyhow::Error) -> String {
+    let mut text = e.to_string();
+    for cause in e.chain().skip(1) {
+        let cause = cause.to_string();
+        if !text.ends_with(&cause) {
+            text.push_str(": ");
+            text.push_str(&cause);
+        }
+    }
+    text
 }
 
 /// The allocator's top pad: what glibc maps beyond a request when it makes a thread's heap or grows the main
@@ -111,5 +126,26 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(a) => render::run(a),
         Command::Design(a) => design::run(a),
         Command::Bench(a) => bench::run(a),
+    }
+}
+
+#[cfg(test)]
+mod message_tests {
+    use super::message;
+
+    /// A cause the message already quotes at its end is not repeated; a cause it does not quote is added,
+    /// as anyhow's `{:#}` adds it.
+    #[test]
+    fn a_cause_the_message_quotes_is_printed_once() {
+        let quoted = crate::fsio::FsError::Write {
+            path: "out/frame_0001.png".into(),
+            source: std::io::Error::other("Too many open files (os error 24)"),
+        };
+        let text = message(&anyhow::Error::new(quoted));
+        assert_eq!(text.matches("Too many open files").count(), 1, "{text}");
+        assert!(text.starts_with("out/frame_0001.png: cannot write: "), "{text}");
+        let added = anyhow::Error::new(std::io::Error::other("disk full")).context("writing the report");
+        assert_eq!(message(&added), "writing the report: disk full");
+        assert_eq!(message(&added), format!("{added:#}"), "anyhow's own form where nothing is quoted");
     }
 }
