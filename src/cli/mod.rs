@@ -54,6 +54,11 @@ pub(crate) enum Command {
 pub fn main() -> ExitCode {
     tune_allocator();
     let cli = Cli::parse();
+    // The designer answers SIGTERM and SIGHUP itself (its terminal restored, unsaved work kept: tui::terminal),
+    // and in raw mode Ctrl-C is a key.
+    if !matches!(cli.command, Command::Design(_)) {
+        remove_staged_on_signals();
+    }
     heap::build_pool(pool_size());
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -66,6 +71,44 @@ pub fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// From now on SIGINT, SIGTERM and SIGHUP first remove the temporary files of the outputs being written
+/// ([`crate::fsio::remove_staged`]: an interrupted `render` leaves no hidden `.frame_NNNN.png.XXXXXX.tmp` in
+/// its folder, an interrupted `solve` none beside its outputs), then end the process as they would have
+/// (killed by the signal: a shell shows 130 for Ctrl-C). The signals are taken on a thread of their own, which
+/// registers them itself: if it cannot be started, they keep their default action. Until it has registered
+/// them (the first tenth of a millisecond or so) a signal acts as it always did.
+fn remove_staged_on_signals() {
+    #[cfg(unix)]
+    {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        let _ = std::thread::Builder::new().name("metamer-signals".into()).spawn(|| {
+            // A signal the process was started ignoring (`nohup` ignores SIGHUP, a non-interactive shell
+            // SIGINT for a command run with `&`) stays ignored.
+            let taken: Vec<i32> = [SIGINT, SIGTERM, SIGHUP].into_iter().filter(|&s| !ignored(s)).collect();
+            let Ok(mut signals) = signal_hook::iterator::Signals::new(&taken) else {
+                return;
+            };
+            if let Some(signal) = signals.forever().next() {
+                crate::fsio::remove_staged();
+                // The default action of these three ends the process; the exit below is only a fallback.
+                let _ = signal_hook::low_level::emulate_default_handler(signal);
+                std::process::exit(128 + signal);
+            }
+        });
+    }
+}
+
+/// Whether `signal`'s action is to be ignored (SIG_IGN), as the process was started with it.
+#[cfg(unix)]
+fn ignored(signal: i32) -> bool {
+    let mut old = std::mem::MaybeUninit::<libc::sigaction>::zeroed();
+    // SAFETY: with a null new action `sigaction` only writes the current one into `old`, which is valid for
+    // writes of a `sigaction`.
+    let got = unsafe { libc::sigaction(signal, std::ptr::null(), old.as_mut_ptr()) };
+    // SAFETY: zero-initialised and filled by the call when it succeeded; an all-zero `sigaction` is valid.
+    got == 0 && unsafe { old.assume_init() }.sa_sigaction == libc::SIG_IGN
 }
 
 /// An error and its causes, `a: b: c` as anyhow's `{:#}` writes them, except a cause whose text the message

@@ -17,6 +17,13 @@
 //! the umask (the temporary file is created `0666 & !umask`); an in-place save keeps the old file's mode and,
 //! where permitted, its owner and group.
 //!
+//! **Interrupts**: every temporary file of a staged output is listed while it exists ([`Staged`] holds its
+//! entry), so a command stopped by a signal removes them all in one call ([`remove_staged`], which the CLI's
+//! signal thread makes on SIGINT, SIGTERM and SIGHUP before the signal's own action): an interrupted
+//! `render` or `solve` leaves its outputs as they were, without the hidden `.NAME.XXXXXX.tmp` files of the
+//! frames or outputs it was writing. After that call no output can be staged any more (the command is
+//! ending).
+//!
 //! **Changed since read**: every read records what it read (device, inode, size, modification and change
 //! times, and a CRC-32 of the content for files of at most 16 MiB). A write over a file this process read
 //! is refused ([`FsError::Changed`]) when the file on disk is no longer what was read (another program
@@ -816,6 +823,9 @@ pub struct Staged {
     /// Whether the temporary file was synced when it was staged; when not ([`stage_unsynced`]), the commit
     /// syncs it before its rename.
     synced: bool,
+    /// The temporary file's entry in the list [`remove_staged`] empties. After `tmp`, so that it is dropped
+    /// after the file is removed or renamed (an entry whose file is gone is only a failed removal).
+    _live: Listed,
 }
 
 impl Staged {
@@ -830,7 +840,8 @@ impl Staged {
     /// [`Staged::commit`] whose folder sync is left to `folders`: a command committing several outputs
     /// renames each in turn and syncs each distinct folder once, after the last rename ([`FolderSync`]).
     pub fn commit_in(self, folders: &mut FolderSync) -> Result<(), FsError> {
-        let Staged { tmp, path, target, dir, replace, crc, checksummed, synced } = self;
+        // `_live` is dropped when this returns: after the rename, or after the failed commit dropped `tmp`.
+        let Staged { tmp, path, target, dir, replace, crc, checksummed, synced, _live } = self;
         if replace < Replace::Changed && changed_since_read(&target) {
             return Err(FsError::Changed { path });
         }
@@ -1025,7 +1036,9 @@ fn stage_impl(
         // The kernel applies the umask to this mode, as for any new file.
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
-    let mut tmp = builder.tempfile_in(&dir).map_err(err)?;
+    // Created and listed under the list's lock, so that no temporary file exists unlisted: refused once the
+    // command is being stopped ([`remove_staged`]).
+    let (mut tmp, live) = STAGED.create(|| builder.tempfile_in(&dir)).map_err(err)?;
     // The checksum is taken as the content is written only when the target is a file this process read:
     // it is kept for a later check of that file against outside changes ([`note_written`]), and nothing
     // else uses it (a solve's report and solved palette, 4.1 MB for a 1200-design batch, are new files to
@@ -1062,7 +1075,104 @@ fn stage_impl(
         tmp.as_file().sync_all().map_err(err)?;
     }
     let crc = crc.filter(|_| len <= CHECKSUM_CAP);
-    Ok(Staged { tmp, path: path.to_path_buf(), target, dir, replace, crc, checksummed, synced: sync })
+    Ok(Staged { tmp, path: path.to_path_buf(), target, dir, replace, crc, checksummed, synced: sync, _live: live })
+}
+
+/// The temporary files of outputs staged and not yet committed or dropped, by a serial number: the list
+/// [`remove_staged`] empties. Process-wide, as the signals that call for it are.
+static STAGED: LiveTemps = LiveTemps::new();
+
+/// Remove the temporary file of every output staged and not yet committed or dropped, and refuse any staged
+/// from now on ([`FsError::Write`] with [`std::io::ErrorKind::Interrupted`]): for a command being stopped
+/// (the CLI calls it from its signal thread on SIGINT, SIGTERM and SIGHUP, then lets the signal end the
+/// process). Targets are not touched: each is the old file, or the new one where its rename came first.
+/// Returns how many files were removed.
+pub fn remove_staged() -> usize {
+    STAGED.remove_all()
+}
+
+/// A list of temporary files ([`STAGED`]; the tests make their own).
+struct LiveTemps {
+    inner: std::sync::Mutex<Temps>,
+}
+
+#[derive(Default)]
+struct Temps {
+    next: u64,
+    paths: Vec<(u64, PathBuf)>,
+    /// Set by [`LiveTemps::remove_all`]: nothing is listed after it.
+    closed: bool,
+}
+
+impl Temps {
+    /// The file `make` creates, listed under a new number; nothing is made once the list is closed.
+    fn list_made<F>(&mut self, make: impl FnOnce() -> std::io::Result<F>) -> std::io::Result<(u64, F)>
+    where
+        F: AsRef<Path>,
+    {
+        if self.closed {
+            return Err(std::io::Error::new(std::io::ErrorKind::Interrupted, "the command was interrupted"));
+        }
+        let made = make()?;
+        let id = self.next;
+        self.next += 1;
+        self.paths.push((id, made.as_ref().to_path_buf()));
+        Ok((id, made))
+    }
+}
+
+impl LiveTemps {
+    const fn new() -> LiveTemps {
+        LiveTemps { inner: std::sync::Mutex::new(Temps { next: 0, paths: Vec::new(), closed: false }) }
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Temps> {
+        self.inner.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// A temporary file made by `make` and listed until the returned entry is dropped, both under the lock
+    /// (a signal's [`LiveTemps::remove_all`] cannot come between); refused with
+    /// [`std::io::ErrorKind::Interrupted`] once `remove_all` was called.
+    fn create(
+        &'static self,
+        make: impl FnOnce() -> std::io::Result<tempfile::NamedTempFile>,
+    ) -> std::io::Result<(tempfile::NamedTempFile, Listed)> {
+        let (id, tmp) = self.lock().list_made(make)?;
+        Ok((tmp, Listed { list: self, id }))
+    }
+
+    fn unlist(&self, id: u64) {
+        let mut t = self.lock();
+        if let Some(k) = t.paths.iter().position(|(i, _)| *i == id) {
+            t.paths.swap_remove(k);
+        }
+    }
+
+    /// Remove every listed file (under the lock, so none is listed meanwhile) and close the list.
+    fn remove_all(&self) -> usize {
+        let mut t = self.lock();
+        t.closed = true;
+        t.paths.drain(..).filter(|(_, path)| std::fs::remove_file(path).is_ok()).count()
+    }
+}
+
+/// A temporary file's entry in [`STAGED`], removed from it when dropped.
+#[derive(Debug)]
+struct Listed {
+    list: &'static LiveTemps,
+    id: u64,
+}
+
+impl std::fmt::Debug for LiveTemps {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "LiveTemps({} listed)", self.lock().paths.len())
+    }
+}
+
+impl Drop for Listed {
+    fn drop(&mut self) {
+        self.list.unlist(self.id);
+    }
 }
 
 /// The write buffer of a [`StagedWriter`].
@@ -1536,6 +1646,47 @@ mod tests {
         let refused = stage_unsynced(&dir.path().join("l.png"), b"x", Name::Chosen, Replace::Writable);
         assert!(matches!(refused, Err(FsError::ChosenLink { .. })), "{refused:?}");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2, "no temporary file is left");
+    }
+
+    /// The list of live temporary files (a list of the test's own: the process's is shared with the other
+    /// tests): a file made through it is listed until its entry drops; `remove_all` removes every listed one
+    /// and nothing else, and from then on makes nothing. A staged output's entry leaves the process's list
+    /// when it is committed or dropped.
+    #[test]
+    fn temporary_files_are_listed_while_they_live_and_removed_all_at_once() {
+        let list: &'static LiveTemps = Box::leak(Box::new(LiveTemps::new()));
+        let dir = tempfile::tempdir().unwrap();
+        let make = || tempfile::Builder::new().prefix(".t.").suffix(".tmp").tempfile_in(dir.path());
+        let (a, a_entry) = list.create(make).unwrap();
+        let (b, b_entry) = list.create(make).unwrap();
+        let (c, c_entry) = list.create(make).unwrap();
+        assert_eq!(list.lock().paths.len(), 3);
+        // A file renamed into place and its entry dropped, as a commit does: no longer listed.
+        let kept = dir.path().join("kept");
+        a.persist(&kept).unwrap();
+        drop(a_entry);
+        // One file already gone when the list is emptied (dropped before its entry): not counted.
+        let c_path = c.path().to_path_buf();
+        drop(c);
+        assert!(!c_path.exists());
+        let b_path = b.path().to_path_buf();
+        // `b` is still open (a worker writing it) when a signal empties the list.
+        assert_eq!(list.remove_all(), 1);
+        assert!(!b_path.exists(), "the listed file is removed");
+        assert!(kept.exists(), "a file renamed into place is not");
+        drop((b, b_entry, c_entry));
+        let refused = list.create(make);
+        assert!(matches!(&refused, Err(e) if e.kind() == std::io::ErrorKind::Interrupted), "{refused:?}");
+        let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(left, [std::ffi::OsString::from("kept")], "nothing made once the list is closed");
+        // The process's list: a staged output is listed until it is committed or dropped.
+        let listed = |path: &Path| STAGED.lock().paths.iter().any(|(_, p)| p.starts_with(path));
+        let staged = stage(&dir.path().join("out"), b"x").unwrap();
+        assert!(listed(dir.path()));
+        drop(staged);
+        assert!(!listed(dir.path()));
+        stage(&dir.path().join("out"), b"y").unwrap().commit().unwrap();
+        assert!(!listed(dir.path()));
     }
 
     #[test]
