@@ -60,6 +60,37 @@ fn the_metamers_example_is_shown_cell_by_cell() {
     assert!(stdout.contains("\"metamers\": 3 lights (0 designed), 4 reflectances (3 designed)"), "{stdout}");
 }
 
+/// Each target in its reflectance's row and its light's column, on a palette with more reflectances than
+/// lights (a place looked up as (light, reflectance) the wrong way round would move or lose them): `b`'s only
+/// cell is under the second light, `c` has none and so no target line.
+#[test]
+fn targets_are_shown_at_their_reflectance_and_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.toml");
+    let mut toml = String::from("name = \"places\"\n");
+    for (light, source) in [("day", "D65"), ("lamp", "A")] {
+        toml.push_str(&format!("[[lights]]\nname = \"{light}\"\nilluminant = \"{source}\"\n"));
+    }
+    for (r, source) in
+        [("a", "flat = 0.5\ndesign = true"), ("b", "colorchecker = \"red\""), ("c", "colorchecker = \"blue\"")]
+    {
+        toml.push_str(&format!("[[reflectances]]\nname = \"{r}\"\n{source}\n"));
+    }
+    for (light, r, target) in [("day", "a", "#112233"), ("lamp", "b", "#445566")] {
+        toml.push_str(&format!("[[colours]]\nlight = \"{light}\"\nreflectance = \"{r}\"\ntarget = \"{target}\"\n"));
+    }
+    std::fs::write(&path, toml).unwrap();
+    let out = metamer(&["check", "--color", "never", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    let lines: Vec<&str> = stdout.lines().collect();
+    let row = |name: &str| lines.iter().position(|l| l.starts_with(name)).unwrap_or_else(|| panic!("{name}: {stdout}"));
+    let columns = |line: &str| line.split('│').map(str::trim).map(str::to_string).collect::<Vec<_>>();
+    assert_eq!(columns(lines[row("a *") + 1]), ["target", "→ #112233", ""], "{stdout}");
+    assert_eq!(columns(lines[row("b ") + 1]), ["target", "", "→ #445566  ="], "{stdout}");
+    assert!(lines[row("c ") + 1].starts_with('*'), "no target line under c: {stdout}");
+}
+
 #[test]
 fn colour_swatches_on_request_and_never_with_no_color() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("palettes/metamers.toml");
