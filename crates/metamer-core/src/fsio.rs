@@ -1104,23 +1104,6 @@ struct Temps {
     closed: bool,
 }
 
-impl Temps {
-    /// The file `make` creates, listed under a new number; nothing is made once the list is closed.
-    fn list_made<F>(&mut self, make: impl FnOnce() -> std::io::Result<F>) -> std::io::Result<(u64, F)>
-    where
-        F: AsRef<Path>,
-    {
-        if self.closed {
-            return Err(std::io::Error::new(std::io::ErrorKind::Interrupted, "the command was interrupted"));
-        }
-        let made = make()?;
-        let id = self.next;
-        self.next += 1;
-        self.paths.push((id, made.as_ref().to_path_buf()));
-        Ok((id, made))
-    }
-}
-
 impl LiveTemps {
     const fn new() -> LiveTemps {
         LiveTemps { inner: std::sync::Mutex::new(Temps { next: 0, paths: Vec::new(), closed: false }) }
@@ -1137,7 +1120,14 @@ impl LiveTemps {
         &'static self,
         make: impl FnOnce() -> std::io::Result<tempfile::NamedTempFile>,
     ) -> std::io::Result<(tempfile::NamedTempFile, Listed)> {
-        let (id, tmp) = self.lock().list_made(make)?;
+        let mut t = self.lock();
+        if t.closed {
+            return Err(std::io::Error::new(std::io::ErrorKind::Interrupted, "the command was interrupted"));
+        }
+        let tmp = make()?;
+        let id = t.next;
+        t.next += 1;
+        t.paths.push((id, tmp.path().to_path_buf()));
         Ok((tmp, Listed { list: self, id }))
     }
 
