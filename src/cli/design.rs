@@ -179,7 +179,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             // The terminal is asked for its graphics once the first screen is drawn, by the input thread.
             let probe = (state.preview.has_scene() && args.preview != PreviewMode::Halfblocks).then_some(args.preview);
             state.preview.probing = probe.is_some();
-            let mut events = TerminalEvents::new(probe).context("cannot listen for SIGTERM and SIGHUP")?;
+            let mut events = TerminalEvents::new(probe).context("cannot listen for SIGTERM, SIGHUP and SIGINT")?;
             event_loop::run_main_loop(
                 &mut guard.terminal,
                 &mut state,

@@ -72,7 +72,7 @@ pub trait Saver {
     ) -> Result<Saved, FileError> {
         Err(FileError::NoFile)
     }
-    /// Write `palette` as a recovery copy beside `file` (on SIGTERM/SIGHUP with unsaved changes); returns
+    /// Write `palette` as a recovery copy beside `file` (on SIGTERM, SIGHUP or SIGINT with unsaved changes); returns
     /// where it went.
     fn recover(&mut self, _file: &PaletteFile, _palette: &Palette) -> Result<PathBuf, FileError> {
         Err(FileError::NoFile)

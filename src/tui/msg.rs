@@ -100,7 +100,7 @@ pub enum Msg {
     Tick(Instant),
     /// A script asks to wait for the running solve (every step waits anyway; kept for old scripts).
     WaitSolve,
-    /// The process was told to end (SIGTERM, SIGHUP): write a recovery copy of unsaved work and stop.
+    /// The process was told to end (SIGTERM, SIGHUP, SIGINT): write a recovery copy of unsaved work and stop.
     Terminated,
     /// No more input: stop.
     End,

@@ -66,7 +66,7 @@ impl Drop for TerminalGuard {
     }
 }
 
-/// Keys and resizes from the terminal, and the end signals (SIGTERM, SIGHUP) as [`Msg::Terminated`], sent
+/// Keys and resizes from the terminal, and the end signals (SIGTERM, SIGHUP, SIGINT) as [`Msg::Terminated`], sent
 /// on the loop's channel by two threads: the input thread (crossterm's blocking read, woken now and then
 /// only to see whether the loop has ended) and the signal thread (signal-hook's iterator).
 pub(crate) struct TerminalEvents {
@@ -80,11 +80,15 @@ pub(crate) struct TerminalEvents {
 }
 
 impl TerminalEvents {
-    /// Listen to SIGTERM and SIGHUP (whose default action would leave the terminal in raw mode on the
-    /// alternate screen and lose unsaved work) from now on; the terminal once started.
+    /// Listen to SIGTERM, SIGHUP and SIGINT (whose default action would leave the terminal in raw mode on the
+    /// alternate screen and lose unsaved work) from now on; the terminal once started. In raw mode Ctrl-C is a
+    /// key, so a SIGINT comes from another program (`kill -INT`, `timeout -s INT`).
     pub fn new(probe: Option<PreviewMode>) -> io::Result<TerminalEvents> {
         #[cfg(unix)]
-        let signals = signal_hook::iterator::Signals::new([signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP])?;
+        let signals = {
+            use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+            signal_hook::iterator::Signals::new([SIGTERM, SIGHUP, SIGINT])?
+        };
         Ok(TerminalEvents {
             #[cfg(unix)]
             handle: Some(signals.handle()),

@@ -125,3 +125,109 @@ fn design_takes_volume_as_render_does_and_the_missing_volume_error_names_it() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--volume needs a scene file"), "{err}");
 }
+
+/// The designer in a terminal of its own (a pseudo-terminal of 100 × 30), told to end by `signal` after one
+/// unsaved change: it restores the terminal (leaves the alternate screen), writes the change to
+/// `NAME.recovery.toml` and exits with status 1 saying so — for SIGTERM, SIGHUP and SIGINT alike (in raw
+/// mode Ctrl-C is a key; a SIGINT comes from another program, whose default action would leave the terminal
+/// raw and lose the change).
+#[cfg(target_os = "linux")]
+fn ended_by(signal: libc::c_int) {
+    use std::io::{Read, Write};
+    use std::os::fd::{FromRawFd, OwnedFd};
+    use std::os::unix::process::CommandExt;
+    use std::sync::{Arc, Mutex};
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let palette = example(dir.path());
+    let (mut master, mut slave) = (0, 0);
+    let size = libc::winsize { ws_row: 30, ws_col: 100, ws_xpixel: 0, ws_ypixel: 0 };
+    // SAFETY: `openpty` writes the two descriptors it opens into the integers given; the other pointers are
+    // null (no name wanted, default terminal settings) or a valid window size.
+    let opened = unsafe { libc::openpty(&mut master, &mut slave, std::ptr::null_mut(), std::ptr::null(), &size) };
+    assert_eq!(opened, 0, "a pseudo-terminal: {}", std::io::Error::last_os_error());
+    // SAFETY: both descriptors were just opened by `openpty` and are owned here only.
+    let (master, slave) = unsafe { (OwnedFd::from_raw_fd(master), OwnedFd::from_raw_fd(slave)) };
+    let mut cmd = metamer();
+    cmd.args(["design", palette.to_str().unwrap_or_default(), "--no-basis"])
+        .stdin(slave.try_clone().expect("dup"))
+        .stdout(slave.try_clone().expect("dup"))
+        .stderr(slave);
+    // SAFETY: between fork and exec the child only makes itself a session leader and takes its standard
+    // input (the pseudo-terminal) as its controlling terminal: two async-signal-safe calls.
+    unsafe {
+        cmd.pre_exec(|| {
+            if libc::setsid() < 0 || libc::ioctl(0, libc::TIOCSCTTY, 0) < 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let mut child = cmd.spawn().expect("metamer runs");
+    drop(cmd);
+    let screen = Arc::new(Mutex::new(Vec::<u8>::new()));
+    let mut reader = std::fs::File::from(master.try_clone().expect("dup"));
+    let sink = Arc::clone(&screen);
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 65536];
+        // Ends with an error (EIO) once the child's side is closed.
+        while let Ok(n @ 1..) = reader.read(&mut buf) {
+            sink.lock().unwrap().extend_from_slice(&buf[..n]);
+        }
+    });
+    let seen = |from: usize, what: &str| {
+        let deadline = Instant::now() + Duration::from_secs(30);
+        loop {
+            let text = String::from_utf8_lossy(&screen.lock().unwrap()[from..]).into_owned();
+            if text.contains(what) {
+                return;
+            }
+            assert!(Instant::now() < deadline, "no {what:?} on the screen: {text}");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    };
+    // The screen is drawn cell by cell where it changed (a word may come in pieces): the designer is taken to
+    // be idle once it has drawn and then written nothing for a while (the solving spinner moves every 80 ms).
+    let settled = |from: usize| {
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let (mut len, mut since) = (0, Instant::now());
+        loop {
+            let now = screen.lock().unwrap().len();
+            if now != len {
+                (len, since) = (now, Instant::now());
+            } else if len > from && since.elapsed() > Duration::from_millis(500) {
+                return len;
+            }
+            assert!(Instant::now() < deadline, "the designer did not settle");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    };
+    let from = settled(0);
+    // `d r`: the selected cell's reflectance (white) becomes designed, and the palette is solved again.
+    std::fs::File::from(master).write_all(b"dr").expect("keys");
+    let from = settled(from);
+    // SAFETY: `kill` sends a signal to the child this test started and has not reaped.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            break status;
+        }
+        assert!(Instant::now() < deadline, "the designer did not end on signal {signal}");
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    assert_eq!(status.code(), Some(1), "signal {signal}: {status:?}");
+    seen(from, "\u{1b}[?1049l");
+    seen(from, "ended by a signal; unsaved work was written to");
+    let recovery = std::fs::read_to_string(dir.path().join("metamers.recovery.toml")).expect("the recovery copy");
+    let original = std::fs::read_to_string(&palette).expect("the palette");
+    assert_ne!(recovery, original, "the change is in the recovery copy");
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn the_designer_ends_cleanly_on_sigterm_sighup_and_sigint() {
+    for signal in [libc::SIGTERM, libc::SIGHUP, libc::SIGINT] {
+        ended_by(signal);
+    }
+}

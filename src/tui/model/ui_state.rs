@@ -42,7 +42,7 @@ pub struct UiState {
     pub(crate) completing: bool,
     /// What the held mouse button went down on (a drag acts on it).
     pub drag: Option<crate::tui::mouse::Drag>,
-    /// The designer was ended by SIGTERM/SIGHUP: where unsaved work was written (`Some(None)` when there was
+    /// The designer was ended by SIGTERM, SIGHUP or SIGINT: where unsaved work was written (`Some(None)` when there was
     /// none to write, or it could not be written).
     pub(crate) terminated: Option<Option<std::path::PathBuf>>,
 }
