@@ -54,9 +54,9 @@ pub(crate) enum Command {
 pub fn main() -> ExitCode {
     tune_allocator();
     let cli = Cli::parse();
-    // The designer answers SIGTERM and SIGHUP itself (its terminal restored, unsaved work kept: tui::terminal),
-    // and in raw mode Ctrl-C is a key.
-    if !matches!(cli.command, Command::Design(_)) {
+    // The designer in its terminal answers SIGTERM, SIGHUP and SIGINT itself (the terminal restored, unsaved
+    // work kept: tui::terminal); a headless replay (`--replay`, which writes `--screen`) is like any command.
+    if !matches!(&cli.command, Command::Design(a) if a.replay.is_none()) {
         remove_staged_on_signals();
     }
     heap::build_pool(pool_size());
