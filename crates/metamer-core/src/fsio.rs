@@ -829,6 +829,11 @@ pub struct Staged {
 }
 
 impl Staged {
+    /// The path the caller named for this output.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// Put the staged content in place (a rename over the target), then sync the folder. A target
     /// changed since it was read is refused here too (it may have changed while the output was staged).
     pub fn commit(self) -> Result<(), FsError> {

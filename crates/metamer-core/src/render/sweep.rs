@@ -323,12 +323,13 @@ pub fn write_sweep(
     // `COMMIT_QUEUE` frames wait for their commit: on a disk slower than the workers, a worker then waits for a
     // place in the queue instead of holding ever more staged frames (each an open file) — a long sweep would
     // otherwise run out of file descriptors.
-    let (to_commit, staged) = std::sync::mpsc::sync_channel::<(usize, PathBuf, crate::fsio::Staged)>(COMMIT_QUEUE);
+    let (to_commit, staged) = std::sync::mpsc::sync_channel::<(usize, crate::fsio::Staged)>(COMMIT_QUEUE);
     let (results, committed) = std::thread::scope(|scope| {
         let committer = scope.spawn(move || {
             let mut folders = crate::fsio::FolderSync::default();
             let mut committed = Vec::new();
-            for (k, path, frame) in staged {
+            for (k, frame) in staged {
+                let path = frame.path().to_path_buf();
                 let done = frame.commit_in(&mut folders).map_err(RenderError::File);
                 // The replaced frame is freed here, not held to the folder sync.
                 folders.close_replaced();
@@ -371,7 +372,7 @@ pub fn write_sweep(
                     }
                     encode_png_into(rgb, image.width, image.height, options.compression, png).map_err(bad)?;
                     let frame = crate::fsio::stage_unsynced(&path, png, crate::fsio::Name::Chosen, options.replace)?;
-                    to_commit.send((k, path.clone(), frame)).map_err(|_| bad("the frames' writer stopped".into()))?;
+                    to_commit.send((k, frame)).map_err(|_| bad("the frames' writer stopped".into()))?;
                     Ok((k, thumb))
                 },
             )
@@ -459,19 +460,6 @@ pub fn contact_sheet_from_frames(
     Ok(tiles.len())
 }
 
-/// The contact sheet written by the one atomic writer ([`crate::fsio::stage_as`]), as the frames are
-/// ([`crate::fsio::stage_unsynced`], committed by [`write_sweep`]'s committer thread): a FIFO or device in
-/// the output folder is refused, an interrupted sweep leaves whole files only, a name the renderer chose
-/// that is a symbolic link is not written through.
-fn write_file(
-    path: &Path,
-    bytes: &[u8],
-    name: crate::fsio::Name,
-    replace: crate::fsio::Replace,
-) -> Result<(), RenderError> {
-    crate::fsio::stage_as(path, bytes, name, replace).and_then(crate::fsio::Staged::commit).map_err(RenderError::File)
-}
-
 /// The two-line label of frame k of N on a contact sheet: `frame 12 · t 0.26` and the light mix
 /// `hide 48% split 52%` (the lights with a weight of at least 0.5 %), then the lights switched off
 /// (`· purple off`). When the sheet has one frame per stage (N = the keyframes, at most 26), the first
@@ -514,8 +502,10 @@ pub(crate) fn write_contact_sheet_image(
         std::fs::create_dir_all(dir)
             .map_err(|e| RenderError::Output { path: dir.to_path_buf(), reason: e.to_string() })?;
     }
-    // The user named the sheet (`--contact-sheet PATH`): a link there is followed and kept.
-    write_file(path, &png, crate::fsio::Name::User, replace)
+    // Through the one atomic writer, as the frames are (committed by [`write_sweep`]'s committer thread): a FIFO
+    // or device there is refused, an interrupted sweep leaves whole files only. The user named the sheet
+    // (`--contact-sheet PATH`): a link there is followed and kept.
+    crate::fsio::stage_with(path, &png, replace).and_then(crate::fsio::Staged::commit).map_err(RenderError::File)
 }
 
 /// Geometry of a contact sheet: columns, tile size, label band, gaps.
